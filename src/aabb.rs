@@ -1,0 +1,74 @@
+//! Axis-aligned bounding boxes, the one box type of the crate.
+//!
+//! Boxes are `f32` like the scene's vertices. An *empty* box has `min = +inf`
+//! and `max = -inf`, so that growing it by any point gives that point's box.
+
+use glam::Vec3;
+
+/// An axis-aligned box; `min <= max` on every axis unless it is [`Aabb::EMPTY`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    /// The box that contains nothing: the identity of [`Aabb::union`].
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn new(min: Vec3, max: Vec3) -> Self {
+        Aabb { min, max }
+    }
+
+    pub fn from_points(points: &[Vec3]) -> Self {
+        points.iter().fold(Aabb::EMPTY, |b, &p| b.grow(p))
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.cmpgt(self.max).any()
+    }
+
+    #[must_use]
+    pub fn grow(self, p: Vec3) -> Self {
+        Aabb::new(self.min.min(p), self.max.max(p))
+    }
+
+    #[must_use]
+    pub fn union(self, o: Aabb) -> Self {
+        Aabb::new(self.min.min(o.min), self.max.max(o.max))
+    }
+
+    pub fn extent(&self) -> Vec3 {
+        self.max - self.min
+    }
+
+    /// The axis (0 = x, 1 = y, 2 = z) on which the box is longest; ties go to
+    /// the lower axis, so the choice is the same on every host.
+    pub fn longest_axis(&self) -> usize {
+        let e = self.extent();
+        if e.x >= e.y && e.x >= e.z {
+            0
+        } else if e.y >= e.z {
+            1
+        } else {
+            2
+        }
+    }
+
+    /// Surface area, in `f64` so that boxes of 1e15 or 1e-15 neither
+    /// overflow nor underflow. An empty box has area 0.
+    pub fn surface_area(&self) -> f64 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let e = self.extent().as_dvec3();
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    pub fn contains_box(&self, o: &Aabb) -> bool {
+        self.min.cmple(o.min).all() && o.max.cmple(self.max).all()
+    }
+}

@@ -1,0 +1,301 @@
+//! Ray casting: closest hit and any hit, and a brute-force reference.
+//!
+//! Numerics. Vertices are `f32`, but every ray computation is done in `f64`:
+//! with coordinates of 1e15, the Möller–Trumbore determinant is a product of
+//! three 1e15-sized terms (1e45, beyond `f32`'s 3.4e38), and with 1e-15 it is
+//! 1e-45 (below `f32`'s smallest normal, 1.2e-38); `f64` holds both. A zero
+//! direction component gives an infinite reciprocal, and the slab distance
+//! `(plane - origin) * inf` is ±inf (the ray never crosses) or NaN (the ray
+//! lies in the plane); `f64::min`/`max` drop the NaN, so a ray in a plane
+//! counts as inside both closed half-spaces, which is right. The sign of the
+//! direction (including the sign of a zero) picks the near child.
+//!
+//! Node intervals are widened by a relative [`SLACK`] so that rounding never
+//! culls a node the ray touches; triangle tests use the ray's own
+//! `[tmin, best]`, so widening only costs a few visits, never a wrong hit.
+//! Equal `t` is broken by the lower triangle id, the same rule brute force
+//! uses, so both return the same triangle.
+
+use glam::DVec3;
+
+use super::{Bih, BihConfig};
+use crate::aabb::Aabb;
+use crate::scene::{Scene, Triangle};
+
+/// Relative widening of node intervals: covers the three roundings of
+/// `(clip - o) * (1/d)` in `f64` many times over.
+const SLACK: f64 = 1e-12;
+
+/// A ray `origin + t·dir` for `t` in `[tmin, tmax]`; `dir` need not be unit
+/// length and `t` is in units of it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: DVec3,
+    pub dir: DVec3,
+    pub tmin: f64,
+    pub tmax: f64,
+}
+
+impl Ray {
+    pub fn new(origin: DVec3, dir: DVec3) -> Self {
+        Ray {
+            origin,
+            dir,
+            tmin: 0.0,
+            tmax: f64::INFINITY,
+        }
+    }
+}
+
+/// The closest (or any) hit: triangle id, distance and barycentrics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub prim: u32,
+    pub t: f64,
+    pub u: f64,
+    pub v: f64,
+}
+
+/// What one or more rays cost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct RayStats {
+    pub rays: u64,
+    pub nodes_visited: u64,
+    pub triangles_tested: u64,
+}
+
+impl std::ops::AddAssign for RayStats {
+    fn add_assign(&mut self, o: Self) {
+        self.rays += o.rays;
+        self.nodes_visited += o.nodes_visited;
+        self.triangles_tested += o.triangles_tested;
+    }
+}
+
+/// Möller–Trumbore ("Fast, minimum storage ray/triangle intersection", JGT
+/// 1997) in `f64`. Edges and corners count as inside. A zero-area triangle
+/// (edge cross product exactly zero) is never hit.
+#[inline]
+pub fn intersect_triangle(
+    tri: &Triangle,
+    ray: &Ray,
+    tmin: f64,
+    tmax: f64,
+) -> Option<(f64, f64, f64)> {
+    PreTriangle::new(tri).intersect(ray, tmin, tmax)
+}
+
+/// A triangle ready for ray tests: `f32` vertices (36 bytes, half the cache
+/// footprint of `f64`), widened to `f64` in the test. A zero-area triangle is
+/// stored collapsed to its first vertex, so that its determinant is exactly
+/// zero and it is never hit.
+#[derive(Clone, Copy, Debug)]
+struct PreTriangle {
+    v: [glam::Vec3; 3],
+}
+
+impl PreTriangle {
+    fn new(tri: &Triangle) -> Self {
+        let v = if tri.is_degenerate() {
+            [tri.v[0]; 3]
+        } else {
+            tri.v
+        };
+        PreTriangle { v }
+    }
+
+    /// Möller–Trumbore without a division until the hit is certain: the
+    /// barycentric tests compare numerators against the determinant.
+    #[inline(always)]
+    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<(f64, f64, f64)> {
+        let v0 = self.v[0].as_dvec3();
+        let e1 = self.v[1].as_dvec3() - v0;
+        let e2 = self.v[2].as_dvec3() - v0;
+        let p = ray.dir.cross(e2);
+        let det = e1.dot(p);
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        // Flip signs so that det > 0 and the tests are 0 <= u, v; u + v <= det.
+        let sign = det.signum();
+        let adet = det.abs();
+        let s = ray.origin - v0;
+        let u = s.dot(p) * sign;
+        if u < 0.0 || u > adet {
+            return None;
+        }
+        let q = s.cross(e1);
+        let v = ray.dir.dot(q) * sign;
+        if v < 0.0 || u + v > adet {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let t = e2.dot(q) * inv;
+        (t >= tmin && t <= tmax).then(|| (t, u / adet, v / adet))
+    }
+}
+
+/// Closest hit by testing every triangle: the reference every tree must
+/// agree with. Ties in `t` go to the lower triangle id.
+pub fn brute_force_closest(scene: &Scene, ray: &Ray) -> Option<Hit> {
+    let mut best: Option<Hit> = None;
+    for (i, tri) in scene.triangles.iter().enumerate() {
+        let tmax = best.map_or(ray.tmax, |h| h.t);
+        if let Some((t, u, v)) = intersect_triangle(tri, ray, ray.tmin, tmax)
+            && best.is_none_or(|h| t < h.t)
+        {
+            best = Some(Hit {
+                prim: i as u32,
+                t,
+                u,
+                v,
+            });
+        }
+    }
+    best
+}
+
+/// Slab test of a box: the `[t0, t1]` of the ray inside it, widened.
+fn clip_to_box(b: &Aabb, ray: &Ray, inv: DVec3) -> (f64, f64) {
+    let (mut t0, mut t1) = (ray.tmin, ray.tmax);
+    for a in 0..3 {
+        let ta = (b.min[a] as f64 - ray.origin[a]) * inv[a];
+        let tb = (b.max[a] as f64 - ray.origin[a]) * inv[a];
+        let (near, far) = if ta <= tb { (ta, tb) } else { (tb, ta) };
+        // NaN (ray in a face plane) leaves the bound unchanged.
+        t0 = t0.max(near - near.abs() * SLACK);
+        t1 = t1.min(far + far.abs() * SLACK);
+    }
+    (t0, t1)
+}
+
+/// A tree bound to its triangles, laid out in leaf order for traversal.
+pub struct Tracer<'a> {
+    bih: &'a Bih,
+    /// `triangles[k]` is scene triangle `bih.prim_ids[k]`.
+    triangles: Vec<PreTriangle>,
+}
+
+impl<'a> Tracer<'a> {
+    pub fn new(bih: &'a Bih, scene: &Scene) -> Self {
+        assert_eq!(
+            bih.prim_ids.len(),
+            scene.len(),
+            "tree and scene differ in size"
+        );
+        assert!(bih.config.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
+        let triangles = bih
+            .prim_ids
+            .iter()
+            .map(|&id| PreTriangle::new(&scene.triangles[id as usize]))
+            .collect();
+        Tracer { bih, triangles }
+    }
+
+    pub fn bih(&self) -> &Bih {
+        self.bih
+    }
+
+    /// The closest hit in `[tmin, tmax]`, ties to the lower triangle id.
+    pub fn closest(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
+        self.traverse::<false>(ray, stats)
+    }
+
+    /// Any hit in `[tmin, tmax]` (shadow rays): stops at the first found.
+    pub fn any(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
+        self.traverse::<true>(ray, stats)
+    }
+
+    fn traverse<const ANY: bool>(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
+        stats.rays += 1;
+        let nodes = &self.bih.nodes;
+        let inv = DVec3::ONE / ray.dir;
+        let (t0, t1) = clip_to_box(&self.bih.bounds, ray, inv);
+        // Written so that a NaN bound also misses.
+        if t0.partial_cmp(&t1).is_none_or(|o| o.is_gt()) {
+            return None;
+        }
+        let neg = [
+            ray.dir.x.is_sign_negative(),
+            ray.dir.y.is_sign_negative(),
+            ray.dir.z.is_sign_negative(),
+        ];
+        let mut stack = [(0u32, 0.0f64, 0.0f64); BihConfig::MAX_SUPPORTED_DEPTH as usize + 2];
+        let mut sp = 0usize;
+        let mut best: Option<Hit> = None;
+        let mut best_t = ray.tmax;
+        let (mut node, mut tn, mut tf) = (0u32, t0, t1);
+        loop {
+            stats.nodes_visited += 1;
+            let nd = &nodes[node as usize];
+            if nd.is_leaf() {
+                let (first, count) = nd.leaf_range();
+                for k in first..first + count {
+                    stats.triangles_tested += 1;
+                    let tri = &self.triangles[k as usize];
+                    if let Some((t, u, v)) = tri.intersect(ray, ray.tmin, best_t) {
+                        let prim = self.bih.prim_ids[k as usize];
+                        if best.is_none_or(|h| t < h.t || (t == h.t && prim < h.prim)) {
+                            best = Some(Hit { prim, t, u, v });
+                            best_t = t;
+                            if ANY {
+                                return best;
+                            }
+                        }
+                    }
+                }
+            } else {
+                let a = nd.axis();
+                let [cl, cr] = nd.clip();
+                let t_left = (cl as f64 - ray.origin[a]) * inv[a];
+                let t_right = (cr as f64 - ray.origin[a]) * inv[a];
+                // Going up the axis the ray leaves the left child at t_left
+                // and enters the right one at t_right; going down, the
+                // reverse. NaN (ray in the plane) constrains nothing.
+                let (t_exit_near, t_enter_far) = if neg[a] {
+                    (t_right, t_left)
+                } else {
+                    (t_left, t_right)
+                };
+                // Written as comparisons so that a NaN bound is dropped.
+                let exit = t_exit_near + t_exit_near.abs() * SLACK;
+                let enter = t_enter_far - t_enter_far.abs() * SLACK;
+                let near_tf = if exit < tf { exit } else { tf };
+                let far_tn = if enter > tn { enter } else { tn };
+                let left = nd.left_child();
+                let (near, far) = if neg[a] {
+                    (left + 1, left)
+                } else {
+                    (left, left + 1)
+                };
+                let go_near = tn <= near_tf;
+                let go_far = far_tn <= tf;
+                if go_near {
+                    if go_far {
+                        stack[sp] = (far, far_tn, tf);
+                        sp += 1;
+                    }
+                    node = near;
+                    tf = near_tf;
+                    continue;
+                } else if go_far {
+                    node = far;
+                    tn = far_tn;
+                    continue;
+                }
+            }
+            // Pop the next node that may still hold a closer hit.
+            loop {
+                if sp == 0 {
+                    return best;
+                }
+                sp -= 1;
+                let (n, a, b) = stack[sp];
+                if a <= best_t + best_t.abs() * SLACK {
+                    (node, tn, tf) = (n, a, b.min(best_t + best_t.abs() * SLACK));
+                    break;
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,11 @@
+//! cellbih: building Bounding Interval Hierarchies on an emulated Cell
+//! Broadband Engine, and measuring what each construction strategy costs and
+//! what tree it gives. See `README.md` and `../shared/DESIGN.md`.
+
+pub mod aabb;
+pub mod bih;
+pub mod build;
+pub mod quality;
+pub mod rays_csv;
+pub mod render;
+pub mod scene;

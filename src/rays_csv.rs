@@ -1,0 +1,129 @@
+//! The ray and hit files of `cellbih raycast`, a contract other tools rely
+//! on.
+//!
+//! Rays: header `ox,oy,oz,dx,dy,dz,tmin,tmax`, then one ray a line; numbers
+//! are decimal (`inf` allowed for `tmax`); the direction need not be
+//! normalized and `t` is in units of it.
+//!
+//! Hits: header `ray,prim,t`, one line per ray in input order; `prim` is the
+//! 0-based triangle id, a miss is `-1` with an empty `t`. `t` is written
+//! with the shortest decimal that reads back as the same `f64`.
+
+use std::io::{BufRead, Write};
+
+use glam::DVec3;
+use thiserror::Error;
+
+use crate::bih::{Hit, Ray};
+
+pub const RAYS_HEADER: &str = "ox,oy,oz,dx,dy,dz,tmin,tmax";
+pub const HITS_HEADER: &str = "ray,prim,t";
+
+#[derive(Debug, Error)]
+pub enum RaysError {
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}:1: the header must be '{RAYS_HEADER}', found '{found}'")]
+    Header { path: String, found: String },
+    #[error("{path}:{line}: {what}")]
+    Line {
+        path: String,
+        line: usize,
+        what: String,
+    },
+}
+
+/// Reads a ray file; `path` names it in errors.
+pub fn read_rays(path: &str, input: impl BufRead) -> Result<Vec<Ray>, RaysError> {
+    let io = |source| RaysError::Io {
+        path: path.into(),
+        source,
+    };
+    let mut lines = input.lines();
+    let header = lines.next().transpose().map_err(io)?.unwrap_or_default();
+    if header.trim() != RAYS_HEADER {
+        return Err(RaysError::Header {
+            path: path.into(),
+            found: header,
+        });
+    }
+    let mut rays = Vec::new();
+    for (n, line) in lines.enumerate() {
+        let line = line.map_err(io)?;
+        let line_no = n + 2;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let bad = |what: String| RaysError::Line {
+            path: path.into(),
+            line: line_no,
+            what,
+        };
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != 8 {
+            return Err(bad(format!("expected 8 fields, found {}", fields.len())));
+        }
+        let mut v = [0f64; 8];
+        for (k, f) in fields.iter().enumerate() {
+            v[k] = f
+                .parse()
+                .map_err(|_| bad(format!("field {} ('{f}') is not a number", k + 1)))?;
+        }
+        if v[..6].iter().any(|x| !x.is_finite()) {
+            return Err(bad("origin and direction must be finite".into()));
+        }
+        if v[3..6].iter().all(|&x| x == 0.0) {
+            return Err(bad("the direction is zero".into()));
+        }
+        if v[6].is_nan() || v[7].is_nan() {
+            return Err(bad("tmin and tmax must not be NaN".into()));
+        }
+        rays.push(Ray {
+            origin: DVec3::new(v[0], v[1], v[2]),
+            dir: DVec3::new(v[3], v[4], v[5]),
+            tmin: v[6],
+            tmax: v[7],
+        });
+    }
+    Ok(rays)
+}
+
+/// Writes one line per ray, in order.
+pub fn write_hits(mut out: impl Write, hits: &[Option<Hit>]) -> std::io::Result<()> {
+    writeln!(out, "{HITS_HEADER}")?;
+    for (i, h) in hits.iter().enumerate() {
+        match h {
+            Some(h) => writeln!(out, "{i},{},{:?}", h.prim, h.t)?,
+            None => writeln!(out, "{i},-1,")?,
+        }
+    }
+    Ok(())
+}
+
+/// Writes a ray file (used by tests and by tools that make rays).
+pub fn write_rays(mut out: impl Write, rays: &[Ray]) -> std::io::Result<()> {
+    writeln!(out, "{RAYS_HEADER}")?;
+    for r in rays {
+        let (o, d) = (r.origin, r.dir);
+        writeln!(
+            out,
+            "{:?},{:?},{:?},{:?},{:?},{:?},{:?},{}",
+            o.x,
+            o.y,
+            o.z,
+            d.x,
+            d.y,
+            d.z,
+            r.tmin,
+            if r.tmax.is_infinite() {
+                "inf".to_string()
+            } else {
+                format!("{:?}", r.tmax)
+            }
+        )?;
+    }
+    Ok(())
+}

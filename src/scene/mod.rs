@@ -1,0 +1,234 @@
+//! Scenes: triangles, the geometry id each carries, and where they come from.
+//!
+//! A scene is a list of triangles in a fixed order; a triangle's index in
+//! that list is its *id* everywhere (trees, hits, the CLI's CSV files). Each
+//! triangle also carries a *geometry id*: the OBJ object or group it came
+//! from, or the procedural part (a sphere, a car door) it belongs to. The
+//! local update moves and replaces triangles by geometry id.
+//!
+//! Every coordinate is finite: NaN and infinities are rejected when a scene
+//! is made, with an error that names the element. Zero-area triangles are
+//! legal (real meshes have them); rays never hit them.
+
+mod obj;
+pub mod procedural;
+mod rng;
+
+use std::path::{Path, PathBuf};
+
+use glam::{DVec3, Vec3};
+use thiserror::Error;
+
+pub use obj::{load_obj_file, parse_obj};
+pub use rng::SplitMix64;
+
+use crate::aabb::Aabb;
+
+/// One triangle: three vertices, 36 bytes, no padding.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Triangle {
+    pub v: [Vec3; 3],
+}
+const _: () = assert!(std::mem::size_of::<Triangle>() == 36);
+
+impl Triangle {
+    pub fn new(a: Vec3, b: Vec3, c: Vec3) -> Self {
+        Triangle { v: [a, b, c] }
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        Aabb::new(
+            self.v[0].min(self.v[1]).min(self.v[2]),
+            self.v[0].max(self.v[1]).max(self.v[2]),
+        )
+    }
+
+    /// Zero area: the cross product of two edges is exactly zero in double
+    /// precision (the vertices coincide or are collinear).
+    pub fn is_degenerate(&self) -> bool {
+        let [a, b, c] = self.v.map(|p| p.as_dvec3());
+        (b - a).cross(c - a) == DVec3::ZERO
+    }
+}
+
+/// Why a scene could not be made. Every variant names the input and, where
+/// there is one, the line and element at fault.
+#[derive(Debug, Error)]
+pub enum SceneError {
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: not an OBJ file: {why}")]
+    NotObj { path: String, why: String },
+    #[error("{path}:{line}: {what}")]
+    Malformed {
+        path: String,
+        line: usize,
+        what: String,
+    },
+    #[error("{path}: {what}")]
+    Invalid { path: String, what: String },
+    #[error("{name}: the scene has no triangles")]
+    Empty { name: String },
+    #[error(
+        "{name}: triangle {triangle} has a non-finite coordinate {value} (vertex {corner} of the triangle)"
+    )]
+    NonFinite {
+        name: String,
+        triangle: usize,
+        corner: usize,
+        value: f32,
+    },
+    #[error("unknown scene '{spec}': {why}")]
+    Unknown { spec: String, why: String },
+}
+
+/// Triangles in id order, each with its geometry id.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub name: String,
+    pub triangles: Vec<Triangle>,
+    /// `geometry_ids[i]` is the geometry id of triangle `i`.
+    pub geometry_ids: Vec<u32>,
+    /// Name of each geometry id (OBJ object/group name, or procedural part).
+    pub geometry_names: Vec<String>,
+    bounds: Aabb,
+}
+
+impl Scene {
+    /// Makes a scene, checking that it has triangles and that every
+    /// coordinate is finite.
+    pub fn new(
+        name: impl Into<String>,
+        triangles: Vec<Triangle>,
+        geometry_ids: Vec<u32>,
+        geometry_names: Vec<String>,
+    ) -> Result<Self, SceneError> {
+        let name = name.into();
+        assert_eq!(triangles.len(), geometry_ids.len());
+        assert!(
+            geometry_ids
+                .iter()
+                .all(|&g| (g as usize) < geometry_names.len()),
+            "geometry id without a name"
+        );
+        if triangles.is_empty() {
+            return Err(SceneError::Empty { name });
+        }
+        for (i, t) in triangles.iter().enumerate() {
+            for (corner, p) in t.v.iter().enumerate() {
+                if let Some(&value) = p.to_array().iter().find(|c| !c.is_finite()) {
+                    return Err(SceneError::NonFinite {
+                        name,
+                        triangle: i,
+                        corner,
+                        value,
+                    });
+                }
+            }
+        }
+        let bounds = triangles
+            .iter()
+            .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()));
+        Ok(Scene {
+            name,
+            triangles,
+            geometry_ids,
+            geometry_names,
+            bounds,
+        })
+    }
+
+    /// A scene whose triangles are all one geometry.
+    pub fn from_triangles(
+        name: impl Into<String>,
+        triangles: Vec<Triangle>,
+    ) -> Result<Self, SceneError> {
+        let n = triangles.len();
+        Scene::new(name, triangles, vec![0; n], vec!["all".into()])
+    }
+
+    pub fn len(&self) -> usize {
+        self.triangles.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// The box of all triangles: the root region of every BIH.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    pub fn degenerate_count(&self) -> usize {
+        self.triangles.iter().filter(|t| t.is_degenerate()).count()
+    }
+
+    /// Replaces the triangles (same count, same geometry ids), for moving
+    /// objects; the bounds are recomputed and the new coordinates checked.
+    pub fn with_triangles(&self, triangles: Vec<Triangle>) -> Result<Self, SceneError> {
+        Scene::new(
+            self.name.clone(),
+            triangles,
+            self.geometry_ids.clone(),
+            self.geometry_names.clone(),
+        )
+    }
+}
+
+/// The default scene, shipped in `scenes/default.obj` and embedded in the
+/// binary so that it runs on a fresh clone with no data.
+pub const DEFAULT_SCENE_OBJ: &str = include_str!("../../scenes/default.obj");
+
+/// The environment variable that names the data directory of real meshes.
+pub const DATA_ENV: &str = "CELLBIH_DATA";
+
+/// The data directory: the one given, else `$CELLBIH_DATA`, else none.
+pub fn data_dir(given: Option<&Path>) -> Option<PathBuf> {
+    given
+        .map(Path::to_path_buf)
+        .or_else(|| std::env::var_os(DATA_ENV).map(PathBuf::from))
+}
+
+/// Resolves a scene by its name on the command line:
+///
+/// - `default`: the embedded default scene;
+/// - `rtperf:<triangles>[:<seed>]`, `car`, `cup`: procedural scenes
+///   ([`procedural`]);
+/// - a path to an `.obj` or `.obj.gz` file;
+/// - a bare name such as `bunny`: `<data dir>/<name>.obj.gz` (or `.obj`).
+pub fn load(spec: &str, data: Option<&Path>) -> Result<Scene, SceneError> {
+    if spec == "default" {
+        return parse_obj("default", DEFAULT_SCENE_OBJ.as_bytes());
+    }
+    if let Some(scene) = procedural::by_name(spec)? {
+        return Ok(scene);
+    }
+    let path = Path::new(spec);
+    if path.exists() || spec.ends_with(".obj") || spec.ends_with(".obj.gz") {
+        return load_obj_file(path);
+    }
+    let Some(dir) = data_dir(data) else {
+        return Err(SceneError::Unknown {
+            spec: spec.into(),
+            why: format!(
+                "not a file, not a procedural scene (default, rtperf:N[:SEED], car, cup); \
+                 to load a mesh by name give --data DIR or set {DATA_ENV}"
+            ),
+        });
+    };
+    for ext in ["obj.gz", "obj"] {
+        let p = dir.join(format!("{spec}.{ext}"));
+        if p.exists() {
+            return load_obj_file(&p);
+        }
+    }
+    Err(SceneError::Unknown {
+        spec: spec.into(),
+        why: format!("no {spec}.obj.gz or {spec}.obj in {}", dir.display()),
+    })
+}

@@ -1,0 +1,197 @@
+//! Wavefront OBJ (and gzip'd OBJ) through `tobj`.
+//!
+//! tobj parses; it reports errors without a line number and accepts `nan`
+//! and `inf` as coordinates. So when tobj fails, or hands back a non-finite
+//! position, [`locate_problem`] scans the text once more to name the line
+//! and the element at fault. Each `o`/`g` name is one geometry id (the same
+//! name twice is the same id); faces keep file order, polygons are fanned
+//! into triangles in order.
+
+use std::collections::HashMap;
+use std::io::Read;
+use std::path::Path;
+
+use glam::Vec3;
+
+use super::{Scene, SceneError, Triangle};
+
+/// Loads an `.obj` or `.obj.gz` file (gzip is recognised by its magic bytes).
+pub fn load_obj_file(path: &Path) -> Result<Scene, SceneError> {
+    let io = |source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let raw = std::fs::read(path).map_err(io)?;
+    let text = if raw.starts_with(&[0x1f, 0x8b]) {
+        let mut out = Vec::with_capacity(raw.len() * 4);
+        flate2::read::MultiGzDecoder::new(&raw[..])
+            .read_to_end(&mut out)
+            .map_err(|e| SceneError::NotObj {
+                path: path.display().to_string(),
+                why: format!("gzip data is corrupt: {e}"),
+            })?;
+        out
+    } else {
+        raw
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().trim_end_matches(".gz").to_string())
+        .unwrap_or_default();
+    parse_obj_named(&path.display().to_string(), &name, &text)
+}
+
+/// Parses OBJ text held in memory; `name` names it in errors.
+pub fn parse_obj(name: &str, text: &[u8]) -> Result<Scene, SceneError> {
+    parse_obj_named(name, name, text)
+}
+
+fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Scene, SceneError> {
+    if std::str::from_utf8(text).is_err() {
+        return Err(SceneError::NotObj {
+            path: path.into(),
+            why: "it is not text (invalid UTF-8)".into(),
+        });
+    }
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let loaded = tobj::load_obj_buf(&mut &text[..], &opts, |_| {
+        Err(tobj::LoadError::GenericFailure)
+    });
+    let models = match loaded {
+        Ok((models, _materials)) => models,
+        Err(e) => return Err(diagnose(path, text, &e.to_string())),
+    };
+
+    let mut triangles = Vec::new();
+    let mut geometry_ids = Vec::new();
+    let mut geometry_names: Vec<String> = Vec::new();
+    let mut by_name: HashMap<String, u32> = HashMap::new();
+    for model in &models {
+        let mesh = &model.mesh;
+        if mesh.indices.is_empty() {
+            continue;
+        }
+        let gid = *by_name.entry(model.name.clone()).or_insert_with(|| {
+            geometry_names.push(model.name.clone());
+            (geometry_names.len() - 1) as u32
+        });
+        let pos = |i: u32| {
+            let i = i as usize * 3;
+            Vec3::new(
+                mesh.positions[i],
+                mesh.positions[i + 1],
+                mesh.positions[i + 2],
+            )
+        };
+        for tri in mesh.indices.chunks_exact(3) {
+            triangles.push(Triangle::new(pos(tri[0]), pos(tri[1]), pos(tri[2])));
+            geometry_ids.push(gid);
+        }
+        if mesh.positions.iter().any(|c| !c.is_finite()) {
+            return Err(diagnose(path, text, "a vertex has a non-finite coordinate"));
+        }
+    }
+    if triangles.is_empty() {
+        let what = if text.iter().all(u8::is_ascii_whitespace) {
+            "the file is empty"
+        } else {
+            "it holds no faces"
+        };
+        return Err(SceneError::Invalid {
+            path: path.into(),
+            what: format!("no triangles: {what}"),
+        });
+    }
+    Scene::new(name, triangles, geometry_ids, geometry_names)
+}
+
+/// Turns a tobj failure into an error that names the line and element, when
+/// the scan can find it; otherwise passes on tobj's own words.
+fn diagnose(path: &str, text: &[u8], tobj_says: &str) -> SceneError {
+    match locate_problem(std::str::from_utf8(text).unwrap_or("")) {
+        Some((line, what)) => SceneError::Malformed {
+            path: path.into(),
+            line,
+            what,
+        },
+        None => SceneError::Invalid {
+            path: path.into(),
+            what: tobj_says.into(),
+        },
+    }
+}
+
+/// Finds the first line (1-based) that makes the OBJ invalid for us: an
+/// unparsable or non-finite vertex, or a face whose index is not a number,
+/// is zero, or points outside the vertex list.
+fn locate_problem(text: &str) -> Option<(usize, String)> {
+    let total_vertices = text
+        .lines()
+        .filter(|l| l.split_whitespace().next() == Some("v"))
+        .count();
+    let mut vertices = 0usize;
+    for (n, line) in text.lines().enumerate() {
+        let line_no = n + 1;
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                vertices += 1;
+                let coords: Vec<&str> = words.take(3).collect();
+                if coords.len() < 3 {
+                    return Some((
+                        line_no,
+                        format!("vertex {vertices} has fewer than 3 coordinates"),
+                    ));
+                }
+                for c in coords {
+                    match c.parse::<f32>() {
+                        Err(_) => {
+                            return Some((
+                                line_no,
+                                format!("vertex {vertices}: '{c}' is not a number"),
+                            ));
+                        }
+                        Ok(x) if !x.is_finite() => {
+                            return Some((
+                                line_no,
+                                format!("vertex {vertices} has a non-finite coordinate '{c}'"),
+                            ));
+                        }
+                        Ok(_) => {}
+                    }
+                }
+            }
+            Some("f") => {
+                for corner in words {
+                    let first = corner.split('/').next().unwrap_or("");
+                    let Ok(idx) = first.parse::<i64>() else {
+                        return Some((
+                            line_no,
+                            format!("face corner '{corner}' is not a vertex index"),
+                        ));
+                    };
+                    let resolved = if idx < 0 {
+                        vertices as i64 + idx + 1
+                    } else {
+                        idx
+                    };
+                    if idx == 0 || resolved < 1 || resolved > total_vertices as i64 {
+                        return Some((
+                            line_no,
+                            format!(
+                                "face index {idx} is out of range (the file has {total_vertices} vertices)"
+                            ),
+                        ));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
