@@ -155,6 +155,19 @@ pub fn brute_force_closest(scene: &Scene, ray: &Ray) -> Option<Hit> {
     best
 }
 
+/// `t` moved up by the relative slack; ±inf stay as they are (the additive
+/// form `t + |t|·SLACK` would turn them into NaN and cull nothing).
+#[inline(always)]
+fn widen_up(t: f64) -> f64 {
+    t * (1.0 + SLACK * t.signum())
+}
+
+/// `t` moved down by the relative slack; ±inf stay as they are.
+#[inline(always)]
+fn widen_down(t: f64) -> f64 {
+    t * (1.0 - SLACK * t.signum())
+}
+
 /// Slab test of a box: the `[t0, t1]` of the ray inside it, widened.
 fn clip_to_box(b: &Aabb, ray: &Ray, inv: DVec3) -> (f64, f64) {
     let (mut t0, mut t1) = (ray.tmin, ray.tmax);
@@ -163,8 +176,8 @@ fn clip_to_box(b: &Aabb, ray: &Ray, inv: DVec3) -> (f64, f64) {
         let tb = (b.max[a] as f64 - ray.origin[a]) * inv[a];
         let (near, far) = if ta <= tb { (ta, tb) } else { (tb, ta) };
         // NaN (ray in a face plane) leaves the bound unchanged.
-        t0 = t0.max(near - near.abs() * SLACK);
-        t1 = t1.min(far + far.abs() * SLACK);
+        t0 = t0.max(widen_down(near));
+        t1 = t1.min(widen_up(far));
     }
     (t0, t1)
 }
@@ -258,8 +271,8 @@ impl<'a> Tracer<'a> {
                     (t_left, t_right)
                 };
                 // Written as comparisons so that a NaN bound is dropped.
-                let exit = t_exit_near + t_exit_near.abs() * SLACK;
-                let enter = t_enter_far - t_enter_far.abs() * SLACK;
+                let exit = widen_up(t_exit_near);
+                let enter = widen_down(t_enter_far);
                 let near_tf = if exit < tf { exit } else { tf };
                 let far_tn = if enter > tn { enter } else { tn };
                 let left = nd.left_child();
@@ -291,8 +304,9 @@ impl<'a> Tracer<'a> {
                 }
                 sp -= 1;
                 let (n, a, b) = stack[sp];
-                if a <= best_t + best_t.abs() * SLACK {
-                    (node, tn, tf) = (n, a, b.min(best_t + best_t.abs() * SLACK));
+                let bound = widen_up(best_t);
+                if a <= bound {
+                    (node, tn, tf) = (n, a, b.min(bound));
                     break;
                 }
             }

@@ -1,0 +1,162 @@
+//! The `cellbih` command as a user runs it: the raycast CSV contract end to
+//! end against brute force, JSON output, and clear errors.
+
+mod common;
+
+use std::process::Command;
+
+use cellbih::bih::brute_force_closest;
+use cellbih::rays_csv::write_rays;
+use cellbih::scene;
+
+fn cellbih(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_cellbih"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("cellbih-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+#[test]
+fn raycast_writes_one_line_per_ray_equal_to_brute_force() {
+    for spec in ["default", "car", "rtperf:5000:2"] {
+        let s = scene::load(spec, None).unwrap();
+        let rays = common::rays_for(&s, 300, 5);
+        let rays_path = tmp(&format!("{}.rays.csv", spec.replace(':', "_")));
+        let hits_path = tmp(&format!("{}.hits.csv", spec.replace(':', "_")));
+        write_rays(std::fs::File::create(&rays_path).unwrap(), &rays).unwrap();
+        let out = cellbih(&[
+            "raycast",
+            "--scene",
+            spec,
+            "--rays",
+            rays_path.to_str().unwrap(),
+            "--out",
+            hits_path.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let text = std::fs::read_to_string(&hits_path).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(lines.next(), Some("ray,prim,t"));
+        let lines: Vec<&str> = lines.collect();
+        assert_eq!(lines.len(), rays.len());
+        let mut hits = 0;
+        for (i, (line, ray)) in lines.iter().zip(&rays).enumerate() {
+            let f: Vec<&str> = line.split(',').collect();
+            assert_eq!(f[0], i.to_string());
+            match brute_force_closest(&s, ray) {
+                None => assert_eq!((f[1], f[2]), ("-1", ""), "{spec} ray {i}"),
+                Some(h) => {
+                    hits += 1;
+                    let t: f64 = f[2].parse().unwrap();
+                    assert_eq!(t, h.t, "{spec} ray {i}: t must read back exactly");
+                    let prim: u32 = f[1].parse().unwrap();
+                    let alone = cellbih::bih::intersect_triangle(
+                        &s.triangles[prim as usize],
+                        ray,
+                        ray.tmin,
+                        ray.tmax,
+                    );
+                    assert!(
+                        prim == h.prim || alone.is_some_and(|a| a.0 == t),
+                        "{spec} ray {i}"
+                    );
+                }
+            }
+        }
+        assert!(hits > 50, "{spec}: the rays should mostly hit ({hits})");
+    }
+}
+
+#[test]
+fn bad_rays_file_is_a_clear_error() {
+    let p = tmp("bad.rays.csv");
+    std::fs::write(
+        &p,
+        "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,0,1,0,0,0,inf\n0,0,0,1,0,zero,0,inf\n",
+    )
+    .unwrap();
+    let out = cellbih(&[
+        "raycast",
+        "--rays",
+        p.to_str().unwrap(),
+        "--out",
+        tmp("x.csv").to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.rays.csv:3: field 6 ('zero') is not a number"),
+        "{err}"
+    );
+
+    std::fs::write(&p, "x,y\n").unwrap();
+    let out = cellbih(&[
+        "raycast",
+        "--rays",
+        p.to_str().unwrap(),
+        "--out",
+        tmp("x.csv").to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the header must be"));
+}
+
+#[test]
+fn build_json_reports_the_tree() {
+    let out = cellbih(&["build", "--scene", "cup", "--format", "json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["triangles"], 7040);
+    assert_eq!(v["builder"], "host");
+    assert!(v["quality"]["sah_cost"].as_f64().unwrap() > 1.0);
+    assert!(v["quality"]["leaves"].as_u64().unwrap() >= 7040 / 12);
+}
+
+#[test]
+fn info_and_errors() {
+    let out = cellbih(&["info", "--scene", "car", "--format", "json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        v["geometry_ids"].as_u64(),
+        Some(scene::load("car", None).unwrap().geometry_names.len() as u64)
+    );
+    let out = cellbih(&["build", "--builder", "nope"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the builders are: host"));
+    let out = cellbih(&["info", "--scene", "/no/such/file.obj"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("/no/such/file.obj: cannot read"));
+}
+
+#[test]
+fn render_writes_png_images() {
+    for (flag, name) in [(None, "s.png"), (Some("--heatmap"), "h.png")] {
+        let p = tmp(name);
+        let mut args = vec![
+            "render",
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--out",
+            p.to_str().unwrap(),
+        ];
+        args.extend(flag);
+        let out = cellbih(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let img = image::open(&p).unwrap();
+        assert_eq!((img.width(), img.height()), (64, 48));
+    }
+}
