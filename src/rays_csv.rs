@@ -127,3 +127,75 @@ pub fn write_rays(mut out: impl Write, rays: &[Ray]) -> std::io::Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rays_round_trip_and_errors_name_the_line() {
+        let rays = vec![
+            Ray {
+                origin: DVec3::new(1e-15, -2.5, 3.0),
+                dir: DVec3::new(0.0, -0.0, 1e15),
+                tmin: 0.0,
+                tmax: f64::INFINITY,
+            },
+            Ray {
+                origin: DVec3::ZERO,
+                dir: DVec3::X,
+                tmin: 0.125,
+                tmax: 7.0,
+            },
+        ];
+        let mut buf = Vec::new();
+        write_rays(&mut buf, &rays).unwrap();
+        let back = read_rays("r.csv", &buf[..]).unwrap();
+        assert_eq!(back.len(), 2);
+        assert_eq!(
+            back[0].dir.y.to_bits(),
+            (-0.0f64).to_bits(),
+            "the sign of a zero survives"
+        );
+        assert_eq!(back, rays);
+        let e = read_rays("r.csv", "ox,oy,oz,dx,dy,dz,tmin,tmax\n1,2,3\n".as_bytes()).unwrap_err();
+        assert_eq!(e.to_string(), "r.csv:2: expected 8 fields, found 3");
+        let e = read_rays(
+            "r.csv",
+            "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,0,0,0,0,0,1\n".as_bytes(),
+        )
+        .unwrap_err();
+        assert_eq!(e.to_string(), "r.csv:2: the direction is zero");
+        let e = read_rays(
+            "r.csv",
+            "ox,oy,oz,dx,dy,dz,tmin,tmax\nnan,0,0,1,0,0,0,1\n".as_bytes(),
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "r.csv:2: origin and direction must be finite"
+        );
+    }
+
+    #[test]
+    fn misses_have_an_empty_t() {
+        let mut buf = Vec::new();
+        write_hits(
+            &mut buf,
+            &[
+                None,
+                Some(Hit {
+                    prim: 3,
+                    t: 0.1,
+                    u: 0.0,
+                    v: 0.0,
+                }),
+            ],
+        )
+        .unwrap();
+        assert_eq!(
+            String::from_utf8(buf).unwrap(),
+            "ray,prim,t\n0,-1,\n1,3,0.1\n"
+        );
+    }
+}

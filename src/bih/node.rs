@@ -85,3 +85,36 @@ impl BihNode {
         (self.word >> 2, self.a)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inner_and_leaf_round_trip_through_their_words() {
+        let n = BihNode::inner(12345, 2, -1.5, 2.25);
+        assert!(!n.is_leaf());
+        assert_eq!(
+            (n.left_child(), n.axis(), n.clip()),
+            (12345, 2, [-1.5, 2.25])
+        );
+        let words: [u32; 3] = bytemuck::cast(n);
+        assert_eq!(
+            words,
+            [12345 << 2 | 2, (-1.5f32).to_bits(), 2.25f32.to_bits()]
+        );
+        let l = BihNode::leaf(MAX_INDEX, 7);
+        assert!(l.is_leaf());
+        assert_eq!(l.leaf_range(), (MAX_INDEX, 7));
+        assert_eq!(
+            bytemuck::cast::<BihNode, [u32; 3]>(l),
+            [MAX_INDEX << 2 | 3, 7, 0]
+        );
+    }
+
+    #[test]
+    #[should_panic(expected = "does not fit in 30 bits")]
+    fn an_index_past_30_bits_is_refused() {
+        BihNode::leaf(MAX_INDEX + 1, 1);
+    }
+}

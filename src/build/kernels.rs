@@ -171,3 +171,94 @@ pub fn side_of<T: Boxed>(items: &[T]) -> Side {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[derive(Clone, Copy)]
+    struct B(Vec3A, Vec3A);
+    impl Boxed for B {
+        fn lo(&self) -> Vec3A {
+            self.0
+        }
+        fn hi(&self) -> Vec3A {
+            self.1
+        }
+    }
+    fn pt(x: f32, y: f32, z: f32) -> B {
+        B(Vec3A::new(x, y, z), Vec3A::new(x, y, z))
+    }
+
+    #[test]
+    fn empty_halvings_shrink_the_candidate_without_a_split() {
+        // Centers in [0.1, 0.2] of a [0, 8] candidate: halve 8 → 4 → 2 → 1 → 0.5 → 0.25,
+        // then the plane 0.125 separates them.
+        let mut cand = Aabb::new(Vec3::ZERO, Vec3::new(8.0, 1.0, 1.0));
+        let centers = Aabb::new(Vec3::new(0.1, 0.5, 0.5), Vec3::new(0.2, 0.5, 0.5));
+        let s = choose_split(&mut cand, &centers).unwrap();
+        assert_eq!(
+            s,
+            Split {
+                axis: 0,
+                plane: 0.125
+            }
+        );
+        assert_eq!(cand.max.x, 0.25);
+    }
+
+    #[test]
+    fn coincident_centers_cannot_be_split() {
+        let c = Aabb::new(Vec3::splat(0.3), Vec3::splat(0.3));
+        assert_eq!(
+            choose_split(&mut Aabb::new(Vec3::ZERO, Vec3::ONE), &c),
+            None
+        );
+    }
+
+    #[test]
+    fn adjacent_floats_still_split_when_halving_stalls() {
+        for x in [1.0f32, 1e15, 1e-15, -3.0e7] {
+            let next = f32::from_bits(x.to_bits() + 1);
+            let (lo, hi) = if next > x { (x, next) } else { (next, x) };
+            let mut cand = Aabb::new(Vec3::new(lo, 0.0, 0.0), Vec3::new(hi, 0.0, 0.0));
+            let centers = cand;
+            let s = choose_split(&mut cand, &centers).unwrap();
+            let mut items = [pt(hi, 0.0, 0.0), pt(lo, 0.0, 0.0)];
+            let (l, r) = partition(&mut items, s);
+            assert_eq!((l.count, r.count), (1, 1), "x = {x}");
+            assert_eq!(items[0].0.x, lo);
+        }
+    }
+
+    #[test]
+    fn a_flat_candidate_axis_moves_to_another_axis() {
+        // Centers coincide on the longest candidate axis (x) but differ in y.
+        let mut cand = Aabb::new(Vec3::ZERO, Vec3::new(100.0, 1.0, 0.0));
+        let centers = Aabb::new(Vec3::new(50.0, 0.2, 0.0), Vec3::new(50.0, 0.7, 0.0));
+        let s = choose_split(&mut cand, &centers).unwrap();
+        assert_eq!(s.axis, 1);
+        assert!(s.plane > 0.2 && s.plane <= 0.7);
+    }
+
+    #[test]
+    fn partition_puts_centers_below_the_plane_first_and_fits_planes() {
+        let mut items: Vec<B> = (0..100)
+            .map(|i| pt((i * 37 % 100) as f32, 0.0, i as f32))
+            .collect();
+        let (l, r) = partition(
+            &mut items,
+            Split {
+                axis: 0,
+                plane: 42.5,
+            },
+        );
+        assert_eq!((l.count, r.count), (43, 57));
+        assert!(items[..43].iter().all(|b| b.0.x < 42.5));
+        assert!(items[43..].iter().all(|b| b.0.x >= 42.5));
+        assert_eq!(clip_planes(0, &l, &r), [42.0, 43.0]);
+        let left_max_z = items[..43].iter().map(|b| b.0.z).fold(f32::MIN, f32::max);
+        assert_eq!(l.centers().max.z, left_max_z);
+    }
+}

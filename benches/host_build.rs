@@ -1,0 +1,60 @@
+//! Host builder throughput (triangles per second) and ray casting (primary
+//! rays per second, one thread) on the default scene and, when CELLBIH_DATA
+//! is set, on bunny and dragon. Criterion reports medians; `Throughput` makes
+//! it print Melem/s (triangles or rays).
+
+use std::hint::black_box;
+
+use cellbih::bih::{BihConfig, RayStats, Tracer};
+use cellbih::build::BuilderKind;
+use cellbih::render::Camera;
+use cellbih::scene::{self, Scene};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+
+fn scenes() -> Vec<Scene> {
+    let mut v = vec![scene::load("default", None).unwrap()];
+    match scene::data_dir(None) {
+        Some(dir) => {
+            for name in ["bunny", "dragon"] {
+                v.push(scene::load(name, Some(&dir)).unwrap());
+            }
+        }
+        None => eprintln!("CELLBIH_DATA is not set: benchmarking the default scene only"),
+    }
+    v
+}
+
+fn build(c: &mut Criterion) {
+    let mut g = c.benchmark_group("host_build");
+    g.sample_size(20);
+    for s in scenes() {
+        g.throughput(Throughput::Elements(s.len() as u64));
+        g.bench_function(&s.name, |b| {
+            b.iter(|| BuilderKind::Host.build(black_box(&s), &BihConfig::default()))
+        });
+    }
+    g.finish();
+}
+
+fn raycast(c: &mut Criterion) {
+    let mut g = c.benchmark_group("host_raycast_primary");
+    g.sample_size(10);
+    for s in scenes() {
+        let bih = BuilderKind::Host.build(&s, &BihConfig::default()).bih;
+        let tracer = Tracer::new(&bih, &s);
+        let rays = Camera::framing(&s.bounds(), 512, 512).rays();
+        g.throughput(Throughput::Elements(rays.len() as u64));
+        g.bench_function(&s.name, |b| {
+            b.iter(|| {
+                let mut st = RayStats::default();
+                rays.iter()
+                    .filter(|r| tracer.closest(r, &mut st).is_some())
+                    .count()
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, build, raycast);
+criterion_main!(benches);
