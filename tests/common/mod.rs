@@ -121,7 +121,7 @@ pub fn make_scene(n: usize, exp: i32, offset: i32, kind: u8, seed: u64) -> Scene
     let scale = 10f32.powi(exp);
     let off = Vec3::splat(offset as f32 * scale);
     let mut rng = SplitMix64::new(seed);
-    let mut p = |rng: &mut SplitMix64| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    let p = |rng: &mut SplitMix64| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
     let mut tris = Vec::with_capacity(n);
     for i in 0..n {
         let c = p(&mut rng);
