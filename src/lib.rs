@@ -5,6 +5,7 @@
 pub mod aabb;
 pub mod bih;
 pub mod build;
+pub mod cell;
 pub mod quality;
 pub mod rays_csv;
 pub mod render;

@@ -106,7 +106,10 @@ fn gzip_file_loads_like_plain_text() {
 fn unknown_names_explain_what_is_accepted() {
     let e = scene::load("no-such-mesh", None).unwrap_err().to_string();
     if scene::data_dir(None).is_some() {
-        assert!(e.contains("no no-such-mesh.obj.gz or no-such-mesh.obj in"), "{e}");
+        assert!(
+            e.contains("no no-such-mesh.obj.gz or no-such-mesh.obj in"),
+            "{e}"
+        );
     } else {
         assert!(e.contains("--data DIR") && e.contains("rtperf:N"), "{e}");
     }

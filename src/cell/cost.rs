@@ -1,0 +1,138 @@
+//! The cost model: every rate the emulator charges, in one table, each with
+//! its source or calibration (`docs/cost-model.md` sets them beside the
+//! published measurements). The machine charges its own operations — DMA,
+//! mailboxes, signals, the atomic unit, PPE memory access — from these
+//! rates the moment a program calls them; programs charge only their
+//! compute, through [`Spe::compute`](super::Spe::compute) with cycles they
+//! take from their own named kernel rates.
+
+use super::clock::Cycles;
+
+/// Bandwidth as bytes per 1,000 cycles, so that all timing is integer
+/// arithmetic and the same on every host.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Bandwidth {
+    pub bytes_per_kcycle: u64,
+}
+
+impl Bandwidth {
+    /// `gb_per_s` (10^9 bytes per second) at a clock of `hz`.
+    pub fn from_gb_per_s(gb_per_s: f64, hz: f64) -> Self {
+        Bandwidth {
+            bytes_per_kcycle: (gb_per_s * 1e9 / hz * 1000.0).round() as u64,
+        }
+    }
+
+    /// Cycles to move `bytes`, rounded up; 0 for an infinite bandwidth
+    /// (`bytes_per_kcycle == 0` means "free", the functional mode).
+    pub fn cycles(self, bytes: u64) -> Cycles {
+        if self.bytes_per_kcycle == 0 {
+            return Cycles::ZERO;
+        }
+        Cycles((bytes * 1000).div_ceil(self.bytes_per_kcycle))
+    }
+
+    pub fn gb_per_s(self, hz: f64) -> f64 {
+        self.bytes_per_kcycle as f64 / 1000.0 * hz / 1e9
+    }
+}
+
+/// Every rate of the machine. Units are in the names: `_cycles` are core
+/// cycles at [`CostModel::clock_hz`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CostModel {
+    /// Core clock of PPE and SPEs: 3.2 GHz (CBE handbook).
+    pub clock_hz: f64,
+    /// SPU cycles to issue one MFC command (the channel writes of
+    /// `mfc_get`): Kistler et al. 2006 measured "less than 4 ns", 12.8 cycles.
+    pub dma_issue_cycles: Cycles,
+    /// Cycles the MFC spends on each command before its data moves
+    /// (calibrated: pipelined 1 KiB transfers reach 80% of peak, as
+    /// Jiménez-González et al. 2007 report near-peak from 1024 B).
+    pub mfc_command_cycles: Cycles,
+    /// Extra MFC cycles per element of a DMA list (estimate, half a command).
+    pub mfc_list_element_cycles: Cycles,
+    /// Fixed latency from the end of a transfer's data phase to its
+    /// completion: with issue, command and data of a 128-byte get this gives
+    /// 316 cycles (98.8 ns), inside Kistler et al.'s "under 100 ns".
+    pub dma_latency_cycles: Cycles,
+    /// Peak bandwidth of one SPE's MFC: 25.6 GB/s (Kistler et al. 2006).
+    pub spe_bandwidth: Bandwidth,
+    /// The memory interface shared by every core: XDR, 25.6 GB/s peak
+    /// (CBE handbook); transfers of all SPEs queue on it in issue order.
+    pub memory_bandwidth: Bandwidth,
+    /// One SPU channel instruction (read a mailbox, a tag status, a
+    /// signal): an estimate of a few cycles.
+    pub channel_cycles: Cycles,
+    /// From a mailbox write to the value being readable on the other side
+    /// (an MMIO transaction over the EIB): estimated as one 128-byte
+    /// transfer's latency; unsourced, see docs/cost-model.md.
+    pub mailbox_latency_cycles: Cycles,
+    /// Cycles the PPE spends on one MMIO access (mailbox or signal).
+    pub ppe_mmio_cycles: Cycles,
+    /// From a signal send to the value in the target's register (same
+    /// estimate as mailboxes: the SDK guide says one-to-one signals and
+    /// mailboxes perform alike).
+    pub signal_latency_cycles: Cycles,
+    /// getllar: a 128-byte lock-line load into the local store, costed as a
+    /// 128-byte DMA get (Kistler et al.'s cache-line figure).
+    pub getllar_cycles: Cycles,
+    /// putllc / putlluc: a conditional / unconditional lock-line store,
+    /// costed like getllar.
+    pub putllc_cycles: Cycles,
+    /// The PPE's own atomic update (lwarx/stwcx. on a line): estimate.
+    pub ppe_atomic_cycles: Cycles,
+    /// The PPE's bandwidth to main memory through its caches, for the
+    /// bytes a PPE program reads or writes explicitly.
+    pub ppe_memory_bandwidth: Bandwidth,
+}
+
+impl CostModel {
+    /// The PlayStation 3, with the sources above.
+    pub fn ps3() -> Self {
+        let hz = 3.2e9;
+        CostModel {
+            clock_hz: hz,
+            dma_issue_cycles: Cycles(12),
+            mfc_command_cycles: Cycles(32),
+            mfc_list_element_cycles: Cycles(16),
+            dma_latency_cycles: Cycles(256),
+            spe_bandwidth: Bandwidth::from_gb_per_s(25.6, hz),
+            memory_bandwidth: Bandwidth::from_gb_per_s(25.6, hz),
+            channel_cycles: Cycles(6),
+            mailbox_latency_cycles: Cycles(316),
+            ppe_mmio_cycles: Cycles(100),
+            signal_latency_cycles: Cycles(316),
+            getllar_cycles: Cycles(316),
+            putllc_cycles: Cycles(316),
+            ppe_atomic_cycles: Cycles(100),
+            ppe_memory_bandwidth: Bandwidth::from_gb_per_s(6.4, hz),
+        }
+    }
+
+    /// The functional mode: every machine operation is free, so a run
+    /// checks correctness (DMA rules, synchronization, deadlocks) as fast
+    /// as the host allows, and its cycle counts mean nothing.
+    pub fn functional() -> Self {
+        let free = Bandwidth {
+            bytes_per_kcycle: 0,
+        };
+        CostModel {
+            clock_hz: 3.2e9,
+            dma_issue_cycles: Cycles::ZERO,
+            mfc_command_cycles: Cycles::ZERO,
+            mfc_list_element_cycles: Cycles::ZERO,
+            dma_latency_cycles: Cycles::ZERO,
+            spe_bandwidth: free,
+            memory_bandwidth: free,
+            channel_cycles: Cycles::ZERO,
+            mailbox_latency_cycles: Cycles::ZERO,
+            ppe_mmio_cycles: Cycles::ZERO,
+            signal_latency_cycles: Cycles::ZERO,
+            getllar_cycles: Cycles::ZERO,
+            putllc_cycles: Cycles::ZERO,
+            ppe_atomic_cycles: Cycles::ZERO,
+            ppe_memory_bandwidth: free,
+        }
+    }
+}

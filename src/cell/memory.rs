@@ -1,0 +1,132 @@
+//! Main memory: the effective-address space the PPE allocates in. SPE
+//! programs never touch it directly; they reach it by DMA through their MFC.
+//! Allocation is a bump allocator (a PS3 program's arenas are freed
+//! wholesale); running out is an error that says how much is in use.
+
+use std::fmt;
+
+use super::CellError;
+
+/// An effective address in main memory.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    PartialOrd,
+    Ord,
+    Hash,
+    bytemuck::Pod,
+    bytemuck::Zeroable,
+)]
+#[repr(transparent)]
+pub struct Ea(pub u64);
+
+impl Ea {
+    pub fn offset(self, bytes: u64) -> Ea {
+        Ea(self.0 + bytes)
+    }
+}
+
+impl fmt::Display for Ea {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "ea {:#x}", self.0)
+    }
+}
+
+/// The first address handed out: the page at 0 stays unmapped, so that a
+/// zero effective address is always an error.
+const BASE: u64 = 0x1000;
+
+pub struct MainMemory {
+    bytes: Vec<u8>,
+    capacity: u64,
+    high_water: u64,
+}
+
+impl MainMemory {
+    pub fn new(capacity: u64) -> Self {
+        MainMemory {
+            bytes: Vec::new(),
+            capacity,
+            high_water: 0,
+        }
+    }
+
+    /// Allocates `size` bytes aligned to `align` (a power of two), zeroed.
+    pub fn alloc(&mut self, size: u64, align: u64) -> Result<Ea, CellError> {
+        assert!(
+            align.is_power_of_two(),
+            "alignment {align} is not a power of two"
+        );
+        let start = (BASE + self.bytes.len() as u64).next_multiple_of(align);
+        let end = start + size;
+        if end - BASE > self.capacity {
+            return Err(CellError::OutOfMemory {
+                asked: size,
+                in_use: self.bytes.len() as u64,
+                capacity: self.capacity,
+            });
+        }
+        self.bytes.resize((end - BASE) as usize, 0);
+        self.high_water = self.high_water.max(end - BASE);
+        Ok(Ea(start))
+    }
+
+    /// Bytes allocated so far.
+    pub fn in_use(&self) -> u64 {
+        self.bytes.len() as u64
+    }
+
+    pub fn capacity(&self) -> u64 {
+        self.capacity
+    }
+
+    fn range(&self, ea: Ea, len: u64) -> Result<std::ops::Range<usize>, CellError> {
+        let end = ea.0.checked_add(len);
+        match end {
+            Some(end) if ea.0 >= BASE && end <= BASE + self.bytes.len() as u64 => {
+                Ok((ea.0 - BASE) as usize..(end - BASE) as usize)
+            }
+            _ => Err(CellError::BadAddress {
+                ea,
+                len,
+                allocated_end: Ea(BASE + self.bytes.len() as u64),
+            }),
+        }
+    }
+
+    pub fn read(&self, ea: Ea, len: u64) -> Result<&[u8], CellError> {
+        let r = self.range(ea, len)?;
+        Ok(&self.bytes[r])
+    }
+
+    pub fn write(&mut self, ea: Ea, data: &[u8]) -> Result<(), CellError> {
+        let r = self.range(ea, data.len() as u64)?;
+        self.bytes[r].copy_from_slice(data);
+        Ok(())
+    }
+
+    /// Typed copy of `count` values at `ea` (any alignment).
+    pub fn read_pod<T: bytemuck::Pod>(&self, ea: Ea, count: usize) -> Result<Vec<T>, CellError> {
+        let bytes = self.read(ea, (count * std::mem::size_of::<T>()) as u64)?;
+        Ok(bytemuck::pod_collect_to_vec(bytes))
+    }
+
+    pub fn write_pod<T: bytemuck::Pod>(&mut self, ea: Ea, values: &[T]) -> Result<(), CellError> {
+        self.write(ea, bytemuck::cast_slice(values))
+    }
+
+    /// Allocates room for `values` and copies them in.
+    pub fn alloc_pod<T: bytemuck::Pod>(
+        &mut self,
+        values: &[T],
+        align: u64,
+    ) -> Result<Ea, CellError> {
+        let ea = self.alloc(std::mem::size_of_val(values) as u64, align)?;
+        self.write_pod(ea, values)?;
+        Ok(ea)
+    }
+}

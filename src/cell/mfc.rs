@@ -1,0 +1,156 @@
+//! The Memory Flow Controller's rules for DMA commands (CBE Programming
+//! Handbook, "DMA transfers"; CELL-FACTS.md), checked when a command is
+//! issued. A violation is an error that names the command, its addresses
+//! and its size.
+//!
+//! - size 1, 2, 4 or 8 bytes, or a multiple of 16 up to 16 KiB;
+//! - below 16 bytes: local and effective address naturally aligned and
+//!   agreeing in their low four bits; from 16 bytes: both 16-byte aligned;
+//! - tag group 0–31;
+//! - a DMA list of at most 2048 elements, each element obeying the rules
+//!   above; the list's local-store side is contiguous, element after element;
+//! - at most 16 commands in an SPE's queue: issuing on a full queue stalls.
+//!
+//! Modelled as well: the sizes and order of transfers. Not modelled: the
+//! list stall-and-notify flag, fences and barriers, SPE-to-SPE transfers.
+
+use super::{CellError, Ea, LsAddr};
+
+/// Largest transfer of one command or list element.
+pub const MAX_TRANSFER: u32 = 16 * 1024;
+/// Entries of an SPE's MFC command queue.
+pub const QUEUE_DEPTH: usize = 16;
+/// Tag groups 0..32.
+pub const TAG_GROUPS: u32 = 32;
+/// Elements of one DMA list.
+pub const MAX_LIST_ELEMENTS: usize = 2048;
+
+/// One element of a DMA list: where in main memory, how many bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ListElement {
+    pub ea: Ea,
+    pub size: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Direction {
+    /// Main memory → local store.
+    Get,
+    /// Local store → main memory.
+    Put,
+}
+
+/// How `wait_tags` waits on its mask.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WaitMode {
+    /// Until every group in the mask has no command outstanding.
+    All,
+    /// Until at least one group in the mask has none outstanding.
+    Any,
+}
+
+/// One transfer of a command: `size` bytes between `ls` and `ea`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Segment {
+    pub ls: LsAddr,
+    pub ea: Ea,
+    pub size: u32,
+}
+
+pub(crate) fn command_name(dir: Direction, list: bool) -> &'static str {
+    match (dir, list) {
+        (Direction::Get, false) => "mfc_get",
+        (Direction::Put, false) => "mfc_put",
+        (Direction::Get, true) => "mfc_getl",
+        (Direction::Put, true) => "mfc_putl",
+    }
+}
+
+/// Checks one transfer against the size and alignment rules.
+pub(crate) fn check_segment(
+    spe: usize,
+    cmd: &'static str,
+    s: Segment,
+    tag: u32,
+) -> Result<(), CellError> {
+    let err = |why: String| CellError::Dma {
+        spe,
+        cmd,
+        ls: s.ls,
+        ea: s.ea,
+        size: s.size,
+        why,
+    };
+    if tag >= TAG_GROUPS {
+        return Err(err(format!("tag {tag} is not a tag group (0–31)")));
+    }
+    match s.size {
+        0 => return Err(err("a transfer of 0 bytes".into())),
+        1 | 2 | 4 | 8 => {
+            let sz = s.size as u64;
+            if !(s.ls.0 as u64).is_multiple_of(sz) || !s.ea.0.is_multiple_of(sz) {
+                return Err(err(format!(
+                    "a {sz}-byte transfer must be {sz}-byte aligned on both sides"
+                )));
+            }
+            if s.ls.0 as u64 & 15 != s.ea.0 & 15 {
+                return Err(err("below 16 bytes the local and effective addresses must agree in their low 4 bits".into()));
+            }
+        }
+        n if n % 16 == 0 && n <= MAX_TRANSFER => {
+            if !s.ls.0.is_multiple_of(16) || !s.ea.0.is_multiple_of(16) {
+                return Err(err(
+                    "transfers of 16 bytes or more must be 16-byte aligned on both sides".into(),
+                ));
+            }
+        }
+        n if n > MAX_TRANSFER => {
+            return Err(err(format!(
+                "{n} bytes is over the 16 KiB limit of one transfer"
+            )));
+        }
+        n => {
+            return Err(err(format!(
+                "{n} bytes is not 1, 2, 4, 8 or a multiple of 16"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The transfers of a DMA list whose local-store side starts at `ls`.
+pub(crate) fn list_segments(
+    spe: usize,
+    dir: Direction,
+    ls: LsAddr,
+    list: &[ListElement],
+    tag: u32,
+) -> Result<Vec<Segment>, CellError> {
+    let cmd = command_name(dir, true);
+    if list.is_empty() || list.len() > MAX_LIST_ELEMENTS {
+        return Err(CellError::Dma {
+            spe,
+            cmd,
+            ls,
+            ea: list.first().map_or(Ea(0), |e| e.ea),
+            size: list.iter().map(|e| e.size).sum(),
+            why: format!(
+                "a DMA list holds 1 to {MAX_LIST_ELEMENTS} elements, not {}",
+                list.len()
+            ),
+        });
+    }
+    let mut at = ls;
+    let mut out = Vec::with_capacity(list.len());
+    for e in list {
+        let s = Segment {
+            ls: at,
+            ea: e.ea,
+            size: e.size,
+        };
+        check_segment(spe, cmd, s, tag)?;
+        out.push(s);
+        at = at.offset(e.size);
+    }
+    Ok(out)
+}

@@ -1,0 +1,179 @@
+//! What the PPE program calls: allocation and access of main memory, the
+//! MMIO side of every SPE's mailboxes and signals, and its own atomic
+//! update. The PPE reaches main memory directly (through its caches),
+//! charged at the PPE's memory bandwidth.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use super::clock::Cycles;
+use super::machine::{EventKind, Machine, OutBox, PPE, Status, Wait, Yield};
+use super::trace::SpanKind;
+use super::{CellError, CostModel, Ea};
+
+/// The PPE program's handle on the machine.
+pub struct Ppe {
+    pub(crate) m: Rc<RefCell<Machine>>,
+}
+
+impl Ppe {
+    pub fn now(&self) -> Cycles {
+        self.m.borrow().cores[PPE].clock
+    }
+
+    pub fn cost(&self) -> CostModel {
+        self.m.borrow().cfg.cost.clone()
+    }
+
+    /// Number of SPEs of the machine.
+    pub fn spes(&self) -> usize {
+        self.m.borrow().spes.len()
+    }
+
+    /// Charges `cycles` of PPE computation.
+    pub fn compute(&self, cycles: Cycles) {
+        self.m.borrow_mut().busy(PPE, cycles, SpanKind::Compute);
+    }
+
+    async fn sync(&self) {
+        self.m.borrow_mut().cores[PPE].status = Status::Ready;
+        Yield::new().await;
+    }
+
+    fn check_spe(&self, m: &Machine, spe: usize) -> Result<(), CellError> {
+        if spe >= m.spes.len() {
+            return Err(CellError::Program {
+                core: "PPE".into(),
+                msg: format!("there is no SPE {spe}"),
+            });
+        }
+        Ok(())
+    }
+
+    /// Allocates `size` bytes of main memory aligned to `align`.
+    pub async fn alloc(&self, size: u64, align: u64) -> Result<Ea, CellError> {
+        self.sync().await;
+        self.m.borrow_mut().mem.alloc(size, align)
+    }
+
+    /// Reads `count` values at `ea`, charged at the PPE's memory bandwidth.
+    pub async fn read_pod<T: bytemuck::Pod>(
+        &self,
+        ea: Ea,
+        count: usize,
+    ) -> Result<Vec<T>, CellError> {
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        let v = m.mem.read_pod(ea, count)?;
+        let c = m
+            .cfg
+            .cost
+            .ppe_memory_bandwidth
+            .cycles((count * size_of::<T>()) as u64);
+        m.busy(PPE, c, SpanKind::Compute);
+        Ok(v)
+    }
+
+    /// Writes `values` at `ea`; loses any SPE reservation on those lines.
+    pub async fn write_pod<T: bytemuck::Pod>(&self, ea: Ea, values: &[T]) -> Result<(), CellError> {
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        m.mem.write_pod(ea, values)?;
+        let bytes = size_of_val(values) as u64;
+        m.lose_reservations(ea, bytes);
+        let c = m.cfg.cost.ppe_memory_bandwidth.cycles(bytes);
+        m.busy(PPE, c, SpanKind::Compute);
+        Ok(())
+    }
+
+    /// Atomically adds `delta` to the `u32` at `ea` (lwarx/stwcx.); returns
+    /// the old value. Loses SPE reservations on the line.
+    pub async fn atomic_fetch_add_u32(&self, ea: Ea, delta: u32) -> Result<u32, CellError> {
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        let old: u32 = m.mem.read_pod(ea, 1)?[0];
+        m.mem.write_pod(ea, &[old.wrapping_add(delta)])?;
+        m.lose_reservations(ea, 4);
+        let c = m.cfg.cost.ppe_atomic_cycles;
+        m.atomic(PPE, c);
+        Ok(old)
+    }
+
+    /// Writes SPE `spe`'s inbound mailbox; blocks while it holds 4 values
+    /// (libspe's blocking write; a raw MMIO write would overwrite the last).
+    pub async fn write_in_mbox(&self, spe: usize, value: u32) -> Result<(), CellError> {
+        self.check_spe(&self.m.borrow(), spe)?;
+        self.sync().await;
+        loop {
+            {
+                let mut m = self.m.borrow_mut();
+                let st = &m.spes[spe];
+                if st.in_mbox.len() + st.in_arriving < 4 {
+                    m.spes[spe].in_arriving += 1;
+                    let c = m.cfg.cost.ppe_mmio_cycles;
+                    m.busy(PPE, c, SpanKind::Issue);
+                    m.cores[PPE].counters.mailbox_messages += 1;
+                    let at = m.cores[PPE].clock + m.cfg.cost.mailbox_latency_cycles;
+                    m.schedule(at, EventKind::InMbox { spe, value });
+                    return Ok(());
+                }
+                m.block(PPE, Wait::InMboxFull(spe));
+            }
+            Yield::new().await;
+        }
+    }
+
+    async fn read_out(&self, spe: usize, which: OutBox) -> Result<u32, CellError> {
+        self.check_spe(&self.m.borrow(), spe)?;
+        self.sync().await;
+        loop {
+            {
+                let mut m = self.m.borrow_mut();
+                if let Some(v) = m.spes[spe].out_mbox[which as usize].pop_front() {
+                    let c = m.cfg.cost.ppe_mmio_cycles;
+                    m.busy(PPE, c, SpanKind::Issue);
+                    let now = m.cores[PPE].clock;
+                    m.wake_if(spe + 1, now, |w| *w == Wait::OutMboxFull(which));
+                    return Ok(v);
+                }
+                m.block(PPE, Wait::OutMbox(spe, which));
+            }
+            Yield::new().await;
+        }
+    }
+
+    /// Reads SPE `spe`'s outbound mailbox; blocks while it is empty.
+    pub async fn read_out_mbox(&self, spe: usize) -> Result<u32, CellError> {
+        self.read_out(spe, OutBox::Out).await
+    }
+
+    /// Reads SPE `spe`'s outbound interrupt mailbox; blocks while empty.
+    pub async fn read_out_intr_mbox(&self, spe: usize) -> Result<u32, CellError> {
+        self.read_out(spe, OutBox::OutIntr).await
+    }
+
+    /// Writes `value` to signal register `reg` (1 or 2) of SPE `spe`.
+    pub async fn send_signal(&self, spe: usize, reg: u32, value: u32) -> Result<(), CellError> {
+        self.check_spe(&self.m.borrow(), spe)?;
+        if reg != 1 && reg != 2 {
+            return Err(CellError::Program {
+                core: "PPE".into(),
+                msg: format!("signal register {reg} is not 1 or 2"),
+            });
+        }
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        let c = m.cfg.cost.ppe_mmio_cycles;
+        m.busy(PPE, c, SpanKind::Issue);
+        let at = m.cores[PPE].clock + m.cfg.cost.signal_latency_cycles;
+        m.schedule(
+            at,
+            EventKind::Signal {
+                spe,
+                reg: reg as usize - 1,
+                value,
+            },
+        );
+        Ok(())
+    }
+}

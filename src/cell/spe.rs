@@ -1,0 +1,457 @@
+//! What an SPE program calls, as SPE C code calls spu_mfcio.h: its clock,
+//! its local store, the MFC (get, put, lists, tag waits), its mailboxes and
+//! signals, and the atomic unit. Every call that reaches outside the local
+//! store is `async`: it is where the executor may run other cores first.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use super::clock::Cycles;
+use super::machine::{Machine, OutBox, PPE, Wait, Yield, ls_range};
+use super::mfc::{self, Direction, ListElement, QUEUE_DEPTH, Segment, WaitMode};
+use super::trace::SpanKind;
+use super::{CellError, CostModel, Ea, LsAddr};
+
+/// The outcome of a conditional store ([`Spe::putllc`]).
+#[must_use = "a lost reservation means the store did not happen"]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reservation {
+    /// The line was still reserved: the store happened.
+    Stored,
+    /// Another core wrote the line since getllar: nothing was stored.
+    Lost,
+}
+
+/// An SPE program's handle on its SPE.
+pub struct Spe {
+    pub(crate) m: Rc<RefCell<Machine>>,
+    pub(crate) id: usize,
+}
+
+impl Spe {
+    fn core(&self) -> usize {
+        self.id + 1
+    }
+
+    /// This SPE's number, 0-based.
+    pub fn id(&self) -> usize {
+        self.id
+    }
+
+    /// This SPE's clock.
+    pub fn now(&self) -> Cycles {
+        self.m.borrow().cores[self.core()].clock
+    }
+
+    /// The machine's cost model (for programs that derive their own compute
+    /// charges from machine rates).
+    pub fn cost(&self) -> CostModel {
+        self.m.borrow().cfg.cost.clone()
+    }
+
+    /// Charges `cycles` of computation on the local store.
+    pub fn compute(&self, cycles: Cycles) {
+        self.m
+            .borrow_mut()
+            .busy(self.core(), cycles, SpanKind::Compute);
+    }
+
+    /// Hands control to the executor until this core is the earliest.
+    async fn sync(&self) {
+        self.m.borrow_mut().cores[self.core()].status = super::machine::Status::Ready;
+        Yield::new().await;
+    }
+
+    // ---- local store -------------------------------------------------
+
+    /// Allocates a local-store buffer of `size` bytes aligned to `align`.
+    pub fn ls_alloc(&self, size: u32, align: u32) -> Result<LsAddr, CellError> {
+        let id = self.id;
+        self.m.borrow_mut().spes[id].ls.alloc(id, size, align)
+    }
+
+    /// The allocation mark, for [`Spe::ls_release_to`].
+    pub fn ls_mark(&self) -> u32 {
+        self.m.borrow().spes[self.id].ls.mark()
+    }
+
+    /// Frees every buffer allocated since `mark`.
+    pub fn ls_release_to(&self, mark: u32) {
+        self.m.borrow_mut().spes[self.id].ls.release_to(mark);
+    }
+
+    /// Runs `f` on `count` values of type `T` at `addr` (which must be
+    /// aligned for `T`). Checked mode: an error if a get into these bytes
+    /// has not been waited for.
+    pub fn with_ls<T: bytemuck::Pod, R>(
+        &self,
+        addr: LsAddr,
+        count: usize,
+        f: impl FnOnce(&[T]) -> R,
+    ) -> Result<R, CellError> {
+        let m = self.m.borrow();
+        let bytes = (count * size_of::<T>()) as u64;
+        let r = ls_range(self.id, &m, addr, bytes)?;
+        m.check_ls_access(self.id, r.start as u32, r.end as u32, false)?;
+        let slice = bytemuck::try_cast_slice(&m.spes[self.id].ls.bytes()[r]).map_err(|_| {
+            CellError::LsAlign {
+                spe: self.id,
+                addr,
+                align: align_of::<T>(),
+            }
+        })?;
+        Ok(f(slice))
+    }
+
+    /// Runs `f` on `count` mutable values at `addr`. Checked mode: an error
+    /// if a get or put of these bytes has not been waited for.
+    pub fn with_ls_mut<T: bytemuck::Pod, R>(
+        &self,
+        addr: LsAddr,
+        count: usize,
+        f: impl FnOnce(&mut [T]) -> R,
+    ) -> Result<R, CellError> {
+        let mut m = self.m.borrow_mut();
+        let bytes = (count * size_of::<T>()) as u64;
+        let r = ls_range(self.id, &m, addr, bytes)?;
+        m.check_ls_access(self.id, r.start as u32, r.end as u32, true)?;
+        let slice =
+            bytemuck::try_cast_slice_mut(&mut m.spes[self.id].ls.bytes_mut()[r]).map_err(|_| {
+                CellError::LsAlign {
+                    spe: self.id,
+                    addr,
+                    align: align_of::<T>(),
+                }
+            })?;
+        Ok(f(slice))
+    }
+
+    /// Copies `count` values out of the local store.
+    pub fn ls_read<T: bytemuck::Pod>(
+        &self,
+        addr: LsAddr,
+        count: usize,
+    ) -> Result<Vec<T>, CellError> {
+        self.with_ls(addr, count, |s: &[T]| s.to_vec())
+    }
+
+    /// Copies `values` into the local store.
+    pub fn ls_write<T: bytemuck::Pod>(&self, addr: LsAddr, values: &[T]) -> Result<(), CellError> {
+        self.with_ls_mut(addr, values.len(), |s: &mut [T]| s.copy_from_slice(values))
+    }
+
+    // ---- MFC ---------------------------------------------------------
+
+    async fn issue(
+        &self,
+        dir: Direction,
+        segments: Vec<Segment>,
+        tag: u32,
+    ) -> Result<(), CellError> {
+        self.sync().await;
+        loop {
+            {
+                let mut m = self.m.borrow_mut();
+                if m.spes[self.id].queued < QUEUE_DEPTH {
+                    return m.issue_dma(self.id, dir, segments, tag);
+                }
+                m.block(self.core(), Wait::QueueFull);
+            }
+            Yield::new().await;
+        }
+    }
+
+    /// `mfc_get`: `size` bytes from main memory at `ea` into the local store
+    /// at `ls`, in tag group `tag`. The data is valid after
+    /// [`Spe::wait_tags`] on the tag.
+    pub async fn get(&self, ls: LsAddr, ea: Ea, size: u32, tag: u32) -> Result<(), CellError> {
+        let s = Segment { ls, ea, size };
+        mfc::check_segment(self.id, "mfc_get", s, tag)?;
+        self.issue(Direction::Get, vec![s], tag).await
+    }
+
+    /// `mfc_put`: `size` bytes from the local store at `ls` to main memory
+    /// at `ea`. The buffer may be reused after waiting on the tag.
+    pub async fn put(&self, ls: LsAddr, ea: Ea, size: u32, tag: u32) -> Result<(), CellError> {
+        let s = Segment { ls, ea, size };
+        mfc::check_segment(self.id, "mfc_put", s, tag)?;
+        self.issue(Direction::Put, vec![s], tag).await
+    }
+
+    /// `mfc_getl`: gathers the list's pieces of main memory into one
+    /// contiguous local-store range starting at `ls`. One queue entry.
+    pub async fn getl(&self, ls: LsAddr, list: &[ListElement], tag: u32) -> Result<(), CellError> {
+        let segs = mfc::list_segments(self.id, Direction::Get, ls, list, tag)?;
+        self.issue(Direction::Get, segs, tag).await
+    }
+
+    /// `mfc_putl`: scatters a contiguous local-store range to the list's
+    /// places in main memory. One queue entry.
+    pub async fn putl(&self, ls: LsAddr, list: &[ListElement], tag: u32) -> Result<(), CellError> {
+        let segs = mfc::list_segments(self.id, Direction::Put, ls, list, tag)?;
+        self.issue(Direction::Put, segs, tag).await
+    }
+
+    /// Waits until the tag groups of `mask` have no command outstanding
+    /// (all of them, or any one); returns the mask of those that have none.
+    pub async fn wait_tags(&self, mask: u32, mode: WaitMode) -> Result<u32, CellError> {
+        self.sync().await;
+        loop {
+            {
+                let mut m = self.m.borrow_mut();
+                let st = &m.spes[self.id];
+                let done = (0..32)
+                    .filter(|&t| mask >> t & 1 == 1 && st.outstanding[t] == 0)
+                    .fold(0u32, |a, t| a | 1 << t);
+                let ok = match mode {
+                    WaitMode::All => done == mask,
+                    WaitMode::Any => done != 0 || mask == 0,
+                };
+                if ok {
+                    m.spes[self.id].unwaited.retain(|u| done >> u.tag & 1 == 0);
+                    let c = m.cfg.cost.channel_cycles;
+                    m.busy(self.core(), c, SpanKind::Issue);
+                    return Ok(done);
+                }
+                m.block(self.core(), Wait::Tags { mask, mode });
+            }
+            Yield::new().await;
+        }
+    }
+
+    /// Waits for every command of tag group `tag`.
+    pub async fn wait_tag(&self, tag: u32) -> Result<(), CellError> {
+        if tag >= mfc::TAG_GROUPS {
+            return Err(CellError::Program {
+                core: format!("SPE {}", self.id),
+                msg: format!("tag {tag} is not 0–31"),
+            });
+        }
+        self.wait_tags(1 << tag, WaitMode::All).await.map(|_| ())
+    }
+
+    // ---- mailboxes and signals ----------------------------------------
+
+    /// Reads the SPU inbound mailbox (4 deep); blocks while it is empty.
+    pub async fn read_in_mbox(&self) -> u32 {
+        self.sync().await;
+        loop {
+            {
+                let mut m = self.m.borrow_mut();
+                if let Some(v) = m.spes[self.id].in_mbox.pop_front() {
+                    let c = m.cfg.cost.channel_cycles;
+                    m.busy(self.core(), c, SpanKind::Issue);
+                    let now = m.cores[self.core()].clock;
+                    let me = self.id;
+                    m.wake_if(PPE, now, |w| *w == Wait::InMboxFull(me));
+                    return v;
+                }
+                m.block(self.core(), Wait::InMbox);
+            }
+            Yield::new().await;
+        }
+    }
+
+    async fn write_out(&self, which: OutBox, value: u32) {
+        self.sync().await;
+        loop {
+            {
+                let mut m = self.m.borrow_mut();
+                let st = &m.spes[self.id];
+                if st.out_mbox[which as usize].len() + st.out_arriving[which as usize] < 1 {
+                    m.spes[self.id].out_arriving[which as usize] += 1;
+                    let c = m.cfg.cost.channel_cycles;
+                    m.busy(self.core(), c, SpanKind::Issue);
+                    m.cores[self.core()].counters.mailbox_messages += 1;
+                    let at = m.cores[self.core()].clock + m.cfg.cost.mailbox_latency_cycles;
+                    m.schedule(
+                        at,
+                        super::machine::EventKind::OutMbox {
+                            spe: self.id,
+                            which,
+                            value,
+                        },
+                    );
+                    return;
+                }
+                m.block(self.core(), Wait::OutMboxFull(which));
+            }
+            Yield::new().await;
+        }
+    }
+
+    /// Writes the SPU outbound mailbox (1 deep); blocks while it is full.
+    pub async fn write_out_mbox(&self, value: u32) {
+        self.write_out(OutBox::Out, value).await
+    }
+
+    /// Writes the SPU outbound interrupt mailbox (1 deep); blocks while full.
+    pub async fn write_out_intr_mbox(&self, value: u32) {
+        self.write_out(OutBox::OutIntr, value).await
+    }
+
+    /// Reads signal-notification register `reg` (1 or 2), clearing it;
+    /// blocks while no signal is pending.
+    pub async fn read_signal(&self, reg: u32) -> Result<u32, CellError> {
+        let r = signal_index(reg)?;
+        self.sync().await;
+        loop {
+            {
+                let mut m = self.m.borrow_mut();
+                let s = &mut m.spes[self.id].signals[r];
+                if s.pending {
+                    let v = std::mem::take(&mut s.value);
+                    s.pending = false;
+                    let c = m.cfg.cost.channel_cycles;
+                    m.busy(self.core(), c, SpanKind::Issue);
+                    return Ok(v);
+                }
+                m.block(self.core(), Wait::Signal(r));
+            }
+            Yield::new().await;
+        }
+    }
+
+    /// `mfc_sndsig`: sends `value` to signal register `reg` of SPE `target`.
+    pub async fn send_signal(&self, target: usize, reg: u32, value: u32) -> Result<(), CellError> {
+        let r = signal_index(reg)?;
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        if target >= m.spes.len() {
+            return Err(CellError::Program {
+                core: format!("SPE {}", self.id),
+                msg: format!("no SPE {target} to signal"),
+            });
+        }
+        let c = m.cfg.cost.dma_issue_cycles;
+        m.busy(self.core(), c, SpanKind::Issue);
+        let at = m.cores[self.core()].clock + m.cfg.cost.signal_latency_cycles;
+        m.schedule(
+            at,
+            super::machine::EventKind::Signal {
+                spe: target,
+                reg: r,
+                value,
+            },
+        );
+        Ok(())
+    }
+
+    // ---- atomic unit -------------------------------------------------
+
+    fn check_line(&self, cmd: &'static str, ls: LsAddr, ea: Ea) -> Result<(), CellError> {
+        if !ls.0.is_multiple_of(128) || !ea.0.is_multiple_of(128) {
+            return Err(CellError::Dma {
+                spe: self.id,
+                cmd,
+                ls,
+                ea,
+                size: 128,
+                why: "lock-line commands move one 128-byte line: both addresses must be 128-byte aligned".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// `getllar`: loads the 128-byte line at `ea` into the local store at
+    /// `ls` and reserves it.
+    pub async fn getllar(&self, ls: LsAddr, ea: Ea) -> Result<(), CellError> {
+        self.check_line("getllar", ls, ea)?;
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        let line = m.mem.read(ea, 128)?.to_vec();
+        let r = ls_range(self.id, &m, ls, 128)?;
+        m.check_ls_access(self.id, r.start as u32, r.end as u32, true)?;
+        m.spes[self.id].ls.bytes_mut()[r].copy_from_slice(&line);
+        m.spes[self.id].reservation = Some(ea.0);
+        let c = m.cfg.cost.getllar_cycles;
+        m.atomic(self.core(), c);
+        Ok(())
+    }
+
+    /// `putllc`: stores the local-store line at `ls` to `ea` if this SPE
+    /// still holds the reservation from its getllar.
+    pub async fn putllc(&self, ls: LsAddr, ea: Ea) -> Result<Reservation, CellError> {
+        self.check_line("putllc", ls, ea)?;
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        let c = m.cfg.cost.putllc_cycles;
+        if m.spes[self.id].reservation != Some(ea.0) {
+            m.cores[self.core()].counters.reservations_lost += 1;
+            m.spes[self.id].reservation = None;
+            m.atomic(self.core(), c);
+            return Ok(Reservation::Lost);
+        }
+        let r = ls_range(self.id, &m, ls, 128)?;
+        let data = m.spes[self.id].ls.bytes()[r].to_vec();
+        m.mem.write(ea, &data)?;
+        m.lose_reservations(ea, 128);
+        m.atomic(self.core(), c);
+        Ok(Reservation::Stored)
+    }
+
+    /// `putlluc`: stores the line unconditionally.
+    pub async fn putlluc(&self, ls: LsAddr, ea: Ea) -> Result<(), CellError> {
+        self.check_line("putlluc", ls, ea)?;
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        let r = ls_range(self.id, &m, ls, 128)?;
+        let data = m.spes[self.id].ls.bytes()[r].to_vec();
+        m.mem.write(ea, &data)?;
+        m.lose_reservations(ea, 128);
+        let c = m.cfg.cost.putllc_cycles;
+        m.atomic(self.core(), c);
+        Ok(())
+    }
+
+    /// Atomically applies `f` to the `u32` at `ea` (4-byte aligned) with a
+    /// getllar/putllc loop through the 128-byte local-store buffer `line`;
+    /// returns the old value. Each lost reservation costs a retry.
+    pub async fn atomic_update_u32(
+        &self,
+        line: LsAddr,
+        ea: Ea,
+        f: impl Fn(u32) -> u32,
+    ) -> Result<u32, CellError> {
+        let base = Ea(ea.0 & !127);
+        let word = ((ea.0 & 127) / 4) as usize;
+        if !ea.0.is_multiple_of(4) {
+            return Err(CellError::Program {
+                core: format!("SPE {}", self.id),
+                msg: format!("{ea} is not 4-byte aligned"),
+            });
+        }
+        loop {
+            self.getllar(line, base).await?;
+            let old = self.with_ls_mut(line, 32, |w: &mut [u32]| {
+                let old = w[word];
+                w[word] = f(old);
+                old
+            })?;
+            if self.putllc(line, base).await? == Reservation::Stored {
+                return Ok(old);
+            }
+        }
+    }
+
+    /// Atomic fetch-and-add on the `u32` at `ea`; returns the old value.
+    pub async fn atomic_fetch_add_u32(
+        &self,
+        line: LsAddr,
+        ea: Ea,
+        delta: u32,
+    ) -> Result<u32, CellError> {
+        self.atomic_update_u32(line, ea, |v| v.wrapping_add(delta))
+            .await
+    }
+}
+
+fn signal_index(reg: u32) -> Result<usize, CellError> {
+    match reg {
+        1 | 2 => Ok(reg as usize - 1),
+        _ => Err(CellError::Program {
+            core: "signal".into(),
+            msg: format!("signal register {reg} is not 1 or 2"),
+        }),
+    }
+}
