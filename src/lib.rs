@@ -9,4 +9,5 @@ pub mod cell;
 pub mod quality;
 pub mod rays_csv;
 pub mod render;
+pub mod report;
 pub mod scene;

@@ -554,3 +554,17 @@ fn functional_mode_gives_the_same_bytes_at_no_cost() {
     assert_eq!(r.cycles, Cycles::ZERO);
     assert_eq!(c.memory().read_pod::<u32>(ea, 64).unwrap(), vec![8; 64]);
 }
+
+/// The machine knows nothing of BIHs: `src/cell/` imports no tree, scene,
+/// builder or strategy module.
+#[test]
+fn the_emulator_imports_nothing_from_the_rest() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/cell");
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let text = std::fs::read_to_string(&path).unwrap();
+        for m in ["bih", "scene", "build", "strategy", "quality", "render", "update", "report", "aabb"] {
+            assert!(!text.contains(&format!("crate::{m}")), "{} imports crate::{m}", path.display());
+        }
+    }
+}

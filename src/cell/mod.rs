@@ -54,6 +54,7 @@
 
 pub mod clock;
 pub mod cost;
+mod executor;
 pub mod local_store;
 pub(crate) mod machine;
 pub mod memory;
@@ -276,7 +277,7 @@ impl Cell {
             start
         };
         let tasks = std::mem::take(&mut self.tasks);
-        let end = machine::execute(&self.m, tasks)?;
+        let end = executor::execute(&self.m, tasks)?;
         let m = self.m.borrow();
         let cycles = end.saturating_sub(start);
         Ok(RunReport {

@@ -7,7 +7,8 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use super::clock::Cycles;
-use super::machine::{EventKind, Machine, OutBox, PPE, Status, Wait, Yield};
+use super::executor::Yield;
+use super::machine::{EventKind, Machine, OutBox, PPE, Status, Wait};
 use super::trace::SpanKind;
 use super::{CellError, CostModel, Ea};
 

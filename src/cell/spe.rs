@@ -7,7 +7,8 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use super::clock::Cycles;
-use super::machine::{Machine, OutBox, PPE, Wait, Yield, ls_range};
+use super::executor::Yield;
+use super::machine::{Machine, OutBox, PPE, Wait, ls_range};
 use super::mfc::{self, Direction, ListElement, QUEUE_DEPTH, Segment, WaitMode};
 use super::trace::SpanKind;
 use super::{CellError, CostModel, Ea, LsAddr};

@@ -1,0 +1,115 @@
+//! Reports of experiments: a results directory, CSV and JSON files, and SVG
+//! line plots a person can read (plotters).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use plotters::prelude::*;
+
+/// A line of a plot: its name, points, colour (an index into a fixed
+/// palette, so that related lines can share one) and whether it is dashed.
+pub struct Series {
+    pub name: String,
+    pub points: Vec<(f64, f64)>,
+    pub color: usize,
+    pub dashed: bool,
+}
+
+/// Creates `dir` and returns the path of `file` in it.
+pub fn output(dir: &Path, file: &str) -> std::io::Result<PathBuf> {
+    std::fs::create_dir_all(dir)?;
+    Ok(dir.join(file))
+}
+
+/// Writes a CSV file with a header line.
+pub fn write_csv(path: &Path, header: &str, rows: &[String]) -> std::io::Result<()> {
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(f, "{header}")?;
+    for r in rows {
+        writeln!(f, "{r}")?;
+    }
+    Ok(())
+}
+
+/// Writes `value` as pretty JSON.
+pub fn write_json(path: &Path, value: &serde_json::Value) -> std::io::Result<()> {
+    std::fs::write(path, serde_json::to_string_pretty(value)?)
+}
+
+/// Draws `series` as lines on a 900×560 SVG; `log2_x` puts x on a log₂ axis
+/// (ticks labelled with the real values).
+pub fn line_plot(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    log2_x: bool,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let tx = |x: f64| if log2_x { x.log2() } else { x };
+    let xs = series.iter().flat_map(|s| s.points.iter().map(|p| tx(p.0)));
+    let (x0, x1) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+        (a.min(x), b.max(x))
+    });
+    let y1 = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.1))
+        .fold(0.0f64, f64::max)
+        * 1.08;
+    let root = SVGBackend::new(path, (900, 560)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 22))
+        .margin(16)
+        .x_label_area_size(48)
+        .y_label_area_size(64)
+        .build_cartesian_2d(x0..x1, 0.0..y1.max(1e-9))?;
+    let fmt_x = |v: &f64| {
+        if log2_x {
+            let b = 2f64.powf(*v).round();
+            if b >= 1024.0 {
+                format!("{} KiB", b / 1024.0)
+            } else {
+                format!("{b} B")
+            }
+        } else {
+            format!("{v}")
+        }
+    };
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .x_labels(if log2_x { (x1 - x0) as usize + 1 } else { 10 })
+        .x_label_formatter(&fmt_x)
+        .draw()?;
+    for s in series {
+        let color = Palette99::pick(s.color).to_rgba();
+        let pts: Vec<(f64, f64)> = s.points.iter().map(|&(x, y)| (tx(x), y)).collect();
+        let style = color.stroke_width(2);
+        if s.dashed {
+            chart
+                .draw_series(DashedLineSeries::new(pts.clone(), 6, 4, style))?
+                .label(&s.name)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 5, y)], color.stroke_width(2))
+                });
+        } else {
+            chart
+                .draw_series(LineSeries::new(pts.clone(), style))?
+                .label(&s.name)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                });
+        }
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperLeft)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
