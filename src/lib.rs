@@ -11,3 +11,4 @@ pub mod rays_csv;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod strategy;

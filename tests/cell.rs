@@ -563,8 +563,14 @@ fn the_emulator_imports_nothing_from_the_rest() {
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
         let text = std::fs::read_to_string(&path).unwrap();
-        for m in ["bih", "scene", "build", "strategy", "quality", "render", "update", "report", "aabb"] {
-            assert!(!text.contains(&format!("crate::{m}")), "{} imports crate::{m}", path.display());
+        for m in [
+            "bih", "scene", "build", "strategy", "quality", "render", "update", "report", "aabb",
+        ] {
+            assert!(
+                !text.contains(&format!("crate::{m}")),
+                "{} imports crate::{m}",
+                path.display()
+            );
         }
     }
 }

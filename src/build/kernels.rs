@@ -119,6 +119,18 @@ impl Side {
         self.center_hi = self.center_hi.max(center);
     }
 
+    /// The side made of both sides' items.
+    #[must_use]
+    pub fn merge(self, o: Side) -> Side {
+        Side {
+            count: self.count + o.count,
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+            center_lo: self.center_lo.min(o.center_lo),
+            center_hi: self.center_hi.max(o.center_hi),
+        }
+    }
+
     /// The union of the side's triangle boxes.
     pub fn bounds(&self) -> Aabb {
         Aabb::new(self.lo.into(), self.hi.into())
