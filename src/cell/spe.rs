@@ -435,6 +435,19 @@ impl Spe {
         }
     }
 
+    /// Atomic compare-and-swap on the `u32` at `ea`: stores `new` if the
+    /// value is `expected`; returns the value found.
+    pub async fn atomic_cas_u32(
+        &self,
+        line: LsAddr,
+        ea: Ea,
+        expected: u32,
+        new: u32,
+    ) -> Result<u32, CellError> {
+        self.atomic_update_u32(line, ea, |v| if v == expected { new } else { v })
+            .await
+    }
+
     /// Atomic fetch-and-add on the `u32` at `ea`; returns the old value.
     pub async fn atomic_fetch_add_u32(
         &self,
