@@ -412,27 +412,12 @@ impl Machine {
                 .iter()
                 .find(|u| u.lo < hi && lo < u.hi && u.dir != dir)
             {
-                return Err(CellError::Race {
-                    spe,
-                    what: format!(
-                        "{} of ls {:#x}..{:#x} issued while the {} of ls {:#x}..{:#x} (tag {}) is not waited for",
-                        if dir == Direction::Get {
-                            "a get into"
-                        } else {
-                            "a put from"
-                        },
-                        lo,
-                        hi,
-                        if u.dir == Direction::Get {
-                            "get"
-                        } else {
-                            "put"
-                        },
-                        u.lo,
-                        u.hi,
-                        u.tag
-                    ),
-                });
+                let action = if dir == Direction::Get {
+                    "a get into"
+                } else {
+                    "a put from"
+                };
+                return Err(race(spe, format!("{action} ls {lo:#x}..{hi:#x} issued"), u));
             }
         }
         Ok(())
@@ -457,23 +442,14 @@ impl Machine {
             .find(|u| u.lo < hi && lo < u.hi && (write || u.dir == Direction::Get));
         match hit {
             None => Ok(()),
-            Some(u) => Err(CellError::Race {
-                spe,
-                what: format!(
-                    "the program {} ls {:#x}..{:#x} while the {} of ls {:#x}..{:#x} (tag {}) is not waited for",
-                    if write { "writes" } else { "reads" },
-                    lo,
-                    hi,
-                    if u.dir == Direction::Get {
-                        "get"
-                    } else {
-                        "put"
-                    },
-                    u.lo,
-                    u.hi,
-                    u.tag
-                ),
-            }),
+            Some(u) => {
+                let verb = if write { "writes" } else { "reads" };
+                Err(race(
+                    spe,
+                    format!("the program {verb} ls {lo:#x}..{hi:#x}"),
+                    u,
+                ))
+            }
         }
     }
 
@@ -539,6 +515,17 @@ impl Machine {
             }
         }
         Ok(())
+    }
+}
+
+/// The error for `what` happening to bytes of a transfer not waited for.
+fn race(spe: usize, what: String, u: &Unwaited) -> CellError {
+    CellError::Race {
+        spe,
+        what: format!(
+            "{what} while the {} of ls {:#x}..{:#x} (tag {}) is not waited for",
+            u.dir, u.lo, u.hi, u.tag
+        ),
     }
 }
 

@@ -40,6 +40,15 @@ pub enum Direction {
     Put,
 }
 
+impl std::fmt::Display for Direction {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Direction::Get => "get",
+            Direction::Put => "put",
+        })
+    }
+}
+
 /// How `wait_tags` waits on its mask.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum WaitMode {
