@@ -70,7 +70,7 @@ pub async fn partition_in_place<T: Boxed + Pod>(
 ) -> Result<Partitioned, CellError> {
     let size = size_of::<T>() as u64;
     assert!(
-        size % 16 == 0,
+        size.is_multiple_of(16),
         "elements must be a multiple of 16 bytes to travel by DMA"
     );
     let per_block = BLOCK_BYTES as u64 / size;
