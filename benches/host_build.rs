@@ -30,7 +30,11 @@ fn build(c: &mut Criterion) {
     for s in scenes() {
         g.throughput(Throughput::Elements(s.len() as u64));
         g.bench_function(&s.name, |b| {
-            b.iter(|| BuilderKind::Host.build(black_box(&s), &BihConfig::default()))
+            b.iter(|| {
+                BuilderKind::Host
+                    .build(black_box(&s), &BihConfig::default())
+                    .unwrap()
+            })
         });
     }
     g.finish();
@@ -40,7 +44,10 @@ fn raycast(c: &mut Criterion) {
     let mut g = c.benchmark_group("host_raycast_primary");
     g.sample_size(10);
     for s in scenes() {
-        let bih = BuilderKind::Host.build(&s, &BihConfig::default()).bih;
+        let bih = BuilderKind::Host
+            .build(&s, &BihConfig::default())
+            .unwrap()
+            .bih;
         let tracer = Tracer::new(&bih, &s);
         let rays = Camera::framing(&s.bounds(), 512, 512).rays();
         g.throughput(Throughput::Elements(rays.len() as u64));

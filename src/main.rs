@@ -76,6 +76,10 @@ enum Command {
         build: BuildArgs,
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
+        /// Write the emulated Cell's timeline here as Chrome trace JSON
+        /// (open it in ui.perfetto.dev or chrome://tracing).
+        #[arg(long)]
+        trace: Option<PathBuf>,
     },
     /// Casts the rays of a CSV file (ox,oy,oz,dx,dy,dz,tmin,tmax) and writes
     /// the closest hits (ray,prim,t; a miss is prim -1).
@@ -137,9 +141,25 @@ fn run(cli: Cli) -> Res<()> {
             scene,
             build,
             format,
+            trace,
         }) => {
             let s = load(&scene)?;
-            let report = build_tree(&s, &build)?;
+            let report = if let Some(path) = &trace {
+                let r = build_tree_traced(&s, &build)?;
+                let Some(json) = r.simulated.as_ref().and_then(|m| m.trace.as_ref()) else {
+                    return Err(format!(
+                        "--trace: builder '{}' does not run on the emulated Cell",
+                        r.builder
+                    )
+                    .into());
+                };
+                std::fs::write(path, serde_json::to_string(json)?)
+                    .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+                eprintln!("trace written to {}", path.display());
+                r
+            } else {
+                build_tree(&s, &build)?
+            };
             print_build(&s, &report, format);
             Ok(())
         }
@@ -210,7 +230,19 @@ fn run(cli: Cli) -> Res<()> {
     }
 }
 
+fn build_tree_traced(s: &Scene, args: &BuildArgs) -> Res<BuildReport> {
+    let (builder, cfg) = parse_build(args)?;
+    let mut cell = cellbih::cell::CellConfig::ps3();
+    cell.trace = true;
+    Ok(builder.build_on(s, &cfg, &cell)?)
+}
+
 fn build_tree(s: &Scene, args: &BuildArgs) -> Res<BuildReport> {
+    let (builder, cfg) = parse_build(args)?;
+    Ok(builder.build(s, &cfg)?)
+}
+
+fn parse_build(args: &BuildArgs) -> Res<(BuilderKind, BihConfig)> {
     let builder = BuilderKind::from_name(&args.builder).ok_or_else(|| {
         let names: Vec<_> = BuilderKind::ALL.iter().map(|b| b.name()).collect();
         format!(
@@ -233,7 +265,7 @@ fn build_tree(s: &Scene, args: &BuildArgs) -> Res<BuildReport> {
         leaf_size: args.leaf_size,
         max_depth: args.max_depth,
     };
-    Ok(builder.build(s, &cfg))
+    Ok((builder, cfg))
 }
 
 fn info(s: &Scene, format: Format) -> Res<()> {
@@ -265,21 +297,36 @@ fn info(s: &Scene, format: Format) -> Res<()> {
 fn print_build(s: &Scene, r: &BuildReport, format: Format) {
     let q = r.bih.quality();
     let ms = r.host_time.as_secs_f64() * 1e3;
+    let sim = r.simulated.as_ref();
     match format {
         Format::Json => println!(
             "{}",
             json!({
                 "scene": s.name, "triangles": s.len(), "builder": r.builder.name(),
                 "host_ms": ms, "quality": q,
+                "simulated_ms": sim.map(|m| m.run.ms),
+                "simulated_cycles": sim.map(|m| m.run.cycles.0),
+                "cores": sim.map(|m| &m.run.cores),
+                "work": sim.map(|m| m.stats),
             })
         ),
         Format::Text => {
             println!("scene       {} ({} triangles)", s.name, s.len());
             println!("builder     {}", r.builder);
-            println!(
-                "host time   {ms:.2} ms ({:.2} Mtris/s)",
-                s.len() as f64 / ms / 1e3
-            );
+            if let Some(m) = sim {
+                println!(
+                    "simulated   {:.2} ms on the PS3 model ({} cycles)",
+                    m.run.ms, m.run.cycles.0
+                );
+            }
+            if sim.is_some() {
+                println!("host time   {ms:.2} ms (the emulation)");
+            } else {
+                println!(
+                    "host time   {ms:.2} ms ({:.2} Mtris/s)",
+                    s.len() as f64 / ms / 1e3
+                );
+            }
             println!(
                 "nodes       {} ({} inner, {} leaves)",
                 q.nodes, q.inner_nodes, q.leaves
@@ -294,6 +341,27 @@ fn print_build(s: &Scene, r: &BuildReport, format: Format) {
             );
             println!("SAH cost    {:.2}", q.sah_cost);
             println!("memory      {} bytes", q.memory_bytes);
+            if let Some(m) = sim {
+                println!(
+                    "\n{:<7} {:>12} {:>12} {:>12} {:>12} {:>12} {:>10} {:>10}",
+                    "core", "busy", "DMA wait", "mbox wait", "atomic", "idle", "MB in", "MB out"
+                );
+                for (name, c) in &m.run.cores {
+                    let mb_in = (c.bytes_get as f64) / 1e6;
+                    let mb_out = (c.bytes_put as f64) / 1e6;
+                    println!(
+                        "{name:<7} {:>12} {:>12} {:>12} {:>12} {:>12} {:>10.2} {:>10.2}",
+                        c.busy.0,
+                        c.dma_wait.0,
+                        c.mailbox_wait.0,
+                        c.atomic.0,
+                        c.idle.0,
+                        mb_in,
+                        mb_out
+                    );
+                }
+                println!("(cycles; MB moved by DMA)");
+            }
         }
     }
 }
@@ -309,13 +377,13 @@ fn demo() -> Res<()> {
         s.geometry_names.len()
     );
     println!(
-        "{:<10} {:>10} {:>8} {:>8} {:>6} {:>9} {:>10}",
-        "builder", "host ms", "nodes", "leaves", "depth", "SAH", "Mrays/s"
+        "{:<10} {:>10} {:>8} {:>8} {:>8} {:>6} {:>9} {:>10}",
+        "builder", "host ms", "Cell ms", "nodes", "leaves", "depth", "SAH", "Mrays/s"
     );
     let cam = Camera::framing(&s.bounds(), 640, 480);
     let mut last = None;
     for &b in BuilderKind::ALL {
-        let r = b.build(&s, &BihConfig::default());
+        let r = b.build(&s, &BihConfig::default())?;
         r.bih.validate(&s)?;
         let q = r.bih.quality();
         let tracer = Tracer::new(&r.bih, &s);
@@ -327,9 +395,12 @@ fn demo() -> Res<()> {
         }
         let mrays = rays.len() as f64 / start.elapsed().as_secs_f64() / 1e6;
         println!(
-            "{:<10} {:>10.3} {:>8} {:>8} {:>6} {:>9.2} {:>10.2}",
+            "{:<10} {:>10.3} {:>8} {:>8} {:>8} {:>6} {:>9.2} {:>10.2}",
             b.name(),
             r.host_time.as_secs_f64() * 1e3,
+            r.simulated
+                .as_ref()
+                .map_or("-".to_string(), |m| format!("{:.2}", m.run.ms)),
             q.nodes,
             q.leaves,
             q.max_depth,
@@ -342,7 +413,10 @@ fn demo() -> Res<()> {
     let tracer = Tracer::new(&r.bih, &s);
     let frame = render::trace(&tracer, &s.triangles, &cam);
     frame.shaded().save("cellbih-demo.png")?;
-    println!("\ntrees valid; rays cast one thread; image written to cellbih-demo.png");
+    println!(
+        "\ntrees valid; \"Cell ms\" is simulated time on the PS3 model; rays cast on one host thread;"
+    );
+    println!("image written to cellbih-demo.png");
     println!(
         "next: `cellbih --help`, `cellbih build --scene rtperf:100000`, `cargo test --release`"
     );

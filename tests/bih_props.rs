@@ -14,7 +14,9 @@ use proptest::prelude::*;
 
 fn check_scene(scene: &Scene, cfg: &BihConfig, rays: usize) -> Result<(), TestCaseError> {
     for &b in BuilderKind::ALL {
-        let r = b.build(scene, cfg);
+        let r = b
+            .build(scene, cfg)
+            .map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
         r.bih
             .validate(scene)
             .map_err(|v| TestCaseError::fail(format!("{b}: {v}")))?;
@@ -62,7 +64,7 @@ fn large_random_scenes_at_every_scale() {
 fn one_triangle() {
     let s =
         Scene::from_triangles("one", vec![Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)]).unwrap();
-    let r = BuilderKind::Host.build(&s, &BihConfig::default());
+    let r = BuilderKind::Host.build(&s, &BihConfig::default()).unwrap();
     r.bih.validate(&s).unwrap();
     assert_eq!(r.bih.nodes.len(), 1);
     let tracer = Tracer::new(&r.bih, &s);
@@ -79,7 +81,7 @@ fn one_triangle() {
 fn a_stack_of_identical_triangles_is_one_leaf() {
     let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
     let s = Scene::from_triangles("stack", vec![t; 1000]).unwrap();
-    let r = BuilderKind::Host.build(&s, &BihConfig::default());
+    let r = BuilderKind::Host.build(&s, &BihConfig::default()).unwrap();
     r.bih.validate(&s).unwrap();
     assert_eq!(
         r.bih.nodes.len(),
@@ -108,13 +110,15 @@ fn zero_area_triangles_are_kept_and_never_hit() {
     ];
     let s = Scene::from_triangles("degenerate", tris).unwrap();
     assert_eq!(s.degenerate_count(), 2);
-    let r = BuilderKind::Host.build(
-        &s,
-        &BihConfig {
-            leaf_size: 1,
-            max_depth: 64,
-        },
-    );
+    let r = BuilderKind::Host
+        .build(
+            &s,
+            &BihConfig {
+                leaf_size: 1,
+                max_depth: 64,
+            },
+        )
+        .unwrap();
     r.bih.validate(&s).unwrap();
     let tracer = Tracer::new(&r.bih, &s);
     // Along the x axis the ray runs through the collinear triangle and
@@ -132,7 +136,7 @@ fn zero_area_triangles_are_kept_and_never_hit() {
 #[test]
 fn axis_parallel_rays_stay_cheap() {
     let s = cellbih::scene::procedural::rtperf(20_000, 3);
-    let r = BuilderKind::Host.build(&s, &BihConfig::default());
+    let r = BuilderKind::Host.build(&s, &BihConfig::default()).unwrap();
     let tracer = Tracer::new(&r.bih, &s);
     let c = (s.bounds().min + s.bounds().max).as_dvec3() * 0.5;
     for axis in 0..3 {
@@ -156,7 +160,10 @@ fn axis_parallel_rays_stay_cheap() {
 fn validate_catches_corrupt_trees() {
     use cellbih::bih::{BihNode, Violation};
     let s = make_scene(500, 0, 0, 0, 11);
-    let good = BuilderKind::Host.build(&s, &BihConfig::default()).bih;
+    let good = BuilderKind::Host
+        .build(&s, &BihConfig::default())
+        .unwrap()
+        .bih;
     good.validate(&s).unwrap();
     let inner = good.nodes.iter().position(|n| !n.is_leaf()).unwrap();
     let leaf = good.nodes.iter().position(|n| n.is_leaf()).unwrap();

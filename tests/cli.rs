@@ -78,6 +78,91 @@ fn raycast_writes_one_line_per_ray_equal_to_brute_force() {
 }
 
 #[test]
+fn every_builder_name_works_with_build_and_raycast() {
+    let s = scene::load("car", None).unwrap();
+    let rays = common::rays_for(&s, 100, 8);
+    let rays_path = tmp("builders.rays.csv");
+    write_rays(std::fs::File::create(&rays_path).unwrap(), &rays).unwrap();
+    let mut outputs = Vec::new();
+    for b in cellbih::build::BuilderKind::ALL {
+        let out = cellbih(&[
+            "build",
+            "--scene",
+            "car",
+            "--builder",
+            b.name(),
+            "--format",
+            "json",
+        ]);
+        assert!(
+            out.status.success(),
+            "{b}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let hits = tmp(&format!("builders.{b}.hits.csv"));
+        let args = [
+            "raycast",
+            "--scene",
+            "car",
+            "--builder",
+            b.name(),
+            "--rays",
+            rays_path.to_str().unwrap(),
+            "--out",
+            hits.to_str().unwrap(),
+        ];
+        let out = cellbih(&args);
+        assert!(
+            out.status.success(),
+            "{b}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        outputs.push(std::fs::read_to_string(hits).unwrap());
+    }
+    assert!(
+        outputs.windows(2).all(|w| w[0] == w[1]),
+        "every builder answers the same hits"
+    );
+}
+
+#[test]
+fn build_trace_writes_chrome_json() {
+    let p = tmp("trace.json");
+    let out = cellbih(&[
+        "build",
+        "--scene",
+        "cup",
+        "--builder",
+        "ppe_naive",
+        "--trace",
+        p.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+    assert!(
+        v["traceEvents"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|e| e["ph"] == "X" && e["tid"] == 0)
+    );
+    let out = cellbih(&[
+        "build",
+        "--scene",
+        "cup",
+        "--builder",
+        "host",
+        "--trace",
+        p.to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("does not run on the emulated Cell"));
+}
+
+#[test]
 fn bad_rays_file_is_a_clear_error() {
     let p = tmp("bad.rays.csv");
     std::fs::write(

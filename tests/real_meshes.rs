@@ -39,7 +39,9 @@ fn every_real_mesh_loads_builds_and_agrees_with_brute_force() {
             assert_eq!(s.degenerate_count(), z, "{name}: zero-area triangles");
         }
         for &b in BuilderKind::ALL {
-            let r = b.build(&s, &BihConfig::default());
+            let r = b
+                .build(&s, &BihConfig::default())
+                .unwrap_or_else(|e| panic!("{name} / {b}: {e}"));
             r.bih
                 .validate(&s)
                 .unwrap_or_else(|v| panic!("{name} / {b}: {v}"));

@@ -1,7 +1,8 @@
 //! The host builder: the recursive in-place build of Wächter & Keller with
-//! the global heuristic, on the host CPU, no emulation. It is the reference
-//! every other builder is checked against, and the one the local update
-//! uses when no strategy is named.
+//! the global heuristic. The recursion ([`build_items`]) is written once,
+//! over any boxed item with an id, and counts the work it does
+//! ([`BuildStats`]); the host builder runs it natively, the PPE strategy runs
+//! it on the triangle records in emulated memory and charges those counts.
 
 use glam::{Vec3A, Vec4};
 
@@ -9,6 +10,11 @@ use super::kernels::{Boxed, Side, choose_split, clip_planes, partition, side_of}
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
 use crate::scene::Scene;
+
+/// Something a builder sorts: a box, and the id of the triangle it stands for.
+pub trait Item: Boxed {
+    fn id(&self) -> u32;
+}
 
 /// A triangle as the host builder sorts it: its box and id, 32 bytes, two
 /// SIMD lanes of four. The id rides in the fourth lane of `lo` (as bits).
@@ -30,6 +36,12 @@ impl Boxed for PrimRef {
     }
 }
 
+impl Item for PrimRef {
+    fn id(&self) -> u32 {
+        self.lo_id.w.to_bits()
+    }
+}
+
 impl PrimRef {
     pub fn new(id: u32, b: Aabb) -> Self {
         PrimRef {
@@ -37,52 +49,65 @@ impl PrimRef {
             hi: b.max.extend(0.0),
         }
     }
+}
 
-    pub fn id(&self) -> u32 {
-        self.lo_id.w.to_bits()
-    }
+/// The work a build did, for cost models and reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct BuildStats {
+    /// Items looked at by partitions, summed over every node that split.
+    pub items_partitioned: u64,
+    /// Nodes written (inner and leaves).
+    pub nodes: u64,
+    /// Partitions run (one per inner node).
+    pub partitions: u64,
 }
 
 /// Builds the tree of `scene` in one host thread.
 pub fn build(scene: &Scene, cfg: &BihConfig) -> Bih {
-    let refs = scene
+    let mut refs: Vec<PrimRef> = scene
         .triangles
         .iter()
         .enumerate()
         .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
         .collect();
-    build_refs(refs, scene.bounds(), cfg)
+    let (bih, _) = build_items(&mut refs, scene.bounds(), cfg);
+    bih
 }
 
-/// Builds a tree over `refs` with `region` as the scene box of the global
-/// heuristic (the whole scene, or one node's region in a local update).
-pub fn build_refs(mut refs: Vec<PrimRef>, region: Aabb, cfg: &BihConfig) -> Bih {
+/// Builds a tree over `items`, sorting them in place, with `region` as the
+/// scene box of the global heuristic (the whole scene, or one node's region
+/// in a local update).
+pub fn build_items<T: Item>(items: &mut [T], region: Aabb, cfg: &BihConfig) -> (Bih, BuildStats) {
     assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
-    let all = side_of(&refs);
+    let all = side_of(items);
     let mut b = Builder {
-        refs: &mut refs,
+        items,
         nodes: Vec::with_capacity(all.count * 2 / cfg.leaf_size.max(1) as usize + 1),
         cfg,
+        stats: BuildStats::default(),
     };
     b.nodes.push(BihNode::default());
     b.node(0, 0, all.count, region, &all, 0);
-    let nodes = b.nodes;
-    Bih {
+    let (nodes, mut stats) = (b.nodes, b.stats);
+    stats.nodes = nodes.len() as u64;
+    let bih = Bih {
         nodes,
-        prim_ids: refs.iter().map(PrimRef::id).collect(),
+        prim_ids: items.iter().map(T::id).collect(),
         bounds: region,
         config: *cfg,
-    }
+    };
+    (bih, stats)
 }
 
-struct Builder<'a> {
-    refs: &'a mut [PrimRef],
+struct Builder<'a, T> {
+    items: &'a mut [T],
     nodes: Vec<BihNode>,
     cfg: &'a BihConfig,
+    stats: BuildStats,
 }
 
-impl Builder<'_> {
-    /// Fills node `id` for `refs[first .. first + count]`.
+impl<T: Item> Builder<'_, T> {
+    /// Fills node `id` for `items[first .. first + count]`.
     fn node(
         &mut self,
         id: usize,
@@ -101,7 +126,9 @@ impl Builder<'_> {
             self.nodes[id] = leaf;
             return;
         };
-        let (l, r) = partition(&mut self.refs[first..first + count], split);
+        let (l, r) = partition(&mut self.items[first..first + count], split);
+        self.stats.items_partitioned += count as u64;
+        self.stats.partitions += 1;
         debug_assert!(l.count > 0 && r.count > 0);
         let children = self.nodes.len();
         self.nodes.push(BihNode::default());

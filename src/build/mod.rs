@@ -8,21 +8,26 @@ pub mod kernels;
 use std::time::{Duration, Instant};
 
 use crate::bih::{Bih, BihConfig};
+use crate::cell::{CellConfig, CellError, RunReport};
 use crate::scene::Scene;
+use crate::strategy::{self, Strategy};
 
 /// Every builder the `--builder` option accepts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BuilderKind {
     /// Recursive in-place build on the host, one thread (the reference).
     Host,
+    /// The paper's naive build on the emulated PPE.
+    PpeNaive,
 }
 
 impl BuilderKind {
-    pub const ALL: &'static [BuilderKind] = &[BuilderKind::Host];
+    pub const ALL: &'static [BuilderKind] = &[BuilderKind::Host, BuilderKind::PpeNaive];
 
     pub fn name(self) -> &'static str {
         match self {
             BuilderKind::Host => "host",
+            BuilderKind::PpeNaive => "ppe_naive",
         }
     }
 
@@ -31,6 +36,9 @@ impl BuilderKind {
             BuilderKind::Host => {
                 "recursive in-place build, global heuristic, on the host (one thread)"
             }
+            BuilderKind::PpeNaive => {
+                "the paper's naive recursive build on the emulated PPE (Table 1, column 1)"
+            }
         }
     }
 
@@ -38,17 +46,47 @@ impl BuilderKind {
         Self::ALL.iter().copied().find(|b| b.name() == name)
     }
 
-    /// Builds the tree of `scene`, timing it on the host.
-    pub fn build(self, scene: &Scene, cfg: &BihConfig) -> BuildReport {
+    fn strategy(self) -> Option<Strategy> {
+        match self {
+            BuilderKind::Host => None,
+            BuilderKind::PpeNaive => Some(Strategy::PpeNaive),
+        }
+    }
+
+    /// Builds the tree of `scene` (on the PS3 model for emulated builders).
+    pub fn build(self, scene: &Scene, cfg: &BihConfig) -> Result<BuildReport, CellError> {
+        self.build_on(scene, cfg, &CellConfig::ps3())
+    }
+
+    /// Builds the tree of `scene`; emulated builders run on a Cell
+    /// configured by `cell`. Host time is measured either way.
+    pub fn build_on(
+        self,
+        scene: &Scene,
+        cfg: &BihConfig,
+        cell: &CellConfig,
+    ) -> Result<BuildReport, CellError> {
         let start = Instant::now();
-        let bih = match self {
-            BuilderKind::Host => host::build(scene, cfg),
+        let (bih, simulated) = match self.strategy() {
+            None => (host::build(scene, cfg), None),
+            Some(s) => {
+                let b = strategy::run(s, scene, cfg, cell)?;
+                (
+                    b.bih,
+                    Some(Simulated {
+                        run: b.run,
+                        stats: b.stats,
+                        trace: b.trace,
+                    }),
+                )
+            }
         };
-        BuildReport {
+        Ok(BuildReport {
             builder: self,
             bih,
             host_time: start.elapsed(),
-        }
+            simulated,
+        })
     }
 }
 
@@ -58,11 +96,21 @@ impl std::fmt::Display for BuilderKind {
     }
 }
 
+/// What an emulated build cost on the Cell.
+#[derive(Clone, Debug)]
+pub struct Simulated {
+    pub run: RunReport,
+    pub stats: host::BuildStats,
+    pub trace: Option<serde_json::Value>,
+}
+
 /// What a build produced and what it cost.
 #[derive(Clone, Debug)]
 pub struct BuildReport {
     pub builder: BuilderKind,
     pub bih: Bih,
-    /// Host wall time of the build.
+    /// Host wall time of the build (of the emulation, for emulated builders).
     pub host_time: Duration,
+    /// Simulated time and counters, for builders that run on the Cell.
+    pub simulated: Option<Simulated>,
 }

@@ -37,6 +37,37 @@ impl Bandwidth {
     }
 }
 
+/// Compute rates of the named kernels programs run, per core type. The
+/// machine never charges these itself; programs charge them through
+/// `compute`. Calibrations are in docs/calibration.md.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct KernelRates {
+    /// PPE cycles per item looked at by an in-place partition (load the
+    /// record, its box center, compare, swap), all cache effects included.
+    /// Fitted on one cell of the paper's Table 1 (naive PPE build of the
+    /// Stanford Bunny, 340 ms) with `ppe_node` fixed beforehand.
+    pub ppe_partition_item: Cycles,
+    /// PPE cycles per node written: split choice, a heap allocation for the
+    /// node (the paper's naive build allocates each), recursion. Estimate.
+    pub ppe_node: Cycles,
+}
+
+impl KernelRates {
+    pub fn ps3() -> Self {
+        KernelRates {
+            ppe_partition_item: Cycles(1065),
+            ppe_node: Cycles(1000),
+        }
+    }
+
+    pub fn free() -> Self {
+        KernelRates {
+            ppe_partition_item: Cycles::ZERO,
+            ppe_node: Cycles::ZERO,
+        }
+    }
+}
+
 /// Every rate of the machine. Units are in the names: `_cycles` are core
 /// cycles at [`CostModel::clock_hz`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -85,6 +116,8 @@ pub struct CostModel {
     /// The PPE's bandwidth to main memory through its caches, for the
     /// bytes a PPE program reads or writes explicitly.
     pub ppe_memory_bandwidth: Bandwidth,
+    /// Compute rates of the programs' kernels.
+    pub kernels: KernelRates,
 }
 
 impl CostModel {
@@ -107,6 +140,7 @@ impl CostModel {
             putllc_cycles: Cycles(316),
             ppe_atomic_cycles: Cycles(100),
             ppe_memory_bandwidth: Bandwidth::from_gb_per_s(6.4, hz),
+            kernels: KernelRates::ps3(),
         }
     }
 
@@ -133,6 +167,7 @@ impl CostModel {
             putllc_cycles: Cycles::ZERO,
             ppe_atomic_cycles: Cycles::ZERO,
             ppe_memory_bandwidth: free,
+            kernels: KernelRates::free(),
         }
     }
 }

@@ -70,7 +70,7 @@ use std::rc::Rc;
 use thiserror::Error;
 
 pub use clock::Cycles;
-pub use cost::{Bandwidth, CostModel};
+pub use cost::{Bandwidth, CostModel, KernelRates};
 pub use local_store::LsAddr;
 pub use memory::{Ea, MainMemory};
 pub use mfc::{ListElement, WaitMode};

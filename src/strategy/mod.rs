@@ -1,5 +1,90 @@
 //! Programs for the emulated Cell, one file per strategy, named as the
-//! paper names them. So far: the SPE's in-place streaming partition of
-//! Fig. 1 ([`fig1`]), the kernel of the paper's SPE builders.
+//! paper names them. Each writes its tree into emulated main memory in the
+//! one node format; [`run`] reads it back as a [`Bih`].
+//!
+//! So far: [`ppe_naive`] (Table 1's baseline column) and the SPE's in-place
+//! streaming partition of Fig. 1 ([`fig1`]), the kernel of the SPE builders.
 
 pub mod fig1;
+pub mod layout;
+pub mod ppe_naive;
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use crate::aabb::Aabb;
+use crate::bih::{Bih, BihConfig, BihNode};
+use crate::build::host::BuildStats;
+use crate::cell::{Cell, CellConfig, CellError, Ea, RunReport};
+use crate::scene::Scene;
+
+/// The strategies that run on the emulated Cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strategy {
+    PpeNaive,
+}
+
+/// Where a strategy finds its input in main memory.
+pub(crate) struct Setup {
+    pub triangles: Ea,
+    pub count: usize,
+    pub region: Aabb,
+}
+
+/// What a strategy's program leaves for reading back.
+#[derive(Default)]
+pub(crate) struct Output {
+    /// The node array: address and count.
+    pub nodes: Option<(Ea, usize)>,
+    pub stats: BuildStats,
+}
+
+/// A tree built on the emulated Cell and what it cost there.
+pub struct CellBuild {
+    pub bih: Bih,
+    pub run: RunReport,
+    pub stats: BuildStats,
+    /// The timeline, if `cell_cfg.trace` was set.
+    pub trace: Option<serde_json::Value>,
+}
+
+/// Builds the tree of `scene` with `strategy` on a Cell configured by
+/// `cell_cfg`, and reads the tree back from emulated main memory.
+pub fn run(
+    strategy: Strategy,
+    scene: &Scene,
+    cfg: &BihConfig,
+    cell_cfg: &CellConfig,
+) -> Result<CellBuild, CellError> {
+    let mut cell = Cell::new(cell_cfg.clone())?;
+    let triangles = layout::upload(&cell, scene)?;
+    let setup = Setup {
+        triangles,
+        count: scene.len(),
+        region: scene.bounds(),
+    };
+    let out = Rc::new(RefCell::new(Output::default()));
+    match strategy {
+        Strategy::PpeNaive => ppe_naive::spawn(&mut cell, &setup, cfg, out.clone()),
+    }
+    let run = cell.run()?;
+    let o = out.borrow();
+    let (node_ea, count) = o.nodes.ok_or_else(|| CellError::Program {
+        core: "strategy".into(),
+        msg: "the program ended without writing a tree".into(),
+    })?;
+    let nodes: Vec<BihNode> = cell.memory().read_pod(node_ea, count)?;
+    let records: Vec<layout::TriRecord> = cell.memory().read_pod(triangles, scene.len())?;
+    let bih = Bih {
+        nodes,
+        prim_ids: records.iter().map(|r| r.id).collect(),
+        bounds: scene.bounds(),
+        config: *cfg,
+    };
+    Ok(CellBuild {
+        bih,
+        run,
+        stats: o.stats,
+        trace: cell.trace_json(),
+    })
+}

@@ -1,0 +1,43 @@
+//! `ppe_naive` — the paper's naive build (section 4.1, Table 1): the
+//! recursive build running on the PPE alone, "already vectorized".
+//!
+//! The PPE reads the triangle array from main memory, runs the recursion
+//! of the host builder on it (the same split choice and partition), and
+//! writes the sorted array and the nodes back. Memory traffic is charged at
+//! the PPE's bandwidth by the machine; the compute is charged per item
+//! partitioned and per node, at the PPE kernel rates of the cost model.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use super::layout::TriRecord;
+use super::{Output, Setup};
+use crate::bih::{BihConfig, BihNode};
+use crate::build::host::{BuildStats, build_items};
+use crate::cell::{Cell, CellError, Cycles, Ea};
+
+pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<RefCell<Output>>) {
+    let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    cell.spawn_ppe(move |ppe| async move {
+        let mut items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
+        let (bih, stats) = build_items(&mut items, region, &cfg);
+        let k = ppe.cost().kernels;
+        let BuildStats {
+            items_partitioned,
+            nodes,
+            ..
+        } = stats;
+        ppe.compute(Cycles(
+            k.ppe_partition_item.0 * items_partitioned + k.ppe_node.0 * nodes,
+        ));
+        ppe.write_pod(tris, &items).await?;
+        let node_array: Ea = ppe
+            .alloc((bih.nodes.len() * size_of::<BihNode>()) as u64, 128)
+            .await?;
+        ppe.write_pod(node_array, &bih.nodes).await?;
+        let mut o = out.borrow_mut();
+        o.nodes = Some((node_array, bih.nodes.len()));
+        o.stats = stats;
+        Ok::<(), CellError>(())
+    });
+}
