@@ -19,15 +19,22 @@ pub enum BuilderKind {
     Host,
     /// The paper's naive build on the emulated PPE.
     PpeNaive,
+    /// PPE recursion, one SPE partitions each interval (Fig. 1).
+    SpeDfs,
 }
 
 impl BuilderKind {
-    pub const ALL: &'static [BuilderKind] = &[BuilderKind::Host, BuilderKind::PpeNaive];
+    pub const ALL: &'static [BuilderKind] = &[
+        BuilderKind::Host,
+        BuilderKind::PpeNaive,
+        BuilderKind::SpeDfs,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
             BuilderKind::Host => "host",
             BuilderKind::PpeNaive => "ppe_naive",
+            BuilderKind::SpeDfs => "spe_dfs",
         }
     }
 
@@ -38,6 +45,9 @@ impl BuilderKind {
             }
             BuilderKind::PpeNaive => {
                 "the paper's naive recursive build on the emulated PPE (Table 1, column 1)"
+            }
+            BuilderKind::SpeDfs => {
+                "depth first: PPE recursion, one SPE partitions each interval with Fig. 1's five buffers (Table 1, column 3)"
             }
         }
     }
@@ -50,6 +60,7 @@ impl BuilderKind {
         match self {
             BuilderKind::Host => None,
             BuilderKind::PpeNaive => Some(Strategy::PpeNaive),
+            BuilderKind::SpeDfs => Some(Strategy::SpeDfs),
         }
     }
 

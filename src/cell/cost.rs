@@ -50,6 +50,11 @@ pub struct KernelRates {
     /// PPE cycles per node written: split choice, a heap allocation for the
     /// node (the paper's naive build allocates each), recursion. Estimate.
     pub ppe_node: Cycles,
+    /// SPE cycles per item of an in-place partition on a local-store block
+    /// (box of the record's three vertices, center, compare, move).
+    pub spe_partition_item: Cycles,
+    /// SPE cycles per item of a bounds pass (box and center min/max only).
+    pub spe_bounds_item: Cycles,
 }
 
 impl KernelRates {
@@ -57,6 +62,8 @@ impl KernelRates {
         KernelRates {
             ppe_partition_item: Cycles(1065),
             ppe_node: Cycles(1000),
+            spe_partition_item: Cycles(100),
+            spe_bounds_item: Cycles(20),
         }
     }
 
@@ -64,6 +71,8 @@ impl KernelRates {
         KernelRates {
             ppe_partition_item: Cycles::ZERO,
             ppe_node: Cycles::ZERO,
+            spe_partition_item: Cycles::ZERO,
+            spe_bounds_item: Cycles::ZERO,
         }
     }
 }

@@ -203,3 +203,42 @@ async fn wait_for_overlapping_gets(
     }
     Ok(())
 }
+
+/// Streams the `n` elements at `ea` through two buffers and returns their
+/// bounds (as a [`Side`]): the pass that gives the root's bounds of centers.
+pub async fn stream_bounds<T: Boxed + Pod>(
+    spe: &Spe,
+    bufs: &Fig1Buffers,
+    ea: Ea,
+    n: u64,
+    cycles_per_element: Cycles,
+) -> Result<Side, CellError> {
+    let size = size_of::<T>() as u64;
+    let per_block = BLOCK_BYTES as u64 / size;
+    let blocks = n.div_ceil(per_block);
+    let len = |k: u64| per_block.min(n - k * per_block);
+    let mut side = Side::EMPTY;
+    if blocks == 0 {
+        return Ok(side);
+    }
+    spe.get(bufs.bufs[0], ea, (len(0) * size) as u32, 0).await?;
+    for k in 0..blocks {
+        let b = (k % 2) as usize;
+        if k + 1 < blocks {
+            let next = ea.offset((k + 1) * per_block * size);
+            spe.get(
+                bufs.bufs[1 - b],
+                next,
+                (len(k + 1) * size) as u32,
+                1 - b as u32,
+            )
+            .await?;
+        }
+        spe.wait_tag(b as u32).await?;
+        side = side.merge(spe.with_ls(bufs.bufs[b], len(k) as usize, |items: &[T]| {
+            crate::build::kernels::side_of(items)
+        })?);
+        spe.compute(Cycles(cycles_per_element.0 * len(k)));
+    }
+    Ok(side)
+}

@@ -2,12 +2,14 @@
 //! paper names them. Each writes its tree into emulated main memory in the
 //! one node format; [`run`] reads it back as a [`Bih`].
 //!
-//! So far: [`ppe_naive`] (Table 1's baseline column) and the SPE's in-place
-//! streaming partition of Fig. 1 ([`fig1`]), the kernel of the SPE builders.
+//! So far: [`ppe_naive`] and [`spe_dfs`] (Table 1's first and third
+//! columns), and the SPE's in-place streaming partition of Fig. 1
+//! ([`fig1`]), the kernel of the SPE builders.
 
 pub mod fig1;
 pub mod layout;
 pub mod ppe_naive;
+pub mod spe_dfs;
 
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -22,6 +24,7 @@ use crate::scene::Scene;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Strategy {
     PpeNaive,
+    SpeDfs,
 }
 
 /// Where a strategy finds its input in main memory.
@@ -66,6 +69,7 @@ pub fn run(
     let out = Rc::new(RefCell::new(Output::default()));
     match strategy {
         Strategy::PpeNaive => ppe_naive::spawn(&mut cell, &setup, cfg, out.clone()),
+        Strategy::SpeDfs => spe_dfs::spawn(&mut cell, &setup, cfg, out.clone())?,
     }
     let run = cell.run()?;
     let o = out.borrow();

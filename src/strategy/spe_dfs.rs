@@ -1,0 +1,231 @@
+//! `spe_dfs` — the paper's depth-first construction (section 2, Table 1):
+//! "only sorting is done on the SPE, the recursion and creation of nodes is
+//! still entirely done on the PPE".
+//!
+//! The PPE chooses each split by the global heuristic, writes the job (the
+//! interval and the plane) to main memory and signals SPE 0. The SPE fetches
+//! the job by DMA, partitions the interval of the triangle array in place
+//! with the five-buffer stream of Fig. 1 ([`super::fig1`]), puts back the
+//! split index and the fitted values of both sides (the left's rightmost and
+//! the right's leftmost, with the sides' bounds of centers), and tells the
+//! PPE through its outbound mailbox. With these the PPE makes the node and
+//! recurses. A first job streams the whole array once for the root's bounds.
+//!
+//! The recursion is the host builder's, in the same depth-first order, so
+//! the tree equals the host tree node for node.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use glam::Vec3A;
+
+use super::fig1::{Fig1Buffers, partition_in_place, stream_bounds};
+use super::layout::TriRecord;
+use super::{Output, Setup};
+use crate::aabb::Aabb;
+use crate::bih::{BihConfig, BihNode};
+use crate::build::host::BuildStats;
+use crate::build::kernels::{Side, Split, choose_split, clip_planes};
+use crate::cell::{Cell, CellError, Ea};
+
+const STOP: u32 = 0;
+const PARTITION: u32 = 1;
+const BOUNDS: u32 = 2;
+/// Tag groups the SPE uses for its job and result (Fig. 1 uses 0–4).
+const JOB_TAG: u32 = 30;
+
+/// A job in main memory: 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct DfsJob {
+    kind: u32,
+    first: u32,
+    count: u32,
+    axis: u32,
+    plane: f32,
+    pad: [u32; 3],
+}
+
+/// One side of a partition as the SPE reports it: 80 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
+struct SideRecord {
+    count: u32,
+    pad: [u32; 3],
+    lo: [f32; 4],
+    hi: [f32; 4],
+    center_lo: [f32; 4],
+    center_hi: [f32; 4],
+}
+
+impl SideRecord {
+    fn from_side(s: &Side) -> Self {
+        let f = |v: Vec3A| v.extend(0.0).to_array();
+        SideRecord {
+            count: s.count as u32,
+            pad: [0; 3],
+            lo: f(s.lo),
+            hi: f(s.hi),
+            center_lo: f(s.center_lo),
+            center_hi: f(s.center_hi),
+        }
+    }
+
+    fn to_side(self) -> Side {
+        let f = |a: [f32; 4]| Vec3A::new(a[0], a[1], a[2]);
+        Side {
+            count: self.count as usize,
+            lo: f(self.lo),
+            hi: f(self.hi),
+            center_lo: f(self.center_lo),
+            center_hi: f(self.center_hi),
+        }
+    }
+}
+
+pub(super) fn spawn(
+    cell: &mut Cell,
+    setup: &Setup,
+    cfg: &BihConfig,
+    out: Rc<RefCell<Output>>,
+) -> Result<(), CellError> {
+    let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    let job_ea = cell.memory_mut().alloc(size_of::<DfsJob>() as u64, 128)?;
+    let result_ea = cell
+        .memory_mut()
+        .alloc(2 * size_of::<SideRecord>() as u64, 128)?;
+
+    cell.spawn_spe(0, move |spe| async move {
+        let bufs = Fig1Buffers::alloc(&spe)?;
+        let job_ls = spe.ls_alloc(size_of::<DfsJob>() as u32, 128)?;
+        let result_ls = spe.ls_alloc(2 * size_of::<SideRecord>() as u32, 128)?;
+        let k = spe.cost().kernels;
+        loop {
+            spe.read_signal(1).await?;
+            spe.get(job_ls, job_ea, size_of::<DfsJob>() as u32, JOB_TAG)
+                .await?;
+            spe.wait_tag(JOB_TAG).await?;
+            let job: DfsJob = spe.ls_read(job_ls, 1)?[0];
+            let at = tris.offset(job.first as u64 * size_of::<TriRecord>() as u64);
+            let (left, right) = match job.kind {
+                STOP => return Ok(()),
+                BOUNDS => (
+                    stream_bounds::<TriRecord>(
+                        &spe,
+                        &bufs,
+                        at,
+                        job.count as u64,
+                        k.spe_bounds_item,
+                    )
+                    .await?,
+                    Side::EMPTY,
+                ),
+                _ => {
+                    let split = Split {
+                        axis: job.axis as usize,
+                        plane: job.plane,
+                    };
+                    let p = partition_in_place::<TriRecord>(
+                        &spe,
+                        &bufs,
+                        at,
+                        job.count as u64,
+                        split,
+                        k.spe_partition_item,
+                    )
+                    .await?;
+                    (p.left, p.right)
+                }
+            };
+            spe.ls_write(
+                result_ls,
+                &[SideRecord::from_side(&left), SideRecord::from_side(&right)],
+            )?;
+            spe.put(
+                result_ls,
+                result_ea,
+                2 * size_of::<SideRecord>() as u32,
+                JOB_TAG,
+            )
+            .await?;
+            spe.wait_tag(JOB_TAG).await?;
+            spe.write_out_mbox(1).await;
+        }
+    });
+
+    cell.spawn_ppe(move |ppe| async move {
+        let k = ppe.cost().kernels;
+        // One job on SPE 0, and its two sides.
+        let ask = async |job: DfsJob| -> Result<(Side, Side), CellError> {
+            ppe.write_pod(job_ea, &[job]).await?;
+            ppe.send_signal(0, 1, 1).await?;
+            ppe.read_out_mbox(0).await?;
+            let r: Vec<SideRecord> = ppe.read_pod(result_ea, 2).await?;
+            Ok((r[0].to_side(), r[1].to_side()))
+        };
+        let (all, _) = ask(DfsJob {
+            kind: BOUNDS,
+            count: n as u32,
+            ..Default::default()
+        })
+        .await?;
+        let mut nodes = vec![BihNode::default()];
+        let mut stats = BuildStats::default();
+        // (node, first, count, candidate, side, depth), depth first, left first.
+        let mut stack: Vec<(usize, usize, usize, Aabb, Side, u32)> =
+            vec![(0, 0, n, region, all, 0)];
+        while let Some((id, first, count, mut candidate, side, depth)) = stack.pop() {
+            ppe.compute(k.ppe_node);
+            let leaf = BihNode::leaf(first as u32, count as u32);
+            if count <= cfg.leaf_size as usize || depth >= cfg.max_depth {
+                nodes[id] = leaf;
+                continue;
+            }
+            let Some(split) = choose_split(&mut candidate, &side.centers()) else {
+                nodes[id] = leaf;
+                continue;
+            };
+            let job = DfsJob {
+                kind: PARTITION,
+                first: first as u32,
+                count: count as u32,
+                axis: split.axis as u32,
+                plane: split.plane,
+                pad: [0; 3],
+            };
+            let (l, r) = ask(job).await?;
+            stats.items_partitioned += count as u64;
+            stats.partitions += 1;
+            let children = nodes.len();
+            nodes.push(BihNode::default());
+            nodes.push(BihNode::default());
+            let [cl, cr] = clip_planes(split.axis, &l, &r);
+            nodes[id] = BihNode::inner(children as u32, split.axis, cl, cr);
+            let (mut lc, mut rc) = (candidate, candidate);
+            lc.max[split.axis] = split.plane;
+            rc.min[split.axis] = split.plane;
+            stack.push((children + 1, first + l.count, r.count, rc, r, depth + 1));
+            stack.push((children, first, l.count, lc, l, depth + 1));
+        }
+        // The SPE ends on STOP without an answer.
+        ppe.write_pod(
+            job_ea,
+            &[DfsJob {
+                kind: STOP,
+                ..Default::default()
+            }],
+        )
+        .await?;
+        ppe.send_signal(0, 1, 1).await?;
+        let node_array: Ea = ppe
+            .alloc((nodes.len() * size_of::<BihNode>()) as u64, 128)
+            .await?;
+        ppe.write_pod(node_array, &nodes).await?;
+        stats.nodes = nodes.len() as u64;
+        let mut o = out.borrow_mut();
+        o.nodes = Some((node_array, nodes.len()));
+        o.stats = stats;
+        Ok::<(), CellError>(())
+    });
+    Ok(())
+}
