@@ -167,6 +167,10 @@ fn procedural_scenes_are_deterministic_and_sized_like_the_papers() {
     );
     assert_eq!(a.len(), 10_000);
     assert_eq!(a.geometry_names.len(), 50);
+    // Exact counts (Table 1's stand-ins): the last sphere is cut.
+    let iss = scene::load("rtperf:17633", None).unwrap();
+    assert_eq!((iss.len(), iss.geometry_names.len()), (17_633, 89));
+    assert_eq!(scene::load("rtperf:7", None).unwrap().len(), 7);
     let car = scene::load("car", None).unwrap();
     assert!((20_000..24_000).contains(&car.len()), "{}", car.len());
     assert!(car.geometry_names.len() >= 10);

@@ -7,7 +7,7 @@
 
 mod common;
 
-use cellbih::bih::BihConfig;
+use cellbih::bih::{Bih, BihConfig};
 use cellbih::build::BuilderKind;
 use cellbih::scene;
 
@@ -94,21 +94,117 @@ fn spe_dfs_builds_the_host_tree_with_the_partitions_on_an_spe() {
     }
 }
 
+/// The same tree whatever the node numbering: walks both trees together and
+/// compares every node's kind, axis, clip planes and leaf range, and the
+/// set of triangles in every leaf.
+fn same_tree_structure(a: &Bih, b: &Bih) -> Result<(), String> {
+    let mut stack = vec![(0u32, 0u32, String::from("root"))];
+    while let Some((i, j, path)) = stack.pop() {
+        let (x, y) = (a.nodes[i as usize], b.nodes[j as usize]);
+        match (x.is_leaf(), y.is_leaf()) {
+            (true, true) => {
+                if x.leaf_range() != y.leaf_range() {
+                    return Err(format!("{path}: leaf ranges differ"));
+                }
+                let (f, c) = x.leaf_range();
+                let r = f as usize..(f + c) as usize;
+                let (mut p, mut q) = (a.prim_ids[r.clone()].to_vec(), b.prim_ids[r].to_vec());
+                p.sort_unstable();
+                q.sort_unstable();
+                if p != q {
+                    return Err(format!("{path}: leaves hold different triangles"));
+                }
+            }
+            (false, false) => {
+                if (x.axis(), x.clip()) != (y.axis(), y.clip()) {
+                    return Err(format!("{path}: splits differ"));
+                }
+                let (l, m) = (x.left_child(), y.left_child());
+                stack.push((l + 1, m + 1, format!("{path}/R")));
+                stack.push((l, m, format!("{path}/L")));
+            }
+            _ => return Err(format!("{path}: a leaf against an inner node")),
+        }
+    }
+    if a.nodes.len() != b.nodes.len() {
+        return Err(format!("{} vs {} nodes", a.nodes.len(), b.nodes.len()));
+    }
+    Ok(())
+}
+
+/// spe_bfs, the baseline, makes the host tree's splits level by level: the
+/// same tree with its nodes numbered breadth first. The scenes are large
+/// enough for every path of the program: levels wider than WorkB (spilled
+/// to WorkBPPE), intervals over 16 KiB (Fig. 1) and under (agglomerated),
+/// several ObjectArena blocks. The PPE only allocates.
 #[test]
-fn an_emulated_build_gives_the_same_cycles_every_run() {
+fn spe_bfs_builds_the_host_tree_breadth_first() {
+    for s in [
+        scene::load("default", None).unwrap(),
+        scene::load("car", None).unwrap(),
+        scene::load("rtperf:40000:2", None).unwrap(),
+        common::make_scene(3000, 15, 1, 1, 3),
+        common::make_scene(3000, -15, 0, 2, 4),
+        common::make_scene(500, 0, 0, 0, 9),
+    ] {
+        let host = BuilderKind::Host.build(&s, &BihConfig::default()).unwrap();
+        let bfs = BuilderKind::SpeBfs
+            .build(&s, &BihConfig::default())
+            .unwrap();
+        same_tree_structure(&bfs.bih, &host.bih).unwrap_or_else(|e| panic!("{}: {e}", s.name));
+        // Breadth first: a node's children come after every node of its level.
+        let depth_of = node_depths(&bfs.bih);
+        assert!(
+            depth_of.windows(2).all(|w| w[0] <= w[1]),
+            "{}: node ids are not in level order",
+            s.name
+        );
+        let sim = bfs.simulated.unwrap();
+        let (ppe, spe) = (&sim.run.cores[0].1, &sim.run.cores[1].1);
+        assert!(
+            ppe.busy.0 * 100 < spe.busy.0,
+            "{}: the PPE did more than allocate ({} vs {} cycles)",
+            s.name,
+            ppe.busy.0,
+            spe.busy.0
+        );
+        assert_eq!(sim.stats.nodes as usize, host.bih.nodes.len());
+    }
+}
+
+/// The depth of every node, by node id.
+fn node_depths(b: &Bih) -> Vec<u32> {
+    let mut d = vec![u32::MAX; b.nodes.len()];
+    d[0] = 0;
+    for i in 0..b.nodes.len() {
+        let n = b.nodes[i];
+        if !n.is_leaf() {
+            let c = n.left_child() as usize;
+            d[c] = d[i] + 1;
+            d[c + 1] = d[i] + 1;
+        }
+    }
+    d
+}
+
+/// Every emulated builder, run twice: the same cycles, the same counters,
+/// the same node array.
+#[test]
+fn an_emulated_build_gives_the_same_cycles_and_tree_every_run() {
     let s = scene::load("rtperf:10000:1", None).unwrap();
-    let a = BuilderKind::PpeNaive
-        .build(&s, &BihConfig::default())
-        .unwrap()
-        .simulated
-        .unwrap();
-    let b = BuilderKind::PpeNaive
-        .build(&s, &BihConfig::default())
-        .unwrap()
-        .simulated
-        .unwrap();
-    assert_eq!(a.run.cycles, b.run.cycles);
-    assert_eq!(format!("{:?}", a.run.cores), format!("{:?}", b.run.cores));
+    for &b in BuilderKind::ALL.iter().filter(|b| **b != BuilderKind::Host) {
+        let run = || b.build(&s, &BihConfig::default()).unwrap();
+        let (x, y) = (run(), run());
+        assert_eq!(x.bih, y.bih, "{}", b.name());
+        let (x, y) = (x.simulated.unwrap(), y.simulated.unwrap());
+        assert_eq!(x.run.cycles, y.run.cycles, "{}", b.name());
+        assert_eq!(
+            format!("{:?}", x.run.cores),
+            format!("{:?}", y.run.cores),
+            "{}",
+            b.name()
+        );
+    }
 }
 
 /// The PPE build's time is its kernel charges plus its memory traffic.

@@ -21,6 +21,8 @@ pub enum BuilderKind {
     PpeNaive,
     /// PPE recursion, one SPE partitions each interval (Fig. 1).
     SpeDfs,
+    /// One SPE builds level by level (Fig. 2): the baseline.
+    SpeBfs,
 }
 
 impl BuilderKind {
@@ -28,6 +30,7 @@ impl BuilderKind {
         BuilderKind::Host,
         BuilderKind::PpeNaive,
         BuilderKind::SpeDfs,
+        BuilderKind::SpeBfs,
     ];
 
     pub fn name(self) -> &'static str {
@@ -35,6 +38,7 @@ impl BuilderKind {
             BuilderKind::Host => "host",
             BuilderKind::PpeNaive => "ppe_naive",
             BuilderKind::SpeDfs => "spe_dfs",
+            BuilderKind::SpeBfs => "spe_bfs",
         }
     }
 
@@ -49,6 +53,9 @@ impl BuilderKind {
             BuilderKind::SpeDfs => {
                 "depth first: PPE recursion, one SPE partitions each interval with Fig. 1's five buffers (Table 1, column 3)"
             }
+            BuilderKind::SpeBfs => {
+                "breadth first, the baseline: one SPE builds level by level (WorkA/WorkB, Fig. 2), small jobs agglomerated, nodes in an ObjectArena (Table 1, column 4)"
+            }
         }
     }
 
@@ -61,6 +68,7 @@ impl BuilderKind {
             BuilderKind::Host => None,
             BuilderKind::PpeNaive => Some(Strategy::PpeNaive),
             BuilderKind::SpeDfs => Some(Strategy::SpeDfs),
+            BuilderKind::SpeBfs => Some(Strategy::SpeBfs),
         }
     }
 

@@ -55,6 +55,9 @@ pub struct KernelRates {
     pub spe_partition_item: Cycles,
     /// SPE cycles per item of a bounds pass (box and center min/max only).
     pub spe_bounds_item: Cycles,
+    /// SPE cycles per job of a build run on the SPE (read the job, choose
+    /// the split, write the node, push the children's jobs).
+    pub spe_job: Cycles,
 }
 
 impl KernelRates {
@@ -62,8 +65,9 @@ impl KernelRates {
         KernelRates {
             ppe_partition_item: Cycles(1065),
             ppe_node: Cycles(1000),
-            spe_partition_item: Cycles(100),
+            spe_partition_item: Cycles(206),
             spe_bounds_item: Cycles(20),
+            spe_job: Cycles(200),
         }
     }
 
@@ -73,6 +77,7 @@ impl KernelRates {
             ppe_node: Cycles::ZERO,
             spe_partition_item: Cycles::ZERO,
             spe_bounds_item: Cycles::ZERO,
+            spe_job: Cycles::ZERO,
         }
     }
 }

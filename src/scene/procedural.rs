@@ -186,12 +186,11 @@ fn permute(v: Vec3, axis: usize) -> Vec3 {
     }
 }
 
-/// rtPerf: `round(triangles / 200)` spheres (at least one) of radius 0.5–2.5
-/// at uniform random places in [0, 100]³.
+/// rtPerf: exactly `triangles` triangles in spheres of 200 (radius
+/// 0.5–2.5, at uniform random places in [0, 100]³); when `triangles` is not
+/// a multiple of 200, the last sphere is cut to the remainder (an open cap).
 pub fn rtperf(triangles: usize, seed: u64) -> Scene {
-    let spheres = (triangles as f64 / RTPERF_SPHERE_TRIANGLES as f64)
-        .round()
-        .max(1.0) as usize;
+    let spheres = triangles.div_ceil(RTPERF_SPHERE_TRIANGLES).max(1);
     let mut rng = SplitMix64::new(seed);
     let mut b = PartsBuilder::default();
     for s in 0..spheres {
@@ -204,6 +203,8 @@ pub fn rtperf(triangles: usize, seed: u64) -> Scene {
         b.part(format!("sphere{s}"));
         b.ellipsoid(c, Vec3::splat(r), 10, 11);
     }
+    b.triangles.truncate(triangles.max(1));
+    b.geometry_ids.truncate(triangles.max(1));
     b.finish(&format!("rtperf:{triangles}:{seed}"))
 }
 

@@ -40,6 +40,12 @@ impl Fig1Buffers {
         }
         Ok(Fig1Buffers { bufs })
     }
+
+    /// Buffer `i` (0..5; A, B, C, D, OUT at the start), for programs that
+    /// use the buffers between partitions. Its tag group is `i`.
+    pub fn buffer(&self, i: usize) -> LsAddr {
+        self.bufs[i]
+    }
 }
 
 /// A block in a buffer: where it came from and how many elements it holds.

@@ -9,6 +9,7 @@
 pub mod fig1;
 pub mod layout;
 pub mod ppe_naive;
+pub mod spe_bfs;
 pub mod spe_dfs;
 
 use std::cell::RefCell;
@@ -25,6 +26,7 @@ use crate::scene::Scene;
 pub enum Strategy {
     PpeNaive,
     SpeDfs,
+    SpeBfs,
 }
 
 /// Where a strategy finds its input in main memory.
@@ -37,8 +39,9 @@ pub(crate) struct Setup {
 /// What a strategy's program leaves for reading back.
 #[derive(Default)]
 pub(crate) struct Output {
-    /// The node array: address and count.
-    pub nodes: Option<(Ea, usize)>,
+    /// The node array, in one or more pieces (address, node count) that
+    /// concatenate in node-id order.
+    pub nodes: Vec<(Ea, usize)>,
     pub stats: BuildStats,
 }
 
@@ -70,14 +73,20 @@ pub fn run(
     match strategy {
         Strategy::PpeNaive => ppe_naive::spawn(&mut cell, &setup, cfg, out.clone()),
         Strategy::SpeDfs => spe_dfs::spawn(&mut cell, &setup, cfg, out.clone())?,
+        Strategy::SpeBfs => spe_bfs::spawn(&mut cell, &setup, cfg, out.clone())?,
     }
     let run = cell.run()?;
     let o = out.borrow();
-    let (node_ea, count) = o.nodes.ok_or_else(|| CellError::Program {
-        core: "strategy".into(),
-        msg: "the program ended without writing a tree".into(),
-    })?;
-    let nodes: Vec<BihNode> = cell.memory().read_pod(node_ea, count)?;
+    if o.nodes.is_empty() {
+        return Err(CellError::Program {
+            core: "strategy".into(),
+            msg: "the program ended without writing a tree".into(),
+        });
+    }
+    let mut nodes: Vec<BihNode> = Vec::new();
+    for &(ea, count) in &o.nodes {
+        nodes.extend(cell.memory().read_pod::<BihNode>(ea, count)?);
+    }
     let records: Vec<layout::TriRecord> = cell.memory().read_pod(triangles, scene.len())?;
     let bih = Bih {
         nodes,

@@ -36,7 +36,7 @@ pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<Ref
             .await?;
         ppe.write_pod(node_array, &bih.nodes).await?;
         let mut o = out.borrow_mut();
-        o.nodes = Some((node_array, bih.nodes.len()));
+        o.nodes = vec![(node_array, bih.nodes.len())];
         o.stats = stats;
         Ok::<(), CellError>(())
     });

@@ -223,7 +223,7 @@ pub(super) fn spawn(
         ppe.write_pod(node_array, &nodes).await?;
         stats.nodes = nodes.len() as u64;
         let mut o = out.borrow_mut();
-        o.nodes = Some((node_array, nodes.len()));
+        o.nodes = vec![(node_array, nodes.len())];
         o.stats = stats;
         Ok::<(), CellError>(())
     });
