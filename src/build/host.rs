@@ -99,6 +99,35 @@ pub fn build_items<T: Item>(items: &mut [T], region: Aabb, cfg: &BihConfig) -> (
     (bih, stats)
 }
 
+/// Builds the subtree of `items[first .. first + count]` into node `id` of
+/// `nodes` (appending its descendants), with `candidate` as the node's
+/// candidate box at depth `depth`: the naive recursion, for builders that
+/// finish their upper levels another way. The items' bounds are found by one
+/// pass, counted in `items_partitioned`.
+#[allow(clippy::too_many_arguments)]
+pub fn build_subtree<T: Item>(
+    items: &mut [T],
+    nodes: &mut Vec<BihNode>,
+    id: usize,
+    first: usize,
+    count: usize,
+    candidate: Aabb,
+    depth: u32,
+    cfg: &BihConfig,
+) -> BuildStats {
+    let side = side_of(&items[first..first + count]);
+    let mut b = Builder {
+        items,
+        nodes: std::mem::take(nodes),
+        cfg,
+        stats: BuildStats::default(),
+    };
+    b.stats.items_partitioned += count as u64;
+    b.node(id, first, count, candidate, &side, depth);
+    *nodes = b.nodes;
+    b.stats
+}
+
 struct Builder<'a, T> {
     items: &'a mut [T],
     nodes: Vec<BihNode>,

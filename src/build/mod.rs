@@ -2,6 +2,7 @@
 //! name. Builders that run on the emulated Cell live in `strategy/` and are
 //! listed here too, so that every `--builder` name works everywhere.
 
+pub mod approx;
 pub mod host;
 pub mod kernels;
 
@@ -19,6 +20,8 @@ pub enum BuilderKind {
     Host,
     /// The paper's naive build on the emulated PPE.
     PpeNaive,
+    /// W&K's approximate sorting on the emulated PPE, naive finish.
+    PpeApprox,
     /// PPE recursion, one SPE partitions each interval (Fig. 1).
     SpeDfs,
     /// One SPE builds level by level (Fig. 2): the baseline.
@@ -29,6 +32,7 @@ impl BuilderKind {
     pub const ALL: &'static [BuilderKind] = &[
         BuilderKind::Host,
         BuilderKind::PpeNaive,
+        BuilderKind::PpeApprox,
         BuilderKind::SpeDfs,
         BuilderKind::SpeBfs,
     ];
@@ -37,6 +41,7 @@ impl BuilderKind {
         match self {
             BuilderKind::Host => "host",
             BuilderKind::PpeNaive => "ppe_naive",
+            BuilderKind::PpeApprox => "ppe_approx",
             BuilderKind::SpeDfs => "spe_dfs",
             BuilderKind::SpeBfs => "spe_bfs",
         }
@@ -49,6 +54,9 @@ impl BuilderKind {
             }
             BuilderKind::PpeNaive => {
                 "the paper's naive recursive build on the emulated PPE (Table 1, column 1)"
+            }
+            BuilderKind::PpeApprox => {
+                "Wachter & Keller's approximate sorting (bucket presort) on the emulated PPE, nodes over 12 triangles finished naively (Table 1, column 2)"
             }
             BuilderKind::SpeDfs => {
                 "depth first: PPE recursion, one SPE partitions each interval with Fig. 1's five buffers (Table 1, column 3)"
@@ -67,6 +75,7 @@ impl BuilderKind {
         match self {
             BuilderKind::Host => None,
             BuilderKind::PpeNaive => Some(Strategy::PpeNaive),
+            BuilderKind::PpeApprox => Some(Strategy::PpeApprox),
             BuilderKind::SpeDfs => Some(Strategy::SpeDfs),
             BuilderKind::SpeBfs => Some(Strategy::SpeBfs),
         }

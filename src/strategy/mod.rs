@@ -8,6 +8,7 @@
 
 pub mod fig1;
 pub mod layout;
+pub mod ppe_approx;
 pub mod ppe_naive;
 pub mod spe_bfs;
 pub mod spe_dfs;
@@ -25,6 +26,7 @@ use crate::scene::Scene;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Strategy {
     PpeNaive,
+    PpeApprox,
     SpeDfs,
     SpeBfs,
 }
@@ -72,6 +74,7 @@ pub fn run(
     let out = Rc::new(RefCell::new(Output::default()));
     match strategy {
         Strategy::PpeNaive => ppe_naive::spawn(&mut cell, &setup, cfg, out.clone()),
+        Strategy::PpeApprox => ppe_approx::spawn(&mut cell, &setup, cfg, out.clone()),
         Strategy::SpeDfs => spe_dfs::spawn(&mut cell, &setup, cfg, out.clone())?,
         Strategy::SpeBfs => spe_bfs::spawn(&mut cell, &setup, cfg, out.clone())?,
     }

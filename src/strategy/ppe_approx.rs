@@ -1,0 +1,53 @@
+//! `ppe_approx` — Wächter & Keller's construction by approximate sorting on
+//! the PPE (section 4.1, Table 1, column 2), nodes of more than 12 triangles
+//! finished by the naive method as the paper's system does. The algorithm is
+//! [`crate::build::approx`]; this program runs it on the triangle records in
+//! emulated main memory.
+//!
+//! Memory: the presort scatters into a second triangle array, which the PPE
+//! allocates (the paper's build of the dragon ran out of memory here), and
+//! the gather writes the final order back into the first. Compute is charged
+//! at the PPE's per-item rate for every triangle the presort touches (count,
+//! scatter, gather), every bucket an upper-level partition touches, and every
+//! item of the naive finish; and at the per-node rate for every node.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use super::layout::TriRecord;
+use super::{Output, Setup};
+use crate::bih::{BihConfig, BihNode};
+use crate::build::approx::build_approx;
+use crate::build::host::BuildStats;
+use crate::cell::{Cell, CellError, Cycles, Ea};
+
+pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<RefCell<Output>>) {
+    let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    cell.spawn_ppe(move |ppe| async move {
+        let items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
+        let (sorted, bih, a) = build_approx(&items, region, &cfg);
+        let k = ppe.cost().kernels;
+        let touched = a.items_sorted + a.buckets_partitioned + a.naive.items_partitioned;
+        ppe.compute(Cycles(
+            k.ppe_partition_item.0 * touched + k.ppe_node.0 * a.nodes,
+        ));
+        // The scatter's second array, written and read back by the gather.
+        let size = (n * size_of::<TriRecord>()) as u64;
+        let scattered: Ea = ppe.alloc(size, 128).await?;
+        ppe.write_pod(scattered, &items).await?;
+        let _: Vec<TriRecord> = ppe.read_pod(scattered, n).await?;
+        ppe.write_pod(tris, &sorted).await?;
+        let node_array: Ea = ppe
+            .alloc((bih.nodes.len() * size_of::<BihNode>()) as u64, 128)
+            .await?;
+        ppe.write_pod(node_array, &bih.nodes).await?;
+        let mut o = out.borrow_mut();
+        o.nodes = vec![(node_array, bih.nodes.len())];
+        o.stats = BuildStats {
+            items_partitioned: touched,
+            nodes: a.nodes,
+            partitions: a.naive.partitions,
+        };
+        Ok::<(), CellError>(())
+    });
+}
