@@ -51,12 +51,14 @@ pub struct KernelRates {
     /// node (the paper's naive build allocates each), recursion. Estimate.
     pub ppe_node: Cycles,
     /// SPE cycles per item of an in-place partition on a local-store block
-    /// (box of the record's three vertices, center, compare, move).
+    /// (box of the record's three vertices, center, compare, move). Fitted
+    /// on one cell of Table 1 (SPE breadth-first build of the Dragon, 897 ms).
     pub spe_partition_item: Cycles,
     /// SPE cycles per item of a bounds pass (box and center min/max only).
+    /// Estimate.
     pub spe_bounds_item: Cycles,
     /// SPE cycles per job of a build run on the SPE (read the job, choose
-    /// the split, write the node, push the children's jobs).
+    /// the split, write the node, push the children's jobs). Estimate.
     pub spe_job: Cycles,
 }
 
@@ -65,7 +67,7 @@ impl KernelRates {
         KernelRates {
             ppe_partition_item: Cycles(1065),
             ppe_node: Cycles(1000),
-            spe_partition_item: Cycles(206),
+            spe_partition_item: Cycles(161),
             spe_bounds_item: Cycles(20),
             spe_job: Cycles(200),
         }

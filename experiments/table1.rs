@@ -1,0 +1,249 @@
+//! Table 1 of the paper: the four builders on the PS3 model, for the four
+//! models, beside the paper's figures.
+//!
+//! `cargo run --release --bin table1 -- --data DIR [--format json] [--out results]`
+//!
+//! Bunny and dragon come from the data directory. The paper's ISS (17,633
+//! triangles) and Fairy Forest (174,117) are used when the data directory
+//! holds them with exactly those counts (`iss.obj.gz`, `fairyforest.obj.gz`);
+//! otherwise an rtPerf stand-in of the same triangle count is used, and the
+//! output says so. Times are simulated milliseconds (deterministic); the host
+//! time the emulation took is reported beside them. Writes table1.csv and
+//! table1.json to the output directory.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use clap::Parser;
+use serde_json::json;
+
+use cellbih::bih::BihConfig;
+use cellbih::build::BuilderKind;
+use cellbih::report::{output, write_csv, write_json};
+use cellbih::scene::{self, Scene};
+
+#[derive(Parser)]
+struct Args {
+    /// Directory of the real meshes (default: $CELLBIH_DATA).
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// text (a table) or json (the rows).
+    #[arg(long, default_value = "text")]
+    format: String,
+    /// Directory for table1.csv and table1.json.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+}
+
+/// The paper's Table 1: model, triangles, file name, milliseconds for
+/// naive / approximate sorting / SPE depth first / SPE breadth first
+/// (`None`: out of memory).
+const PAPER: [(&str, usize, &str, [Option<f64>; 4]); 4] = [
+    (
+        "ISS",
+        17_633,
+        "iss",
+        [Some(106.0), Some(63.0), Some(47.0), Some(24.0)],
+    ),
+    (
+        "Bunny",
+        69_451,
+        "bunny",
+        [Some(340.0), Some(201.0), Some(133.0), Some(68.0)],
+    ),
+    (
+        "Fairy Forest",
+        174_117,
+        "fairyforest",
+        [Some(1478.0), Some(781.0), Some(385.0), Some(195.0)],
+    ),
+    (
+        "Dragon",
+        871_414,
+        "dragon",
+        [Some(5956.0), None, Some(1828.0), Some(897.0)],
+    ),
+];
+
+const METHODS: [BuilderKind; 4] = [
+    BuilderKind::PpeNaive,
+    BuilderKind::PpeApprox,
+    BuilderKind::SpeDfs,
+    BuilderKind::SpeBfs,
+];
+
+/// The model's mesh, or a stand-in of the same triangle count.
+fn model(
+    name: &str,
+    count: usize,
+    file: &str,
+    data: Option<&std::path::Path>,
+) -> Result<(Scene, Option<String>), String> {
+    if let Some(dir) = data
+        && let Ok(s) = scene::load(file, Some(dir))
+        && s.len() == count
+    {
+        return Ok((s, None));
+    }
+    if file == "bunny" || file == "dragon" {
+        return Err(format!(
+            "{name} needs the data directory (--data DIR or CELLBIH_DATA) with {file}.obj.gz"
+        ));
+    }
+    let spec = format!("rtperf:{count}");
+    let s = scene::load(&spec, None).map_err(|e| e.to_string())?;
+    Ok((s, Some(spec)))
+}
+
+fn main() {
+    let mut args = Args::parse();
+    if args.data.is_none() {
+        args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
+    }
+    if let Err(e) = run(&args) {
+        eprintln!("table1: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let cfg = BihConfig::default();
+    let progress = std::io::stderr().is_terminal();
+    let mut rows = Vec::new();
+    for (name, count, file, paper) in PAPER {
+        let (scene, stand_in) = model(name, count, file, args.data.as_deref())?;
+        if let Some(spec) = &stand_in {
+            eprintln!("{name}: not in the data directory; stand-in `{spec}` ({count} triangles)");
+        }
+        let mut naive_ms = None;
+        for (m, method) in METHODS.iter().enumerate() {
+            if progress {
+                eprint!("{name:>12} {:<11}\r", method.name());
+            }
+            let r = method
+                .build(&scene, &cfg)
+                .map_err(|e| format!("{name}, {}: {e}", method.name()))?;
+            let sim = r
+                .simulated
+                .expect("every Table 1 method runs on the emulated Cell");
+            let ms = sim.run.ms;
+            let naive = *naive_ms.get_or_insert(ms);
+            let paper_naive = paper[0].expect("the paper's naive figure");
+            rows.push(json!({
+                "model": name,
+                "triangles": scene.len(),
+                "stand_in": stand_in,
+                "method": method.name(),
+                "simulated_ms": ms,
+                "paper_ms": paper[m],
+                "ratio": paper[m].map(|p| ms / p),
+                "speedup": naive / ms,
+                "paper_speedup": paper[m].map(|p| paper_naive / p),
+                "host_ms": r.host_time.as_secs_f64() * 1e3,
+                "nodes": r.bih.nodes.len(),
+            }));
+        }
+    }
+    if progress {
+        eprint!("{:40}\r", "");
+    }
+    let csv: Vec<String> = rows
+        .iter()
+        .map(|r| {
+            let f = |k: &str| match &r[k] {
+                serde_json::Value::Null => String::new(),
+                serde_json::Value::String(s) => s.clone(),
+                v => v.to_string(),
+            };
+            [
+                "model",
+                "triangles",
+                "stand_in",
+                "method",
+                "simulated_ms",
+                "paper_ms",
+                "ratio",
+                "speedup",
+                "paper_speedup",
+                "host_ms",
+            ]
+            .map(f)
+            .join(",")
+        })
+        .collect();
+    let io = |e: std::io::Error| e.to_string();
+    write_csv(
+        &output(&args.out, "table1.csv").map_err(io)?,
+        "model,triangles,stand_in,method,simulated_ms,paper_ms,ratio,speedup,paper_speedup,host_ms",
+        &csv,
+    )
+    .map_err(io)?;
+    let doc = json!({ "rows": rows, "note": "simulated_ms on the PS3 model; paper_ms null = out of memory in the paper" });
+    write_json(&output(&args.out, "table1.json").map_err(io)?, &doc).map_err(io)?;
+    if args.format == "json" {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
+        );
+        return Ok(());
+    }
+    print_table(&rows);
+    Ok(())
+}
+
+fn print_table(rows: &[serde_json::Value]) {
+    println!(
+        "{:<24} {:<11} {:>12} {:>10} {:>11} {:>8} {:>8} {:>9}",
+        "model", "method", "ours (ms)", "paper (ms)", "ours/paper", "speedup", "paper", "host (ms)"
+    );
+    let mut last = "";
+    for r in rows {
+        let model = r["model"].as_str().unwrap_or("");
+        let label = if model != last {
+            last = model;
+            let star = if r["stand_in"].is_null() { "" } else { "*" };
+            format!("{model}{star} ({})", r["triangles"])
+        } else {
+            String::new()
+        };
+        let opt = |k: &str, w: usize, p: usize| match r[k].as_f64() {
+            Some(v) => format!("{v:>w$.p$}"),
+            None => format!("{:>w$}", "OOM"),
+        };
+        println!(
+            "{:<24} {:<11} {:>12.1} {} {} {:>8.2} {} {:>9.0}",
+            label,
+            r["method"].as_str().unwrap_or(""),
+            r["simulated_ms"].as_f64().unwrap_or(0.0),
+            opt("paper_ms", 10, 0),
+            opt("ratio", 11, 2),
+            r["speedup"].as_f64().unwrap_or(0.0),
+            opt("paper_speedup", 8, 2),
+            r["host_ms"].as_f64().unwrap_or(0.0),
+        );
+    }
+    for model in rows.chunks(METHODS.len()) {
+        let ms: Vec<f64> = model
+            .iter()
+            .map(|r| r["simulated_ms"].as_f64().unwrap_or(0.0))
+            .collect();
+        let ordered = ms.windows(2).all(|w| w[0] > w[1]);
+        println!(
+            "{}: {}",
+            model[0]["model"].as_str().unwrap_or(""),
+            if ordered {
+                "the paper's order (naive > approximate > depth first > breadth first)"
+            } else {
+                "NOT the paper's order"
+            }
+        );
+    }
+    if rows.iter().any(|r| !r["stand_in"].is_null()) {
+        println!(
+            "* stand-in: an rtPerf scene of the model's triangle count (the model is not in the data directory)"
+        );
+    }
+    println!(
+        "OOM: the paper's build ran out of memory. Simulated ms are deterministic; host ms is the emulation's wall time, one thread."
+    );
+}
