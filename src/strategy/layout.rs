@@ -7,6 +7,10 @@
 //! |---|---|---|
 //! | [`TriRecord`] | 48 | vertices v0, v1, v2 (9 × f32), geometry id (u32), triangle id (u32), 4 bytes of padding |
 //! | `BihNode` | 12 | see `bih::node`; nodes are written in groups of 4 (48 bytes) |
+//! | `spe_dfs` job | 32 | kind, first, count, axis (u32), plane (f32), 12 bytes of padding |
+//! | `spe_dfs` side record | 80 | count (u32) + 12 bytes of padding, then box min, box max, center min, center max (4 × f32 each) |
+//! | `spe_bfs` job | 64 | first, count, node id, depth (u32); candidate box min, max (6 × f32); bounds of centers min, max (6 × f32) |
+//! | `spe_bfs` ObjectArena block | 48,960 | 4,080 nodes; node `id` is in block `id / 4080` at byte `(id % 4080) × 12` |
 
 use glam::Vec3A;
 
