@@ -41,6 +41,10 @@ impl Aabb {
         Aabb::new(self.min.min(o.min), self.max.max(o.max))
     }
 
+    pub fn center(&self) -> Vec3 {
+        self.min * 0.5 + self.max * 0.5
+    }
+
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }

@@ -12,3 +12,4 @@ pub mod render;
 pub mod report;
 pub mod scene;
 pub mod strategy;
+pub mod update;

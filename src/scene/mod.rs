@@ -12,7 +12,7 @@
 
 mod obj;
 pub mod procedural;
-mod rng;
+pub(crate) mod rng;
 
 use std::path::{Path, PathBuf};
 
