@@ -245,3 +245,17 @@ fn render_writes_png_images() {
         assert_eq!((img.width(), img.height()), (64, 48));
     }
 }
+
+/// The README's first command, `cargo run --release`, needs a default
+/// binary once experiments add binaries of their own.
+#[test]
+fn cargo_run_has_a_default_binary() {
+    let manifest =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/Cargo.toml")).unwrap();
+    assert!(
+        manifest
+            .lines()
+            .any(|l| l.trim() == r#"default-run = "cellbih""#),
+        "Cargo.toml must say default-run = \"cellbih\""
+    );
+}
