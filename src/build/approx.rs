@@ -142,9 +142,7 @@ pub fn build_approx<T: Item>(
         nodes.extend([BihNode::default(); 2]);
         let [cl, cr] = clip_planes(split.axis, &l, &r);
         nodes[id] = BihNode::inner(children as u32, split.axis, cl, cr);
-        let (mut lc, mut rc) = (candidate, candidate);
-        lc.max[split.axis] = split.plane;
-        rc.min[split.axis] = split.plane;
+        let [lc, rc] = split.candidates(candidate);
         stack.push((children + 1, first + l.count, r.count, rc, depth + 1));
         stack.push((children, first, l.count, lc, depth + 1));
     }

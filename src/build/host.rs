@@ -164,9 +164,7 @@ impl<T: Item> Builder<'_, T> {
         self.nodes.push(BihNode::default());
         let [cl, cr] = clip_planes(split.axis, &l, &r);
         self.nodes[id] = BihNode::inner(children as u32, split.axis, cl, cr);
-        let (mut lc, mut rc) = (candidate, candidate);
-        lc.max[split.axis] = split.plane;
-        rc.min[split.axis] = split.plane;
+        let [lc, rc] = split.candidates(candidate);
         self.node(children, first, l.count, lc, &l, depth + 1);
         self.node(children + 1, first + l.count, r.count, rc, &r, depth + 1);
     }

@@ -23,6 +23,16 @@ pub struct Split {
     pub plane: f32,
 }
 
+impl Split {
+    /// The children's candidate boxes: `candidate` cut at the plane.
+    pub fn candidates(self, candidate: Aabb) -> [Aabb; 2] {
+        let (mut left, mut right) = (candidate, candidate);
+        left.max[self.axis] = self.plane;
+        right.min[self.axis] = self.plane;
+        [left, right]
+    }
+}
+
 /// Anything with an axis-aligned box that a partition can move about.
 pub trait Boxed: Copy {
     fn lo(&self) -> Vec3A;

@@ -19,7 +19,7 @@ use std::rc::Rc;
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
 use crate::build::host::BuildStats;
-use crate::cell::{Cell, CellConfig, CellError, Ea, RunReport};
+use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport};
 use crate::scene::Scene;
 
 /// The strategies that run on the emulated Cell.
@@ -45,6 +45,14 @@ pub(crate) struct Output {
     /// concatenate in node-id order.
     pub nodes: Vec<(Ea, usize)>,
     pub stats: BuildStats,
+}
+
+/// The PPE allocates a node array in main memory and writes `nodes` into
+/// it; returns its address and node count, as [`Output::nodes`] holds them.
+pub(crate) async fn write_nodes(ppe: &Ppe, nodes: &[BihNode]) -> Result<(Ea, usize), CellError> {
+    let ea = ppe.alloc(std::mem::size_of_val(nodes) as u64, 128).await?;
+    ppe.write_pod(ea, nodes).await?;
+    Ok((ea, nodes.len()))
 }
 
 /// A tree built on the emulated Cell and what it cost there.

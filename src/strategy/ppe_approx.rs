@@ -16,7 +16,7 @@ use std::rc::Rc;
 
 use super::layout::TriRecord;
 use super::{Output, Setup};
-use crate::bih::{BihConfig, BihNode};
+use crate::bih::BihConfig;
 use crate::build::approx::build_approx;
 use crate::build::host::BuildStats;
 use crate::cell::{Cell, CellError, Cycles, Ea};
@@ -37,12 +37,9 @@ pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<Ref
         ppe.write_pod(scattered, &items).await?;
         let _: Vec<TriRecord> = ppe.read_pod(scattered, n).await?;
         ppe.write_pod(tris, &sorted).await?;
-        let node_array: Ea = ppe
-            .alloc((bih.nodes.len() * size_of::<BihNode>()) as u64, 128)
-            .await?;
-        ppe.write_pod(node_array, &bih.nodes).await?;
+        let node_array = super::write_nodes(&ppe, &bih.nodes).await?;
         let mut o = out.borrow_mut();
-        o.nodes = vec![(node_array, bih.nodes.len())];
+        o.nodes = vec![node_array];
         o.stats = BuildStats {
             items_partitioned: touched,
             nodes: a.nodes,

@@ -12,9 +12,9 @@ use std::rc::Rc;
 
 use super::layout::TriRecord;
 use super::{Output, Setup};
-use crate::bih::{BihConfig, BihNode};
+use crate::bih::BihConfig;
 use crate::build::host::{BuildStats, build_items};
-use crate::cell::{Cell, CellError, Cycles, Ea};
+use crate::cell::{Cell, CellError, Cycles};
 
 pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<RefCell<Output>>) {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
@@ -31,12 +31,9 @@ pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<Ref
             k.ppe_partition_item.0 * items_partitioned + k.ppe_node.0 * nodes,
         ));
         ppe.write_pod(tris, &items).await?;
-        let node_array: Ea = ppe
-            .alloc((bih.nodes.len() * size_of::<BihNode>()) as u64, 128)
-            .await?;
-        ppe.write_pod(node_array, &bih.nodes).await?;
+        let node_array = super::write_nodes(&ppe, &bih.nodes).await?;
         let mut o = out.borrow_mut();
-        o.nodes = vec![(node_array, bih.nodes.len())];
+        o.nodes = vec![node_array];
         o.stats = stats;
         Ok::<(), CellError>(())
     });

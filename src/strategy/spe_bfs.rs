@@ -422,9 +422,7 @@ impl<'a> SpeBuilder<'a> {
         let [cl, cr] = clip_planes(s.axis, l, r);
         self.emit(job.node, BihNode::inner(children as u32, s.axis, cl, cr))
             .await?;
-        let (mut lc, mut rc) = (cand, cand);
-        lc.max[s.axis] = s.plane;
-        rc.min[s.axis] = s.plane;
+        let [lc, rc] = s.candidates(cand);
         let first = job.first as usize;
         let d = job.depth + 1;
         self.push_job(Job::new(first, l.count, children, d, lc, l))

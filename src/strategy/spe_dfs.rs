@@ -26,7 +26,7 @@ use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode};
 use crate::build::host::BuildStats;
 use crate::build::kernels::{Side, Split, choose_split, clip_planes};
-use crate::cell::{Cell, CellError, Ea};
+use crate::cell::{Cell, CellError};
 
 const STOP: u32 = 0;
 const PARTITION: u32 = 1;
@@ -201,9 +201,7 @@ pub(super) fn spawn(
             nodes.push(BihNode::default());
             let [cl, cr] = clip_planes(split.axis, &l, &r);
             nodes[id] = BihNode::inner(children as u32, split.axis, cl, cr);
-            let (mut lc, mut rc) = (candidate, candidate);
-            lc.max[split.axis] = split.plane;
-            rc.min[split.axis] = split.plane;
+            let [lc, rc] = split.candidates(candidate);
             stack.push((children + 1, first + l.count, r.count, rc, r, depth + 1));
             stack.push((children, first, l.count, lc, l, depth + 1));
         }
@@ -217,13 +215,10 @@ pub(super) fn spawn(
         )
         .await?;
         ppe.send_signal(0, 1, 1).await?;
-        let node_array: Ea = ppe
-            .alloc((nodes.len() * size_of::<BihNode>()) as u64, 128)
-            .await?;
-        ppe.write_pod(node_array, &nodes).await?;
+        let node_array = super::write_nodes(&ppe, &nodes).await?;
         stats.nodes = nodes.len() as u64;
         let mut o = out.borrow_mut();
-        o.nodes = vec![(node_array, nodes.len())];
+        o.nodes = vec![node_array];
         o.stats = stats;
         Ok::<(), CellError>(())
     });
