@@ -72,6 +72,11 @@ impl Aabb {
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
     }
 
+    /// The boxes share at least a point (touching counts).
+    pub fn overlaps(&self, o: &Aabb) -> bool {
+        self.min.cmple(o.max).all() && o.min.cmple(self.max).all()
+    }
+
     pub fn contains_box(&self, o: &Aabb) -> bool {
         self.min.cmple(o.min).all() && o.max.cmple(self.max).all()
     }

@@ -66,8 +66,11 @@ fn animations_are_deterministic_and_move_like_the_papers() {
         Animation::named("rtperf", &rt, 20, 8).unwrap().frames
     );
     assert_eq!(a.frames.len(), 20);
-    // One sphere in 50 per frame; every fifth frame marked only.
+    // One sphere per frame at every size; every fifth frame marked only.
     assert!(a.frames.iter().all(|f| f.len() == 1));
+    let big = scene::load("rtperf:100000:1", None).unwrap();
+    let c = Animation::named("rtperf", &big, 20, 7).unwrap();
+    assert!(c.frames.iter().all(|f| f.len() == 1));
     assert!(a.frames[4].iter().all(Move::is_identity));
     assert!(!a.frames[0].iter().all(Move::is_identity));
 
@@ -101,4 +104,225 @@ fn animations_are_deterministic_and_move_like_the_papers() {
         }
     }
     assert!(Animation::named("walk", &car, 2, 0).is_err());
+}
+
+// ---------------------------------------------------------------------------
+// Algorithm 1 and the deeper update (issue 5, part 2).
+
+mod common;
+
+use cellbih::bih::{BihConfig, Tracer};
+use cellbih::build::BuilderKind;
+use cellbih::scene::{Scene, SplitMix64, Triangle};
+use cellbih::update::{Method, Stop, Updater};
+use common::{check_ray, rays_for};
+use proptest::prelude::*;
+
+/// `objects` clusters of 1 to 24 triangles each, one geometry id per
+/// cluster, at a scale of `10^exp`.
+fn cluster_scene(objects: usize, exp: i32, seed: u64) -> Scene {
+    let mut rng = SplitMix64::new(seed);
+    let s = 10f32.powi(exp);
+    let (mut tris, mut ids, mut names) = (Vec::new(), Vec::new(), Vec::new());
+    for g in 0..objects {
+        let c = Vec3::new(
+            rng.range(0.0, 100.0),
+            rng.range(0.0, 100.0),
+            rng.range(0.0, 100.0),
+        );
+        let size = rng.range(0.1, 4.0);
+        for _ in 0..1 + rng.next_u64() % 24 {
+            let mut p = || {
+                (c + Vec3::new(
+                    rng.range(-size, size),
+                    rng.range(-size, size),
+                    rng.range(-size, size),
+                )) * s
+            };
+            tris.push(Triangle::new(p(), p(), p()));
+            ids.push(g as u32);
+        }
+        names.push(format!("object{g}"));
+    }
+    Scene::new(format!("clusters:{objects}:{exp}:{seed}"), tris, ids, names).unwrap()
+}
+
+/// A frame of moves: each one small, far (out of the scene box), or marked.
+fn frame(rng: &mut SplitMix64, objects: usize, scale: f32) -> Vec<Move> {
+    (0..rng.next_u64() % 4)
+        .map(|_| {
+            let g = (rng.next_u64() % objects as u64) as u32;
+            match rng.next_u64() % 6 {
+                0 => Move::marked(g),
+                1 => Move::translate(g, Vec3::new(rng.range(-150.0, 150.0), 0.0, 0.0) * scale),
+                _ => Move::translate(
+                    g,
+                    Vec3::new(
+                        rng.range(-3.0, 3.0),
+                        rng.range(-3.0, 3.0),
+                        rng.range(-3.0, 3.0),
+                    ) * scale,
+                ),
+            }
+        })
+        .collect()
+}
+
+/// The updated tree is valid for the moved scene and answers every ray as
+/// brute force does.
+fn check(u: &Updater, what: &str) -> Result<(), TestCaseError> {
+    u.bih
+        .validate(&u.scene)
+        .map_err(|v| TestCaseError::fail(format!("{what}: {v}")))?;
+    let tracer = Tracer::new(&u.bih, &u.scene);
+    for ray in rays_for(&u.scene, 48, u.scene.len() as u64) {
+        check_ray(&u.scene, &tracer, &ray)
+            .map_err(|e| TestCaseError::fail(format!("{what}: {e}")))?;
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    #[test]
+    fn updates_keep_the_tree_valid_and_equal_to_brute_force(
+        objects in 1usize..40,
+        exp in prop::sample::select(vec![-15i32, 0, 15]),
+        leaf in 1u32..13,
+        seed in any::<u64>(),
+    ) {
+        let scene = cluster_scene(objects, exp, seed);
+        let cfg = BihConfig { leaf_size: leaf, max_depth: 64 };
+        let scale = 10f32.powi(exp);
+        for &method in Method::ALL {
+            let mut u = Updater::new(scene.clone(), BuilderKind::Host, &cfg, method).unwrap();
+            u.deep_stop_below = (seed % 3) as usize * 8;
+            let mut rng = SplitMix64::new(seed ^ 0x5eed);
+            for f in 0..6 {
+                let moves = frame(&mut rng, objects, scale);
+                let want = apply(&u.scene, &moves).unwrap();
+                let r = u.step(&moves).unwrap();
+                prop_assert_eq!(&u.scene.triangles, &want.triangles);
+                prop_assert_eq!(u.scene.bounds(), want.bounds());
+                prop_assert!(r.rebuilt <= scene.len());
+                check(&u, &format!("{} frame {f}: {moves:?}", method.name()))?;
+            }
+        }
+    }
+}
+
+#[test]
+fn an_empty_update_changes_nothing_and_a_marked_one_keeps_the_answers() {
+    let scene = cluster_scene(30, 0, 3);
+    for &method in Method::ALL {
+        let mut u = Updater::new(
+            scene.clone(),
+            BuilderKind::Host,
+            &BihConfig::default(),
+            method,
+        )
+        .unwrap();
+        let before = u.bih.clone();
+        let r = u.step(&[]).unwrap();
+        assert_eq!(u.bih, before);
+        assert_eq!((r.rebuilt, r.transformed, r.full_rebuild), (0, 0, false));
+        // Marked only: the triangles stay; the tree may be rebuilt but
+        // answers as before.
+        let r = u.step(&[Move::marked(4)]).unwrap();
+        assert_eq!(u.scene.triangles, scene.triangles);
+        assert!(r.transformed > 0 && !r.full_rebuild || method == Method::Rebuild);
+        check(&u, method.name()).unwrap();
+    }
+}
+
+#[test]
+fn algorithm_1_narrows_to_a_small_interval_and_deep_rebuilds_no_more() {
+    // rtPerf of 20,000 triangles, one sphere nudged per frame.
+    let scene = cellbih::scene::load("rtperf:20000:3", None).unwrap();
+    let anim = Animation::named("rtperf", &scene, 30, 1).unwrap();
+    let cfg = BihConfig::default();
+    let mut local = Updater::new(scene.clone(), BuilderKind::Host, &cfg, Method::Local).unwrap();
+    let mut deep = Updater::new(scene.clone(), BuilderKind::Host, &cfg, Method::Deep).unwrap();
+    let (mut l_sum, mut d_sum, mut partial) = (0, 0, 0);
+    for f in &anim.frames {
+        let (l, d) = (local.step(f).unwrap(), deep.step(f).unwrap());
+        assert_eq!(l.full_rebuild, d.full_rebuild);
+        assert_eq!(l.transformed, d.transformed);
+        if !l.full_rebuild {
+            partial += 1;
+            assert_eq!(l.transformed, 200);
+            assert!(l.depth > 0 && l.stop.is_some());
+            assert_eq!(l.rebuilt, l.interval);
+            assert!(d.rebuilt <= d.interval && d.rebuilt + d.kept == d.interval);
+        }
+        l_sum += l.rebuilt;
+        d_sum += d.rebuilt;
+    }
+    assert!(partial >= 25, "only {partial} of 30 frames were partial");
+    // Every partial update touches a small part of the scene, and the deep
+    // update sorts fewer triangles than the paper's.
+    assert!(l_sum < 30 * scene.len() / 4, "local rebuilt {l_sum}");
+    assert!(d_sum < l_sum, "deep {d_sum} vs local {l_sum}");
+    check(&local, "local").unwrap();
+    check(&deep, "deep").unwrap();
+}
+
+#[test]
+fn a_move_that_grows_the_scene_box_rebuilds_everything() {
+    let cup = cellbih::scene::load("cup", None).unwrap();
+    let mut u = Updater::new(cup, BuilderKind::Host, &BihConfig::default(), Method::Local).unwrap();
+    let r = u.step(&[Move::translate(0, Vec3::X * 0.05)]).unwrap();
+    assert!(r.full_rebuild && r.rebuilt == 7040 && r.stop.is_none());
+    // Marked only: the whole glass is the EBB, the root the enclosing node.
+    let r = u.step(&[Move::marked(0)]).unwrap();
+    assert!(!r.full_rebuild);
+    assert_eq!((r.depth, r.rebuilt, r.transformed), (0, 7040, 7040));
+    assert_ne!(r.stop, Some(Stop::Leaf));
+}
+
+#[test]
+fn an_emulated_builder_rebuilds_the_interval_on_the_cell() {
+    // ppe_naive builds the same tree as the host builder, so the two
+    // updaters must agree node for node; the emulated one also reports
+    // simulated time.
+    let scene = cellbih::scene::load("car", None).unwrap();
+    let anim = Animation::named("car", &scene, 6, 0).unwrap();
+    let cfg = BihConfig::default();
+    for method in [Method::Local, Method::Deep] {
+        let mut host = Updater::new(scene.clone(), BuilderKind::Host, &cfg, method).unwrap();
+        let mut cell = Updater::new(scene.clone(), BuilderKind::PpeNaive, &cfg, method).unwrap();
+        for f in &anim.frames {
+            let (h, c) = (host.step(f).unwrap(), cell.step(f).unwrap());
+            assert_eq!(h.rebuilt, c.rebuilt);
+            assert!(h.simulated_ms.is_none());
+            assert!(c.simulated_ms.is_some_and(|ms| ms > 0.0) || c.rebuilt == 0);
+            assert_eq!(host.bih, cell.bih);
+        }
+    }
+}
+
+#[test]
+fn a_bad_move_leaves_the_updater_as_it_was() {
+    let scene = cluster_scene(10, 0, 9);
+    let mut u = Updater::new(
+        scene.clone(),
+        BuilderKind::Host,
+        &BihConfig::default(),
+        Method::Local,
+    )
+    .unwrap();
+    let before = u.bih.clone();
+    let blow_up = Move {
+        geometry: 3,
+        transform: Affine3A::from_scale(Vec3::splat(f32::MAX)),
+    };
+    let e = u
+        .step(&[Move::translate(1, Vec3::ONE), blow_up])
+        .unwrap_err();
+    assert!(e.to_string().contains("non-finite"), "{e}");
+    assert!(u.step(&[Move::translate(99, Vec3::ONE)]).is_err());
+    assert_eq!(u.scene.triangles, scene.triangles);
+    assert_eq!(u.scene.bounds(), scene.bounds());
+    assert_eq!(u.bih, before);
 }

@@ -64,13 +64,18 @@ pub struct BuildStats {
 
 /// Builds the tree of `scene` in one host thread.
 pub fn build(scene: &Scene, cfg: &BihConfig) -> Bih {
+    build_in(scene, scene.bounds(), cfg)
+}
+
+/// [`build`] with `region` as the scene box of the global heuristic.
+pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
     let mut refs: Vec<PrimRef> = scene
         .triangles
         .iter()
         .enumerate()
         .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
         .collect();
-    let (bih, _) = build_items(&mut refs, scene.bounds(), cfg);
+    let (bih, _) = build_items(&mut refs, region, cfg);
     bih
 }
 

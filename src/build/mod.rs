@@ -8,6 +8,7 @@ pub mod kernels;
 
 use std::time::{Duration, Instant};
 
+use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig};
 use crate::cell::{CellConfig, CellError, RunReport};
 use crate::scene::Scene;
@@ -94,11 +95,24 @@ impl BuilderKind {
         cfg: &BihConfig,
         cell: &CellConfig,
     ) -> Result<BuildReport, CellError> {
+        self.build_in(scene, scene.bounds(), cfg, cell)
+    }
+
+    /// Builds the tree of `scene` with `region` (which must contain the
+    /// scene) as the scene box of the global heuristic: what a local update
+    /// does when it rebuilds one node's interval.
+    pub fn build_in(
+        self,
+        scene: &Scene,
+        region: Aabb,
+        cfg: &BihConfig,
+        cell: &CellConfig,
+    ) -> Result<BuildReport, CellError> {
         let start = Instant::now();
         let (bih, simulated) = match self.strategy() {
-            None => (host::build(scene, cfg), None),
+            None => (host::build_in(scene, region, cfg), None),
             Some(s) => {
-                let b = strategy::run(s, scene, cfg, cell)?;
+                let b = strategy::run_in(s, scene, region, cfg, cell)?;
                 (
                     b.bih,
                     Some(Simulated {

@@ -16,7 +16,7 @@ pub(crate) mod rng;
 
 use std::path::{Path, PathBuf};
 
-use glam::{DVec3, Vec3};
+use glam::{Affine3A, DVec3, Vec3};
 use thiserror::Error;
 
 pub use obj::{load_obj_file, parse_obj};
@@ -166,6 +166,61 @@ impl Scene {
 
     pub fn degenerate_count(&self) -> usize {
         self.triangles.iter().filter(|t| t.is_degenerate()).count()
+    }
+
+    /// Moves the triangles `ids` by `transform`, in place, for moving
+    /// objects. The scene box is refreshed incrementally: grown by the moved
+    /// triangles, and recomputed by a full pass only when a moved triangle
+    /// touched the old box (it may have shrunk). A non-finite result is an
+    /// error and leaves the scene as it was.
+    pub fn transform_triangles(
+        &mut self,
+        ids: &[u32],
+        transform: &Affine3A,
+    ) -> Result<(), SceneError> {
+        let moved: Vec<Triangle> = ids
+            .iter()
+            .map(|&i| Triangle {
+                v: self.triangles[i as usize]
+                    .v
+                    .map(|p| transform.transform_point3(p)),
+            })
+            .collect();
+        for (&i, t) in ids.iter().zip(&moved) {
+            for (corner, p) in t.v.iter().enumerate() {
+                if let Some(&value) = p.to_array().iter().find(|c| !c.is_finite()) {
+                    return Err(SceneError::NonFinite {
+                        name: self.name.clone(),
+                        triangle: i as usize,
+                        corner,
+                        value,
+                    });
+                }
+            }
+        }
+        let mut touched = false;
+        for (&i, t) in ids.iter().zip(moved) {
+            let old = self.triangles[i as usize].bounds();
+            touched |= old.min.cmpeq(self.bounds.min).any() || old.max.cmpeq(self.bounds.max).any();
+            self.bounds = self.bounds.union(t.bounds());
+            self.triangles[i as usize] = t;
+        }
+        if touched {
+            self.bounds = self
+                .triangles
+                .iter()
+                .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()));
+        }
+        Ok(())
+    }
+
+    /// Puts back triangles saved before [`Scene::transform_triangles`], and
+    /// the scene box of that time.
+    pub(crate) fn restore(&mut self, saved: Vec<(u32, Triangle)>, bounds: Aabb) {
+        for (i, t) in saved {
+            self.triangles[i as usize] = t;
+        }
+        self.bounds = bounds;
     }
 
     /// Replaces the triangles (same count, same geometry ids), for moving

@@ -72,12 +72,29 @@ pub fn run(
     cfg: &BihConfig,
     cell_cfg: &CellConfig,
 ) -> Result<CellBuild, CellError> {
+    run_in(strategy, scene, scene.bounds(), cfg, cell_cfg)
+}
+
+/// [`run`] with `region` as the scene box of the global heuristic: the
+/// region of one node, when a local update rebuilds that node's interval
+/// (section 3). `region` must contain every triangle of `scene`.
+pub fn run_in(
+    strategy: Strategy,
+    scene: &Scene,
+    region: Aabb,
+    cfg: &BihConfig,
+    cell_cfg: &CellConfig,
+) -> Result<CellBuild, CellError> {
+    assert!(
+        region.contains_box(&scene.bounds()),
+        "the region must contain the scene"
+    );
     let mut cell = Cell::new(cell_cfg.clone())?;
     let triangles = layout::upload(&cell, scene)?;
     let setup = Setup {
         triangles,
         count: scene.len(),
-        region: scene.bounds(),
+        region,
     };
     let out = Rc::new(RefCell::new(Output::default()));
     match strategy {
@@ -102,7 +119,7 @@ pub fn run(
     let bih = Bih {
         nodes,
         prim_ids: records.iter().map(|r| r.id).collect(),
-        bounds: scene.bounds(),
+        bounds: region,
         config: *cfg,
     };
     Ok(CellBuild {

@@ -1,9 +1,368 @@
-//! Updates after objects move (the paper's section 3, issue 5).
+//! Updates after objects move: the paper's intelligent local update
+//! (section 3, Algorithm 1) and the deeper update its section 5 proposes.
 //!
-//! So far: moving objects and the deterministic animations of the paper's
-//! scenes ([`animation`]). Algorithm 1 (the EBB, the enclosing node, the
-//! rebuild of its interval) and the deeper update build on these.
+//! An [`Updater`] holds a scene and its tree. Each [`Updater::step`] takes
+//! one frame of [`Move`]s and brings the tree up to date by one [`Method`]:
+//!
+//! - `local` — the paper's: the EBB of the moved objects' old and new
+//!   states; a complete rebuild if the scene box changed; else Algorithm 1
+//!   finds the enclosing node ([`local`]), the moved triangles are found in
+//!   its interval by geometry id, its subtree is deleted and its interval
+//!   rebuilt with the node's region as the scene box, and grafted in place;
+//! - `deep` — section 5's proposal: below the enclosing node, descend
+//!   further, keep the subtrees the moved geometry does not touch, rebuild
+//!   only the touched ones, and move the kept subtrees' triangle ranges to
+//!   their new places ([`deep`]);
+//! - `rebuild` — a complete rebuild every frame, the reference.
+//!
+//! The rebuilds run on the updater's builder, host or emulated Cell; for an
+//! emulated builder the report carries the simulated time of the rebuilds.
+//!
+//! Node slots freed by deleted subtrees are reused (children come in
+//! adjacent pairs, so the free list holds pairs); the node array never
+//! shrinks, as an ObjectArena's would not.
 
 pub mod animation;
+mod deep;
+pub mod local;
+
+use std::time::Instant;
+
+use serde::Serialize;
+use thiserror::Error;
 
 pub use animation::{Animation, Move, apply};
+pub use local::{Enclosing, Stop, enclosing_node, interval};
+
+use crate::aabb::Aabb;
+use crate::bih::{Bih, BihConfig, BihNode};
+use crate::build::BuilderKind;
+use crate::build::host::{PrimRef, build_items};
+use crate::cell::{CellConfig, CellError};
+use crate::scene::{Scene, SceneError, Triangle};
+
+/// How a frame's moves are brought into the tree.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    Local,
+    Deep,
+    Rebuild,
+}
+
+impl Method {
+    pub const ALL: &'static [Method] = &[Method::Local, Method::Deep, Method::Rebuild];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Local => "local",
+            Method::Deep => "deep",
+            Method::Rebuild => "rebuild",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().copied().find(|m| m.name() == name)
+    }
+}
+
+#[derive(Debug, Error)]
+pub enum UpdateError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error(transparent)]
+    Cell(#[from] CellError),
+}
+
+/// What one frame's update did and cost.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct UpdateReport {
+    /// Moves in the frame, marked-only ones included.
+    pub moves: usize,
+    /// The tree was rebuilt completely (the method, or the scene box changed).
+    pub full_rebuild: bool,
+    /// Triangles of the moved objects (the paper's "trans").
+    pub transformed: usize,
+    /// Triangles the builder sorted (the paper's "rec").
+    pub rebuilt: usize,
+    /// Depth of the enclosing node (the paper's "trav"); 0 on a rebuild.
+    pub depth: u32,
+    /// Why Algorithm 1 stopped, if it ran.
+    pub stop: Option<Stop>,
+    /// Size of the enclosing node's interval.
+    pub interval: usize,
+    /// Deep update: triangles in subtrees kept as they were.
+    pub kept: usize,
+    /// Deep update: triangle slots of kept subtrees copied to a new place.
+    pub moved_slots: usize,
+    /// Deep update: leaves of kept subtrees whose first slot was adjusted.
+    pub leaves_adjusted: usize,
+    /// Subtrees rebuilt (1 for local, 1 or more for deep).
+    pub pieces: usize,
+    /// Host wall time of the whole update, moving the triangles included.
+    pub host_ms: f64,
+    /// Simulated Cell time of the rebuilds, for an emulated builder.
+    pub simulated_ms: Option<f64>,
+}
+
+/// A scene, its tree, and how the tree follows moving objects.
+pub struct Updater {
+    pub scene: Scene,
+    pub bih: Bih,
+    pub builder: BuilderKind,
+    pub method: Method,
+    pub cell: CellConfig,
+    /// Deep update: a touched subtree of at most this many triangles is
+    /// rebuilt whole instead of descended into.
+    pub deep_stop_below: usize,
+    /// Triangle ids of each geometry id.
+    members: Vec<Vec<u32>>,
+    /// First slot of each free pair of node slots.
+    free: Vec<u32>,
+}
+
+/// The default of [`Updater::deep_stop_below`]: four leaves' worth.
+pub const DEEP_STOP_BELOW: usize = 48;
+
+impl Updater {
+    /// Builds the first tree of `scene` with `builder` (on the PS3 model if
+    /// it is emulated).
+    pub fn new(
+        scene: Scene,
+        builder: BuilderKind,
+        cfg: &BihConfig,
+        method: Method,
+    ) -> Result<Self, UpdateError> {
+        let cell = CellConfig::ps3();
+        let bih = builder.build_on(&scene, cfg, &cell)?.bih;
+        let mut members = vec![Vec::new(); scene.geometry_names.len()];
+        for (i, &g) in scene.geometry_ids.iter().enumerate() {
+            members[g as usize].push(i as u32);
+        }
+        Ok(Updater {
+            scene,
+            bih,
+            builder,
+            method,
+            cell,
+            deep_stop_below: DEEP_STOP_BELOW,
+            members,
+            free: Vec::new(),
+        })
+    }
+
+    /// Applies one frame of moves to the scene and brings the tree up to
+    /// date. On an error (an unknown geometry, a non-finite result) nothing
+    /// has changed.
+    pub fn step(&mut self, moves: &[Move]) -> Result<UpdateReport, UpdateError> {
+        let start = Instant::now();
+        let mut r = UpdateReport {
+            moves: moves.len(),
+            ..UpdateReport::default()
+        };
+        if moves.is_empty() {
+            r.host_ms = ms(start);
+            return Ok(r);
+        }
+        // The EBB: the moved objects' boxes before and after the moves.
+        let mut moved = vec![false; self.members.len()];
+        let mut ebb = Aabb::EMPTY;
+        for m in moves {
+            animation::check_geometry(&self.scene, m.geometry)?;
+            if !std::mem::replace(&mut moved[m.geometry as usize], true) {
+                r.transformed += self.members[m.geometry as usize].len();
+                ebb = ebb.union(self.geometry_box(m.geometry));
+            }
+        }
+        let (saved, saved_box) = (self.moved_triangles(&moved), self.scene.bounds());
+        for m in moves.iter().filter(|m| !m.is_identity()) {
+            if let Err(e) = self
+                .scene
+                .transform_triangles(&self.members[m.geometry as usize], &m.transform)
+            {
+                self.scene.restore(saved, saved_box);
+                return Err(e.into());
+            }
+        }
+        for (g, _) in moved.iter().enumerate().filter(|(_, m)| **m) {
+            ebb = ebb.union(self.geometry_box(g as u32));
+        }
+
+        if self.method == Method::Rebuild || self.scene.bounds() != self.bih.bounds {
+            self.full_rebuild(&mut r)?;
+        } else {
+            let enc = enclosing_node(&mut self.bih, &ebb);
+            r.depth = enc.depth;
+            r.stop = Some(enc.stop);
+            let (first, end) = interval(&self.bih, enc.node);
+            r.interval = end - first;
+            // Find the moved objects' triangles in the interval by geometry
+            // id (their coordinates were replaced in the scene above).
+            let moved_slots: Vec<usize> = (first..end)
+                .filter(|&s| moved[self.scene.geometry_ids[self.bih.prim_ids[s] as usize] as usize])
+                .collect();
+            assert_eq!(
+                moved_slots.len(),
+                r.transformed,
+                "Algorithm 1 lost moved triangles: the enclosing node's interval \
+                 must hold every one"
+            );
+            match self.method {
+                Method::Local => {
+                    let ids = self.bih.prim_ids[first..end].to_vec();
+                    self.rebuild_piece(enc.node, first, &ids, enc.region, enc.depth, &mut r)?;
+                }
+                Method::Deep => deep::update(self, &enc, (first, end), &moved_slots, &mut r)?,
+                Method::Rebuild => unreachable!(),
+            }
+        }
+        r.host_ms = ms(start);
+        Ok(r)
+    }
+
+    fn full_rebuild(&mut self, r: &mut UpdateReport) -> Result<(), UpdateError> {
+        let b = self
+            .builder
+            .build_on(&self.scene, &self.bih.config, &self.cell)?;
+        self.bih = b.bih;
+        self.free.clear();
+        r.full_rebuild = true;
+        r.rebuilt = self.scene.len();
+        r.pieces = 1;
+        r.simulated_ms = b.simulated.map(|s| s.run.ms);
+        Ok(())
+    }
+
+    /// The triangles of the geometries flagged in `moved`, with their ids.
+    fn moved_triangles(&self, moved: &[bool]) -> Vec<(u32, Triangle)> {
+        let flagged = moved.iter().enumerate().filter(|(_, m)| **m);
+        flagged
+            .flat_map(|(g, _)| &self.members[g])
+            .map(|&i| (i, self.scene.triangles[i as usize]))
+            .collect()
+    }
+
+    /// The box of geometry `g`'s triangles as they are now.
+    fn geometry_box(&self, g: u32) -> Aabb {
+        self.members[g as usize].iter().fold(Aabb::EMPTY, |b, &i| {
+            b.union(self.scene.triangles[i as usize].bounds())
+        })
+    }
+
+    /// Deletes the subtree at `node`, builds one over the triangles `ids`
+    /// with `region` as its scene box, and grafts it at `node` with its
+    /// triangles at slots `first ..`.
+    fn rebuild_piece(
+        &mut self,
+        node: u32,
+        first: usize,
+        ids: &[u32],
+        region: Aabb,
+        depth: u32,
+        r: &mut UpdateReport,
+    ) -> Result<(), UpdateError> {
+        let cfg = BihConfig {
+            max_depth: self.bih.config.max_depth - depth,
+            ..self.bih.config
+        };
+        let (piece, simulated) = self.build_piece(ids, region, &cfg)?;
+        self.free_subtree(node);
+        self.graft(node, &piece, first as u32);
+        r.rebuilt += ids.len();
+        r.pieces += 1;
+        if let Some(ms) = simulated {
+            *r.simulated_ms.get_or_insert(0.0) += ms;
+        }
+        Ok(())
+    }
+
+    /// A tree over the triangles `ids` (global ids, leaves from slot 0), by
+    /// the updater's builder, and its simulated time if emulated.
+    fn build_piece(
+        &self,
+        ids: &[u32],
+        region: Aabb,
+        cfg: &BihConfig,
+    ) -> Result<(Bih, Option<f64>), UpdateError> {
+        if ids.is_empty() {
+            let empty = Bih {
+                nodes: vec![BihNode::leaf(0, 0)],
+                prim_ids: Vec::new(),
+                bounds: region,
+                config: *cfg,
+            };
+            return Ok((empty, None));
+        }
+        if self.builder == BuilderKind::Host {
+            let mut refs: Vec<PrimRef> = ids
+                .iter()
+                .map(|&i| PrimRef::new(i, self.scene.triangles[i as usize].bounds()))
+                .collect();
+            return Ok((build_items(&mut refs, region, cfg).0, None));
+        }
+        let sub = Scene::new(
+            format!("{} (interval)", self.scene.name),
+            ids.iter()
+                .map(|&i| self.scene.triangles[i as usize])
+                .collect(),
+            ids.iter()
+                .map(|&i| self.scene.geometry_ids[i as usize])
+                .collect(),
+            self.scene.geometry_names.clone(),
+        )?;
+        let b = self.builder.build_in(&sub, region, cfg, &self.cell)?;
+        let mut bih = b.bih;
+        for p in &mut bih.prim_ids {
+            *p = ids[*p as usize];
+        }
+        Ok((bih, b.simulated.map(|s| s.run.ms)))
+    }
+
+    /// Puts the descendants of `node` on the free list.
+    fn free_subtree(&mut self, node: u32) {
+        let mut stack = vec![node];
+        while let Some(id) = stack.pop() {
+            let n = self.bih.nodes[id as usize];
+            if !n.is_leaf() {
+                let c = n.left_child();
+                self.free.push(c);
+                stack.extend([c, c + 1]);
+            }
+        }
+    }
+
+    /// A free pair of node slots, reused or appended.
+    fn alloc_pair(&mut self) -> u32 {
+        self.free.pop().unwrap_or_else(|| {
+            let c = self.bih.nodes.len() as u32;
+            self.bih.nodes.extend([BihNode::default(); 2]);
+            c
+        })
+    }
+
+    /// Writes `piece` into the tree: its root at `at` (the split axis and
+    /// child pointer change with it), its other nodes in free pairs, its
+    /// leaves shifted to start at slot `first`.
+    fn graft(&mut self, at: u32, piece: &Bih, first: u32) {
+        let mut stack = vec![(0u32, at)];
+        while let Some((src, dst)) = stack.pop() {
+            let n = piece.nodes[src as usize];
+            self.bih.nodes[dst as usize] = if n.is_leaf() {
+                let (f, c) = n.leaf_range();
+                BihNode::leaf(f + first, c)
+            } else {
+                let pair = self.alloc_pair();
+                let [cl, cr] = n.clip();
+                stack.push((n.left_child(), pair));
+                stack.push((n.left_child() + 1, pair + 1));
+                BihNode::inner(pair, n.axis(), cl, cr)
+            };
+        }
+        let f = first as usize;
+        self.bih.prim_ids[f..f + piece.prim_ids.len()].copy_from_slice(&piece.prim_ids);
+    }
+}
+
+fn ms(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}

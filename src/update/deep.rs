@@ -1,0 +1,208 @@
+//! The deeper update that the paper's section 5 proposes: below the
+//! enclosing node of Algorithm 1, descend further and keep every subtree the
+//! moved geometry does not touch; rebuild only the touched ones.
+//!
+//! At a node, each moved triangle (in its new state) is routed to the child
+//! whose interval contains its box (when both do, to the side of the middle
+//! between the two clip planes its center lies on). A child that neither
+//! held a moved triangle nor receives one is *kept*. The descent stops, and
+//! the node is rebuilt over its unmoved triangles plus those routed to it,
+//! at a leaf, at a node of at most [`Updater::deep_stop_below`] triangles,
+//! or where a moved triangle fits in neither child's interval. The kept
+//! subtrees' clip planes stay as they were, so every triangle still lies
+//! within its ancestors' planes.
+//!
+//! The index bookkeeping the paper warns of: moved triangles leave one
+//! subtree's range of the triangle order and join another's, so the ranges
+//! between them shift. Within the enclosing node's interval (the count there
+//! is unchanged) the pieces are laid out again in tree order: a kept
+//! subtree's range is copied to its new place and its leaves' first slots
+//! are adjusted; a rebuilt subtree is written where its range now starts.
+
+use super::{Enclosing, UpdateError, UpdateReport, Updater, interval};
+use crate::aabb::Aabb;
+use crate::bih::BihNode;
+
+/// The plan for one subtree below the enclosing node.
+enum Piece {
+    /// Kept as it is; its triangles were at slots `first .. end`.
+    Keep { node: u32, first: usize, end: usize },
+    /// Rebuilt over `ids`, with `region` as its scene box.
+    Rebuild {
+        node: u32,
+        ids: Vec<u32>,
+        region: Aabb,
+        depth: u32,
+    },
+    /// The node kept, its children updated.
+    Inner(Box<Piece>, Box<Piece>),
+}
+
+/// Brings the subtree of `enc.node`, whose interval is `first .. end` and
+/// whose moved triangles sit at `moved_slots`, up to date.
+pub(super) fn update(
+    up: &mut Updater,
+    enc: &Enclosing,
+    (first, end): (usize, usize),
+    moved_slots: &[usize],
+    r: &mut UpdateReport,
+) -> Result<(), UpdateError> {
+    let moved_in: Vec<u32> = moved_slots.iter().map(|&s| up.bih.prim_ids[s]).collect();
+    let span = Span {
+        node: enc.node,
+        region: enc.region,
+        first,
+        end,
+        depth: enc.depth,
+    };
+    let plan = plan(up, span, moved_slots, moved_in);
+    let old = up.bih.prim_ids[first..end].to_vec();
+    let mut pos = first;
+    lay_out(up, plan, &old, first, &mut pos, r)?;
+    debug_assert_eq!(pos, end, "the interval's size changed");
+    Ok(())
+}
+
+#[derive(Clone, Copy)]
+struct Span {
+    node: u32,
+    region: Aabb,
+    first: usize,
+    end: usize,
+    depth: u32,
+}
+
+/// Plans the subtree `s`: `moved_slots` are the slots in it that hold moved
+/// triangles (sorted), `moved_in` the moved triangles routed to it.
+fn plan(up: &Updater, s: Span, moved_slots: &[usize], moved_in: Vec<u32>) -> Piece {
+    if moved_slots.is_empty() && moved_in.is_empty() {
+        return Piece::Keep {
+            node: s.node,
+            first: s.first,
+            end: s.end,
+        };
+    }
+    let node = up.bih.nodes[s.node as usize];
+    let size = s.end - s.first - moved_slots.len() + moved_in.len();
+    if node.is_leaf() || size <= up.deep_stop_below {
+        return rebuild(up, s, moved_slots, moved_in);
+    }
+    let a = node.axis();
+    let [cl, cr] = node.clip();
+    let (mut lr, mut rr) = (s.region, s.region);
+    lr.max[a] = lr.max[a].min(cl);
+    rr.min[a] = rr.min[a].max(cr);
+    let middle = cl * 0.5 + cr * 0.5;
+    let (mut to_left, mut to_right) = (Vec::new(), Vec::new());
+    for &id in &moved_in {
+        let b = up.scene.triangles[id as usize].bounds();
+        let left = match (lr.contains_box(&b), rr.contains_box(&b)) {
+            (true, false) => true,
+            (false, true) => false,
+            (true, true) => b.center()[a] <= middle,
+            (false, false) => return rebuild(up, s, moved_slots, moved_in),
+        };
+        if left { &mut to_left } else { &mut to_right }.push(id);
+    }
+    let c = node.left_child();
+    let (lf, mid) = interval(&up.bih, c);
+    debug_assert_eq!((lf, interval(&up.bih, c + 1)), (s.first, (mid, s.end)));
+    let k = moved_slots.partition_point(|&slot| slot < mid);
+    let child = |node, region, first, end| Span {
+        node,
+        region,
+        first,
+        end,
+        depth: s.depth + 1,
+    };
+    Piece::Inner(
+        Box::new(plan(
+            up,
+            child(c, lr, s.first, mid),
+            &moved_slots[..k],
+            to_left,
+        )),
+        Box::new(plan(
+            up,
+            child(c + 1, rr, mid, s.end),
+            &moved_slots[k..],
+            to_right,
+        )),
+    )
+}
+
+/// The subtree `s` rebuilt over its unmoved triangles and `moved_in`.
+fn rebuild(up: &Updater, s: Span, moved_slots: &[usize], moved_in: Vec<u32>) -> Piece {
+    let mut ids = Vec::with_capacity(s.end - s.first - moved_slots.len() + moved_in.len());
+    let mut k = 0;
+    for slot in s.first..s.end {
+        if moved_slots.get(k) == Some(&slot) {
+            k += 1;
+        } else {
+            ids.push(up.bih.prim_ids[slot]);
+        }
+    }
+    ids.extend(moved_in);
+    Piece::Rebuild {
+        node: s.node,
+        ids,
+        region: s.region,
+        depth: s.depth,
+    }
+}
+
+/// Carries out `piece`, its triangles from slot `*pos` on; `old` holds the
+/// interval's triangle order as it was, from slot `base`.
+fn lay_out(
+    up: &mut Updater,
+    piece: Piece,
+    old: &[u32],
+    base: usize,
+    pos: &mut usize,
+    r: &mut UpdateReport,
+) -> Result<(), UpdateError> {
+    match piece {
+        Piece::Keep { node, first, end } => {
+            let len = end - first;
+            if *pos != first {
+                up.bih.prim_ids[*pos..*pos + len].copy_from_slice(&old[first - base..end - base]);
+                r.leaves_adjusted +=
+                    shift_leaves(&mut up.bih.nodes, node, *pos as i64 - first as i64);
+                r.moved_slots += len;
+            }
+            r.kept += len;
+            *pos += len;
+        }
+        Piece::Rebuild {
+            node,
+            ids,
+            region,
+            depth,
+        } => {
+            up.rebuild_piece(node, *pos, &ids, region, depth, r)?;
+            *pos += ids.len();
+        }
+        Piece::Inner(left, right) => {
+            lay_out(up, *left, old, base, pos, r)?;
+            lay_out(up, *right, old, base, pos, r)?;
+        }
+    }
+    Ok(())
+}
+
+/// Adds `delta` to the first slot of every leaf below `node`; returns how
+/// many leaves there were.
+fn shift_leaves(nodes: &mut [BihNode], node: u32, delta: i64) -> usize {
+    let (mut stack, mut leaves) = (vec![node], 0);
+    while let Some(id) = stack.pop() {
+        let n = nodes[id as usize];
+        if n.is_leaf() {
+            let (f, c) = n.leaf_range();
+            nodes[id as usize] = BihNode::leaf((f as i64 + delta) as u32, c);
+            leaves += 1;
+        } else {
+            stack.extend([n.left_child(), n.left_child() + 1]);
+        }
+    }
+    leaves
+}
