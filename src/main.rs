@@ -16,6 +16,7 @@ use cellbih::bih::{BihConfig, RayStats, Tracer};
 use cellbih::build::{BuildReport, BuilderKind};
 use cellbih::render::{Camera, trace};
 use cellbih::scene::{self, Scene};
+use cellbih::update::{Animation, Method, Summary, Updater};
 use cellbih::{rays_csv, render};
 
 #[derive(Parser)]
@@ -108,6 +109,31 @@ enum Command {
         #[arg(long, default_value_t = 600)]
         height: u32,
     },
+    /// Moves objects frame by frame and keeps the tree up to date (the
+    /// paper's local update, the deeper update, or complete rebuilds).
+    Update {
+        #[command(flatten)]
+        scene: SceneArg,
+        #[command(flatten)]
+        build: BuildArgs,
+        /// rtperf (one sphere nudged per frame), car (parts out and back)
+        /// or cup (the glass moved: every real move grows the scene box).
+        #[arg(long)]
+        animation: String,
+        #[arg(long, default_value_t = 20)]
+        frames: usize,
+        /// local (Algorithm 1) | deep (section 5) | rebuild (every frame).
+        #[arg(long, default_value = "local")]
+        strategy: String,
+        /// Deep update: rebuild a touched subtree whole when it holds at
+        /// most this many triangles.
+        #[arg(long, default_value_t = cellbih::update::DEEP_STOP_BELOW)]
+        deep_stop_below: usize,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        #[arg(long, value_enum, default_value = "text")]
+        format: Format,
+    },
     /// The names --builder accepts.
     Builders,
 }
@@ -137,6 +163,26 @@ fn run(cli: Cli) -> Res<()> {
             Ok(())
         }
         Some(Command::Info { scene, format }) => info(&load(&scene)?, format),
+        Some(Command::Update {
+            scene,
+            build,
+            animation,
+            frames,
+            strategy,
+            deep_stop_below,
+            seed,
+            format,
+        }) => {
+            let s = load(&scene)?;
+            let (builder, cfg) = parse_build(&build)?;
+            let method = Method::from_name(&strategy).ok_or_else(|| {
+                format!("unknown --strategy '{strategy}': local, deep or rebuild")
+            })?;
+            let anim = Animation::named(&animation, &s, frames, seed)?;
+            let mut u = Updater::new(s, builder, &cfg, method)?;
+            u.deep_stop_below = deep_stop_below;
+            update(&mut u, &anim, format)
+        }
         Some(Command::Build {
             scene,
             build,
@@ -266,6 +312,76 @@ fn parse_build(args: &BuildArgs) -> Res<(BuilderKind, BihConfig)> {
         max_depth: args.max_depth,
     };
     Ok((builder, cfg))
+}
+
+fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
+    let text = matches!(format, Format::Text);
+    if text {
+        println!(
+            "{} on {} ({} triangles), {} update, builder {}",
+            anim.name,
+            u.scene.name,
+            u.scene.len(),
+            u.method.name(),
+            u.builder
+        );
+        println!(
+            "{:>5} {:>5} {:>8} {:>5} {:>13} {:>7} {:>7} {:>7} {:>9} {:>9}",
+            "frame", "moves", "kind", "depth", "stop", "trans", "rec", "kept", "host ms", "sim ms"
+        );
+    }
+    let mut reports = Vec::with_capacity(anim.frames.len());
+    for (f, moves) in anim.frames.iter().enumerate() {
+        let r = u.step(moves)?;
+        if text {
+            let kind = match (r.full_rebuild, moves.iter().all(|m| m.is_identity())) {
+                (true, _) => "rebuild",
+                (false, true) => "marked",
+                (false, false) => "partial",
+            };
+            let stop = r.stop.map_or("-".to_string(), |s| format!("{s:?}"));
+            let sim = r.simulated_ms.map_or("-".into(), |ms| format!("{ms:.3}"));
+            println!(
+                "{f:>5} {:>5} {kind:>8} {:>5} {stop:>13} {:>7} {:>7} {:>7} {:>9.3} {sim:>9}",
+                r.moves, r.depth, r.transformed, r.rebuilt, r.kept, r.host_ms
+            );
+        }
+        reports.push(r);
+    }
+    let sum = Summary::of(&reports);
+    let sah = u.bih.quality().sah_cost;
+    let fresh = cellbih::build::host::build(&u.scene, &u.bih.config)
+        .quality()
+        .sah_cost;
+    if text {
+        println!(
+            "\nupdates {} · complete rebuilds {} · ratio {:.2}",
+            sum.updates, sum.rebuilds, sum.ratio
+        );
+        let [lo, hi, avg] = sum.host_ms;
+        println!("host ms per frame: min {lo:.3} · max {hi:.3} · mean {avg:.3}");
+        if let Some([lo, hi, avg]) = sum.simulated_ms {
+            println!("simulated ms per frame: min {lo:.3} · max {hi:.3} · mean {avg:.3}");
+        }
+        println!(
+            "mean triangles: transformed {:.1} · rebuilt {:.1} · difference {:.1} · kept {:.1}; mean depth {:.2}",
+            sum.transformed, sum.rebuilt, sum.delta, sum.kept, sum.depth
+        );
+        println!(
+            "SAH cost after the last frame {sah:.2}, of a fresh build {fresh:.2} ({:+.1}%)",
+            (sah / fresh - 1.0) * 100.0
+        );
+    } else {
+        println!(
+            "{}",
+            json!({
+                "scene": u.scene.name, "triangles": u.scene.len(), "animation": anim.name,
+                "method": u.method, "builder": u.builder.name(), "frames": reports,
+                "summary": sum, "sah_after": sah, "sah_fresh_build": fresh,
+            })
+        );
+    }
+    Ok(())
 }
 
 fn info(s: &Scene, format: Format) -> Res<()> {

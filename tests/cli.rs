@@ -259,3 +259,73 @@ fn cargo_run_has_a_default_binary() {
         "Cargo.toml must say default-run = \"cellbih\""
     );
 }
+
+#[test]
+fn update_prints_frames_and_a_summary() {
+    let out = cellbih(&[
+        "update",
+        "--scene",
+        "car",
+        "--animation",
+        "car",
+        "--frames",
+        "8",
+        "--strategy",
+        "deep",
+        "--format",
+        "json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let frames = v["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 8);
+    assert_eq!(v["method"], "deep");
+    let s = &v["summary"];
+    assert_eq!(
+        s["updates"].as_u64().unwrap() + s["rebuilds"].as_u64().unwrap(),
+        8
+    );
+    // Every frame moves one car part; a deep update rebuilds less than all.
+    for f in frames {
+        assert!(f["transformed"].as_u64().unwrap() > 0);
+        assert!(f["rebuilt"].as_u64().unwrap() <= 22_152);
+    }
+    assert!(v["sah_after"].as_f64().unwrap() > 0.0);
+
+    // Text, on an emulated builder: simulated time is shown.
+    let out = cellbih(&[
+        "update",
+        "--scene",
+        "cup",
+        "--animation",
+        "cup",
+        "--frames",
+        "3",
+        "--builder",
+        "spe_bfs",
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && text.contains("simulated ms per frame"),
+        "{text}"
+    );
+    assert!(text.contains("complete rebuilds 3"), "{text}");
+
+    for (args, msg) in [
+        (&["--animation", "walk"][..], "unknown animation 'walk'"),
+        (
+            &["--animation", "car", "--strategy", "fast"][..],
+            "unknown --strategy 'fast'",
+        ),
+    ] {
+        let mut a = vec!["update", "--scene", "car"];
+        a.extend_from_slice(args);
+        let out = cellbih(&a);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(msg), "{err}");
+    }
+}

@@ -105,6 +105,65 @@ pub struct UpdateReport {
     pub simulated_ms: Option<f64>,
 }
 
+/// A run of frames summed up as the paper's Table 2 sums them up.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Summary {
+    pub frames: usize,
+    /// Frames brought up to date without a complete rebuild ("updates").
+    pub updates: usize,
+    /// Frames that rebuilt the tree completely ("rebuilds").
+    pub rebuilds: usize,
+    /// updates / rebuilds ("ratio"); infinite if nothing was rebuilt.
+    pub ratio: f64,
+    /// Host time per frame: min, max, mean ("tmin", "tmax", "t"), in ms.
+    pub host_ms: [f64; 3],
+    /// Simulated Cell time per frame, same order, for emulated builders.
+    pub simulated_ms: Option<[f64; 3]>,
+    /// Mean transformed triangles ("trans").
+    pub transformed: f64,
+    /// Mean triangles used for rebuilds ("rec").
+    pub rebuilt: f64,
+    /// Mean of rebuilt − transformed ("Δ").
+    pub delta: f64,
+    /// Mean depth of the enclosing node ("trav"), 0 for complete rebuilds.
+    pub depth: f64,
+    /// Deep update: mean triangles kept in place, and mean slots moved.
+    pub kept: f64,
+    pub moved_slots: f64,
+}
+
+impl Summary {
+    /// Sums up the reports of frames that had moves (empty frames are
+    /// no updates at all).
+    pub fn of(reports: &[UpdateReport]) -> Summary {
+        let r: Vec<&UpdateReport> = reports.iter().filter(|r| r.moves > 0).collect();
+        let n = r.len().max(1) as f64;
+        let mean = |f: &dyn Fn(&UpdateReport) -> f64| r.iter().map(|x| f(x)).sum::<f64>() / n;
+        let spread = |v: Vec<f64>| {
+            let min = v.iter().copied().fold(f64::INFINITY, f64::min);
+            let max = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            [min, max, v.iter().sum::<f64>() / v.len().max(1) as f64]
+        };
+        let rebuilds = r.iter().filter(|x| x.full_rebuild).count();
+        let updates = r.len() - rebuilds;
+        let sim: Option<Vec<f64>> = r.iter().map(|x| x.simulated_ms).collect();
+        Summary {
+            frames: r.len(),
+            updates,
+            rebuilds,
+            ratio: updates as f64 / rebuilds as f64,
+            host_ms: spread(r.iter().map(|x| x.host_ms).collect()),
+            simulated_ms: sim.filter(|v| !v.is_empty()).map(spread),
+            transformed: mean(&|x| x.transformed as f64),
+            rebuilt: mean(&|x| x.rebuilt as f64),
+            delta: mean(&|x| x.rebuilt as f64 - x.transformed as f64),
+            depth: mean(&|x| x.depth as f64),
+            kept: mean(&|x| x.kept as f64),
+            moved_slots: mean(&|x| x.moved_slots as f64),
+        }
+    }
+}
+
 /// A scene, its tree, and how the tree follows moving objects.
 pub struct Updater {
     pub scene: Scene,
