@@ -19,7 +19,7 @@ use serde_json::json;
 
 use cellbih::bih::BihConfig;
 use cellbih::build::BuilderKind;
-use cellbih::report::{output, write_csv, write_json};
+use cellbih::report::{output, write_json, write_rows_csv};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -147,35 +147,22 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:40}\r", "");
     }
-    let csv: Vec<String> = rows
-        .iter()
-        .map(|r| {
-            let f = |k: &str| match &r[k] {
-                serde_json::Value::Null => String::new(),
-                serde_json::Value::String(s) => s.clone(),
-                v => v.to_string(),
-            };
-            [
-                "model",
-                "triangles",
-                "stand_in",
-                "method",
-                "simulated_ms",
-                "paper_ms",
-                "ratio",
-                "speedup",
-                "paper_speedup",
-                "host_ms",
-            ]
-            .map(f)
-            .join(",")
-        })
-        .collect();
     let io = |e: std::io::Error| e.to_string();
-    write_csv(
+    write_rows_csv(
         &output(&args.out, "table1.csv").map_err(io)?,
-        "model,triangles,stand_in,method,simulated_ms,paper_ms,ratio,speedup,paper_speedup,host_ms",
-        &csv,
+        &[
+            "model",
+            "triangles",
+            "stand_in",
+            "method",
+            "simulated_ms",
+            "paper_ms",
+            "ratio",
+            "speedup",
+            "paper_speedup",
+            "host_ms",
+        ],
+        &rows,
     )
     .map_err(io)?;
     let doc = json!({ "rows": rows, "note": "simulated_ms on the PS3 model; paper_ms null = out of memory in the paper" });

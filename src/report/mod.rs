@@ -31,6 +31,29 @@ pub fn write_csv(path: &Path, header: &str, rows: &[String]) -> std::io::Result<
     Ok(())
 }
 
+/// Writes the fields `keys` of JSON objects `rows` as a CSV file (null is
+/// an empty cell, strings unquoted).
+pub fn write_rows_csv(
+    path: &Path,
+    keys: &[&str],
+    rows: &[serde_json::Value],
+) -> std::io::Result<()> {
+    let lines: Vec<String> = rows
+        .iter()
+        .map(|r| {
+            keys.iter()
+                .map(|&k| match &r[k] {
+                    serde_json::Value::Null => String::new(),
+                    serde_json::Value::String(s) => s.clone(),
+                    v => v.to_string(),
+                })
+                .collect::<Vec<_>>()
+                .join(",")
+        })
+        .collect();
+    write_csv(path, &keys.join(","), &lines)
+}
+
 /// Writes `value` as pretty JSON.
 pub fn write_json(path: &Path, value: &serde_json::Value) -> std::io::Result<()> {
     std::fs::write(path, serde_json::to_string_pretty(value)?)

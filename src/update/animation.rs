@@ -107,7 +107,7 @@ impl Animation {
                 })
                 .collect(),
             // carVis: parts other than the body (geometry 0) move out from
-            // the car's center by 0.3 units on one frame and back on the
+            // the car's center by 0.05 units on one frame and back on the
             // next; every seventh frame is marked only.
             "car" => {
                 let center = scene.bounds().center();
@@ -115,7 +115,7 @@ impl Animation {
                     .map(|f| {
                         let g = 1 + (f / 2) as u32 % (geometries - 1).max(1);
                         let g = g.min(geometries - 1);
-                        let out = (part_center(scene, g) - center).normalize_or_zero() * 0.3;
+                        let out = (part_center(scene, g) - center).normalize_or_zero() * 0.05;
                         if f % 7 == 6 {
                             vec![Move::marked(g)]
                         } else if f % 2 == 0 {

@@ -1,0 +1,355 @@
+//! Fig. 3 of the paper: the local update on rtPerf from 10k to 100k
+//! triangles, and the same for the deeper update of section 5.
+//!
+//! `cargo run --release --bin partial_rebuild -- [--frames 100] [--no-sim] [--out results]`
+//!
+//! For each size, one sphere (200 triangles) is nudged per frame (every
+//! fifth move marked only), as `Animation::named("rtperf")` gives it.
+//! Panel (a): triangles transformed, triangles used for reconstruction, and
+//! their difference (means over the frames). Panel (b): minimum, mean and
+//! maximum update time beside the time of a complete rebuild — host time
+//! (host builder, one thread) and simulated Cell time (the rebuilds run on
+//! the breadth-first SPE builder, the baseline). Writes
+//! partial_rebuild.{csv,json} and fig3a_{local,deep}.svg,
+//! fig3b_{local,deep}.svg, fig3b_{local,deep}_simulated.svg.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Parser;
+use serde_json::{Value, json};
+
+use cellbih::bih::BihConfig;
+use cellbih::build::{BuilderKind, host};
+use cellbih::report::{Series, line_plot, output, write_json, write_rows_csv};
+use cellbih::scene::procedural::rtperf;
+use cellbih::update::{Animation, Method, Summary, UpdateReport, Updater};
+
+#[derive(Parser)]
+struct Args {
+    /// Smallest scene, in triangles.
+    #[arg(long, default_value_t = 10_000)]
+    from: usize,
+    /// Largest scene, in triangles.
+    #[arg(long, default_value_t = 100_000)]
+    to: usize,
+    #[arg(long, default_value_t = 10_000)]
+    step: usize,
+    /// Frames (moves) per scene size.
+    #[arg(long, default_value_t = 100)]
+    frames: usize,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Host times only: skip the emulated (simulated-time) runs.
+    #[arg(long)]
+    no_sim: bool,
+    /// text (a table) or json (the rows).
+    #[arg(long, default_value = "text")]
+    format: String,
+    /// Directory for the CSV, JSON and SVG files.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+}
+
+fn main() {
+    let args = Args::parse();
+    if let Err(e) = run(&args) {
+        eprintln!("partial_rebuild: {e}");
+        std::process::exit(1);
+    }
+}
+
+/// Runs `anim` on a fresh updater and returns every frame's report.
+fn frames(
+    scene: &cellbih::scene::Scene,
+    anim: &Animation,
+    builder: BuilderKind,
+    method: Method,
+) -> Result<Vec<UpdateReport>, String> {
+    let mut u = Updater::new(scene.clone(), builder, &BihConfig::default(), method)
+        .map_err(|e| e.to_string())?;
+    anim.frames
+        .iter()
+        .map(|m| u.step(m).map_err(|e| e.to_string()))
+        .collect()
+}
+
+/// Median of the host times of frames that were not complete rebuilds.
+fn median_partial_ms(reports: &[UpdateReport]) -> Option<f64> {
+    let mut t: Vec<f64> = reports
+        .iter()
+        .filter(|r| !r.full_rebuild && r.moves > 0)
+        .map(|r| r.host_ms)
+        .collect();
+    t.sort_by(f64::total_cmp);
+    (!t.is_empty()).then(|| t[t.len() / 2])
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    if args.step == 0 || args.from == 0 || args.from > args.to || args.frames == 0 {
+        return Err("need 0 < --from <= --to, --step > 0 and --frames > 0".into());
+    }
+    let progress = std::io::stderr().is_terminal();
+    let cfg = BihConfig::default();
+    let mut rows = Vec::new();
+    for n in (args.from..=args.to).step_by(args.step) {
+        let scene = rtperf(n, args.seed);
+        let anim = Animation::named("rtperf", &scene, args.frames, args.seed)?;
+        // A complete rebuild: median of five host builds; simulated once
+        // (it is deterministic).
+        let mut t: Vec<f64> = (0..5)
+            .map(|_| {
+                let s = Instant::now();
+                std::hint::black_box(host::build(&scene, &cfg));
+                s.elapsed().as_secs_f64() * 1e3
+            })
+            .collect();
+        t.sort_by(f64::total_cmp);
+        let full_host = t[2];
+        let full_sim = if args.no_sim {
+            None
+        } else {
+            let r = BuilderKind::SpeBfs
+                .build(&scene, &cfg)
+                .map_err(|e| e.to_string())?;
+            r.simulated.map(|s| s.run.ms)
+        };
+        for method in [Method::Local, Method::Deep] {
+            if progress {
+                eprint!("{n:>7} triangles, {:<5}\r", method.name());
+            }
+            let host = frames(&scene, &anim, BuilderKind::Host, method)?;
+            let sum = Summary::of(&host);
+            let sim = if args.no_sim {
+                None
+            } else {
+                Some(Summary::of(&frames(
+                    &scene,
+                    &anim,
+                    BuilderKind::SpeBfs,
+                    method,
+                )?))
+            };
+            let median = median_partial_ms(&host);
+            let sim_ms = sim.as_ref().and_then(|s| s.simulated_ms);
+            rows.push(json!({
+                "triangles": n,
+                "method": method.name(),
+                "frames": sum.frames,
+                "updates": sum.updates,
+                "rebuilds": sum.rebuilds,
+                "transformed": sum.transformed,
+                "rebuilt": sum.rebuilt,
+                "delta": sum.delta,
+                "kept": sum.kept,
+                "moved_slots": sum.moved_slots,
+                "depth": sum.depth,
+                "host_min_ms": sum.host_ms[0],
+                "host_max_ms": sum.host_ms[1],
+                "host_mean_ms": sum.host_ms[2],
+                "host_median_partial_ms": median,
+                "full_rebuild_host_ms": full_host,
+                "partial_over_full": median.map(|m| m / full_host),
+                "sim_min_ms": sim_ms.map(|s| s[0]),
+                "sim_max_ms": sim_ms.map(|s| s[1]),
+                "sim_mean_ms": sim_ms.map(|s| s[2]),
+                "full_rebuild_sim_ms": full_sim,
+            }));
+        }
+    }
+    if progress {
+        eprint!("{:40}\r", "");
+    }
+    let io = |e: std::io::Error| e.to_string();
+    let keys = [
+        "triangles",
+        "method",
+        "frames",
+        "updates",
+        "rebuilds",
+        "transformed",
+        "rebuilt",
+        "delta",
+        "kept",
+        "moved_slots",
+        "depth",
+        "host_min_ms",
+        "host_max_ms",
+        "host_mean_ms",
+        "host_median_partial_ms",
+        "full_rebuild_host_ms",
+        "partial_over_full",
+        "sim_min_ms",
+        "sim_max_ms",
+        "sim_mean_ms",
+        "full_rebuild_sim_ms",
+    ];
+    write_rows_csv(
+        &output(&args.out, "partial_rebuild.csv").map_err(io)?,
+        &keys,
+        &rows,
+    )
+    .map_err(io)?;
+    let doc = json!({
+        "rows": rows,
+        "animation": "rtperf: one sphere (200 triangles) per frame, every fifth move marked only",
+        "frames": args.frames, "seed": args.seed,
+        "host": "host builder, one thread; full rebuild = median of 5",
+        "simulated": "rebuilds on spe_bfs (PS3 model); PPE traversal and scan not charged",
+    });
+    write_json(
+        &output(&args.out, "partial_rebuild.json").map_err(io)?,
+        &doc,
+    )
+    .map_err(io)?;
+    for method in ["local", "deep"] {
+        plots(&args.out, method, &rows).map_err(|e| e.to_string())?;
+    }
+    if args.format == "json" {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
+        );
+    } else {
+        print_table(&rows);
+        eprintln!(
+            "written: {}/partial_rebuild.{{csv,json}}, fig3a_*.svg, fig3b_*.svg",
+            args.out.display()
+        );
+    }
+    Ok(())
+}
+
+/// The points (thousands of triangles, `key`) of `method`'s rows.
+fn series(
+    rows: &[Value],
+    method: &str,
+    key: &str,
+    name: &str,
+    color: usize,
+    dashed: bool,
+) -> Series {
+    Series {
+        name: name.into(),
+        points: rows
+            .iter()
+            .filter(|r| r["method"] == method)
+            .filter_map(|r| Some((r["triangles"].as_f64()? / 1e3, r[key].as_f64()?)))
+            .collect(),
+        color,
+        dashed,
+    }
+}
+
+fn plots(dir: &Path, method: &str, rows: &[Value]) -> Result<(), Box<dyn std::error::Error>> {
+    let x = "number of triangles in thousands";
+    let what = if method == "local" {
+        "local update (Algorithm 1)"
+    } else {
+        "deeper update (section 5)"
+    };
+    line_plot(
+        &output(dir, &format!("fig3a_{method}.svg"))?,
+        &format!("Number of rebuilt triangles in scene \"rtPerf\", {what}"),
+        x,
+        "triangles (mean per frame)",
+        &[
+            series(rows, method, "transformed", "transformed", 0, false),
+            series(rows, method, "rebuilt", "used for reconstruction", 1, false),
+            series(rows, method, "delta", "delta", 2, true),
+        ],
+        false,
+    )?;
+    for (suffix, unit, p) in [
+        ("", "host ms, one thread", "host"),
+        ("_simulated", "simulated ms, PS3 model", "sim"),
+    ] {
+        let full = if p == "host" {
+            "full_rebuild_host_ms"
+        } else {
+            "full_rebuild_sim_ms"
+        };
+        let s = [
+            series(
+                rows,
+                method,
+                &format!("{p}_min_ms"),
+                "minimum time",
+                0,
+                false,
+            ),
+            series(
+                rows,
+                method,
+                &format!("{p}_mean_ms"),
+                "average time",
+                1,
+                false,
+            ),
+            series(
+                rows,
+                method,
+                &format!("{p}_max_ms"),
+                "maximum time",
+                2,
+                false,
+            ),
+            series(rows, method, full, "complete rebuild", 3, true),
+        ];
+        if s.iter().all(|s| s.points.is_empty()) {
+            continue;
+        }
+        line_plot(
+            &output(dir, &format!("fig3b_{method}{suffix}.svg"))?,
+            &format!("Rebuild and update times for scene \"rtPerf\", {what}"),
+            x,
+            unit,
+            &s,
+            false,
+        )?;
+    }
+    Ok(())
+}
+
+fn print_table(rows: &[Value]) {
+    println!(
+        "{:>7} {:<5} {:>4} {:>6} {:>8} {:>8} {:>8} {:>5} {:>8} {:>8} {:>8} {:>9} {:>8} {:>8} {:>9}",
+        "tris",
+        "upd",
+        "full",
+        "trans",
+        "rec",
+        "delta",
+        "kept",
+        "depth",
+        "min ms",
+        "mean ms",
+        "max ms",
+        "rebuild",
+        "med/full",
+        "sim mean",
+        "sim full"
+    );
+    let f = |v: &Value, d: usize| v.as_f64().map_or("-".into(), |x| format!("{x:.d$}"));
+    for r in rows {
+        println!(
+            "{:>7} {:<5} {:>4} {:>6} {:>8} {:>8} {:>8} {:>5} {:>8} {:>8} {:>8} {:>9} {:>8} {:>8} {:>9}",
+            r["triangles"],
+            r["method"].as_str().unwrap_or(""),
+            r["rebuilds"],
+            f(&r["transformed"], 0),
+            f(&r["rebuilt"], 0),
+            f(&r["delta"], 0),
+            f(&r["kept"], 0),
+            f(&r["depth"], 1),
+            f(&r["host_min_ms"], 3),
+            f(&r["host_mean_ms"], 3),
+            f(&r["host_max_ms"], 2),
+            f(&r["full_rebuild_host_ms"], 2),
+            f(&r["partial_over_full"], 4),
+            f(&r["sim_mean_ms"], 3),
+            f(&r["full_rebuild_sim_ms"], 2),
+        );
+    }
+}
