@@ -60,19 +60,33 @@ fn main() {
     }
 }
 
-/// Runs `anim` on a fresh updater and returns every frame's report.
+/// Runs `anim` on a fresh updater; returns every frame's report and the
+/// SAH cost of the last tree over that of a fresh build of the last scene.
 fn frames(
     scene: &cellbih::scene::Scene,
     anim: &Animation,
     builder: BuilderKind,
     method: Method,
-) -> Result<Vec<UpdateReport>, String> {
+) -> Result<(Vec<UpdateReport>, f64), String> {
     let mut u = Updater::new(scene.clone(), builder, &BihConfig::default(), method)
         .map_err(|e| e.to_string())?;
-    anim.frames
+    let reports = anim
+        .frames
         .iter()
         .map(|m| u.step(m).map_err(|e| e.to_string()))
-        .collect()
+        .collect::<Result<Vec<_>, _>>()?;
+    let fresh = host::build(&u.scene, &u.bih.config).quality().sah_cost;
+    Ok((reports, u.bih.quality().sah_cost / fresh))
+}
+
+/// Mean triangles rebuilt over the frames that were not complete rebuilds.
+fn mean_partial_rebuilt(reports: &[UpdateReport]) -> Option<f64> {
+    let p: Vec<f64> = reports
+        .iter()
+        .filter(|r| !r.full_rebuild && r.moves > 0)
+        .map(|r| r.rebuilt as f64)
+        .collect();
+    (!p.is_empty()).then(|| p.iter().sum::<f64>() / p.len() as f64)
 }
 
 /// Median of the host times of frames that were not complete rebuilds.
@@ -119,17 +133,14 @@ fn run(args: &Args) -> Result<(), String> {
             if progress {
                 eprint!("{n:>7} triangles, {:<5}\r", method.name());
             }
-            let host = frames(&scene, &anim, BuilderKind::Host, method)?;
+            let (host, sah_ratio) = frames(&scene, &anim, BuilderKind::Host, method)?;
             let sum = Summary::of(&host);
             let sim = if args.no_sim {
                 None
             } else {
-                Some(Summary::of(&frames(
-                    &scene,
-                    &anim,
-                    BuilderKind::SpeBfs,
-                    method,
-                )?))
+                Some(Summary::of(
+                    &frames(&scene, &anim, BuilderKind::SpeBfs, method)?.0,
+                ))
             };
             let median = median_partial_ms(&host);
             let sim_ms = sim.as_ref().and_then(|s| s.simulated_ms);
@@ -141,6 +152,8 @@ fn run(args: &Args) -> Result<(), String> {
                 "rebuilds": sum.rebuilds,
                 "transformed": sum.transformed,
                 "rebuilt": sum.rebuilt,
+                "rebuilt_partial": mean_partial_rebuilt(&host),
+                "sah_over_fresh": sah_ratio,
                 "delta": sum.delta,
                 "kept": sum.kept,
                 "moved_slots": sum.moved_slots,
@@ -170,6 +183,8 @@ fn run(args: &Args) -> Result<(), String> {
         "rebuilds",
         "transformed",
         "rebuilt",
+        "rebuilt_partial",
+        "sah_over_fresh",
         "delta",
         "kept",
         "moved_slots",
@@ -313,43 +328,40 @@ fn plots(dir: &Path, method: &str, rows: &[Value]) -> Result<(), Box<dyn std::er
 }
 
 fn print_table(rows: &[Value]) {
-    println!(
-        "{:>7} {:<5} {:>4} {:>6} {:>8} {:>8} {:>8} {:>5} {:>8} {:>8} {:>8} {:>9} {:>8} {:>8} {:>9}",
-        "tris",
-        "upd",
-        "full",
-        "trans",
-        "rec",
-        "delta",
-        "kept",
-        "depth",
-        "min ms",
-        "mean ms",
-        "max ms",
-        "rebuild",
-        "med/full",
-        "sim mean",
-        "sim full"
-    );
-    let f = |v: &Value, d: usize| v.as_f64().map_or("-".into(), |x| format!("{x:.d$}"));
-    for r in rows {
-        println!(
-            "{:>7} {:<5} {:>4} {:>6} {:>8} {:>8} {:>8} {:>5} {:>8} {:>8} {:>8} {:>9} {:>8} {:>8} {:>9}",
-            r["triangles"],
-            r["method"].as_str().unwrap_or(""),
-            r["rebuilds"],
-            f(&r["transformed"], 0),
-            f(&r["rebuilt"], 0),
-            f(&r["delta"], 0),
-            f(&r["kept"], 0),
-            f(&r["depth"], 1),
-            f(&r["host_min_ms"], 3),
-            f(&r["host_mean_ms"], 3),
-            f(&r["host_max_ms"], 2),
-            f(&r["full_rebuild_host_ms"], 2),
-            f(&r["partial_over_full"], 4),
-            f(&r["sim_mean_ms"], 3),
-            f(&r["full_rebuild_sim_ms"], 2),
-        );
+    // (header, key, decimals)
+    let cols = [
+        ("tris", "triangles", 0),
+        ("full", "rebuilds", 0),
+        ("trans", "transformed", 0),
+        ("rec", "rebuilt", 0),
+        ("rec/part", "rebuilt_partial", 0),
+        ("delta", "delta", 0),
+        ("kept", "kept", 0),
+        ("depth", "depth", 1),
+        ("min ms", "host_min_ms", 3),
+        ("mean ms", "host_mean_ms", 3),
+        ("max ms", "host_max_ms", 2),
+        ("rebuild", "full_rebuild_host_ms", 2),
+        ("med/full", "partial_over_full", 4),
+        ("sim mean", "sim_mean_ms", 3),
+        ("sim full", "full_rebuild_sim_ms", 2),
+        ("SAH", "sah_over_fresh", 3),
+    ];
+    let mut head = format!("{:<6}", "update");
+    for (h, _, _) in cols {
+        head += &format!(" {h:>9}");
     }
+    println!("{head}");
+    for r in rows {
+        let mut line = format!("{:<6}", r["method"].as_str().unwrap_or(""));
+        for (_, k, d) in cols {
+            let v = r[k].as_f64().map_or("-".into(), |x| format!("{x:.d$}"));
+            line += &format!(" {v:>9}");
+        }
+        println!("{line}");
+    }
+    println!(
+        "rec: mean over all frames; rec/part: over partial updates only; med/full: median \
+         partial update over a complete rebuild (host); SAH: last tree over a fresh build"
+    );
 }
