@@ -20,10 +20,17 @@ fn check_scene(scene: &Scene, cfg: &BihConfig, rays: usize) -> Result<(), TestCa
         r.bih
             .validate(scene)
             .map_err(|v| TestCaseError::fail(format!("{b}: {v}")))?;
-        let tracer = Tracer::new(&r.bih, scene);
+        // The AVX2 build of the traversal (where the CPU has it) and the
+        // portable one.
+        let tracers = [
+            Tracer::new(&r.bih, scene),
+            Tracer::new(&r.bih, scene).portable(),
+        ];
         for ray in rays_for(scene, rays, scene.len() as u64) {
-            check_ray(scene, &tracer, &ray)
-                .map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
+            for tracer in &tracers {
+                check_ray(scene, tracer, &ray)
+                    .map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
+            }
         }
     }
     Ok(())

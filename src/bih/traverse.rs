@@ -18,6 +18,7 @@
 
 use glam::DVec3;
 
+use super::lanes::{self, Group};
 use super::{Bih, BihConfig};
 use crate::aabb::Aabb;
 use crate::scene::{Scene, Triangle};
@@ -185,8 +186,12 @@ fn clip_to_box(b: &Aabb, ray: &Ray, inv: DVec3) -> (f64, f64) {
 /// A tree bound to its triangles, laid out in leaf order for traversal.
 pub struct Tracer<'a> {
     bih: &'a Bih,
-    /// `triangles[k]` is scene triangle `bih.prim_ids[k]`.
-    triangles: Vec<PreTriangle>,
+    /// Slot `k` of the triangle order (scene triangle `bih.prim_ids[k]`) is
+    /// lane `k % 4` of group `k / 4`.
+    groups: Vec<Group>,
+    /// The CPU has AVX2: traverse with the AVX2 build of the loop.
+    #[cfg(target_arch = "x86_64")]
+    avx2: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -197,12 +202,28 @@ impl<'a> Tracer<'a> {
             "tree and scene differ in size"
         );
         assert!(bih.config.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
-        let triangles = bih
-            .prim_ids
-            .iter()
-            .map(|&id| PreTriangle::new(&scene.triangles[id as usize]))
-            .collect();
-        Tracer { bih, triangles }
+        let groups = lanes::groups(
+            bih.prim_ids
+                .iter()
+                .map(|&id| PreTriangle::new(&scene.triangles[id as usize]).v),
+        );
+        Tracer {
+            bih,
+            groups,
+            #[cfg(target_arch = "x86_64")]
+            avx2: std::arch::is_x86_feature_detected!("avx2"),
+        }
+    }
+
+    /// The same tracer using the portable (SSE2) build of the traversal
+    /// loop even where the CPU has AVX2: for tests and comparisons. Both
+    /// builds give bitwise the same hits.
+    pub fn portable(mut self) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.avx2 = false;
+        }
+        self
     }
 
     pub fn bih(&self) -> &Bih {
@@ -220,9 +241,28 @@ impl<'a> Tracer<'a> {
     }
 
     fn traverse<const ANY: bool>(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: the CPU has AVX2 (checked when the tracer was made).
+            return unsafe { self.traverse_avx2::<ANY>(ray, stats) };
+        }
+        self.traverse_body::<ANY>(ray, stats)
+    }
+
+    /// The same traversal compiled for AVX2, so that the four-lane triangle
+    /// tests run four `f64` lanes at a time; chosen at run time.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn traverse_avx2<const ANY: bool>(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
+        self.traverse_body::<ANY>(ray, stats)
+    }
+
+    #[inline(always)]
+    fn traverse_body<const ANY: bool>(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
         stats.rays += 1;
         let nodes = &self.bih.nodes;
         let inv = DVec3::ONE / ray.dir;
+        let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
         let (t0, t1) = clip_to_box(&self.bih.bounds, ray, inv);
         // Written so that a NaN bound also misses.
         if t0.partial_cmp(&t1).is_none_or(|o| o.is_gt()) {
@@ -243,12 +283,20 @@ impl<'a> Tracer<'a> {
             let nd = &nodes[node as usize];
             if nd.is_leaf() {
                 let (first, count) = nd.leaf_range();
-                for k in first..first + count {
-                    stats.triangles_tested += 1;
-                    let tri = &self.triangles[k as usize];
-                    if let Some((t, u, v)) = tri.intersect(ray, ray.tmin, best_t) {
-                        let prim = self.bih.prim_ids[k as usize];
+                stats.triangles_tested += count as u64;
+                let (first, end) = (first as usize, (first + count) as usize);
+                for g in first / 4..end.div_ceil(4) {
+                    let f = lanes::intersect4(&self.groups[g], o, d, ray.tmin, best_t);
+                    // Lanes of this leaf only, in slot order.
+                    let lo = first.saturating_sub(g * 4);
+                    let hi = (end - g * 4).min(4);
+                    let mut m = f.mask & ((1u32 << hi) - 1) & !((1u32 << lo) - 1);
+                    while m != 0 {
+                        let l = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let (t, prim) = (f.t[l], self.bih.prim_ids[g * 4 + l]);
                         if best.is_none_or(|h| t < h.t || (t == h.t && prim < h.prim)) {
+                            let (u, v) = (f.u[l] / f.adet[l], f.v[l] / f.adet[l]);
                             best = Some(Hit { prim, t, u, v });
                             best_t = t;
                             if ANY {

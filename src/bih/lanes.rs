@@ -1,0 +1,98 @@
+//! Four ray/triangle tests at once: the triangles of the triangle order in
+//! groups of four slots, stored lane by lane (`f32`, 144 bytes a group), so
+//! that the compiler runs Möller–Trumbore on four triangles per instruction
+//! (AVX: four `f64` lanes; SSE2: two). Every lane computes exactly what
+//! [`super::traverse::intersect_triangle`] computes, operation for
+//! operation in the same order, so `t` is bitwise the same as the scalar
+//! test's (and brute force's); only the branches become lane masks.
+
+use glam::Vec3;
+
+/// Slots `4i .. 4i + 4` of the triangle order: `v[vertex][axis][lane]`.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(16))]
+pub(super) struct Group {
+    v: [[[f32; 4]; 3]; 3],
+}
+
+/// The triangles (already collapsed if degenerate) in groups of four; the
+/// last group is padded with zero triangles, which are never hit.
+pub(super) fn groups(tris: impl ExactSizeIterator<Item = [Vec3; 3]>) -> Vec<Group> {
+    let mut out = vec![Group::default(); tris.len().div_ceil(4)];
+    for (k, t) in tris.enumerate() {
+        for (i, p) in t.iter().enumerate() {
+            for a in 0..3 {
+                out[k / 4].v[i][a][k % 4] = p[a];
+            }
+        }
+    }
+    out
+}
+
+/// What the four tests found: a bit per lane that hits in `[tmin, tmax]`,
+/// and per lane `t` and the barycentrics' numerators and denominator.
+pub(super) struct Found {
+    pub mask: u32,
+    pub t: [f64; 4],
+    pub u: [f64; 4],
+    pub v: [f64; 4],
+    pub adet: [f64; 4],
+}
+
+/// Möller–Trumbore on the four triangles of `g` against the ray `o + t·d`.
+#[inline(always)]
+pub(super) fn intersect4(g: &Group, o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64) -> Found {
+    let mut f = Found {
+        mask: 0,
+        t: [0.0; 4],
+        u: [0.0; 4],
+        v: [0.0; 4],
+        adet: [0.0; 4],
+    };
+    let mut hit = [false; 4];
+    // One lane per iteration, indexing the group and five outputs by lane.
+    #[allow(clippy::needless_range_loop)]
+    for l in 0..4 {
+        let p0 = [0, 1, 2].map(|a| g.v[0][a][l] as f64);
+        let e1 = [0, 1, 2].map(|a| g.v[1][a][l] as f64 - p0[a]);
+        let e2 = [0, 1, 2].map(|a| g.v[2][a][l] as f64 - p0[a]);
+        let p = cross(d, e2);
+        let det = dot(e1, p);
+        let sign = if det < 0.0 { -1.0 } else { 1.0 };
+        let adet = det.abs();
+        let s = [0, 1, 2].map(|a| o[a] - p0[a]);
+        let u = dot(s, p) * sign;
+        let q = cross(s, e1);
+        let v = dot(d, q) * sign;
+        let t = dot(e2, q) * (1.0 / det);
+        hit[l] = det != 0.0
+            && det.is_finite()
+            && u >= 0.0
+            && u <= adet
+            && v >= 0.0
+            && u + v <= adet
+            && t >= tmin
+            && t <= tmax;
+        (f.t[l], f.u[l], f.v[l], f.adet[l]) = (t, u, v, adet);
+    }
+    for (l, h) in hit.iter().enumerate() {
+        f.mask |= (*h as u32) << l;
+    }
+    f
+}
+
+/// glam's `DVec3::cross`, term for term.
+#[inline(always)]
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - b[1] * a[2],
+        a[2] * b[0] - b[2] * a[0],
+        a[0] * b[1] - b[0] * a[1],
+    ]
+}
+
+/// glam's `DVec3::dot`, term for term.
+#[inline(always)]
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2])
+}
