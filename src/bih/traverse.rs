@@ -19,7 +19,7 @@
 use glam::DVec3;
 
 use super::lanes::{self, Group};
-use super::{Bih, BihConfig};
+use super::{Bih, BihConfig, BihNode};
 use crate::aabb::Aabb;
 use crate::scene::{Scene, Triangle};
 
@@ -186,8 +186,13 @@ fn clip_to_box(b: &Aabb, ray: &Ray, inv: DVec3) -> (f64, f64) {
 /// A tree bound to its triangles, laid out in leaf order for traversal.
 pub struct Tracer<'a> {
     bih: &'a Bih,
-    /// Slot `k` of the triangle order (scene triangle `bih.prim_ids[k]`) is
-    /// lane `k % 4` of group `k / 4`.
+    /// The tree's nodes with every leaf's first slot moved to a multiple of
+    /// four in the padded triangle order below, so that a leaf starts a
+    /// group and no lane tests another leaf's triangle.
+    nodes: Vec<BihNode>,
+    /// Padded slot → scene triangle id (`u32::MAX` for padding).
+    prims: Vec<u32>,
+    /// Padded slot `k` is lane `k % 4` of group `k / 4`.
     groups: Vec<Group>,
     /// The CPU has AVX2: traverse with the AVX2 build of the loop.
     #[cfg(target_arch = "x86_64")]
@@ -202,13 +207,30 @@ impl<'a> Tracer<'a> {
             "tree and scene differ in size"
         );
         assert!(bih.config.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
-        let groups = lanes::groups(
-            bih.prim_ids
-                .iter()
-                .map(|&id| PreTriangle::new(&scene.triangles[id as usize]).v),
-        );
+        let mut nodes = bih.nodes.clone();
+        let mut prims = Vec::with_capacity(bih.prim_ids.len() * 5 / 4);
+        let mut stack = vec![0u32];
+        while let Some(id) = stack.pop() {
+            let nd = bih.nodes[id as usize];
+            if !nd.is_leaf() {
+                stack.extend([nd.left_child() + 1, nd.left_child()]);
+                continue;
+            }
+            let (first, count) = nd.leaf_range();
+            nodes[id as usize] = BihNode::leaf(prims.len() as u32, count);
+            prims.extend_from_slice(&bih.prim_ids[first as usize..(first + count) as usize]);
+            prims.resize(prims.len().next_multiple_of(4), u32::MAX);
+        }
+        let groups = lanes::groups(prims.iter().map(
+            |&id| match scene.triangles.get(id as usize) {
+                Some(t) => PreTriangle::new(t).v,
+                None => [glam::Vec3::ZERO; 3],
+            },
+        ));
         Tracer {
             bih,
+            nodes,
+            prims,
             groups,
             #[cfg(target_arch = "x86_64")]
             avx2: std::arch::is_x86_feature_detected!("avx2"),
@@ -260,7 +282,7 @@ impl<'a> Tracer<'a> {
     #[inline(always)]
     fn traverse_body<const ANY: bool>(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
         stats.rays += 1;
-        let nodes = &self.bih.nodes;
+        let nodes = &self.nodes;
         let inv = DVec3::ONE / ray.dir;
         let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
         let (t0, t1) = clip_to_box(&self.bih.bounds, ray, inv);
@@ -287,14 +309,13 @@ impl<'a> Tracer<'a> {
                 let (first, end) = (first as usize, (first + count) as usize);
                 for g in first / 4..end.div_ceil(4) {
                     let f = lanes::intersect4(&self.groups[g], o, d, ray.tmin, best_t);
-                    // Lanes of this leaf only, in slot order.
-                    let lo = first.saturating_sub(g * 4);
-                    let hi = (end - g * 4).min(4);
-                    let mut m = f.mask & ((1u32 << hi) - 1) & !((1u32 << lo) - 1);
+                    // Lanes of this leaf only (it starts a group), in slot
+                    // order.
+                    let mut m = f.mask & ((1u32 << (end - g * 4).min(4)) - 1);
                     while m != 0 {
                         let l = m.trailing_zeros() as usize;
                         m &= m - 1;
-                        let (t, prim) = (f.t[l], self.bih.prim_ids[g * 4 + l]);
+                        let (t, prim) = (f.t[l], self.prims[g * 4 + l]);
                         if best.is_none_or(|h| t < h.t || (t == h.t && prim < h.prim)) {
                             let (u, v) = (f.u[l] / f.adet[l], f.v[l] / f.adet[l]);
                             best = Some(Hit { prim, t, u, v });
