@@ -534,7 +534,7 @@ fn demo() -> Res<()> {
     );
     println!("image written to cellbih-demo.png");
     println!(
-        "next: `cellbih --help`, `cellbih build --scene rtperf:100000`, `cargo test --release`"
+        "next: `cellbih --help`, `cellbih build --scene rtperf:100000`, `cellbih update --scene car --animation car`, `cargo test --release`"
     );
     Ok(())
 }
