@@ -215,3 +215,38 @@ fn validate_catches_corrupt_trees() {
     t.nodes[0] = BihNode::leaf(0, s.len() as u32);
     assert!(matches!(t.validate(&s), Err(Violation::LeafTooBig { .. })));
 }
+
+#[test]
+fn a_ray_lying_in_a_face_plane_of_a_box_is_inside_it() {
+    // The ray runs along z in the plane x = 0, the scene box's min-x face
+    // (and the leaf box's), and meets the triangle on its edge x = 0. With
+    // d.x = 0 the slab distance of that face is 0·inf = NaN: it must bound
+    // nothing, not cull the box.
+    let scene = Scene::from_triangles(
+        "face",
+        vec![
+            Triangle::new(
+                Vec3::new(0.0, 0.0, 5.0),
+                Vec3::new(1.0, 0.0, 5.0),
+                Vec3::new(0.0, 1.0, 5.0),
+            ),
+            Triangle::new(
+                Vec3::new(0.5, 0.5, 9.0),
+                Vec3::new(1.0, 0.5, 9.0),
+                Vec3::new(0.5, 1.0, 9.0),
+            ),
+        ],
+    )
+    .unwrap();
+    let bih = BuilderKind::Host
+        .build(&scene, &BihConfig::default())
+        .unwrap()
+        .bih;
+    let tracer = Tracer::new(&bih, &scene);
+    for dir in [DVec3::Z, DVec3::new(-0.0, 0.0, 1.0)] {
+        let ray = Ray::new(DVec3::new(0.0, 0.25, 0.0), dir);
+        let hit = tracer.closest(&ray, &mut RayStats::default());
+        assert_eq!(hit.map(|h| (h.prim, h.t)), Some((0, 5.0)), "{dir:?}");
+        check_ray(&scene, &tracer, &ray).unwrap();
+    }
+}

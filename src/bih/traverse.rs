@@ -171,12 +171,25 @@ fn widen_down(t: f64) -> f64 {
 
 /// Slab test of a box: the `[t0, t1]` of the ray inside it, widened.
 fn clip_to_box(b: &Aabb, ray: &Ray, inv: DVec3) -> (f64, f64) {
-    let (mut t0, mut t1) = (ray.tmin, ray.tmax);
+    clip_range(b, ray, inv, ray.tmin, ray.tmax)
+}
+
+/// The part of `[t0, t1]` in which the ray is inside `b`, widened.
+#[inline(always)]
+fn clip_range(b: &Aabb, ray: &Ray, inv: DVec3, mut t0: f64, mut t1: f64) -> (f64, f64) {
     for a in 0..3 {
         let ta = (b.min[a] as f64 - ray.origin[a]) * inv[a];
         let tb = (b.max[a] as f64 - ray.origin[a]) * inv[a];
-        let (near, far) = if ta <= tb { (ta, tb) } else { (tb, ta) };
-        // NaN (ray in a face plane) leaves the bound unchanged.
+        // NaN (0·inf: a zero direction component and the origin on a face
+        // plane) means the ray lies in that plane, inside the closed slab:
+        // this axis bounds nothing.
+        let (near, far) = if ta <= tb {
+            (ta, tb)
+        } else if tb < ta {
+            (tb, ta)
+        } else {
+            continue;
+        };
         t0 = t0.max(widen_down(near));
         t1 = t1.min(widen_up(far));
     }
@@ -192,6 +205,11 @@ pub struct Tracer<'a> {
     nodes: Vec<BihNode>,
     /// Padded slot → scene triangle id (`u32::MAX` for padding).
     prims: Vec<u32>,
+    /// The box of each leaf's triangles, by node id (unused for inner
+    /// nodes): a BIH leaf's region is bounded only by its ancestors' planes
+    /// and is often much larger than what it holds, so a ray is tested
+    /// against this box before the leaf's triangles.
+    leaf_boxes: Vec<Aabb>,
     /// Padded slot `k` is lane `k % 4` of group `k / 4`.
     groups: Vec<Group>,
     /// The CPU has AVX2: traverse with the AVX2 build of the loop.
@@ -208,6 +226,7 @@ impl<'a> Tracer<'a> {
         );
         assert!(bih.config.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
         let mut nodes = bih.nodes.clone();
+        let mut leaf_boxes = vec![Aabb::EMPTY; nodes.len()];
         let mut prims = Vec::with_capacity(bih.prim_ids.len() * 5 / 4);
         let mut stack = vec![0u32];
         while let Some(id) = stack.pop() {
@@ -218,7 +237,11 @@ impl<'a> Tracer<'a> {
             }
             let (first, count) = nd.leaf_range();
             nodes[id as usize] = BihNode::leaf(prims.len() as u32, count);
-            prims.extend_from_slice(&bih.prim_ids[first as usize..(first + count) as usize]);
+            let ids = &bih.prim_ids[first as usize..(first + count) as usize];
+            leaf_boxes[id as usize] = ids.iter().fold(Aabb::EMPTY, |b, &p| {
+                b.union(scene.triangles[p as usize].bounds())
+            });
+            prims.extend_from_slice(ids);
             prims.resize(prims.len().next_multiple_of(4), u32::MAX);
         }
         let groups = lanes::groups(prims.iter().map(
@@ -230,6 +253,7 @@ impl<'a> Tracer<'a> {
         Tracer {
             bih,
             nodes,
+            leaf_boxes,
             prims,
             groups,
             #[cfg(target_arch = "x86_64")]
@@ -305,23 +329,29 @@ impl<'a> Tracer<'a> {
             let nd = &nodes[node as usize];
             if nd.is_leaf() {
                 let (first, count) = nd.leaf_range();
-                stats.triangles_tested += count as u64;
-                let (first, end) = (first as usize, (first + count) as usize);
-                for g in first / 4..end.div_ceil(4) {
-                    let f = lanes::intersect4(&self.groups[g], o, d, ray.tmin, best_t);
-                    // Lanes of this leaf only (it starts a group), in slot
-                    // order.
-                    let mut m = f.mask & ((1u32 << (end - g * 4).min(4)) - 1);
-                    while m != 0 {
-                        let l = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        let (t, prim) = (f.t[l], self.prims[g * 4 + l]);
-                        if best.is_none_or(|h| t < h.t || (t == h.t && prim < h.prim)) {
-                            let (u, v) = (f.u[l] / f.adet[l], f.v[l] / f.adet[l]);
-                            best = Some(Hit { prim, t, u, v });
-                            best_t = t;
-                            if ANY {
-                                return best;
+                // Only a ray that meets the box of the leaf's triangles
+                // before its best hit so far can hit one of them.
+                let leaf_box = &self.leaf_boxes[node as usize];
+                let (b0, b1) = clip_range(leaf_box, ray, inv, ray.tmin, best_t);
+                if b0 <= b1 {
+                    stats.triangles_tested += count as u64;
+                    let (first, end) = (first as usize, (first + count) as usize);
+                    for g in first / 4..end.div_ceil(4) {
+                        let f = lanes::intersect4(&self.groups[g], o, d, ray.tmin, best_t);
+                        // Lanes of this leaf only (it starts a group), in slot
+                        // order.
+                        let mut m = f.mask & ((1u32 << (end - g * 4).min(4)) - 1);
+                        while m != 0 {
+                            let l = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            let (t, prim) = (f.t[l], self.prims[g * 4 + l]);
+                            if best.is_none_or(|h| t < h.t || (t == h.t && prim < h.prim)) {
+                                let (u, v) = (f.u[l] / f.adet[l], f.v[l] / f.adet[l]);
+                                best = Some(Hit { prim, t, u, v });
+                                best_t = t;
+                                if ANY {
+                                    return best;
+                                }
                             }
                         }
                     }
