@@ -326,3 +326,23 @@ fn a_bad_move_leaves_the_updater_as_it_was() {
     assert_eq!(u.scene.bounds(), scene.bounds());
     assert_eq!(u.bih, before);
 }
+
+#[test]
+fn a_builder_error_puts_the_scene_back_and_keeps_a_valid_tree() {
+    let scene = cluster_scene(20, 0, 11);
+    for method in [Method::Local, Method::Deep, Method::Rebuild] {
+        let mut u = Updater::new(
+            scene.clone(),
+            BuilderKind::SpeBfs,
+            &BihConfig::default(),
+            method,
+        )
+        .unwrap();
+        u.cell.spes = 0; // the next emulated build cannot start
+        let e = u.step(&[Move::translate(2, Vec3::splat(0.5))]).unwrap_err();
+        assert!(e.to_string().contains("SPEs"), "{e}");
+        assert_eq!(u.scene.triangles, scene.triangles);
+        assert_eq!(u.scene.bounds(), scene.bounds());
+        check(&u, method.name()).unwrap();
+    }
+}

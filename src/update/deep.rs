@@ -19,23 +19,19 @@
 //! subtree's range is copied to its new place and its leaves' first slots
 //! are adjusted; a rebuilt subtree is written where its range now starts.
 
-use super::{Enclosing, UpdateError, UpdateReport, Updater, interval};
+use super::{Enclosing, Piece, UpdateError, UpdateReport, Updater, interval};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 
 /// The plan for one subtree below the enclosing node.
-enum Piece {
+enum Plan {
     /// Kept as it is; its triangles were at slots `first .. end`.
     Keep { node: u32, first: usize, end: usize },
-    /// Rebuilt over `ids`, with `region` as its scene box.
-    Rebuild {
-        node: u32,
-        ids: Vec<u32>,
-        region: Aabb,
-        depth: u32,
-    },
+    /// Rebuilt: the new subtree, built while planning (so that a builder's
+    /// error comes before the tree is touched).
+    Rebuild { node: u32, piece: Piece },
     /// The node kept, its children updated.
-    Inner(Box<Piece>, Box<Piece>),
+    Inner(Box<Plan>, Box<Plan>),
 }
 
 /// Brings the subtree of `enc.node`, whose interval is `first .. end` and
@@ -55,10 +51,10 @@ pub(super) fn update(
         end,
         depth: enc.depth,
     };
-    let plan = plan(up, span, moved_slots, moved_in);
+    let plan = plan(up, span, moved_slots, moved_in)?;
     let old = up.bih.prim_ids[first..end].to_vec();
     let mut pos = first;
-    lay_out(up, plan, &old, first, &mut pos, r)?;
+    lay_out(up, plan, &old, first, &mut pos, r);
     debug_assert_eq!(pos, end, "the interval's size changed");
     Ok(())
 }
@@ -74,13 +70,18 @@ struct Span {
 
 /// Plans the subtree `s`: `moved_slots` are the slots in it that hold moved
 /// triangles (sorted), `moved_in` the moved triangles routed to it.
-fn plan(up: &Updater, s: Span, moved_slots: &[usize], moved_in: Vec<u32>) -> Piece {
+fn plan(
+    up: &Updater,
+    s: Span,
+    moved_slots: &[usize],
+    moved_in: Vec<u32>,
+) -> Result<Plan, UpdateError> {
     if moved_slots.is_empty() && moved_in.is_empty() {
-        return Piece::Keep {
+        return Ok(Plan::Keep {
             node: s.node,
             first: s.first,
             end: s.end,
-        };
+        });
     }
     let node = up.bih.nodes[s.node as usize];
     let size = s.end - s.first - moved_slots.len() + moved_in.len();
@@ -115,24 +116,29 @@ fn plan(up: &Updater, s: Span, moved_slots: &[usize], moved_in: Vec<u32>) -> Pie
         end,
         depth: s.depth + 1,
     };
-    Piece::Inner(
+    Ok(Plan::Inner(
         Box::new(plan(
             up,
             child(c, lr, s.first, mid),
             &moved_slots[..k],
             to_left,
-        )),
+        )?),
         Box::new(plan(
             up,
             child(c + 1, rr, mid, s.end),
             &moved_slots[k..],
             to_right,
-        )),
-    )
+        )?),
+    ))
 }
 
 /// The subtree `s` rebuilt over its unmoved triangles and `moved_in`.
-fn rebuild(up: &Updater, s: Span, moved_slots: &[usize], moved_in: Vec<u32>) -> Piece {
+fn rebuild(
+    up: &Updater,
+    s: Span,
+    moved_slots: &[usize],
+    moved_in: Vec<u32>,
+) -> Result<Plan, UpdateError> {
     let mut ids = Vec::with_capacity(s.end - s.first - moved_slots.len() + moved_in.len());
     let mut k = 0;
     for slot in s.first..s.end {
@@ -143,26 +149,24 @@ fn rebuild(up: &Updater, s: Span, moved_slots: &[usize], moved_in: Vec<u32>) -> 
         }
     }
     ids.extend(moved_in);
-    Piece::Rebuild {
+    Ok(Plan::Rebuild {
         node: s.node,
-        ids,
-        region: s.region,
-        depth: s.depth,
-    }
+        piece: up.build_subtree(&ids, s.region, s.depth)?,
+    })
 }
 
-/// Carries out `piece`, its triangles from slot `*pos` on; `old` holds the
+/// Carries out `plan`, its triangles from slot `*pos` on; `old` holds the
 /// interval's triangle order as it was, from slot `base`.
 fn lay_out(
     up: &mut Updater,
-    piece: Piece,
+    plan: Plan,
     old: &[u32],
     base: usize,
     pos: &mut usize,
     r: &mut UpdateReport,
-) -> Result<(), UpdateError> {
-    match piece {
-        Piece::Keep { node, first, end } => {
+) {
+    match plan {
+        Plan::Keep { node, first, end } => {
             let len = end - first;
             if *pos != first {
                 up.bih.prim_ids[*pos..*pos + len].copy_from_slice(&old[first - base..end - base]);
@@ -173,21 +177,15 @@ fn lay_out(
             r.kept += len;
             *pos += len;
         }
-        Piece::Rebuild {
-            node,
-            ids,
-            region,
-            depth,
-        } => {
-            up.rebuild_piece(node, *pos, &ids, region, depth, r)?;
-            *pos += ids.len();
+        Plan::Rebuild { node, piece } => {
+            up.install(node, *pos, &piece, r);
+            *pos += piece.bih.prim_ids.len();
         }
-        Piece::Inner(left, right) => {
-            lay_out(up, *left, old, base, pos, r)?;
-            lay_out(up, *right, old, base, pos, r)?;
+        Plan::Inner(left, right) => {
+            lay_out(up, *left, old, base, pos, r);
+            lay_out(up, *right, old, base, pos, r);
         }
     }
-    Ok(())
 }
 
 /// Adds `delta` to the first slot of every leaf below `node`; returns how

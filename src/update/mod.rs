@@ -164,6 +164,12 @@ impl Summary {
     }
 }
 
+/// A subtree built for grafting, and its simulated time if emulated.
+struct Piece {
+    bih: Bih,
+    simulated_ms: Option<f64>,
+}
+
 /// A scene, its tree, and how the tree follows moving objects.
 pub struct Updater {
     pub scene: Scene,
@@ -211,8 +217,8 @@ impl Updater {
     }
 
     /// Applies one frame of moves to the scene and brings the tree up to
-    /// date. On an error (an unknown geometry, a non-finite result) nothing
-    /// has changed.
+    /// date. On an error (an unknown geometry, a non-finite result, a
+    /// builder's error) the scene is as it was and the tree valid for it.
     pub fn step(&mut self, moves: &[Move]) -> Result<UpdateReport, UpdateError> {
         let start = Instant::now();
         let mut r = UpdateReport {
@@ -247,8 +253,8 @@ impl Updater {
             ebb = ebb.union(self.geometry_box(g as u32));
         }
 
-        if self.method == Method::Rebuild || self.scene.bounds() != self.bih.bounds {
-            self.full_rebuild(&mut r)?;
+        let done = if self.method == Method::Rebuild || self.scene.bounds() != self.bih.bounds {
+            self.full_rebuild(&mut r)
         } else {
             let enc = enclosing_node(&mut self.bih, &ebb);
             r.depth = enc.depth;
@@ -268,12 +274,20 @@ impl Updater {
             );
             match self.method {
                 Method::Local => {
-                    let ids = self.bih.prim_ids[first..end].to_vec();
-                    self.rebuild_piece(enc.node, first, &ids, enc.region, enc.depth, &mut r)?;
+                    let ids = &self.bih.prim_ids[first..end];
+                    self.build_subtree(ids, enc.region, enc.depth)
+                        .map(|piece| self.install(enc.node, first, &piece, &mut r))
                 }
-                Method::Deep => deep::update(self, &enc, (first, end), &moved_slots, &mut r)?,
+                Method::Deep => deep::update(self, &enc, (first, end), &moved_slots, &mut r),
                 Method::Rebuild => unreachable!(),
             }
+        };
+        // Every build runs before the tree is touched, so a builder error
+        // (from the emulated Cell) leaves the old tree, valid for the old
+        // scene (planes Algorithm 1 widened stay valid): put the scene back.
+        if let Err(e) = done {
+            self.scene.restore(saved, saved_box);
+            return Err(e);
         }
         r.host_ms = ms(start);
         Ok(r)
@@ -308,31 +322,28 @@ impl Updater {
         })
     }
 
-    /// Deletes the subtree at `node`, builds one over the triangles `ids`
-    /// with `region` as its scene box, and grafts it at `node` with its
-    /// triangles at slots `first ..`.
-    fn rebuild_piece(
-        &mut self,
-        node: u32,
-        first: usize,
-        ids: &[u32],
-        region: Aabb,
-        depth: u32,
-        r: &mut UpdateReport,
-    ) -> Result<(), UpdateError> {
+    /// A subtree over the triangles `ids` for a node at `depth` whose
+    /// region is `region`, by the updater's builder (the depth limit counts
+    /// from the tree's root).
+    fn build_subtree(&self, ids: &[u32], region: Aabb, depth: u32) -> Result<Piece, UpdateError> {
         let cfg = BihConfig {
             max_depth: self.bih.config.max_depth - depth,
             ..self.bih.config
         };
-        let (piece, simulated) = self.build_piece(ids, region, &cfg)?;
+        let (bih, simulated_ms) = self.build_piece(ids, region, &cfg)?;
+        Ok(Piece { bih, simulated_ms })
+    }
+
+    /// Deletes the subtree at `node` and grafts `piece` there, its
+    /// triangles at slots `first ..`.
+    fn install(&mut self, node: u32, first: usize, piece: &Piece, r: &mut UpdateReport) {
         self.free_subtree(node);
-        self.graft(node, &piece, first as u32);
-        r.rebuilt += ids.len();
+        self.graft(node, &piece.bih, first as u32);
+        r.rebuilt += piece.bih.prim_ids.len();
         r.pieces += 1;
-        if let Some(ms) = simulated {
+        if let Some(ms) = piece.simulated_ms {
             *r.simulated_ms.get_or_insert(0.0) += ms;
         }
-        Ok(())
     }
 
     /// A tree over the triangles `ids` (global ids, leaves from slot 0), by
