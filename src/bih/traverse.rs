@@ -15,6 +15,15 @@
 //! `[tmin, best]`, so widening only costs a few visits, never a wrong hit.
 //! Equal `t` is broken by the lower triangle id, the same rule brute force
 //! uses, so both return the same triangle.
+//!
+//! The [`Tracer`] is what a renderer makes of a tree: its own copy of the
+//! nodes with each leaf starting a group of four in a padded triangle order
+//! ([`super::lanes`]: four Möller–Trumbore tests per step), and the box of
+//! each leaf's triangles, which the ray must meet within `[tmin, best]`
+//! (widened likewise) before the leaf's triangles are tested. A BIH leaf's
+//! region is bounded only by its ancestors' planes and is often far larger
+//! than what it holds; on the dragon this box cuts triangle tests per
+//! primary ray from 48 to 4. The tree itself is not changed.
 
 use glam::DVec3;
 
