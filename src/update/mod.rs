@@ -12,7 +12,7 @@
 //! - `deep` — section 5's proposal: below the enclosing node, descend
 //!   further, keep the subtrees the moved geometry does not touch, rebuild
 //!   only the touched ones, and move the kept subtrees' triangle ranges to
-//!   their new places ([`deep`]);
+//!   their new places (`deep.rs`);
 //! - `rebuild` — a complete rebuild every frame, the reference.
 //!
 //! The rebuilds run on the updater's builder, host or emulated Cell; for an
