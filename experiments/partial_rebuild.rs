@@ -24,7 +24,7 @@ use cellbih::bih::BihConfig;
 use cellbih::build::{BuilderKind, host};
 use cellbih::report::{Series, line_plot, output, write_json, write_rows_csv};
 use cellbih::scene::procedural::rtperf;
-use cellbih::update::{Animation, Method, Summary, UpdateReport, Updater};
+use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play};
 
 #[derive(Parser)]
 struct Args {
@@ -60,12 +60,7 @@ fn main() {
     }
 }
 
-/// The emulated builders whose simulated time is reported, by column
-/// prefix: the PPE (where the paper's update ran) and the baseline SPE.
-const SIMULATED: [(&str, BuilderKind); 2] =
-    [("ppe", BuilderKind::PpeNaive), ("bfs", BuilderKind::SpeBfs)];
-
-/// Runs `anim` on a fresh updater; returns every frame's report and the
+/// Plays `anim` on a fresh updater; returns every frame's report and the
 /// SAH cost of the last tree over that of a fresh build of the last scene.
 fn frames(
     scene: &cellbih::scene::Scene,
@@ -73,13 +68,7 @@ fn frames(
     builder: BuilderKind,
     method: Method,
 ) -> Result<(Vec<UpdateReport>, f64), String> {
-    let mut u = Updater::new(scene.clone(), builder, &BihConfig::default(), method)
-        .map_err(|e| e.to_string())?;
-    let reports = anim
-        .frames
-        .iter()
-        .map(|m| u.step(m).map_err(|e| e.to_string()))
-        .collect::<Result<Vec<_>, _>>()?;
+    let (u, reports) = play(scene, anim, builder, method).map_err(|e| e.to_string())?;
     let fresh = host::build(&u.scene, &u.bih.config).quality().sah_cost;
     Ok((reports, u.bih.quality().sah_cost / fresh))
 }
@@ -154,7 +143,7 @@ fn run(args: &Args) -> Result<(), String> {
                 "full_rebuild_host_ms": full_host,
                 "partial_over_full": median.map(|m| m / full_host),
             });
-            for (p, builder) in SIMULATED.iter().filter(|_| !args.no_sim) {
+            for (p, builder) in SIMULATED_BUILDERS.iter().filter(|_| !args.no_sim) {
                 let full = builder.build(&scene, &cfg).map_err(|e| e.to_string())?;
                 let s = Summary::of(&frames(&scene, &anim, *builder, method)?.0).simulated_ms;
                 row[format!("{p}_min_ms")] = json!(s.map(|s| s[0]));

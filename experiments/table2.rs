@@ -18,11 +18,10 @@ use std::path::PathBuf;
 use clap::Parser;
 use serde_json::{Value, json};
 
-use cellbih::bih::BihConfig;
 use cellbih::build::BuilderKind;
 use cellbih::report::{output, write_json, write_rows_csv};
 use cellbih::scene;
-use cellbih::update::{Animation, Method, Summary, UpdateReport, Updater};
+use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play};
 
 #[derive(Parser)]
 struct Args {
@@ -58,11 +57,6 @@ const PAPER: [(&str, &str, [f64; 11]); 2] = [
     ),
 ];
 
-/// The emulated builders whose simulated time is reported, by column
-/// prefix: the PPE (where the paper's update ran) and the baseline SPE.
-const SIMULATED: [(&str, BuilderKind); 2] =
-    [("ppe", BuilderKind::PpeNaive), ("bfs", BuilderKind::SpeBfs)];
-
 fn main() {
     let args = Args::parse();
     if let Err(e) = run(&args) {
@@ -71,18 +65,14 @@ fn main() {
     }
 }
 
+/// Every frame's report of `anim` played on a fresh updater.
 fn frames(
-    scene: &scene::Scene,
+    s: &scene::Scene,
     anim: &Animation,
     builder: BuilderKind,
     method: Method,
 ) -> Result<Vec<UpdateReport>, String> {
-    let mut u = Updater::new(scene.clone(), builder, &BihConfig::default(), method)
-        .map_err(|e| e.to_string())?;
-    anim.frames
-        .iter()
-        .map(|m| u.step(m).map_err(|e| e.to_string()))
-        .collect()
+    Ok(play(s, anim, builder, method).map_err(|e| e.to_string())?.1)
 }
 
 fn run(args: &Args) -> Result<(), String> {
@@ -110,7 +100,7 @@ fn run(args: &Args) -> Result<(), String> {
                 "trans": host.transformed, "rec": host.rebuilt, "delta": host.delta,
                 "trav": host.depth, "kept": host.kept,
             });
-            for (p, builder) in SIMULATED.iter().filter(|_| !args.no_sim) {
+            for (p, builder) in SIMULATED_BUILDERS.iter().filter(|_| !args.no_sim) {
                 let t = Summary::of(&frames(&s, &anim, *builder, method)?).simulated_ms;
                 row[format!("{p}_tmin_ms")] = json!(t.map(|t| t[0]));
                 row[format!("{p}_tmax_ms")] = json!(t.map(|t| t[1]));

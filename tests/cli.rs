@@ -16,6 +16,15 @@ fn cellbih(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
+/// Fails with the command's stderr unless it succeeded.
+fn assert_ok(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 fn tmp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("cellbih-cli-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
@@ -39,11 +48,7 @@ fn raycast_writes_one_line_per_ray_equal_to_brute_force() {
             "--out",
             hits_path.to_str().unwrap(),
         ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_ok(&out);
         let text = std::fs::read_to_string(&hits_path).unwrap();
         let mut lines = text.lines();
         assert_eq!(lines.next(), Some("ray,prim,t"));
@@ -137,11 +142,7 @@ fn build_trace_writes_chrome_json() {
         "--trace",
         p.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
     assert!(
         v["traceEvents"]
@@ -236,11 +237,7 @@ fn render_writes_png_images() {
         ];
         args.extend(flag);
         let out = cellbih(&args);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_ok(&out);
         let img = image::open(&p).unwrap();
         assert_eq!((img.width(), img.height()), (64, 48));
     }
@@ -275,11 +272,7 @@ fn update_prints_frames_and_a_summary() {
         "--format",
         "json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let frames = v["frames"].as_array().unwrap();
     assert_eq!(frames.len(), 8);
@@ -328,4 +321,28 @@ fn update_prints_frames_and_a_summary() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && err.contains(msg), "{err}");
     }
+}
+
+#[test]
+fn ci_runs_the_readme_test_command_verbatim() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let readme = std::fs::read_to_string(format!("{root}/README.md")).unwrap();
+    let ci = std::fs::read_to_string(format!("{root}/.ci/run")).unwrap();
+    // The README's first code block holds the two commands of a new user.
+    let block = readme
+        .split("```sh")
+        .nth(1)
+        .unwrap()
+        .split("```")
+        .next()
+        .unwrap();
+    let test_cmd = block
+        .lines()
+        .find(|l| l.contains("cargo test"))
+        .expect("the README's first block has a test command");
+    assert!(block.lines().any(|l| l.trim() == "cargo run --release"));
+    assert!(
+        ci.lines().any(|l| l.trim() == test_cmd.trim()),
+        ".ci/run does not run the README's test command `{test_cmd}`"
+    );
 }

@@ -164,6 +164,29 @@ impl Summary {
     }
 }
 
+/// The emulated builders the update experiments report simulated time on,
+/// by column prefix: the PPE, where the paper's update ran (section 3), and
+/// one SPE, the baseline.
+pub const SIMULATED_BUILDERS: [(&str, BuilderKind); 2] =
+    [("ppe", BuilderKind::PpeNaive), ("bfs", BuilderKind::SpeBfs)];
+
+/// Plays `anim` on a fresh updater of `scene` (default tree limits);
+/// returns the updater after the last frame and every frame's report.
+pub fn play(
+    scene: &Scene,
+    anim: &Animation,
+    builder: BuilderKind,
+    method: Method,
+) -> Result<(Updater, Vec<UpdateReport>), UpdateError> {
+    let mut u = Updater::new(scene.clone(), builder, &BihConfig::default(), method)?;
+    let reports = anim
+        .frames
+        .iter()
+        .map(|m| u.step(m))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((u, reports))
+}
+
 /// A subtree built for grafting, and its simulated time if emulated.
 struct Piece {
     bih: Bih,
