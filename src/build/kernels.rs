@@ -158,31 +158,121 @@ pub fn clip_planes(axis: usize, left: &Side, right: &Side) -> [f32; 2] {
     [left.hi[axis], right.lo[axis]]
 }
 
+/// Items classified per block of the partition: offsets fit in a `u8`.
+const BLOCK: usize = 64;
+
 /// Partitions `items` in place: those whose center is below `split.plane`
 /// first. Returns both sides' counts and bounds. Deterministic; each item is
-/// looked at once (two pointers: a right-side item is swapped to the end).
+/// classified once.
 ///
-/// PERF: on the dragon (871,414 triangles) this two-pointer form was faster
-/// than a branchless Lomuto form (which swaps every item) with either
-/// branching or indexed side updates: 139–155 ms vs 155–207 ms for the
-/// whole build.
+/// The block partition of Edelkamp & Weiß ("BlockQuicksort: avoiding branch
+/// mispredictions in quicksort", ESA 2016): a block of [`BLOCK`] items at
+/// each end is classified without branches, writing the offsets of the
+/// misplaced ones (right items in the left block, left items in the right
+/// block) to two small buffers; then misplaced pairs are swapped in a loop
+/// whose branches are predictable. The tail (fewer than two blocks) runs the
+/// plain two-pointer loop. Then one pass over each side gathers its bounds.
+///
+/// PERF: on the dragon (871,414 triangles) the whole host build went from
+/// 138 ms to 68 ms (criterion medians, one run each, same machine) against
+/// the two-pointer loop that grew the bounds as it went. Growing both
+/// sides' bounds inside the block loop, by selecting which side each item
+/// grows, was slower than either (252 ms): the separate passes are
+/// sequential and branch-free, and keep the classifying loop tiny.
 pub fn partition<T: Boxed>(items: &mut [T], split: Split) -> (Side, Side) {
-    let (mut left, mut right) = (Side::EMPTY, Side::EMPTY);
-    let (mut i, mut j) = (0, items.len());
-    while i < j {
-        let it = items[i];
-        let (lo, hi) = (it.lo(), it.hi());
-        let c = lo * 0.5 + hi * 0.5;
-        if c[split.axis] < split.plane {
-            left.add(lo, hi, c);
-            i += 1;
-        } else {
-            right.add(lo, hi, c);
-            j -= 1;
-            items.swap(i, j);
+    let side = Classify {
+        axis: split.axis,
+        plane: split.plane,
+    };
+    // items[..l] are left and items[r..] right; a *loaded* block is
+    // classified and lies inside [l, r): items[l..l + BLOCK] on the left,
+    // items[r - BLOCK..r] on the right. `off_*[s..s + n]` are the offsets
+    // of its misplaced items not yet swapped (n = 0: no block loaded).
+    let (mut l, mut r) = (0, items.len());
+    let (mut off_l, mut sl, mut nl) = ([0u8; BLOCK], 0, 0);
+    let (mut off_r, mut sr, mut nr) = ([0u8; BLOCK], 0, 0);
+    while r - l >= 2 * BLOCK {
+        if nl == 0 {
+            sl = 0;
+            for (i, it) in items[l..l + BLOCK].iter().enumerate() {
+                off_l[nl] = i as u8;
+                nl += !side.left(it) as usize;
+            }
+        }
+        if nr == 0 {
+            sr = 0;
+            for (i, it) in items[r - BLOCK..r].iter().rev().enumerate() {
+                off_r[nr] = i as u8;
+                nr += side.left(it) as usize;
+            }
+        }
+        let m = nl.min(nr);
+        for k in 0..m {
+            items.swap(l + off_l[sl + k] as usize, r - 1 - off_r[sr + k] as usize);
+        }
+        (sl, nl, sr, nr) = (sl + m, nl - m, sr + m, nr - m);
+        if nl == 0 {
+            l += BLOCK;
+        }
+        if nr == 0 {
+            r -= BLOCK;
         }
     }
-    (left, right)
+    // At most one block is still loaded; the items between are not
+    // classified yet.
+    let (u0, u1) = match (nl > 0, nr > 0) {
+        (true, _) => (l + BLOCK, r),
+        (_, true) => (l, r - BLOCK),
+        _ => (l, r),
+    };
+    let mut p = side.two_pointer(items, u0, u1);
+    if nl > 0 {
+        // Left items fill [l, p) but for the misplaced ones of the left
+        // block; move those, highest first, to the end of that range.
+        for k in (sl..sl + nl).rev() {
+            p -= 1;
+            items.swap(l + off_l[k] as usize, p);
+        }
+    } else if nr > 0 {
+        // Right items fill [p, r) but for the misplaced ones of the right
+        // block; move those, lowest position first, to the start of it.
+        for k in (sr..sr + nr).rev() {
+            items.swap(r - 1 - off_r[k] as usize, p);
+            p += 1;
+        }
+    }
+    // The sides' bounds, in one branch-free pass over each.
+    (side_of(&items[..p]), side_of(&items[p..]))
+}
+
+/// Which side an item goes to: its box center below the plane is left.
+#[derive(Clone, Copy)]
+struct Classify {
+    axis: usize,
+    plane: f32,
+}
+
+impl Classify {
+    #[inline(always)]
+    fn left<T: Boxed>(self, it: &T) -> bool {
+        let (lo, hi) = (it.lo()[self.axis], it.hi()[self.axis]);
+        mid(lo, hi) < self.plane
+    }
+
+    /// Partitions `items[from..to]` with two pointers (a right item is
+    /// swapped to the end); returns where the right ones start.
+    fn two_pointer<T: Boxed>(self, items: &mut [T], from: usize, to: usize) -> usize {
+        let (mut i, mut j) = (from, to);
+        while i < j {
+            if self.left(&items[i]) {
+                i += 1;
+            } else {
+                j -= 1;
+                items.swap(i, j);
+            }
+        }
+        i
+    }
 }
 
 /// Bounds and centers of a set, as a partition would report it.
@@ -262,6 +352,44 @@ mod tests {
         let s = choose_split(&mut cand, &centers).unwrap();
         assert_eq!(s.axis, 1);
         assert!(s.plane > 0.2 && s.plane <= 0.7);
+    }
+
+    proptest::proptest! {
+        /// The block partition against a plain filter, at sizes spanning
+        /// many blocks; sorted inputs leave one block pending at the end.
+        #[test]
+        fn the_block_partition_is_a_filter_with_both_sides_bounds(
+            xs in proptest::collection::vec(0u16..1000, 0..700),
+            plane in 0u16..1001,
+            order in 0u8..3,
+        ) {
+            let mut xs = xs;
+            match order {
+                1 => xs.sort(),
+                2 => xs.sort_by(|a, b| b.cmp(a)),
+                _ => {}
+            }
+            // y carries the item's identity; centers are x + 0.25.
+            let mut items: Vec<B> = xs
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| {
+                    let (x, y) = (x as f32, i as f32);
+                    B(Vec3A::new(x, y, 0.0), Vec3A::new(x + 0.5, y + 1.0, 2.0))
+                })
+                .collect();
+            let split = Split { axis: 0, plane: plane as f32 };
+            let (l, r) = partition(&mut items, split);
+            let k = l.count;
+            proptest::prop_assert_eq!(k + r.count, xs.len());
+            proptest::prop_assert!(items[..k].iter().all(|b| b.center().x < split.plane));
+            proptest::prop_assert!(items[k..].iter().all(|b| b.center().x >= split.plane));
+            let mut ids: Vec<u32> = items.iter().map(|b| b.0.y as u32).collect();
+            ids.sort_unstable();
+            proptest::prop_assert!(ids.iter().copied().eq(0..xs.len() as u32), "not a permutation");
+            proptest::prop_assert_eq!(l, side_of(&items[..k]));
+            proptest::prop_assert_eq!(r, side_of(&items[k..]));
+        }
     }
 
     #[test]
