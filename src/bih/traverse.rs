@@ -7,8 +7,11 @@
 //! direction component gives an infinite reciprocal, and the slab distance
 //! `(plane - origin) * inf` is ±inf (the ray never crosses) or NaN (the ray
 //! lies in the plane); `f64::min`/`max` drop the NaN, so a ray in a plane
-//! counts as inside both closed half-spaces, which is right. The sign of the
-//! direction (including the sign of a zero) picks the near child.
+//! counts as inside both closed half-spaces, which is right. Only such rays
+//! (a zero or subnormal direction component) take that careful slab test at
+//! the leaf boxes; every other ray, whose slab distances cannot be NaN, takes
+//! a branch-free one that gives the same interval (chosen once per ray). The
+//! sign of the direction (including the sign of a zero) picks the near child.
 //!
 //! Node intervals are widened by a relative [`SLACK`] so that rounding never
 //! culls a node the ray touches; triangle tests use the ray's own
@@ -24,6 +27,8 @@
 //! region is bounded only by its ancestors' planes and is often far larger
 //! than what it holds; on the dragon this box cuts triangle tests per
 //! primary ray from 48 to 4. The tree itself is not changed.
+
+use std::mem::MaybeUninit;
 
 use glam::DVec3;
 
@@ -165,17 +170,19 @@ pub fn brute_force_closest(scene: &Scene, ray: &Ray) -> Option<Hit> {
     best
 }
 
-/// `t` moved up by the relative slack; ±inf stay as they are (the additive
-/// form `t + |t|·SLACK` would turn them into NaN and cull nothing).
+/// `t` moved up by the relative slack: of `t·(1 + SLACK)` and
+/// `t·(1 - SLACK)` the larger, whatever the sign of `t`. ±inf stay as they
+/// are (the additive form `t + |t|·SLACK` would turn them into NaN and cull
+/// nothing), and no sign test is needed.
 #[inline(always)]
 fn widen_up(t: f64) -> f64 {
-    t * (1.0 + SLACK * t.signum())
+    (t * (1.0 + SLACK)).max(t * (1.0 - SLACK))
 }
 
 /// `t` moved down by the relative slack; ±inf stay as they are.
 #[inline(always)]
 fn widen_down(t: f64) -> f64 {
-    t * (1.0 - SLACK * t.signum())
+    (t * (1.0 + SLACK)).min(t * (1.0 - SLACK))
 }
 
 /// Slab test of a box: the `[t0, t1]` of the ray inside it, widened.
@@ -203,6 +210,20 @@ fn clip_range(b: &Aabb, ray: &Ray, inv: DVec3, mut t0: f64, mut t1: f64) -> (f64
         t1 = t1.min(widen_up(far));
     }
     (t0, t1)
+}
+
+/// [`clip_range`] for a ray whose reciprocal direction is finite on every
+/// axis: no slab distance is then NaN, so each axis gives its near and far
+/// distance by a min and a max, without branches. Widening is monotone, so
+/// it is applied once, to the largest near and the smallest far distance;
+/// the result is the same as [`clip_range`]'s.
+#[inline(always)]
+fn clip_range_finite(b: &Aabb, o: DVec3, inv: DVec3, t0: f64, t1: f64) -> (f64, f64) {
+    let ta = (b.min.as_dvec3() - o) * inv;
+    let tb = (b.max.as_dvec3() - o) * inv;
+    let near = ta.min(tb).max_element();
+    let far = ta.max(tb).min_element();
+    (t0.max(widen_down(near)), t1.min(widen_up(far)))
 }
 
 /// A tree bound to its triangles, laid out in leaf order for traversal.
@@ -296,24 +317,50 @@ impl<'a> Tracer<'a> {
     }
 
     fn traverse<const ANY: bool>(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
+        // A zero (or subnormal) direction component makes a reciprocal
+        // infinite, and slab distances can be NaN: such rays take the
+        // careful slab test, all others the branch-free one.
+        if (DVec3::ONE / ray.dir).is_finite() {
+            self.traverse_in::<ANY, true>(ray, stats)
+        } else {
+            self.traverse_in::<ANY, false>(ray, stats)
+        }
+    }
+
+    #[inline(always)]
+    fn traverse_in<const ANY: bool, const FINITE: bool>(
+        &self,
+        ray: &Ray,
+        stats: &mut RayStats,
+    ) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: the CPU has AVX2 (checked when the tracer was made).
-            return unsafe { self.traverse_avx2::<ANY>(ray, stats) };
+            return unsafe { self.traverse_avx2::<ANY, FINITE>(ray, stats) };
         }
-        self.traverse_body::<ANY>(ray, stats)
+        self.traverse_body::<ANY, FINITE>(ray, stats)
     }
 
     /// The same traversal compiled for AVX2, so that the four-lane triangle
     /// tests run four `f64` lanes at a time; chosen at run time.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn traverse_avx2<const ANY: bool>(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
-        self.traverse_body::<ANY>(ray, stats)
+    fn traverse_avx2<const ANY: bool, const FINITE: bool>(
+        &self,
+        ray: &Ray,
+        stats: &mut RayStats,
+    ) -> Option<Hit> {
+        self.traverse_body::<ANY, FINITE>(ray, stats)
     }
 
+    /// `FINITE`: every component of the ray's reciprocal direction is
+    /// finite.
     #[inline(always)]
-    fn traverse_body<const ANY: bool>(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
+    fn traverse_body<const ANY: bool, const FINITE: bool>(
+        &self,
+        ray: &Ray,
+        stats: &mut RayStats,
+    ) -> Option<Hit> {
         stats.rays += 1;
         let nodes = &self.nodes;
         let inv = DVec3::ONE / ray.dir;
@@ -328,7 +375,9 @@ impl<'a> Tracer<'a> {
             ray.dir.y.is_sign_negative(),
             ray.dir.z.is_sign_negative(),
         ];
-        let mut stack = [(0u32, 0.0f64, 0.0f64); BihConfig::MAX_SUPPORTED_DEPTH as usize + 2];
+        // Not zeroed per ray (3 KiB): a slot is read only after a push.
+        let mut stack = [const { MaybeUninit::<(u32, f64, f64)>::uninit() };
+            BihConfig::MAX_SUPPORTED_DEPTH as usize + 2];
         let mut sp = 0usize;
         let mut best: Option<Hit> = None;
         let mut best_t = ray.tmax;
@@ -341,7 +390,11 @@ impl<'a> Tracer<'a> {
                 // Only a ray that meets the box of the leaf's triangles
                 // before its best hit so far can hit one of them.
                 let leaf_box = &self.leaf_boxes[node as usize];
-                let (b0, b1) = clip_range(leaf_box, ray, inv, ray.tmin, best_t);
+                let (b0, b1) = if FINITE {
+                    clip_range_finite(leaf_box, ray.origin, inv, ray.tmin, best_t)
+                } else {
+                    clip_range(leaf_box, ray, inv, ray.tmin, best_t)
+                };
                 if b0 <= b1 {
                     stats.triangles_tested += count as u64;
                     let (first, end) = (first as usize, (first + count) as usize);
@@ -393,7 +446,7 @@ impl<'a> Tracer<'a> {
                 let go_far = far_tn <= tf;
                 if go_near {
                     if go_far {
-                        stack[sp] = (far, far_tn, tf);
+                        stack[sp].write((far, far_tn, tf));
                         sp += 1;
                     }
                     node = near;
@@ -411,7 +464,9 @@ impl<'a> Tracer<'a> {
                     return best;
                 }
                 sp -= 1;
-                let (n, a, b) = stack[sp];
+                // SAFETY: slots below the stack pointer were all written by
+                // a push (the pointer only grows by a write).
+                let (n, a, b) = unsafe { stack[sp].assume_init() };
                 let bound = widen_up(best_t);
                 if a <= bound {
                     (node, tn, tf) = (n, a, b.min(bound));
@@ -419,5 +474,59 @@ impl<'a> Tracer<'a> {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+    use proptest::prelude::*;
+
+    /// A coordinate anywhere from 1e-15 to 1e15 in magnitude, or zero.
+    fn coord() -> impl Strategy<Value = f64> {
+        prop_oneof![-1e3..1e3f64, -1e15..1e15f64, -1e-15..1e-15f64, Just(0.0),]
+    }
+
+    /// A direction component that is not zero: magnitudes 1e-300 to 1e300.
+    fn component() -> impl Strategy<Value = f64> {
+        (any::<bool>(), 0.1..1.0f64, -300i32..300)
+            .prop_map(|(neg, m, e)| if neg { -1.0 } else { 1.0 } * m * 10f64.powi(e))
+    }
+
+    proptest! {
+        /// The branch-free slab test gives exactly the careful one's
+        /// interval for every ray whose reciprocal direction is finite.
+        #[test]
+        fn the_branch_free_slab_test_equals_the_careful_one(
+            o in [coord(), coord(), coord()],
+            d in [component(), component(), component()],
+            a in [coord(), coord(), coord()],
+            b in [coord(), coord(), coord()],
+            (t0, t1) in (-10.0..10.0f64, prop_oneof![0.0..1e20f64, Just(f64::INFINITY)]),
+        ) {
+            let lo = Vec3::from_array([0, 1, 2].map(|i| a[i].min(b[i]) as f32));
+            let hi = Vec3::from_array([0, 1, 2].map(|i| a[i].max(b[i]) as f32));
+            let bx = Aabb::new(lo, hi);
+            let ray = Ray { origin: DVec3::from_array(o), dir: DVec3::from_array(d), tmin: t0, tmax: t1 };
+            let inv = DVec3::ONE / ray.dir;
+            prop_assume!(inv.is_finite());
+            let want = clip_range(&bx, &ray, inv, t0, t1);
+            let got = clip_range_finite(&bx, ray.origin, inv, t0, t1);
+            prop_assert!(!got.0.is_nan() && !got.1.is_nan());
+            prop_assert!(got == want, "{got:?} != {want:?}");
+        }
+    }
+
+    /// A ray along an axis, lying in a face plane of the box, is inside it:
+    /// the careful test keeps it (the branch-free one is never asked).
+    #[test]
+    fn a_ray_in_a_face_plane_takes_the_careful_test_and_is_inside() {
+        let bx = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        let ray = Ray::new(DVec3::new(-1.0, 0.0, 0.5), DVec3::X);
+        let inv = DVec3::ONE / ray.dir;
+        assert!(!inv.is_finite());
+        let (t0, t1) = clip_range(&bx, &ray, inv, 0.0, f64::INFINITY);
+        assert!(t0 <= 1.0 && t1 >= 2.0, "[{t0}, {t1}]");
     }
 }
