@@ -166,7 +166,7 @@ const BLOCK: usize = 64;
 /// classified once.
 ///
 /// The block partition of Edelkamp & Weiß ("BlockQuicksort: avoiding branch
-/// mispredictions in quicksort", ESA 2016): a block of [`BLOCK`] items at
+/// mispredictions in quicksort", ESA 2016): a block of 64 items (`BLOCK`) at
 /// each end is classified without branches, writing the offsets of the
 /// misplaced ones (right items in the left block, left items in the right
 /// block) to two small buffers; then misplaced pairs are swapped in a loop
