@@ -24,6 +24,27 @@ pub struct Split {
 }
 
 impl Split {
+    /// Whether `it` goes left: its box center is below the plane.
+    #[inline(always)]
+    fn goes_left<T: Boxed>(self, it: &T) -> bool {
+        mid(it.lo()[self.axis], it.hi()[self.axis]) < self.plane
+    }
+
+    /// Partitions `items[from..to]` with two pointers (a right item is
+    /// swapped to the end); returns where the right ones start.
+    fn two_pointer<T: Boxed>(self, items: &mut [T], from: usize, to: usize) -> usize {
+        let (mut i, mut j) = (from, to);
+        while i < j {
+            if self.goes_left(&items[i]) {
+                i += 1;
+            } else {
+                j -= 1;
+                items.swap(i, j);
+            }
+        }
+        i
+    }
+
     /// The children's candidate boxes: `candidate` cut at the plane.
     pub fn candidates(self, candidate: Aabb) -> [Aabb; 2] {
         let (mut left, mut right) = (candidate, candidate);
@@ -180,10 +201,6 @@ const BLOCK: usize = 64;
 /// grows, was slower than either (252 ms): the separate passes are
 /// sequential and branch-free, and keep the classifying loop tiny.
 pub fn partition<T: Boxed>(items: &mut [T], split: Split) -> (Side, Side) {
-    let side = Classify {
-        axis: split.axis,
-        plane: split.plane,
-    };
     // items[..l] are left and items[r..] right; a *loaded* block is
     // classified and lies inside [l, r): items[l..l + BLOCK] on the left,
     // items[r - BLOCK..r] on the right. `off_*[s..s + n]` are the offsets
@@ -196,14 +213,14 @@ pub fn partition<T: Boxed>(items: &mut [T], split: Split) -> (Side, Side) {
             sl = 0;
             for (i, it) in items[l..l + BLOCK].iter().enumerate() {
                 off_l[nl] = i as u8;
-                nl += !side.left(it) as usize;
+                nl += !split.goes_left(it) as usize;
             }
         }
         if nr == 0 {
             sr = 0;
             for (i, it) in items[r - BLOCK..r].iter().rev().enumerate() {
                 off_r[nr] = i as u8;
-                nr += side.left(it) as usize;
+                nr += split.goes_left(it) as usize;
             }
         }
         let m = nl.min(nr);
@@ -225,7 +242,7 @@ pub fn partition<T: Boxed>(items: &mut [T], split: Split) -> (Side, Side) {
         (_, true) => (l, r - BLOCK),
         _ => (l, r),
     };
-    let mut p = side.two_pointer(items, u0, u1);
+    let mut p = split.two_pointer(items, u0, u1);
     if nl > 0 {
         // Left items fill [l, p) but for the misplaced ones of the left
         // block; move those, highest first, to the end of that range.
@@ -243,36 +260,6 @@ pub fn partition<T: Boxed>(items: &mut [T], split: Split) -> (Side, Side) {
     }
     // The sides' bounds, in one branch-free pass over each.
     (side_of(&items[..p]), side_of(&items[p..]))
-}
-
-/// Which side an item goes to: its box center below the plane is left.
-#[derive(Clone, Copy)]
-struct Classify {
-    axis: usize,
-    plane: f32,
-}
-
-impl Classify {
-    #[inline(always)]
-    fn left<T: Boxed>(self, it: &T) -> bool {
-        let (lo, hi) = (it.lo()[self.axis], it.hi()[self.axis]);
-        mid(lo, hi) < self.plane
-    }
-
-    /// Partitions `items[from..to]` with two pointers (a right item is
-    /// swapped to the end); returns where the right ones start.
-    fn two_pointer<T: Boxed>(self, items: &mut [T], from: usize, to: usize) -> usize {
-        let (mut i, mut j) = (from, to);
-        while i < j {
-            if self.left(&items[i]) {
-                i += 1;
-            } else {
-                j -= 1;
-                items.swap(i, j);
-            }
-        }
-        i
-    }
 }
 
 /// Bounds and centers of a set, as a partition would report it.
