@@ -3,7 +3,7 @@
 //! Boxes are `f32` like the scene's vertices. An *empty* box has `min = +inf`
 //! and `max = -inf`, so that growing it by any point gives that point's box.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// An axis-aligned box; `min <= max` on every axis unless it is [`Aabb::EMPTY`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,14 +45,24 @@ impl Aabb {
         self.min * 0.5 + self.max * 0.5
     }
 
+    /// `max - min` in `f32`: infinite on an axis where the box spans more
+    /// than `f32::MAX` (a scene from -3e38 to 3e38). Use
+    /// [`Aabb::extent_f64`] wherever that can happen.
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }
 
+    /// `max - min` in `f64`: finite for every box of finite `f32` bounds.
+    pub fn extent_f64(&self) -> DVec3 {
+        self.max.as_dvec3() - self.min.as_dvec3()
+    }
+
     /// The axis (0 = x, 1 = y, 2 = z) on which the box is longest; ties go to
-    /// the lower axis, so the choice is the same on every host.
+    /// the lower axis, so the choice is the same on every host. Compared in
+    /// `f64`, so that two axes that both span more than `f32::MAX` are still
+    /// told apart.
     pub fn longest_axis(&self) -> usize {
-        let e = self.extent();
+        let e = self.extent_f64();
         if e.x >= e.y && e.x >= e.z {
             0
         } else if e.y >= e.z {
@@ -68,7 +78,7 @@ impl Aabb {
         if self.is_empty() {
             return 0.0;
         }
-        let e = self.extent().as_dvec3();
+        let e = self.extent_f64();
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
     }
 

@@ -78,16 +78,17 @@ pub fn build_approx<T: Item>(
     // 1. Bucket presort.
     let res = resolution(items, region);
     stats.grid = res.map(|r| r as u32);
-    let (lo, ext) = (Vec3A::from(region.min), Vec3A::from(region.extent()));
+    // In f64: a scene may span more than f32::MAX.
+    let (lo, ext) = (region.min.as_dvec3(), region.extent_f64());
     let cell_of = |c: Vec3A| -> usize {
         let mut idx = [0usize; 3];
         for a in 0..3 {
             let t = if ext[a] > 0.0 {
-                (c[a] - lo[a]) / ext[a]
+                (c[a] as f64 - lo[a]) / ext[a]
             } else {
                 0.0
             };
-            idx[a] = ((t * res[a] as f32) as usize).min(res[a] - 1);
+            idx[a] = ((t * res[a] as f64) as usize).min(res[a] - 1);
         }
         (idx[2] * res[1] + idx[1]) * res[0] + idx[0]
     };
@@ -191,18 +192,18 @@ fn resolution<T: Boxed>(items: &[T], region: Aabb) -> [usize; 3] {
     let n = items.len();
     let mut sum = [0f64; 3];
     for it in items {
-        let e = it.hi() - it.lo();
+        let (lo, hi) = (it.lo(), it.hi());
         for (a, s) in sum.iter_mut().enumerate() {
-            *s += e[a] as f64;
+            *s += hi[a] as f64 - lo[a] as f64;
         }
     }
-    let ext = region.extent();
+    let ext = region.extent_f64();
     let mut res = [1f64; 3];
     for a in 0..3 {
         let avg = sum[a] / n as f64;
         if ext[a] > 0.0 {
             res[a] = if avg > 0.0 {
-                (ext[a] as f64 / avg).ceil()
+                (ext[a] / avg).ceil()
             } else {
                 MAX_RESOLUTION as f64
             };
