@@ -3,6 +3,8 @@
 //! reservations; deadlocks end the run; checked mode catches races; the
 //! same program gives the same cycles every time; hand-computed timings.
 
+mod common;
+
 use cellbih::cell::{
     Cell, CellConfig, CellError, Cycles, Ea, ListElement, LsAddr, Reservation, RunReport, WaitMode,
 };
@@ -17,7 +19,7 @@ fn cell(spes: usize) -> Cell {
 /// Runs one SPE program that issues a single command and returns its error.
 fn dma_error(f: impl FnOnce(cellbih::cell::Spe, Ea) -> Program) -> String {
     let mut c = cell(1);
-    let ea = c.memory_mut().alloc(64 * 1024, 128).unwrap();
+    let ea = c.memory_mut().alloc("test buffer", 64 * 1024, 128).unwrap();
     c.spawn_spe(0, move |spe| f(spe, ea));
     c.run().unwrap_err().to_string()
 }
@@ -162,9 +164,16 @@ fn a_full_local_store_says_what_is_in_use() {
 #[test]
 fn main_memory_runs_out_like_a_ps3() {
     let c = cell(1);
-    c.memory_mut().alloc(200 << 20, 128).unwrap();
-    let e = c.memory_mut().alloc(100 << 20, 128).unwrap_err();
+    c.memory_mut().alloc("test buffer", 200 << 20, 128).unwrap();
+    let e = c
+        .memory_mut()
+        .alloc("job spill", 100 << 20, 128)
+        .unwrap_err();
     assert!(matches!(e, CellError::OutOfMemory { .. }), "{e}");
+    assert_eq!(
+        e.to_string(),
+        "main memory full: job spill asked 104857600 bytes, 209715200 of 268435456 in use"
+    );
 }
 
 /// One SPE, one 16 KiB get, wait: issue + command + data + latency +
@@ -174,7 +183,7 @@ fn one_get_costs_what_the_model_says() {
     let cfg = CellConfig::ps3();
     let k = cfg.cost.clone();
     let mut c = Cell::new(cfg.with_spes(1)).unwrap();
-    let ea = c.memory_mut().alloc(16384, 128).unwrap();
+    let ea = c.memory_mut().alloc("test buffer", 16384, 128).unwrap();
     c.spawn_spe(0, move |spe| async move {
         let b = spe.ls_alloc(16384, 128)?;
         spe.get(b, ea, 16384, 5).await?;
@@ -207,7 +216,7 @@ fn one_get_costs_what_the_model_says() {
 #[test]
 fn two_spes_share_the_memory_interface() {
     let mut c = cell(2);
-    let ea = c.memory_mut().alloc(32768, 128).unwrap();
+    let ea = c.memory_mut().alloc("test buffer", 32768, 128).unwrap();
     for id in 0..2 {
         c.spawn_spe(id, move |spe| async move {
             let b = spe.ls_alloc(16384, 128)?;
@@ -225,7 +234,7 @@ fn two_spes_share_the_memory_interface() {
 #[test]
 fn a_full_command_queue_stalls_the_issuer() {
     let mut c = cell(1);
-    let ea = c.memory_mut().alloc(17 * 1024, 128).unwrap();
+    let ea = c.memory_mut().alloc("test buffer", 17 * 1024, 128).unwrap();
     c.spawn_spe(0, move |spe| async move {
         let b = spe.ls_alloc(17 * 1024, 128)?;
         for i in 0..17u32 {
@@ -313,7 +322,7 @@ fn signals_overwrite_or_or() {
 #[test]
 fn a_reservation_is_lost_when_another_core_writes_the_line() {
     let mut c = cell(2);
-    let line = c.memory_mut().alloc(128, 128).unwrap();
+    let line = c.memory_mut().alloc("test buffer", 128, 128).unwrap();
     c.spawn_spe(0, move |spe| async move {
         let b = spe.ls_alloc(128, 128)?;
         spe.getllar(b, line).await?;
@@ -337,7 +346,7 @@ fn a_reservation_is_lost_when_another_core_writes_the_line() {
 #[test]
 fn contended_atomic_adds_all_land() {
     let mut c = cell(6);
-    let counter = c.memory_mut().alloc(128, 128).unwrap();
+    let counter = c.memory_mut().alloc("test buffer", 128, 128).unwrap();
     for id in 0..6 {
         c.spawn_spe(id, move |spe| async move {
             let b = spe.ls_alloc(128, 128)?;
@@ -379,7 +388,7 @@ fn a_deadlock_ends_the_run_and_says_who_waits_for_what() {
 #[test]
 fn checked_mode_catches_reads_and_writes_of_buffers_in_flight() {
     let mut c = cell(1);
-    let ea = c.memory_mut().alloc(1024, 128).unwrap();
+    let ea = c.memory_mut().alloc("test buffer", 1024, 128).unwrap();
     c.spawn_spe(0, move |spe| async move {
         let b = spe.ls_alloc(1024, 128)?;
         spe.get(b, ea, 1024, 3).await?;
@@ -392,7 +401,7 @@ fn checked_mode_catches_reads_and_writes_of_buffers_in_flight() {
     );
 
     let mut c = cell(1);
-    let ea = c.memory_mut().alloc(1024, 128).unwrap();
+    let ea = c.memory_mut().alloc("test buffer", 1024, 128).unwrap();
     c.spawn_spe(0, move |spe| async move {
         let b = spe.ls_alloc(1024, 128)?;
         spe.put(b, ea, 1024, 1).await?;
@@ -402,7 +411,10 @@ fn checked_mode_catches_reads_and_writes_of_buffers_in_flight() {
     assert!(e.contains("the program writes ls"), "{e}");
 
     let mut c = cell(1);
-    let ea = c.memory_mut().alloc_pod(&[42u32; 256], 128).unwrap();
+    let ea = c
+        .memory_mut()
+        .alloc_pod("test input", &[42u32; 256], 128)
+        .unwrap();
     c.spawn_spe(0, move |spe| async move {
         let b = spe.ls_alloc(1024, 128)?;
         spe.get(b, ea, 1024, 3).await?;
@@ -418,7 +430,10 @@ fn checked_mode_catches_reads_and_writes_of_buffers_in_flight() {
 #[test]
 fn puts_become_visible_when_they_complete() {
     let mut c = cell(2);
-    let ea = c.memory_mut().alloc_pod(&[1u32; 4], 128).unwrap();
+    let ea = c
+        .memory_mut()
+        .alloc_pod("test input", &[1u32; 4], 128)
+        .unwrap();
     c.spawn_spe(0, move |spe| async move {
         let b = spe.ls_alloc(16, 16)?;
         spe.ls_write(b, &[2u32; 4])?;
@@ -446,10 +461,13 @@ fn busy_program() -> (RunReport, Vec<u32>) {
     let mut c = cell(6);
     let data = c
         .memory_mut()
-        .alloc_pod(&(0..6 * 8192u32).collect::<Vec<_>>(), 128)
+        .alloc_pod("test input", &(0..6 * 8192u32).collect::<Vec<_>>(), 128)
         .unwrap();
-    let next = c.memory_mut().alloc(128, 128).unwrap();
-    let out = c.memory_mut().alloc(6 * 8192 * 4, 128).unwrap();
+    let next = c.memory_mut().alloc("test buffer", 128, 128).unwrap();
+    let out = c
+        .memory_mut()
+        .alloc("test buffer", 6 * 8192 * 4, 128)
+        .unwrap();
     for id in 0..6 {
         c.spawn_spe(id, move |spe| async move {
             let line = spe.ls_alloc(128, 128)?;
@@ -505,7 +523,7 @@ fn the_trace_is_chrome_json_with_a_row_per_core() {
     let mut cfg = CellConfig::ps3().with_spes(2);
     cfg.trace = true;
     let mut c = Cell::new(cfg).unwrap();
-    let ea = c.memory_mut().alloc(4096, 128).unwrap();
+    let ea = c.memory_mut().alloc("test buffer", 4096, 128).unwrap();
     for id in 0..2 {
         c.spawn_spe(id, move |spe| async move {
             let b = spe.ls_alloc(4096, 128)?;
@@ -516,11 +534,13 @@ fn the_trace_is_chrome_json_with_a_row_per_core() {
         });
     }
     c.run().unwrap();
-    let j = c.trace_json().unwrap();
+    let mut buf = Vec::new();
+    c.take_trace().unwrap().write_chrome(&mut buf).unwrap();
+    let j: serde_json::Value = serde_json::from_slice(&buf).unwrap();
     let events = j["traceEvents"].as_array().unwrap();
     let names: Vec<&str> = events
         .iter()
-        .filter(|e| e["ph"] == "M")
+        .filter(|e| e["name"] == "thread_name")
         .map(|e| e["args"]["name"].as_str().unwrap())
         .collect();
     assert_eq!(
@@ -536,12 +556,83 @@ fn the_trace_is_chrome_json_with_a_row_per_core() {
     );
 }
 
+/// Transfers in flight at once on one MFC overlap in time; the Chrome
+/// format wants every slice on a track nested or apart, so they go to
+/// tracks of their own ("SPE 0 MFC (2)", …), as many as were in flight.
+#[test]
+fn overlapping_transfers_get_tracks_of_their_own() {
+    let mut cfg = CellConfig::ps3().with_spes(1);
+    cfg.trace = true;
+    let mut c = Cell::new(cfg).unwrap();
+    let ea = c.memory_mut().alloc("test buffer", 4 * 16384, 128).unwrap();
+    c.spawn_spe(0, move |spe| async move {
+        let b = spe.ls_alloc(4 * 16384, 128)?;
+        for k in 0..4u64 {
+            spe.get(
+                b.offset(k as u32 * 16384),
+                ea.offset(k * 16384),
+                16384,
+                k as u32,
+            )
+            .await?;
+        }
+        spe.wait_tags(0b1111, WaitMode::All).await?;
+        Ok(())
+    });
+    c.run().unwrap();
+    let trace = c.take_trace().unwrap();
+    let mut buf = Vec::new();
+    trace.write_chrome(&mut buf).unwrap();
+    let j: serde_json::Value = serde_json::from_slice(&buf).unwrap();
+    common::assert_slices_nest(&j);
+    let events = j["traceEvents"].as_array().unwrap();
+    let tracks: std::collections::BTreeSet<u64> = events
+        .iter()
+        .filter(|e| e["cat"] == "Transfer")
+        .map(|e| e["tid"].as_u64().unwrap())
+        .collect();
+    // As many tracks as transfers were in flight at once (counted in
+    // cycles), and more than one.
+    let mut edges: Vec<(u64, i32)> = trace
+        .spans
+        .iter()
+        .filter(|s| s.kind == cellbih::cell::trace::SpanKind::Transfer)
+        .flat_map(|s| [(s.start.0, 1), (s.end.0, -1)])
+        .collect();
+    edges.sort_by_key(|&(t, d)| (t, d));
+    let in_flight = edges
+        .iter()
+        .scan(0, |n, &(_, d)| {
+            *n += d;
+            Some(*n)
+        })
+        .max()
+        .unwrap();
+    assert!(in_flight >= 2, "the gets overlap in time");
+    assert_eq!(tracks.len(), in_flight as usize);
+    let names: Vec<&str> = events
+        .iter()
+        .filter(|e| e["name"] == "thread_name")
+        .map(|e| e["args"]["name"].as_str().unwrap())
+        .collect();
+    assert!(names.contains(&"SPE 0 MFC (2)"), "{names:?}");
+    // The checker itself catches two slices that overlap without nesting.
+    let bad = serde_json::json!({"traceEvents": [
+        {"ph": "X", "tid": 1, "ts": 0.0, "dur": 2.0},
+        {"ph": "X", "tid": 1, "ts": 1.0, "dur": 2.0},
+    ]});
+    assert!(std::panic::catch_unwind(|| common::assert_slices_nest(&bad)).is_err());
+}
+
 #[test]
 fn functional_mode_gives_the_same_bytes_at_no_cost() {
     let mut cfg = CellConfig::ps3().with_spes(1);
     cfg.cost = cellbih::cell::CostModel::functional();
     let mut c = Cell::new(cfg).unwrap();
-    let ea = c.memory_mut().alloc_pod(&[7u32; 64], 128).unwrap();
+    let ea = c
+        .memory_mut()
+        .alloc_pod("test input", &[7u32; 64], 128)
+        .unwrap();
     c.spawn_spe(0, move |spe| async move {
         let b = spe.ls_alloc(256, 128)?;
         spe.get(b, ea, 256, 0).await?;
@@ -587,7 +678,7 @@ fn six_spes_summing_take_the_cycles_worked_out_by_hand() {
     let n = 6 * 4 * 4096usize;
     let input = c
         .memory_mut()
-        .alloc_pod(&(0..n as u32).collect::<Vec<_>>(), 128)
+        .alloc_pod("test input", &(0..n as u32).collect::<Vec<_>>(), 128)
         .unwrap();
     let sums = std::rc::Rc::new(std::cell::RefCell::new(vec![0u64; 6]));
     for id in 0..6 {
@@ -635,7 +726,10 @@ fn six_spes_summing_take_the_cycles_worked_out_by_hand() {
 #[test]
 fn compare_and_swap_stores_only_on_a_match() {
     let mut c = cell(1);
-    let ea = c.memory_mut().alloc_pod(&[5u32; 32], 128).unwrap();
+    let ea = c
+        .memory_mut()
+        .alloc_pod("test input", &[5u32; 32], 128)
+        .unwrap();
     c.spawn_spe(0, move |spe| async move {
         let line = spe.ls_alloc(128, 128)?;
         assert_eq!(spe.atomic_cas_u32(line, ea.offset(4), 5, 9).await?, 5);

@@ -75,9 +75,9 @@ fn run(
 ) {
     let mut cell = Cell::new(CellConfig::ps3().with_spes(1)).unwrap();
     let ea: Ea = if v.is_empty() {
-        cell.memory_mut().alloc(16, 128).unwrap()
+        cell.memory_mut().alloc("test buffer", 16, 128).unwrap()
     } else {
-        cell.memory_mut().alloc_pod(v, 128).unwrap()
+        cell.memory_mut().alloc_pod("test input", v, 128).unwrap()
     };
     let n = v.len() as u64;
     let out = std::rc::Rc::new(std::cell::RefCell::new(None));

@@ -72,6 +72,12 @@ impl BuilderKind {
         Self::ALL.iter().copied().find(|b| b.name() == name)
     }
 
+    /// Whether the builder runs on the emulated Cell (and so reports
+    /// simulated time and can keep a trace).
+    pub fn emulated(self) -> bool {
+        self.strategy().is_some()
+    }
+
     fn strategy(self) -> Option<Strategy> {
         match self {
             BuilderKind::Host => None,
@@ -143,7 +149,8 @@ impl std::fmt::Display for BuilderKind {
 pub struct Simulated {
     pub run: RunReport,
     pub stats: host::BuildStats,
-    pub trace: Option<serde_json::Value>,
+    /// The timeline, if the Cell's config asked for it.
+    pub trace: Option<crate::cell::Trace>,
 }
 
 /// What a build produced and what it cost.

@@ -212,7 +212,7 @@ impl Machine {
             .collect();
         Machine {
             mem: MainMemory::new(cfg.main_memory_bytes),
-            trace: cfg.trace.then(Trace::default),
+            trace: cfg.trace.then(|| Trace::new(cfg.spes, cfg.cost.clock_hz)),
             cfg,
             cores,
             spes,

@@ -55,8 +55,9 @@ impl MainMemory {
         }
     }
 
-    /// Allocates `size` bytes aligned to `align` (a power of two), zeroed.
-    pub fn alloc(&mut self, size: u64, align: u64) -> Result<Ea, CellError> {
+    /// Allocates `size` bytes aligned to `align` (a power of two), zeroed;
+    /// `what` names the buffer in the error when memory is full.
+    pub fn alloc(&mut self, what: &str, size: u64, align: u64) -> Result<Ea, CellError> {
         assert!(
             align.is_power_of_two(),
             "alignment {align} is not a power of two"
@@ -65,6 +66,7 @@ impl MainMemory {
         let end = start + size;
         if end - BASE > self.capacity {
             return Err(CellError::OutOfMemory {
+                what: what.to_string(),
                 asked: size,
                 in_use: self.bytes.len() as u64,
                 capacity: self.capacity,
@@ -119,13 +121,14 @@ impl MainMemory {
         self.write(ea, bytemuck::cast_slice(values))
     }
 
-    /// Allocates room for `values` and copies them in.
+    /// Allocates room for `values` (the buffer `what`) and copies them in.
     pub fn alloc_pod<T: bytemuck::Pod>(
         &mut self,
+        what: &str,
         values: &[T],
         align: u64,
     ) -> Result<Ea, CellError> {
-        let ea = self.alloc(std::mem::size_of_val(values) as u64, align)?;
+        let ea = self.alloc(what, std::mem::size_of_val(values) as u64, align)?;
         self.write_pod(ea, values)?;
         Ok(ea)
     }

@@ -21,8 +21,8 @@
 //! let mut cell = Cell::new(CellConfig::ps3()).unwrap();
 //! let n = 6 * 16384usize;
 //! let data: Vec<u32> = (0..n as u32).collect();
-//! let input = cell.memory_mut().alloc_pod(&data, 128).unwrap();
-//! let sums = cell.memory_mut().alloc(6 * 16, 128).unwrap();
+//! let input = cell.memory_mut().alloc_pod("input", &data, 128).unwrap();
+//! let sums = cell.memory_mut().alloc("sums", 6 * 16, 128).unwrap();
 //! for id in 0..6 {
 //!     cell.spawn_spe(id, move |spe| async move {
 //!         let chunk = 16384u32; // bytes per get
@@ -76,7 +76,7 @@ pub use memory::{Ea, MainMemory};
 pub use mfc::{ListElement, WaitMode};
 pub use ppe::Ppe;
 pub use spe::{Reservation, Spe};
-pub use trace::CoreCounters;
+pub use trace::{CoreCounters, Trace};
 
 use machine::{Machine, Task};
 
@@ -172,8 +172,10 @@ pub enum CellError {
         "main memory: {len} bytes at {ea} are outside what was allocated (up to {allocated_end})"
     )]
     BadAddress { ea: Ea, len: u64, allocated_end: Ea },
-    #[error("main memory full: asked {asked} bytes, {in_use} of {capacity} in use")]
+    #[error("main memory full: {what} asked {asked} bytes, {in_use} of {capacity} in use")]
     OutOfMemory {
+        /// The buffer that asked.
+        what: String,
         asked: u64,
         in_use: u64,
         capacity: u64,
@@ -292,11 +294,11 @@ impl Cell {
         })
     }
 
-    /// The timeline as Chrome trace-event JSON (if the config asked for it).
-    pub fn trace_json(&self) -> Option<serde_json::Value> {
-        let m = self.m.borrow();
-        m.trace
-            .as_ref()
-            .map(|t| t.to_chrome_json(m.spes.len(), m.cfg.cost.clock_hz))
+    /// The timeline (if the config asked for it), taken out of the machine:
+    /// write it with [`Trace::write_chrome`].
+    pub fn take_trace(&self) -> Option<Trace> {
+        let mut m = self.m.borrow_mut();
+        let fresh = m.trace.as_ref().map(|t| Trace::new(t.spes, t.hz));
+        std::mem::replace(&mut m.trace, fresh)
     }
 }

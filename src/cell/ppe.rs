@@ -51,10 +51,11 @@ impl Ppe {
         Ok(())
     }
 
-    /// Allocates `size` bytes of main memory aligned to `align`.
-    pub async fn alloc(&self, size: u64, align: u64) -> Result<Ea, CellError> {
+    /// Allocates `size` bytes of main memory aligned to `align` for the
+    /// buffer `what` (named in the error if memory is full).
+    pub async fn alloc(&self, what: &str, size: u64, align: u64) -> Result<Ea, CellError> {
         self.sync().await;
-        self.m.borrow_mut().mem.alloc(size, align)
+        self.m.borrow_mut().mem.alloc(what, size, align)
     }
 
     /// Reads `count` values at `ea`, charged at the PPE's memory bandwidth.

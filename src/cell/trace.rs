@@ -55,12 +55,29 @@ pub struct Span {
     pub label: Option<String>,
 }
 
-#[derive(Clone, Debug, Default)]
+/// The timeline of one machine: its spans, and what it takes to draw them.
+#[derive(Clone, Debug)]
 pub struct Trace {
     pub spans: Vec<Span>,
+    /// SPEs of the machine (rows 1 ..= 2·spes).
+    pub spes: usize,
+    /// Core clock, for converting cycles to time.
+    pub hz: f64,
 }
 
+/// Extra tracks of one row start at this thread id: row `r`'s lane `k > 0`
+/// is thread `LANE_TIDS + 100·r + k`.
+const LANE_TIDS: usize = 10_000;
+
 impl Trace {
+    pub(crate) fn new(spes: usize, hz: f64) -> Self {
+        Trace {
+            spans: Vec::new(),
+            spes,
+            hz,
+        }
+    }
+
     pub(crate) fn push(
         &mut self,
         row: usize,
@@ -80,22 +97,103 @@ impl Trace {
         }
     }
 
-    /// Chrome trace-event JSON ("X" complete events, microseconds).
-    pub fn to_chrome_json(&self, spes: usize, hz: f64) -> serde_json::Value {
-        let mut events = vec![
-            json!({"name": "thread_name", "ph": "M", "pid": 1, "tid": 0, "args": {"name": "PPE"}}),
-        ];
-        for i in 0..spes {
-            events.push(json!({"name": "thread_name", "ph": "M", "pid": 1, "tid": 1 + 2 * i, "args": {"name": format!("SPE {i}")}}));
-            events.push(json!({"name": "thread_name", "ph": "M", "pid": 1, "tid": 2 + 2 * i, "args": {"name": format!("SPE {i} MFC")}}));
+    /// Each span's lane within its row: spans of one row that overlap in
+    /// time (an MFC with several transfers in flight) go to different
+    /// lanes, each lane holding spans that never overlap. Lanes are given
+    /// greedily in order of start (lowest free lane first), so a row whose
+    /// spans never overlap is one lane.
+    pub fn lanes(&self) -> Vec<usize> {
+        let mut order: Vec<usize> = (0..self.spans.len()).collect();
+        order.sort_by_key(|&i| (self.spans[i].row, self.spans[i].start, i));
+        let mut lane = vec![0; self.spans.len()];
+        // Per row: the end of the last span in each lane.
+        let mut ends: Vec<Cycles> = Vec::new();
+        let mut row = usize::MAX;
+        for i in order {
+            let s = &self.spans[i];
+            if s.row != row {
+                row = s.row;
+                ends.clear();
+            }
+            let k = match ends.iter().position(|&e| e <= s.start) {
+                Some(k) => k,
+                None => {
+                    ends.push(Cycles::ZERO);
+                    ends.len() - 1
+                }
+            };
+            ends[k] = s.end;
+            lane[i] = k;
         }
-        for s in &self.spans {
-            let name = s.label.clone().unwrap_or_else(|| format!("{:?}", s.kind));
-            events.push(json!({
-                "name": name, "cat": format!("{:?}", s.kind), "ph": "X", "pid": 1, "tid": s.row,
-                "ts": s.start.us(hz), "dur": (s.end - s.start).us(hz),
-            }));
+        lane
+    }
+
+    /// Writes the timeline as Chrome trace-event JSON ("X" complete events;
+    /// times in microseconds with nanosecond digits, rounded down from
+    /// cycles so that spans that touch in cycles never overlap), one event
+    /// a line, streamed: memory stays that of the spans. Rows are named
+    /// "PPE", "SPE i" and "SPE i MFC"; a row whose spans overlap gets extra
+    /// tracks "SPE i MFC (2)", … so that no two events on one track overlap.
+    pub fn write_chrome(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        let lanes = self.lanes();
+        let mut used = vec![0usize; 2 * self.spes + 1];
+        for (s, &k) in self.spans.iter().zip(&lanes) {
+            used[s.row] = used[s.row].max(k + 1);
         }
-        json!({ "traceEvents": events, "displayTimeUnit": "ns" })
+        let tid = |row: usize, lane: usize| {
+            if lane == 0 {
+                row
+            } else {
+                LANE_TIDS + 100 * row + lane
+            }
+        };
+        let row_name = |row: usize| match row {
+            0 => "PPE".to_string(),
+            r if r % 2 == 1 => format!("SPE {}", (r - 1) / 2),
+            r => format!("SPE {} MFC", (r - 2) / 2),
+        };
+        writeln!(w, "{{\"displayTimeUnit\": \"ns\", \"traceEvents\": [")?;
+        let mut first = true;
+        let mut event = |w: &mut dyn std::io::Write, e: serde_json::Value| {
+            let sep = if first { "" } else { ",\n" };
+            first = false;
+            write!(w, "{sep}{e}")
+        };
+        for (row, &n) in used.iter().enumerate() {
+            for lane in 0..n.max(1) {
+                let name = if lane == 0 {
+                    row_name(row)
+                } else {
+                    format!("{} ({})", row_name(row), lane + 1)
+                };
+                let t = tid(row, lane);
+                event(
+                    w,
+                    json!({"name": "thread_name", "ph": "M", "pid": 1, "tid": t, "args": {"name": name}}),
+                )?;
+                event(
+                    w,
+                    json!({"name": "thread_sort_index", "ph": "M", "pid": 1, "tid": t, "args": {"sort_index": row * 100 + lane}}),
+                )?;
+            }
+        }
+        let ns = |c: Cycles| (c.0 as f64 * 1e9 / self.hz).floor() as u64;
+        let us = |ns: u64| format!("{}.{:03}", ns / 1000, ns % 1000);
+        for (s, &lane) in self.spans.iter().zip(&lanes) {
+            let kind = format!("{:?}", s.kind);
+            let name = s.label.as_deref().unwrap_or(&kind);
+            let (a, b) = (ns(s.start), ns(s.end));
+            let sep = if first { "" } else { ",\n" };
+            first = false;
+            write!(
+                w,
+                "{sep}{{\"name\": {}, \"cat\": \"{kind}\", \"ph\": \"X\", \"pid\": 1, \"tid\": {}, \"ts\": {}, \"dur\": {}}}",
+                serde_json::Value::from(name),
+                tid(s.row, lane),
+                us(a),
+                us(b - a)
+            )?;
+        }
+        writeln!(w, "\n]}}")
     }
 }

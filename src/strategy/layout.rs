@@ -67,5 +67,6 @@ pub fn records(scene: &Scene) -> Vec<TriRecord> {
 
 /// Writes the scene's triangle array into main memory (128-byte aligned).
 pub fn upload(cell: &Cell, scene: &Scene) -> Result<Ea, CellError> {
-    cell.memory_mut().alloc_pod(&records(scene), 128)
+    cell.memory_mut()
+        .alloc_pod("triangle records", &records(scene), 128)
 }

@@ -19,7 +19,7 @@ use std::rc::Rc;
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
 use crate::build::host::BuildStats;
-use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport};
+use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport, Trace};
 use crate::scene::Scene;
 
 /// The strategies that run on the emulated Cell.
@@ -50,7 +50,9 @@ pub(crate) struct Output {
 /// The PPE allocates a node array in main memory and writes `nodes` into
 /// it; returns its address and node count, as [`Output::nodes`] holds them.
 pub(crate) async fn write_nodes(ppe: &Ppe, nodes: &[BihNode]) -> Result<(Ea, usize), CellError> {
-    let ea = ppe.alloc(std::mem::size_of_val(nodes) as u64, 128).await?;
+    let ea = ppe
+        .alloc("node array", std::mem::size_of_val(nodes) as u64, 128)
+        .await?;
     ppe.write_pod(ea, nodes).await?;
     Ok((ea, nodes.len()))
 }
@@ -61,7 +63,7 @@ pub struct CellBuild {
     pub run: RunReport,
     pub stats: BuildStats,
     /// The timeline, if `cell_cfg.trace` was set.
-    pub trace: Option<serde_json::Value>,
+    pub trace: Option<Trace>,
 }
 
 /// Builds the tree of `scene` with `strategy` on a Cell configured by
@@ -126,6 +128,6 @@ pub fn run_in(
         bih,
         run,
         stats: o.stats,
-        trace: cell.trace_json(),
+        trace: cell.take_trace(),
     })
 }

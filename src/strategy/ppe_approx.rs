@@ -33,7 +33,7 @@ pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<Ref
         ));
         // The scatter's second array, written and read back by the gather.
         let size = (n * size_of::<TriRecord>()) as u64;
-        let scattered: Ea = ppe.alloc(size, 128).await?;
+        let scattered: Ea = ppe.alloc("scattered records", size, 128).await?;
         ppe.write_pod(scattered, &items).await?;
         let _: Vec<TriRecord> = ppe.read_pod(scattered, n).await?;
         ppe.write_pod(tris, &sorted).await?;

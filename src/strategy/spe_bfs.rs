@@ -107,8 +107,8 @@ pub(super) fn spawn(
     // WorkAPPE and WorkBPPE: room for as many jobs as triangles, the upper
     // bound of the jobs of one level.
     let work_ppe_bytes = (n.div_ceil(JOBS_PER_BUFFER) * WORK_BYTES as usize) as u64;
-    let work_a_ppe = cell.memory_mut().alloc(work_ppe_bytes, 128)?;
-    let work_b_ppe = cell.memory_mut().alloc(work_ppe_bytes, 128)?;
+    let work_a_ppe = cell.memory_mut().alloc("WorkAPPE", work_ppe_bytes, 128)?;
+    let work_b_ppe = cell.memory_mut().alloc("WorkBPPE", work_ppe_bytes, 128)?;
     let work_ppe = [work_a_ppe, work_b_ppe];
     let stats = Rc::new(RefCell::new(BuildStats::default()));
     let spe_stats = stats.clone();
@@ -135,7 +135,11 @@ pub(super) fn spawn(
             match ppe.read_out_mbox(0).await? {
                 REQUEST_BLOCK => {
                     let ea = ppe
-                        .alloc((BLOCK_NODES * size_of::<BihNode>()) as u64, 128)
+                        .alloc(
+                            "ObjectArena block",
+                            (BLOCK_NODES * size_of::<BihNode>()) as u64,
+                            128,
+                        )
                         .await?;
                     blocks.push(ea);
                     ppe.write_in_mbox(0, ea_word(ea)?).await?;

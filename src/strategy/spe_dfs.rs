@@ -90,10 +90,12 @@ pub(super) fn spawn(
     out: Rc<RefCell<Output>>,
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
-    let job_ea = cell.memory_mut().alloc(size_of::<DfsJob>() as u64, 128)?;
-    let result_ea = cell
+    let job_ea = cell
         .memory_mut()
-        .alloc(2 * size_of::<SideRecord>() as u64, 128)?;
+        .alloc("depth-first job", size_of::<DfsJob>() as u64, 128)?;
+    let result_ea =
+        cell.memory_mut()
+            .alloc("side records", 2 * size_of::<SideRecord>() as u64, 128)?;
 
     cell.spawn_spe(0, move |spe| async move {
         let bufs = Fig1Buffers::alloc(&spe)?;
