@@ -3,7 +3,10 @@
 //!
 //! Rays: header `ox,oy,oz,dx,dy,dz,tmin,tmax`, then one ray a line; numbers
 //! are decimal (`inf` allowed for `tmax`); the direction need not be
-//! normalized and `t` is in units of it.
+//! normalized and `t` is in units of it, but it must have a normal
+//! (not subnormal) component: a direction such as `(0, 0, -1e-320)` would
+//! put every hit at a `t` beyond `f64`, and is an error naming its line. A
+//! UTF-8 byte-order mark before the header is skipped.
 //!
 //! Hits: header `ray,prim,t`, one line per ray in input order; `prim` is the
 //! 0-based triangle id, a miss is `-1` with an empty `t`. `t` is written
@@ -36,24 +39,35 @@ pub enum RaysError {
     },
 }
 
-/// Reads a ray file; `path` names it in errors.
+/// Reads a ray file; `path` names it in errors, with the line.
 pub fn read_rays(path: &str, input: impl BufRead) -> Result<Vec<Ray>, RaysError> {
     let io = |source| RaysError::Io {
         path: path.into(),
         source,
     };
-    let mut lines = input.lines();
-    let header = lines.next().transpose().map_err(io)?.unwrap_or_default();
-    if header.trim() != RAYS_HEADER {
-        return Err(RaysError::Header {
-            path: path.into(),
-            found: header,
-        });
-    }
     let mut rays = Vec::new();
-    for (n, line) in lines.enumerate() {
+    let mut saw_header = false;
+    for (n, line) in input.split(b'\n').enumerate() {
         let line = line.map_err(io)?;
-        let line_no = n + 2;
+        let line_no = n + 1;
+        let Ok(line) = std::str::from_utf8(&line) else {
+            return Err(RaysError::Line {
+                path: path.into(),
+                line: line_no,
+                what: "not UTF-8 text".into(),
+            });
+        };
+        if !saw_header {
+            saw_header = true;
+            let header = line.strip_prefix('\u{feff}').unwrap_or(line);
+            if header.trim() != RAYS_HEADER {
+                return Err(RaysError::Header {
+                    path: path.into(),
+                    found: short(header.trim_end()),
+                });
+            }
+            continue;
+        }
         if line.trim().is_empty() {
             continue;
         }
@@ -70,13 +84,20 @@ pub fn read_rays(path: &str, input: impl BufRead) -> Result<Vec<Ray>, RaysError>
         for (k, f) in fields.iter().enumerate() {
             v[k] = f
                 .parse()
-                .map_err(|_| bad(format!("field {} ('{f}') is not a number", k + 1)))?;
+                .map_err(|_| bad(format!("field {} ('{}') is not a number", k + 1, short(f))))?;
         }
         if v[..6].iter().any(|x| !x.is_finite()) {
             return Err(bad("origin and direction must be finite".into()));
         }
         if v[3..6].iter().all(|&x| x == 0.0) {
             return Err(bad("the direction is zero".into()));
+        }
+        if v[3..6].iter().all(|&x| x.abs() < f64::MIN_POSITIVE) {
+            return Err(bad(
+                "the direction is too short: every component is subnormal (below 2.2e-308), \
+                 so a hit's t in its units would overflow f64; scale it up"
+                    .into(),
+            ));
         }
         if v[6].is_nan() || v[7].is_nan() {
             return Err(bad("tmin and tmax must not be NaN".into()));
@@ -88,7 +109,21 @@ pub fn read_rays(path: &str, input: impl BufRead) -> Result<Vec<Ray>, RaysError>
             tmax: v[7],
         });
     }
+    if !saw_header {
+        return Err(RaysError::Header {
+            path: path.into(),
+            found: String::new(),
+        });
+    }
     Ok(rays)
+}
+
+/// `s`, cut to 60 characters for an error message.
+fn short(s: &str) -> String {
+    match s.char_indices().nth(60) {
+        Some((i, _)) => format!("{}…", &s[..i]),
+        None => s.to_string(),
+    }
 }
 
 /// Writes one line per ray, in order.
@@ -174,6 +209,33 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "r.csv:2: origin and direction must be finite"
+        );
+        let e = read_rays(
+            "r.csv",
+            "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,1,0,0,-1e-320,0,inf\n".as_bytes(),
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("r.csv:2: the direction is too short"),
+            "{e}"
+        );
+        // A direction with one normal component is fine, however small the
+        // others are.
+        let ok = "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,1,1e-320,0,-1e-300,0,inf\n";
+        assert_eq!(read_rays("r.csv", ok.as_bytes()).unwrap().len(), 1);
+    }
+
+    #[test]
+    fn a_byte_order_mark_before_the_header_is_skipped() {
+        let text = "\u{feff}ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,0,1,0,0,0,inf\n";
+        let rays = read_rays("bom.csv", text.as_bytes()).unwrap();
+        assert_eq!(rays.len(), 1);
+        // A mark anywhere else is still an error.
+        let e = read_rays("x.csv", "ox,oy\u{feff}".as_bytes()).unwrap_err();
+        assert!(
+            e.to_string().starts_with("x.csv:1: the header must be"),
+            "{e}"
         );
     }
 

@@ -72,7 +72,8 @@ pub(super) fn intersect4(g: &Group, o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f
             && v >= 0.0
             && u + v <= adet
             && t >= tmin
-            && t <= tmax;
+            && t <= tmax
+            && t.is_finite();
         (f.t[l], f.u[l], f.v[l], f.adet[l]) = (t, u, v, adet);
     }
     for (l, h) in hit.iter().enumerate() {

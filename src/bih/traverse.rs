@@ -146,7 +146,9 @@ impl PreTriangle {
         }
         let inv = 1.0 / det;
         let t = e2.dot(q) * inv;
-        (t >= tmin && t <= tmax).then(|| (t, u / adet, v / adet))
+        // A hit has a finite t: with a direction so short (1e-320) that the
+        // distance in its units overflows f64, t is infinite and no hit.
+        (t >= tmin && t <= tmax && t.is_finite()).then(|| (t, u / adet, v / adet))
     }
 }
 
