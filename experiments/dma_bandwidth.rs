@@ -6,7 +6,7 @@
 //! its peak only with large (16 KiB) transfers, and the memory interface
 //! that all SPEs share saturates as SPEs are added.
 //!
-//! `cargo run --release --bin dma_bandwidth -- [--out results] [--mib 64]`
+//! `cargo run --release --bin dma_bandwidth -- [--out results] [--mib 64] [--max-spes 8]`
 //! writes dma_bandwidth.csv, .json and .svg to the output directory.
 
 use std::path::PathBuf;
@@ -16,19 +16,23 @@ use clap::Parser;
 use serde_json::json;
 
 use cellbih::cell::{Cell, CellConfig, Ea};
-use cellbih::report::{Series, line_plot, output, write_csv, write_json};
+use cellbih::report::{Series, line_plot, output, prepare_dir, write_csv, write_json};
 
 #[derive(Parser)]
 struct Args {
     /// Directory for the CSV, JSON and SVG files.
     #[arg(long, default_value = "results")]
     out: PathBuf,
-    /// MiB streamed per configuration (transfers under 1 KiB stream at most
-    /// 65,536 commands' worth, since bandwidth is a steady-state rate).
-    #[arg(long, default_value_t = 64)]
+    /// MiB per configuration, 1 to 1,024: whole 16 KiB transfers per SPE
+    /// of it are streamed (63 MiB of the default 64 with 6 SPEs); transfers
+    /// under 1 KiB stream at most 65,536 commands' worth, since bandwidth is
+    /// a steady-state rate.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u64).range(1..=1024))]
     mib: u64,
-    #[arg(long, default_value_t = 8)]
-    max_spes: usize,
+    /// Most SPEs to stream through (1 to 8): the runs use 1, 2, 3, 4, 6
+    /// and 8 SPEs up to this many.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..=8))]
+    max_spes: u64,
 }
 
 struct Run {
@@ -46,7 +50,10 @@ fn stream(spes: usize, size: u32, double: bool, bytes: u64) -> Run {
     cfg.main_memory_bytes = bytes + (1 << 20);
     let hz = cfg.cost.clock_hz;
     let mut cell = Cell::new(cfg).expect("config");
-    let base = cell.memory_mut().alloc(bytes, 128).expect("memory");
+    let base = cell
+        .memory_mut()
+        .alloc("streamed array", bytes, 128)
+        .expect("memory");
     // Whole transfers per SPE, so every get stays aligned.
     let per_spe = bytes / spes as u64 / size as u64 * size as u64;
     for id in 0..spes {
@@ -93,12 +100,20 @@ fn stream(spes: usize, size: u32, double: bool, bytes: u64) -> Run {
     }
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+fn main() {
     let args = Args::parse();
+    if let Err(e) = run(&args) {
+        eprintln!("dma_bandwidth: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
+    prepare_dir(&args.out)?;
     let sizes: Vec<u32> = (4..=14).map(|p| 1u32 << p).collect();
     let spe_counts: Vec<usize> = [1, 2, 3, 4, 6, 8]
         .into_iter()
-        .filter(|&n| n <= args.max_spes)
+        .filter(|&n| n as u64 <= args.max_spes)
         .collect();
     let mut runs = Vec::new();
     for &double in &[false, true] {
@@ -157,8 +172,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .find(|r| r.spes == n && r.size == 16384 && !r.double)
         {
             println!(
-                "host time to stream {} MiB through {n} SPE(s) in 16 KiB gets: {:.3} s",
-                r.bytes >> 20,
+                "host time to stream {:.1} MiB through {n} SPE(s) in 16 KiB gets: {:.3} s",
+                r.bytes as f64 / (1 << 20) as f64,
                 r.host_s
             );
         }

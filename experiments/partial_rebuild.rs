@@ -22,31 +22,39 @@ use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
 use cellbih::build::{BuilderKind, host};
-use cellbih::report::{Series, line_plot, output, write_json, write_rows_csv};
+use cellbih::report::{Format, Series, line_plot, output, prepare_dir, write_json, write_rows_csv};
 use cellbih::scene::procedural::rtperf;
-use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play};
+use cellbih::update::{
+    Animation, MAX_FRAMES, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play,
+};
+
+/// The largest scene the experiment takes (it plays every frame on every
+/// size, with brute-force-free checks only).
+const MAX_TRIANGLES: u64 = 10_000_000;
 
 #[derive(Parser)]
 struct Args {
-    /// Smallest scene, in triangles.
-    #[arg(long, default_value_t = 10_000)]
-    from: usize,
-    /// Largest scene, in triangles.
-    #[arg(long, default_value_t = 100_000)]
-    to: usize,
-    #[arg(long, default_value_t = 10_000)]
-    step: usize,
-    /// Frames (moves) per scene size.
-    #[arg(long, default_value_t = 100)]
-    frames: usize,
+    /// Smallest scene, in triangles (1 to 10,000,000).
+    #[arg(long, default_value_t = 10_000, value_parser = clap::value_parser!(u64).range(1..=MAX_TRIANGLES))]
+    from: u64,
+    /// Largest scene, in triangles (at least --from, at most 10,000,000).
+    #[arg(long, default_value_t = 100_000, value_parser = clap::value_parser!(u64).range(1..=MAX_TRIANGLES))]
+    to: u64,
+    /// Triangles added from one size to the next (at least 1).
+    #[arg(long, default_value_t = 10_000, value_parser = clap::value_parser!(u64).range(1..))]
+    step: u64,
+    /// Frames (moves) per scene size, 1 to 100,000.
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=MAX_FRAMES as u64))]
+    frames: u64,
+    /// Seed of the scenes and of the moves.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Host times only: skip the emulated (simulated-time) runs.
     #[arg(long)]
     no_sim: bool,
     /// text (a table) or json (the rows).
-    #[arg(long, default_value = "text")]
-    format: String,
+    #[arg(long, value_enum, default_value = "text")]
+    format: Format,
     /// Directory for the CSV, JSON and SVG files.
     #[arg(long, default_value = "results")]
     out: PathBuf,
@@ -54,7 +62,10 @@ struct Args {
 
 fn main() {
     let args = Args::parse();
-    if let Err(e) = run(&args) {
+    if let Err(e) = prepare_dir(&args.out)
+        .map_err(|e| e.to_string())
+        .and_then(|()| run(&args))
+    {
         eprintln!("partial_rebuild: {e}");
         std::process::exit(1);
     }
@@ -95,15 +106,19 @@ fn median_partial_ms(reports: &[UpdateReport]) -> Option<f64> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    if args.step == 0 || args.from == 0 || args.from > args.to || args.frames == 0 {
-        return Err("need 0 < --from <= --to, --step > 0 and --frames > 0".into());
+    if args.from > args.to {
+        return Err(format!(
+            "--from {} is larger than --to {}",
+            args.from, args.to
+        ));
     }
     let progress = std::io::stderr().is_terminal();
     let cfg = BihConfig::default();
     let mut rows = Vec::new();
-    for n in (args.from..=args.to).step_by(args.step) {
+    for n in (args.from..=args.to).step_by(args.step as usize) {
+        let n = n as usize;
         let scene = rtperf(n, args.seed);
-        let anim = Animation::named("rtperf", &scene, args.frames, args.seed)?;
+        let anim = Animation::named("rtperf", &scene, args.frames as usize, args.seed)?;
         // A complete rebuild: median of five host builds; simulated once
         // (it is deterministic).
         let mut t: Vec<f64> = (0..5)
@@ -120,7 +135,7 @@ fn run(args: &Args) -> Result<(), String> {
                 eprint!("{n:>7} triangles, {:<5}\r", method.name());
             }
             let (host, sah_ratio) = frames(&scene, &anim, BuilderKind::Host, method)?;
-            let sum = Summary::of(&host);
+            let sum = Summary::of(&host).ok_or("no frame moved anything")?;
             let median = median_partial_ms(&host);
             let mut row = json!({
                 "triangles": n,
@@ -145,7 +160,8 @@ fn run(args: &Args) -> Result<(), String> {
             });
             for (p, builder) in SIMULATED_BUILDERS.iter().filter(|_| !args.no_sim) {
                 let full = builder.build(&scene, &cfg).map_err(|e| e.to_string())?;
-                let s = Summary::of(&frames(&scene, &anim, *builder, method)?.0).simulated_ms;
+                let s = Summary::of(&frames(&scene, &anim, *builder, method)?.0)
+                    .and_then(|s| s.simulated_ms);
                 row[format!("{p}_min_ms")] = json!(s.map(|s| s[0]));
                 row[format!("{p}_max_ms")] = json!(s.map(|s| s[1]));
                 row[format!("{p}_mean_ms")] = json!(s.map(|s| s[2]));
@@ -157,7 +173,15 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:40}\r", "");
     }
-    let io = |e: std::io::Error| e.to_string();
+    if args.format == Format::Json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
+        );
+    } else {
+        print_table(&rows);
+    }
+    let io = |e: cellbih::report::OutputError| e.to_string();
     let keys = [
         "triangles",
         "method",
@@ -208,18 +232,10 @@ fn run(args: &Args) -> Result<(), String> {
     for method in ["local", "deep"] {
         plots(&args.out, method, &rows).map_err(|e| e.to_string())?;
     }
-    if args.format == "json" {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
-        );
-    } else {
-        print_table(&rows);
-        eprintln!(
-            "written: {}/partial_rebuild.{{csv,json}}, fig3a_*.svg, fig3b_*.svg",
-            args.out.display()
-        );
-    }
+    eprintln!(
+        "written: {}/partial_rebuild.{{csv,json}}, fig3a_*.svg, fig3b_*.svg",
+        args.out.display()
+    );
     Ok(())
 }
 

@@ -19,7 +19,7 @@ use serde_json::json;
 
 use cellbih::bih::BihConfig;
 use cellbih::build::BuilderKind;
-use cellbih::report::{output, write_json, write_rows_csv};
+use cellbih::report::{Format, output, prepare_dir, write_json, write_rows_csv};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -28,8 +28,8 @@ struct Args {
     #[arg(long)]
     data: Option<PathBuf>,
     /// text (a table) or json (the rows).
-    #[arg(long, default_value = "text")]
-    format: String,
+    #[arg(long, value_enum, default_value = "text")]
+    format: Format,
     /// Directory for table1.csv and table1.json.
     #[arg(long, default_value = "results")]
     out: PathBuf,
@@ -100,7 +100,10 @@ fn main() {
     if args.data.is_none() {
         args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
     }
-    if let Err(e) = run(&args) {
+    if let Err(e) = prepare_dir(&args.out)
+        .map_err(|e| e.to_string())
+        .and_then(|()| run(&args))
+    {
         eprintln!("table1: {e}");
         std::process::exit(1);
     }
@@ -147,7 +150,15 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:40}\r", "");
     }
-    let io = |e: std::io::Error| e.to_string();
+    if args.format == Format::Json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
+        );
+    } else {
+        print_table(&rows);
+    }
+    let io = |e: cellbih::report::OutputError| e.to_string();
     write_rows_csv(
         &output(&args.out, "table1.csv").map_err(io)?,
         &[
@@ -167,14 +178,6 @@ fn run(args: &Args) -> Result<(), String> {
     .map_err(io)?;
     let doc = json!({ "rows": rows, "note": "simulated_ms on the PS3 model; paper_ms null = out of memory in the paper" });
     write_json(&output(&args.out, "table1.json").map_err(io)?, &doc).map_err(io)?;
-    if args.format == "json" {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
-        );
-        return Ok(());
-    }
-    print_table(&rows);
     Ok(())
 }
 

@@ -19,18 +19,19 @@ use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::build::BuilderKind;
-use cellbih::report::{output, write_json, write_rows_csv};
+use cellbih::report::{Format, output, prepare_dir, write_json, write_rows_csv};
 use cellbih::scene;
 use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play};
 
 #[derive(Parser)]
 struct Args {
     /// text (a table) or json (the rows).
-    #[arg(long, default_value = "text")]
-    format: String,
+    #[arg(long, value_enum, default_value = "text")]
+    format: Format,
     /// Host times only: skip the emulated (simulated-time) runs.
     #[arg(long)]
     no_sim: bool,
+    /// Seed of the animations' pseudo-random moves.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Directory for table2.csv and table2.json.
@@ -59,20 +60,24 @@ const PAPER: [(&str, &str, [f64; 11]); 2] = [
 
 fn main() {
     let args = Args::parse();
-    if let Err(e) = run(&args) {
+    if let Err(e) = prepare_dir(&args.out)
+        .map_err(|e| e.to_string())
+        .and_then(|()| run(&args))
+    {
         eprintln!("table2: {e}");
         std::process::exit(1);
     }
 }
 
-/// Every frame's report of `anim` played on a fresh updater.
-fn frames(
+/// The summary of `anim` played on a fresh updater.
+fn summary(
     s: &scene::Scene,
     anim: &Animation,
     builder: BuilderKind,
     method: Method,
-) -> Result<Vec<UpdateReport>, String> {
-    Ok(play(s, anim, builder, method).map_err(|e| e.to_string())?.1)
+) -> Result<Summary, String> {
+    let reports: Vec<UpdateReport> = play(s, anim, builder, method).map_err(|e| e.to_string())?.1;
+    Summary::of(&reports).ok_or_else(|| format!("{}: no frame moved anything", anim.name))
 }
 
 fn run(args: &Args) -> Result<(), String> {
@@ -91,7 +96,7 @@ fn run(args: &Args) -> Result<(), String> {
             if progress {
                 eprint!("{spec:>4} {:<5}\r", method.name());
             }
-            let host = Summary::of(&frames(&s, &anim, BuilderKind::Host, method)?);
+            let host = summary(&s, &anim, BuilderKind::Host, method)?;
             let mut row = json!({
                 "scene": paper_name, "source": format!("ours ({spec})"), "method": method.name(),
                 "triangles": s.len(), "updates": host.updates, "rebuilds": host.rebuilds,
@@ -101,7 +106,7 @@ fn run(args: &Args) -> Result<(), String> {
                 "trav": host.depth, "kept": host.kept,
             });
             for (p, builder) in SIMULATED_BUILDERS.iter().filter(|_| !args.no_sim) {
-                let t = Summary::of(&frames(&s, &anim, *builder, method)?).simulated_ms;
+                let t = summary(&s, &anim, *builder, method)?.simulated_ms;
                 row[format!("{p}_tmin_ms")] = json!(t.map(|t| t[0]));
                 row[format!("{p}_tmax_ms")] = json!(t.map(|t| t[1]));
                 row[format!("{p}_t_ms")] = json!(t.map(|t| t[2]));
@@ -112,7 +117,15 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:40}\r", "");
     }
-    let io = |e: std::io::Error| e.to_string();
+    if args.format == Format::Json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
+        );
+    } else {
+        print_table(&rows);
+    }
+    let io = |e: cellbih::report::OutputError| e.to_string();
     let keys = [
         "scene",
         "source",
@@ -142,14 +155,6 @@ fn run(args: &Args) -> Result<(), String> {
         "note": "ours: t*_ms host (host builder, one thread); ppe_t*_ms / bfs_t*_ms simulated PS3 ms with the rebuilds on ppe_naive / spe_bfs; paper: PS3 ms (its update ran on the PPE)",
     });
     write_json(&output(&args.out, "table2.json").map_err(io)?, &doc).map_err(io)?;
-    if args.format == "json" {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
-        );
-    } else {
-        print_table(&rows);
-    }
     Ok(())
 }
 

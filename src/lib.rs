@@ -6,6 +6,7 @@ pub mod aabb;
 pub mod bih;
 pub mod build;
 pub mod cell;
+pub mod output;
 pub mod quality;
 pub mod rays_csv;
 pub mod render;

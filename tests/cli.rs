@@ -3,33 +3,10 @@
 
 mod common;
 
-use std::process::Command;
-
 use cellbih::bih::brute_force_closest;
 use cellbih::rays_csv::write_rays;
 use cellbih::scene;
-
-fn cellbih(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_cellbih"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-/// Fails with the command's stderr unless it succeeded.
-fn assert_ok(out: &std::process::Output) {
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-fn tmp(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("cellbih-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
-}
+use common::{assert_ok, cellbih, tmp};
 
 #[test]
 fn raycast_writes_one_line_per_ray_equal_to_brute_force() {

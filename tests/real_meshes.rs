@@ -1,13 +1,20 @@
 //! The real meshes of the data directory (CELLBIH_DATA; CI points it at
 //! ../shared/data): each loads with the triangle count its README gives,
-//! builds a valid tree, and answers rays as brute force does.
+//! builds a valid tree with every builder, and answers rays as brute force
+//! does.
+//!
+//! One test per mesh, under a harness of its own (libtest-mimic) so that a
+//! skip is seen: with CELLBIH_DATA unset every mesh's test is reported
+//! *ignored*, its name saying why, and the run says so in a line of its own;
+//! with CELLBIH_DATA set, a missing mesh or directory is a failure.
 
 mod common;
 
 use cellbih::bih::{BihConfig, Tracer};
 use cellbih::build::BuilderKind;
-use cellbih::scene;
-use common::{check_ray, data_dir, rays_for};
+use cellbih::scene::{self, DATA_ENV};
+use common::{check_ray, rays_for};
+use libtest_mimic::{Arguments, Failed, Trial};
 
 /// (name, triangles, zero-area triangles where the data README states them
 /// unambiguously).
@@ -27,30 +34,74 @@ const MESHES: &[(&str, usize, Option<usize>)] = &[
     ("nefertiti", 99_938, Some(0)),
 ];
 
-#[test]
-fn every_real_mesh_loads_builds_and_agrees_with_brute_force() {
-    let Some(dir) = data_dir("real_meshes") else {
-        return;
-    };
-    for &(name, triangles, zero_area) in MESHES {
-        let s = scene::load(name, Some(&dir)).unwrap_or_else(|e| panic!("{name}: {e}"));
-        assert_eq!(s.len(), triangles, "{name}: triangle count");
-        if let Some(z) = zero_area {
-            assert_eq!(s.degenerate_count(), z, "{name}: zero-area triangles");
-        }
-        for &b in BuilderKind::ALL {
-            let r = b
-                .build(&s, &BihConfig::default())
-                .unwrap_or_else(|e| panic!("{name} / {b}: {e}"));
-            r.bih
-                .validate(&s)
-                .unwrap_or_else(|v| panic!("{name} / {b}: {v}"));
-            let tracer = Tracer::new(&r.bih, &s);
-            // Brute force costs a pass over every triangle per ray.
-            let rays = (3_000_000 / triangles).clamp(40, 400);
-            for ray in rays_for(&s, rays, 99) {
-                check_ray(&s, &tracer, &ray).unwrap_or_else(|e| panic!("{name} / {b}: {e}"));
-            }
+/// One mesh: it loads from `dir` with its counts, and every builder's tree
+/// is valid and agrees with brute force.
+fn check_mesh(
+    dir: &std::path::Path,
+    name: &str,
+    triangles: usize,
+    zero_area: Option<usize>,
+) -> Result<(), Failed> {
+    let s = scene::load(name, Some(dir)).map_err(|e| format!("{name}: {e}"))?;
+    if s.len() != triangles {
+        return Err(format!("{name}: {} triangles, expected {triangles}", s.len()).into());
+    }
+    if let Some(z) = zero_area
+        && s.degenerate_count() != z
+    {
+        return Err(format!(
+            "{name}: {} zero-area triangles, expected {z}",
+            s.degenerate_count()
+        )
+        .into());
+    }
+    for &b in BuilderKind::ALL {
+        let r = b
+            .build(&s, &BihConfig::default())
+            .map_err(|e| format!("{name} / {b}: {e}"))?;
+        r.bih
+            .validate(&s)
+            .map_err(|v| format!("{name} / {b}: {v}"))?;
+        let tracer = Tracer::new(&r.bih, &s);
+        // Brute force costs a pass over every triangle per ray.
+        let rays = (3_000_000 / triangles).clamp(40, 400);
+        for ray in rays_for(&s, rays, 99) {
+            check_ray(&s, &tracer, &ray).map_err(|e| format!("{name} / {b}: {e}"))?;
         }
     }
+    Ok(())
+}
+
+fn main() {
+    let args = Arguments::from_args();
+    let dir = scene::data_dir(None);
+    if dir.is_none() {
+        println!(
+            "\nreal_meshes: {DATA_ENV} is not set: the {} real-mesh tests did NOT run \
+             (set {DATA_ENV}=../shared/data to run them)",
+            MESHES.len()
+        );
+    }
+    let trials = MESHES
+        .iter()
+        .map(|&(name, triangles, zero_area)| match &dir {
+            Some(dir) => {
+                let dir = dir.clone();
+                Trial::test(format!("real_mesh::{name}"), move || {
+                    check_mesh(&dir, name, triangles, zero_area)
+                })
+            }
+            None => Trial::test(
+                format!("real_mesh::{name} (NOT RUN: {DATA_ENV} is not set)"),
+                move || {
+                    Err(
+                        format!("{DATA_ENV} is not set: no data directory to load {name} from")
+                            .into(),
+                    )
+                },
+            )
+            .with_ignored_flag(true),
+        })
+        .collect();
+    libtest_mimic::run(&args, trials).exit();
 }

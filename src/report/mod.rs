@@ -1,10 +1,22 @@
 //! Reports of experiments: a results directory, CSV and JSON files, and SVG
-//! line plots a person can read (plotters).
+//! line plots a person can read (plotters). Every file goes through
+//! [`crate::output`]: written whole or not at all, errors naming the path.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
+
+pub use crate::output::OutputError;
+use crate::output::{check_writable, write_bytes, write_file};
+
+/// How an experiment prints its results (the files are written either way).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// A table for people.
+    Text,
+    /// The rows as JSON.
+    Json,
+}
 
 /// A line of a plot: its name, points, colour (an index into a fixed
 /// palette, so that related lines can share one) and whether it is dashed.
@@ -15,20 +27,32 @@ pub struct Series {
     pub dashed: bool,
 }
 
+/// Creates `dir` if need be and checks that files can be written in it:
+/// an experiment calls this before its work, so that a bad `--out` fails at
+/// once.
+pub fn prepare_dir(dir: &Path) -> Result<(), OutputError> {
+    std::fs::create_dir_all(dir).map_err(|source| OutputError {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    check_writable(&dir.join(".cellbih-write-check"))
+}
+
 /// Creates `dir` and returns the path of `file` in it.
-pub fn output(dir: &Path, file: &str) -> std::io::Result<PathBuf> {
-    std::fs::create_dir_all(dir)?;
+pub fn output(dir: &Path, file: &str) -> Result<PathBuf, OutputError> {
+    prepare_dir(dir)?;
     Ok(dir.join(file))
 }
 
 /// Writes a CSV file with a header line.
-pub fn write_csv(path: &Path, header: &str, rows: &[String]) -> std::io::Result<()> {
-    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
-    writeln!(f, "{header}")?;
-    for r in rows {
-        writeln!(f, "{r}")?;
-    }
-    Ok(())
+pub fn write_csv(path: &Path, header: &str, rows: &[String]) -> Result<(), OutputError> {
+    write_file(path, |f| {
+        writeln!(f, "{header}")?;
+        for r in rows {
+            writeln!(f, "{r}")?;
+        }
+        Ok(())
+    })
 }
 
 /// Writes the fields `keys` of JSON objects `rows` as a CSV file (null is
@@ -37,7 +61,7 @@ pub fn write_rows_csv(
     path: &Path,
     keys: &[&str],
     rows: &[serde_json::Value],
-) -> std::io::Result<()> {
+) -> Result<(), OutputError> {
     let lines: Vec<String> = rows
         .iter()
         .map(|r| {
@@ -55,14 +79,31 @@ pub fn write_rows_csv(
 }
 
 /// Writes `value` as pretty JSON.
-pub fn write_json(path: &Path, value: &serde_json::Value) -> std::io::Result<()> {
-    std::fs::write(path, serde_json::to_string_pretty(value)?)
+pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<(), OutputError> {
+    write_file(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, value)?;
+        writeln!(w)
+    })
 }
 
 /// Draws `series` as lines on a 900×560 SVG; `log2_x` puts x on a log₂ axis
 /// (ticks labelled with the real values).
 pub fn line_plot(
     path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[Series],
+    log2_x: bool,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let mut svg = String::new();
+    draw_lines(&mut svg, title, x_label, y_label, series, log2_x)?;
+    write_bytes(path, svg.as_bytes())?;
+    Ok(())
+}
+
+fn draw_lines(
+    svg: &mut String,
     title: &str,
     x_label: &str,
     y_label: &str,
@@ -79,7 +120,7 @@ pub fn line_plot(
         .flat_map(|s| s.points.iter().map(|p| p.1))
         .fold(0.0f64, f64::max)
         * 1.08;
-    let root = SVGBackend::new(path, (900, 560)).into_drawing_area();
+    let root = SVGBackend::with_string(svg, (900, 560)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(title, ("sans-serif", 22))

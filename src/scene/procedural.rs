@@ -3,7 +3,7 @@
 //!
 //! - `rtperf:<triangles>[:<seed>]` — rtPerf: spheres of 200 triangles spread
 //!   pseudo-randomly through a 100-unit cube, one geometry id per sphere;
-//! - `car` — a car of 22,152 triangles in 17 separately movable parts
+//! - `car` — a car of 22,152 triangles: a body and 18 separately movable parts
 //!   (body, cabin, wheels, hubs, doors, hood, trunk, …), like carVis;
 //! - `cup` — one glass of 7,040 triangles alone in space, like cupVis.
 
@@ -13,6 +13,13 @@ use super::{Scene, SceneError, SplitMix64, Triangle};
 
 /// Triangles of one rtPerf sphere (10 slices, 11 stacks).
 pub const RTPERF_SPHERE_TRIANGLES: usize = 200;
+
+/// The most triangles `rtperf:N` makes: 50 million take 1.8 GB as a scene
+/// and about 4 GB once a tree is built (about 80 bytes a triangle with the
+/// host builder, measured on `rtperf:4000000`), and triangle ids must stay
+/// far below the node format's 2^30. The count is checked before anything
+/// is allocated.
+pub const MAX_RTPERF_TRIANGLES: usize = 50_000_000;
 
 /// The procedural scene named by `spec`, `None` if `spec` names none.
 pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
@@ -36,6 +43,11 @@ pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
             };
             if tris == 0 {
                 return Err(bad("rtperf needs at least one triangle"));
+            }
+            if tris > MAX_RTPERF_TRIANGLES {
+                return Err(bad(&format!(
+                    "rtperf takes at most {MAX_RTPERF_TRIANGLES} triangles (about 80 bytes each once built)"
+                )));
             }
             rtperf(tris, seed)
         }

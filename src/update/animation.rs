@@ -79,11 +79,58 @@ pub struct Animation {
     pub frames: Vec<Vec<Move>>,
 }
 
+/// The most frames an animation has: every frame's moves are made before
+/// the first one is played (about 100 bytes a frame, with its report).
+pub const MAX_FRAMES: usize = 100_000;
+
+/// The geometry ids of `scene` whose names `wanted` accepts, or an error
+/// saying what `animation` moves and which scene has it.
+fn parts_named(
+    scene: &Scene,
+    animation: &str,
+    what: &str,
+    wanted: impl Fn(&str) -> bool,
+) -> Result<Vec<u32>, String> {
+    let ids: Vec<u32> = (0..scene.geometry_names.len() as u32)
+        .filter(|&g| wanted(&scene.geometry_names[g as usize]))
+        .collect();
+    if ids.is_empty() {
+        return Err(format!(
+            "animation '{animation}' moves {what}, and scene '{}' has no such geometry \
+             (its geometries: {}); use --scene {animation}",
+            scene.name,
+            names_preview(scene)
+        ));
+    }
+    Ok(ids)
+}
+
+fn names_preview(scene: &Scene) -> String {
+    let n = scene.geometry_names.len();
+    let mut s: Vec<&str> = scene
+        .geometry_names
+        .iter()
+        .take(5)
+        .map(String::as_str)
+        .collect();
+    if n > 5 {
+        s.push("…");
+    }
+    s.join(", ")
+}
+
 impl Animation {
     /// The animation `name` (`rtperf`, `car` or `cup`) of `frames` frames
-    /// for `scene`, deterministic for `seed`.
+    /// for `scene`, deterministic for `seed`. Each animation moves geometry
+    /// by name — rtperf the spheres (`sphere…`), car every part but the
+    /// `body`, cup the `glass` — and a scene without it is an error, as is
+    /// more than [`MAX_FRAMES`] frames.
     pub fn named(name: &str, scene: &Scene, frames: usize, seed: u64) -> Result<Self, String> {
-        let geometries = scene.geometry_names.len() as u32;
+        if frames > MAX_FRAMES {
+            return Err(format!(
+                "{frames} frames: an animation has at most {MAX_FRAMES} frames"
+            ));
+        }
         let mut rng = SplitMix64::new(seed);
         let frames = match name {
             // rtPerf (Fig. 3): each frame moves one sphere, picked
@@ -91,30 +138,39 @@ impl Animation {
             // number of transformed triangles stays the same (200) at every
             // scene size, as in the paper's Fig. 3a; every fifth frame's
             // move is marked only.
-            "rtperf" => (0..frames)
-                .map(|f| {
-                    let g = (rng.next_u64() % geometries as u64) as u32;
-                    let by = Vec3::new(
-                        rng.range(-1.0, 1.0),
-                        rng.range(-1.0, 1.0),
-                        rng.range(-1.0, 1.0),
-                    );
-                    if f % 5 == 4 {
-                        vec![Move::marked(g)]
-                    } else {
-                        vec![Move::translate(g, by)]
-                    }
-                })
-                .collect(),
+            "rtperf" => {
+                let spheres =
+                    parts_named(scene, name, "rtPerf's spheres", |n| n.starts_with("sphere"))?;
+                (0..frames)
+                    .map(|f| {
+                        let g = spheres[(rng.next_u64() % spheres.len() as u64) as usize];
+                        let by = Vec3::new(
+                            rng.range(-1.0, 1.0),
+                            rng.range(-1.0, 1.0),
+                            rng.range(-1.0, 1.0),
+                        );
+                        if f % 5 == 4 {
+                            vec![Move::marked(g)]
+                        } else {
+                            vec![Move::translate(g, by)]
+                        }
+                    })
+                    .collect()
+            }
             // carVis: parts other than the body (geometry 0) move out from
             // the car's center by 0.05 units on one frame and back on the
             // next; every seventh frame is marked only.
             "car" => {
+                parts_named(scene, name, "the car's parts around its 'body'", |n| {
+                    n == "body"
+                })?;
+                let parts = parts_named(scene, name, "the car's parts besides its 'body'", |n| {
+                    n != "body"
+                })?;
                 let center = scene.bounds().center();
                 (0..frames)
                     .map(|f| {
-                        let g = 1 + (f / 2) as u32 % (geometries - 1).max(1);
-                        let g = g.min(geometries - 1);
+                        let g = parts[(f / 2) % parts.len()];
                         let out = (part_center(scene, g) - center).normalize_or_zero() * 0.05;
                         if f % 7 == 6 {
                             vec![Move::marked(g)]
@@ -129,16 +185,19 @@ impl Animation {
             // cupVis: the lone glass moves 0.05 units along x and back, so
             // every real move changes the scene box; one frame in 25 is
             // marked only.
-            "cup" => (0..frames)
-                .map(|f| {
-                    let by = Vec3::new(if f % 2 == 0 { 0.05 } else { -0.05 }, 0.0, 0.0);
-                    if f % 25 == 24 {
-                        vec![Move::marked(0)]
-                    } else {
-                        vec![Move::translate(0, by)]
-                    }
-                })
-                .collect(),
+            "cup" => {
+                let glass = parts_named(scene, name, "the 'glass'", |n| n == "glass")?[0];
+                (0..frames)
+                    .map(|f| {
+                        let by = Vec3::new(if f % 2 == 0 { 0.05 } else { -0.05 }, 0.0, 0.0);
+                        if f % 25 == 24 {
+                            vec![Move::marked(glass)]
+                        } else {
+                            vec![Move::translate(glass, by)]
+                        }
+                    })
+                    .collect()
+            }
             _ => return Err(format!("unknown animation '{name}': rtperf, car or cup")),
         };
         Ok(Animation {

@@ -31,7 +31,7 @@ use std::time::Instant;
 use serde::Serialize;
 use thiserror::Error;
 
-pub use animation::{Animation, Move, apply};
+pub use animation::{Animation, MAX_FRAMES, Move, apply};
 pub use local::{Enclosing, Stop, enclosing_node, interval};
 
 use crate::aabb::Aabb;
@@ -113,8 +113,9 @@ pub struct Summary {
     pub updates: usize,
     /// Frames that rebuilt the tree completely ("rebuilds").
     pub rebuilds: usize,
-    /// updates / rebuilds ("ratio"); infinite if nothing was rebuilt.
-    pub ratio: f64,
+    /// updates / rebuilds ("ratio"); `None` when no frame was a complete
+    /// rebuild.
+    pub ratio: Option<f64>,
     /// Host time per frame: min, max, mean ("tmin", "tmax", "t"), in ms.
     pub host_ms: [f64; 3],
     /// Simulated Cell time per frame, same order, for emulated builders.
@@ -134,24 +135,27 @@ pub struct Summary {
 
 impl Summary {
     /// Sums up the reports of frames that had moves (empty frames are
-    /// no updates at all).
-    pub fn of(reports: &[UpdateReport]) -> Summary {
+    /// no updates at all); `None` when no frame had a move.
+    pub fn of(reports: &[UpdateReport]) -> Option<Summary> {
         let r: Vec<&UpdateReport> = reports.iter().filter(|r| r.moves > 0).collect();
-        let n = r.len().max(1) as f64;
+        if r.is_empty() {
+            return None;
+        }
+        let n = r.len() as f64;
         let mean = |f: &dyn Fn(&UpdateReport) -> f64| r.iter().map(|x| f(x)).sum::<f64>() / n;
         let spread = |v: Vec<f64>| {
             let min = v.iter().copied().fold(f64::INFINITY, f64::min);
             let max = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            [min, max, v.iter().sum::<f64>() / v.len().max(1) as f64]
+            [min, max, v.iter().sum::<f64>() / v.len() as f64]
         };
         let rebuilds = r.iter().filter(|x| x.full_rebuild).count();
         let updates = r.len() - rebuilds;
         let sim: Option<Vec<f64>> = r.iter().map(|x| x.simulated_ms).collect();
-        Summary {
+        Some(Summary {
             frames: r.len(),
             updates,
             rebuilds,
-            ratio: updates as f64 / rebuilds as f64,
+            ratio: (rebuilds > 0).then(|| updates as f64 / rebuilds as f64),
             host_ms: spread(r.iter().map(|x| x.host_ms).collect()),
             simulated_ms: sim.filter(|v| !v.is_empty()).map(spread),
             transformed: mean(&|x| x.transformed as f64),
@@ -160,7 +164,7 @@ impl Summary {
             depth: mean(&|x| x.depth as f64),
             kept: mean(&|x| x.kept as f64),
             moved_slots: mean(&|x| x.moved_slots as f64),
-        }
+        })
     }
 }
 

@@ -12,13 +12,61 @@ use proptest::prelude::*;
 /// admits a coincident triangle found first.
 pub const T_TOLERANCE: f64 = 1e-9;
 
-/// The data directory of real meshes, or `None` (said on stderr).
-pub fn data_dir(test: &str) -> Option<std::path::PathBuf> {
-    match cellbih::scene::data_dir(None) {
-        Some(d) if d.exists() => Some(d),
-        _ => {
-            eprintln!("{test}: CELLBIH_DATA is not set (or missing): real-mesh checks NOT run");
-            None
+/// Runs the `cellbih` binary with `args`.
+pub fn cellbih(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_cellbih"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// Fails with the command's stderr unless it succeeded.
+pub fn assert_ok(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A path in this test process's own temporary directory.
+pub fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("cellbih-test-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d.join(name)
+}
+
+/// Panics unless every two complete ("X") events on one track of a Chrome
+/// trace are apart or nested, as the format requires (Perfetto drops or
+/// misdraws the others). Compared in whole nanoseconds, as Perfetto reads
+/// them.
+pub fn assert_slices_nest(trace: &serde_json::Value) {
+    let ns = |v: &serde_json::Value| (v.as_f64().unwrap() * 1000.0).round() as i64;
+    let mut by_track: std::collections::BTreeMap<i64, Vec<(i64, i64)>> = Default::default();
+    for e in trace["traceEvents"].as_array().unwrap() {
+        if e["ph"] == "X" {
+            let start = ns(&e["ts"]);
+            by_track
+                .entry(e["tid"].as_i64().unwrap())
+                .or_default()
+                .push((start, start + ns(&e["dur"])));
+        }
+    }
+    for (tid, mut slices) in by_track {
+        // Longest first among equal starts, so that a parent precedes its children.
+        slices.sort_by_key(|&(a, b)| (a, std::cmp::Reverse(b)));
+        let mut open: Vec<i64> = Vec::new();
+        for (a, b) in slices {
+            while open.last().is_some_and(|&end| end <= a) {
+                open.pop();
+            }
+            if let Some(&end) = open.last() {
+                assert!(
+                    b <= end,
+                    "track {tid}: slice {a}..{b} ns overlaps its neighbour ending at {end} without nesting"
+                );
+            }
+            open.push(b);
         }
     }
 }

@@ -1,0 +1,434 @@
+//! Nothing lost, nothing silent: the commands as a new user tries them.
+//! Writes that fail are errors naming the path (to `/dev/full`, to paths
+//! that cannot exist); a failed write leaves no file that looks valid; sizes
+//! past their limits are refused before any work; degenerate requests get
+//! sensible answers; traces nest; help says what each option does.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{assert_ok, cellbih, tmp};
+
+/// Runs `exe` with `args`, killing it after `limit`: a refusal must come
+/// at once, so a run that takes longer is a failure (a hang or a huge
+/// allocation), not a slow pass.
+fn run_limited(exe: &str, args: &[&str], limit: Duration) -> Output {
+    let mut child = Command::new(exe)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            child.kill().unwrap();
+            panic!("{exe} {args:?} still ran after {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn stdout(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Fails unless the command failed with `msg` in its stderr.
+fn assert_fails_with(out: &Output, msg: &str) {
+    let err = stderr(out);
+    assert!(
+        !out.status.success() && err.contains(msg),
+        "expected a failure saying '{msg}', got {:?}: {err}",
+        out.status
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+/// A link in a fresh directory that points at `/dev/full`.
+fn link_to_dev_full(dir: &Path, name: &str) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let p = dir.join(name);
+    let _ = std::fs::remove_file(&p);
+    std::os::unix::fs::symlink("/dev/full", &p).unwrap();
+    p
+}
+
+fn rays_file(name: &str, text: &str) -> String {
+    let p = tmp(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+const ONE_RAY: &str = "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n";
+
+#[test]
+fn raycast_to_dev_full_or_a_bad_path_fails_naming_it() {
+    let rays = rays_file("one.rays.csv", ONE_RAY);
+    let full = link_to_dev_full(&tmp("full"), "hits.csv");
+    let out = cellbih(&["raycast", "--rays", &rays, "--out", full.to_str().unwrap()]);
+    assert_fails_with(&out, &format!("{}: cannot write", full.display()));
+    assert!(!stderr(&out).contains("written to"), "{}", stderr(&out));
+
+    // Larger output: the error still names the file.
+    let many: String = std::iter::once("ox,oy,oz,dx,dy,dz,tmin,tmax\n")
+        .chain(std::iter::repeat_n("0,1,8,0,0,-1,0,inf\n", 20_000))
+        .collect();
+    let rays = rays_file("many.rays.csv", &many);
+    let out = cellbih(&["raycast", "--rays", &rays, "--out", full.to_str().unwrap()]);
+    assert_fails_with(&out, &format!("{}: cannot write", full.display()));
+
+    // Paths that cannot be written fail before any work, naming the path.
+    let a_file = tmp("plain-file");
+    std::fs::write(&a_file, "x").unwrap();
+    for bad in [
+        "/no/such/dir/hits.csv".to_string(),
+        "/proc/cellbih-hits.csv".to_string(),
+        format!("{}/hits.csv", a_file.display()),
+    ] {
+        let out = cellbih(&["raycast", "--rays", &rays, "--out", &bad]);
+        assert_fails_with(&out, &format!("{bad}: cannot write"));
+        assert!(!Path::new(&bad).exists());
+    }
+}
+
+#[test]
+fn render_refuses_bad_sizes_and_names_up_front_and_leaves_no_file() {
+    let dir = tmp("render");
+    std::fs::create_dir_all(&dir).unwrap();
+    let png = dir.join("r.png");
+    let p = png.to_str().unwrap();
+    for (args, msg) in [
+        (
+            vec!["--width", "0", "--out", p],
+            "an image of 0 × 600 pixels has no pixel",
+        ),
+        (
+            vec!["--width", "100000", "--height", "100000", "--out", p],
+            "each side is at most 16384",
+        ),
+        (
+            vec!["--width", "16384", "--height", "16384", "--out", p],
+            "at most 67108864 pixels",
+        ),
+    ] {
+        let mut a = vec!["render"];
+        a.extend(args);
+        let out = run_limited(env!("CARGO_BIN_EXE_cellbih"), &a, Duration::from_secs(20));
+        assert_fails_with(&out, msg);
+        assert!(!png.exists(), "a refused render leaves no file");
+    }
+    let jpg = dir.join("x.jpg");
+    let out = cellbih(&["render", "--out", jpg.to_str().unwrap()]);
+    assert_fails_with(&out, "images are written as PNG");
+    assert!(!jpg.exists());
+
+    let full = link_to_dev_full(&dir, "full.png");
+    let out = cellbih(&[
+        "render",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--out",
+        full.to_str().unwrap(),
+    ]);
+    assert_fails_with(&out, &format!("{}: cannot write", full.display()));
+}
+
+#[test]
+fn a_trace_nests_on_every_track_and_a_bad_trace_path_fails_first() {
+    let p = tmp("default.trace.json");
+    let out = cellbih(&[
+        "build",
+        "--builder",
+        "spe_bfs",
+        "--trace",
+        p.to_str().unwrap(),
+    ]);
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&p).unwrap()).unwrap();
+    common::assert_slices_nest(&v);
+    // The default scene's SPE streams with several transfers in flight.
+    let names: Vec<&str> = v["traceEvents"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["name"] == "thread_name")
+        .filter_map(|e| e["args"]["name"].as_str())
+        .collect();
+    assert!(names.contains(&"SPE 0 MFC (2)"), "{names:?}");
+
+    let full = link_to_dev_full(&tmp("trace"), "t.json");
+    let out = cellbih(&[
+        "build",
+        "--builder",
+        "spe_bfs",
+        "--trace",
+        full.to_str().unwrap(),
+    ]);
+    assert_fails_with(&out, &format!("{}: cannot write", full.display()));
+    let out = cellbih(&[
+        "build",
+        "--builder",
+        "spe_bfs",
+        "--trace",
+        "/no/such/dir/t.json",
+    ]);
+    assert_fails_with(&out, "/no/such/dir/t.json: cannot write");
+    assert!(stdout(&out).is_empty(), "refused before the build ran");
+}
+
+#[test]
+fn sizes_past_their_limits_are_refused_at_once() {
+    let exe = env!("CARGO_BIN_EXE_cellbih");
+    let limit = Duration::from_secs(20);
+    for (args, msg) in [
+        (
+            &["info", "--scene", "rtperf:4000000000"][..],
+            "rtperf takes at most 50000000 triangles",
+        ),
+        (
+            &["info", "--scene", "rtperf:18446744073709551615"][..],
+            "rtperf takes at most 50000000 triangles",
+        ),
+        (
+            &[
+                "update",
+                "--scene",
+                "car",
+                "--animation",
+                "car",
+                "--frames",
+                "1000000000",
+            ][..],
+            "1000000000 is not in 0..=100000",
+        ),
+        (
+            &[
+                "update",
+                "--scene",
+                "car",
+                "--animation",
+                "car",
+                "--frames",
+                "18446744073709551615",
+            ][..],
+            "is not in 0..=100000",
+        ),
+        (
+            &["build", "--max-depth", "127"][..],
+            "127 is not in 0..=126",
+        ),
+        (&["build", "--leaf-size", "0"][..], "0 is not in 1.."),
+    ] {
+        assert_fails_with(&run_limited(exe, args, limit), msg);
+    }
+}
+
+#[test]
+fn experiments_check_their_arguments_and_output_before_the_work() {
+    let limit = Duration::from_secs(30);
+    let dma = env!("CARGO_BIN_EXE_dma_bandwidth");
+    let out = tmp("exp-out");
+    let o = out.to_str().unwrap();
+    for (args, msg) in [
+        (&["--mib", "0", "--out", o][..], "0 is not in 1..=1024"),
+        (&["--max-spes", "0", "--out", o][..], "0 is not in 1..=8"),
+        (&["--max-spes", "9", "--out", o][..], "9 is not in 1..=8"),
+        (&["--out", "/proc/x"][..], "/proc/x: cannot write"),
+    ] {
+        assert_fails_with(&run_limited(dma, args, limit), msg);
+    }
+    let partial = env!("CARGO_BIN_EXE_partial_rebuild");
+    for (args, msg) in [
+        (&["--step", "0", "--out", o][..], "0 is not in 1.."),
+        (&["--frames", "0", "--out", o][..], "0 is not in 1..=100000"),
+        (
+            &["--from", "5000", "--to", "4000", "--out", o][..],
+            "--from 5000 is larger than --to 4000",
+        ),
+        (
+            &["--to", "100000000", "--out", o][..],
+            "100000000 is not in 1..=10000000",
+        ),
+        (
+            &["--format", "yaml", "--out", o][..],
+            "invalid value 'yaml'",
+        ),
+    ] {
+        assert_fails_with(&run_limited(partial, args, limit), msg);
+    }
+    for exe in [env!("CARGO_BIN_EXE_table1"), env!("CARGO_BIN_EXE_table2")] {
+        assert_fails_with(
+            &run_limited(exe, &["--out", "/proc/x"], limit),
+            "/proc/x: cannot write",
+        );
+    }
+}
+
+/// A write that fails after the work: the table is printed first, then the
+/// path that could not be written is named.
+#[test]
+fn an_experiment_prints_its_table_then_names_the_file_it_could_not_write() {
+    let dir = tmp("partial-full");
+    link_to_dev_full(&dir, "partial_rebuild.csv");
+    let out = run_limited(
+        env!("CARGO_BIN_EXE_partial_rebuild"),
+        &[
+            "--from",
+            "2000",
+            "--to",
+            "2000",
+            "--frames",
+            "3",
+            "--no-sim",
+            "--out",
+            dir.to_str().unwrap(),
+        ],
+        Duration::from_secs(60),
+    );
+    assert_fails_with(&out, "partial_rebuild.csv: cannot write");
+    assert!(stdout(&out).contains("2000"), "the table: {}", stdout(&out));
+}
+
+#[test]
+fn degenerate_updates_give_sensible_answers() {
+    // No frames: an empty summary that says so.
+    let out = cellbih(&[
+        "update",
+        "--scene",
+        "car",
+        "--animation",
+        "car",
+        "--frames",
+        "0",
+    ]);
+    assert_ok(&out);
+    let text = stdout(&out);
+    assert!(text.contains("no frames ran"), "{text}");
+    assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
+    let out = cellbih(&[
+        "update",
+        "--scene",
+        "car",
+        "--animation",
+        "car",
+        "--frames",
+        "0",
+        "--builder",
+        "ppe_approx",
+        "--format",
+        "json",
+    ]);
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["summary"].is_null());
+    // The fresh build it compares with is by the same builder.
+    assert_eq!(v["sah_after"], v["sah_fresh_build"]);
+
+    // An animation whose geometry the scene does not have.
+    for (scene, anim, msg) in [
+        ("default", "car", "animation 'car' moves the car's parts"),
+        ("car", "cup", "animation 'cup' moves the 'glass'"),
+        ("cup", "rtperf", "animation 'rtperf' moves rtPerf's spheres"),
+    ] {
+        let out = cellbih(&["update", "--scene", scene, "--animation", anim]);
+        assert_fails_with(&out, msg);
+    }
+
+    // No complete rebuild: said in words, not as a ratio of infinity.
+    let out = cellbih(&[
+        "update",
+        "--scene",
+        "rtperf:3000",
+        "--animation",
+        "rtperf",
+        "--frames",
+        "4",
+        "--seed",
+        "4",
+    ]);
+    assert_ok(&out);
+    let text = stdout(&out);
+    assert!(
+        text.contains("complete rebuilds 0 · no complete rebuilds"),
+        "{text}"
+    );
+    assert!(!text.contains("inf"), "{text}");
+}
+
+#[test]
+fn rays_at_the_edges_of_f64() {
+    let out_path = tmp("edge.hits.csv");
+    let o = out_path.to_str().unwrap();
+    let rays = rays_file(
+        "short.rays.csv",
+        "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n0.2,0.2,1,0,0,-1e-320,0,inf\n",
+    );
+    let out = cellbih(&["raycast", "--rays", &rays, "--out", o]);
+    assert_fails_with(&out, "short.rays.csv:3: the direction is too short");
+    // With a byte-order mark before the header: read as without.
+    let rays = rays_file("bom.rays.csv", &format!("\u{feff}{ONE_RAY}"));
+    let out = cellbih(&["raycast", "--rays", &rays, "--out", o]);
+    assert_ok(&out);
+    let hits = std::fs::read_to_string(&out_path).unwrap();
+    assert_eq!(hits.lines().count(), 2, "{hits}");
+    // A direction whose largest component is normal but tiny: any hit has
+    // a finite t in [tmin, tmax].
+    let rays = rays_file(
+        "tiny.rays.csv",
+        "ox,oy,oz,dx,dy,dz,tmin,tmax\n0.5,1,8,0,0,-1e-300,0,inf\n",
+    );
+    let out = cellbih(&["raycast", "--rays", &rays, "--out", o]);
+    assert_ok(&out);
+    let hits = std::fs::read_to_string(&out_path).unwrap();
+    let line = hits.lines().nth(1).unwrap();
+    let t = line.split(',').nth(2).unwrap();
+    assert!(
+        t.is_empty() || t.parse::<f64>().unwrap().is_finite(),
+        "{line}"
+    );
+}
+
+#[test]
+fn help_says_what_every_option_does() {
+    let top = stdout(&cellbih(&["--help"]));
+    assert!(
+        top.contains("With no command, runs the demo") && top.contains("cellbih-demo.png"),
+        "{top}"
+    );
+    for (cmd, options) in [
+        ("raycast", &["--rays", "--out", "--data"][..]),
+        ("render", &["--out", "--heatmap", "--width", "--height"][..]),
+        ("update", &["--frames", "--seed"][..]),
+        ("build", &["--trace", "--max-depth"][..]),
+    ] {
+        let help = stdout(&cellbih(&[cmd, "--help"]));
+        for opt in options {
+            // Each option's line is followed by words, not by the next option.
+            let line = help
+                .lines()
+                .find(|l| l.trim_start().starts_with(opt))
+                .unwrap_or_else(|| panic!("{cmd} --help has no {opt}"));
+            let described = line.split_whitespace().count() > 2
+                || help
+                    .lines()
+                    .skip_while(|l| !l.trim_start().starts_with(opt))
+                    .nth(1)
+                    .is_some_and(|next| !next.trim_start().starts_with('-'));
+            assert!(described, "{cmd} {opt} has no help text:\n{help}");
+        }
+    }
+    assert!(stdout(&cellbih(&["build", "--help"])).contains("at most 126"));
+    assert!(stdout(&cellbih(&["build", "--help"])).contains("bytes"));
+    let builders = stdout(&cellbih(&["builders", "--help"]));
+    assert!(!builders.contains("--data"), "{builders}");
+}
