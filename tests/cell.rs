@@ -211,8 +211,8 @@ fn one_get_costs_what_the_model_says() {
     assert!(line.ms(k.clock_hz) * 1e6 < 100.0, "{line}");
 }
 
-/// Two SPEs get 16 KiB at the same moment: the second one's data waits for
-/// the shared memory interface.
+/// Two SPEs get 16 KiB at the same moment: their data shares the memory
+/// interface, each at half its bandwidth.
 #[test]
 fn two_spes_share_the_memory_interface() {
     let mut c = cell(2);
@@ -225,10 +225,14 @@ fn two_spes_share_the_memory_interface() {
         });
     }
     let r = c.run().unwrap();
-    // SPE 1's data starts when SPE 0's ends (12 + 32 + 2048), takes 2048
-    // more, then the 256-cycle latency and the 6-cycle channel read.
-    assert_eq!(r.cycles, Cycles(12 + 32 + 2048 + 2048 + 256 + 6));
-    assert!(r.cores[2].1.dma_wait > r.cores[1].1.dma_wait);
+    // Both data phases start at 12 + 32 and move 4 bytes a cycle each: 4096
+    // cycles, then the 256-cycle latency and the 6-cycle channel read.
+    assert_eq!(r.cycles, Cycles(12 + 32 + 4096 + 256 + 6));
+    for (_, spe) in &r.cores[1..] {
+        // Sharing cost each the 2048 cycles its data would have taken alone.
+        assert_eq!(spe.memory_wait, Cycles(2048));
+        assert_eq!(spe.dma_wait, Cycles(32 + 4096 + 256));
+    }
 }
 
 #[test]
@@ -667,10 +671,11 @@ fn the_emulator_imports_nothing_from_the_rest() {
 }
 
 /// The rustdoc example's program (six SPEs, double-buffered 16 KiB gets,
-/// four per SPE) with its cycle count worked out by hand: the shared memory
-/// interface is never idle once the first command's data starts, so the run
-/// takes one issue and one command, then the data of all 24 gets back to
-/// back, then the last get's latency and the channel read of its tag.
+/// four per SPE) with its cycle count worked out by hand. The six start
+/// together and share the interface equally, so they move in lock step:
+/// each of four rounds is a command phase (32 cycles, the interface idle)
+/// and six gets' data (6 × 2048 cycles); then the last latency and the
+/// channel read of the tag.
 #[test]
 fn six_spes_summing_take_the_cycles_worked_out_by_hand() {
     let k = cellbih::cell::CostModel::ps3();
@@ -711,14 +716,13 @@ fn six_spes_summing_take_the_cycles_worked_out_by_hand() {
     assert_eq!(total, (n as u64 - 1) * n as u64 / 2);
     let data = k.memory_bandwidth.cycles(16384);
     let want = k.dma_issue_cycles.0
-        + k.mfc_command_cycles.0
-        + 24 * data.0
+        + 4 * (k.mfc_command_cycles.0 + 6 * data.0)
         + k.dma_latency_cycles.0
         + k.channel_cycles.0;
-    assert_eq!(want, 12 + 32 + 24 * 2048 + 256 + 6);
+    assert_eq!(want, 12 + 4 * (32 + 6 * 2048) + 256 + 6);
     assert_eq!(r.cycles.0, want);
-    // 6 × 64 KiB in 49,458 cycles: 25.4 GB/s, the interface's peak less
-    // the first command's start-up and the last one's latency.
+    // 6 × 64 KiB in 49,554 cycles: 25.4 GB/s, the interface's peak less
+    // the command phases, the first issue and the last latency.
     let gbs = (6 * 65536) as f64 / (r.cycles.0 as f64 / 3.2e9) / 1e9;
     assert!(gbs > 25.0 && gbs < 25.6, "{gbs}");
 }

@@ -121,12 +121,19 @@ pub struct CostModel {
     /// estimate as mailboxes: the SDK guide says one-to-one signals and
     /// mailboxes perform alike).
     pub signal_latency_cycles: Cycles,
-    /// getllar: a 128-byte lock-line load into the local store, costed as a
-    /// 128-byte DMA get (Kistler et al.'s cache-line figure).
+    /// getllar of a line not in this SPE's atomic cache: the line is
+    /// brought from main memory or another core's atomic cache. Estimate:
+    /// costed as a 128-byte DMA get (Kistler et al.'s cache-line figure).
     pub getllar_cycles: Cycles,
-    /// putllc / putlluc: a conditional / unconditional lock-line store,
-    /// costed like getllar.
+    /// putllc / putlluc of a line this SPE's atomic cache does not hold
+    /// (it must be claimed from its holder): estimate, like getllar.
     pub putllc_cycles: Cycles,
+    /// An atomic command on a line already in this SPE's atomic cache, or
+    /// a putllc that fails because the reservation is known lost. Estimate:
+    /// IBM's patent application US 2009/0077322 describes a getllar hit as
+    /// a data-only transfer through the bus node (no command or snoop
+    /// phase): costed as half a 128-byte DMA's latency.
+    pub atomic_hit_cycles: Cycles,
     /// The PPE's own atomic update (lwarx/stwcx. on a line): estimate.
     pub ppe_atomic_cycles: Cycles,
     /// The PPE's bandwidth to main memory through its caches, for the
@@ -154,6 +161,7 @@ impl CostModel {
             signal_latency_cycles: Cycles(316),
             getllar_cycles: Cycles(316),
             putllc_cycles: Cycles(316),
+            atomic_hit_cycles: Cycles(128),
             ppe_atomic_cycles: Cycles(100),
             ppe_memory_bandwidth: Bandwidth::from_gb_per_s(6.4, hz),
             kernels: KernelRates::ps3(),
@@ -181,6 +189,7 @@ impl CostModel {
             signal_latency_cycles: Cycles::ZERO,
             getllar_cycles: Cycles::ZERO,
             putllc_cycles: Cycles::ZERO,
+            atomic_hit_cycles: Cycles::ZERO,
             ppe_atomic_cycles: Cycles::ZERO,
             ppe_memory_bandwidth: free,
             kernels: KernelRates::free(),

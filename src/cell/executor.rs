@@ -16,13 +16,20 @@ use super::clock::Cycles;
 use super::machine::{Machine, Status, Task};
 
 impl Machine {
+    /// The ready core with the smallest clock. Equal clocks are broken in
+    /// a seeded order that changes at every resume (a hash of the number of
+    /// resumes so far and the core): the same every run, and fair. So when
+    /// clocks stand still (the functional mode, where machine operations
+    /// are free) every core takes part, a spin-wait lets the others run,
+    /// and no core wins every race for a lock line by its number alone (a
+    /// fixed rotation would let the same core store first in every round).
     fn earliest_ready(&self) -> Option<(Cycles, usize)> {
         self.cores
             .iter()
             .enumerate()
             .filter(|(_, c)| c.status == Status::Ready)
+            .min_by_key(|&(i, c)| (c.clock, tie_order(self.resumes, i)))
             .map(|(i, c)| (c.clock, i))
-            .min()
     }
 
     fn deadlock(&self) -> CellError {
@@ -57,20 +64,37 @@ pub(crate) fn execute(
     }
     let mut cx = Context::from_waker(Waker::noop());
     loop {
-        let (ready, event_at) = {
+        let (ready, event_at, flow_end) = {
             let mm = m.borrow();
-            (mm.earliest_ready(), mm.events.peek().map(|e| e.0.at))
+            (
+                mm.earliest_ready(),
+                mm.events.peek().map(|e| e.0.at),
+                mm.memif.next_end(),
+            )
         };
-        let take_event = match (ready, event_at) {
+        // The machine's next event: a flow ending on the memory interface
+        // (first, at equal times) or a scheduled one.
+        let next = match (flow_end, event_at) {
+            (Some(f), Some(e)) => Some((f.min(e), f <= e)),
+            (Some(f), None) => Some((f, true)),
+            (None, Some(e)) => Some((e, false)),
+            (None, None) => None,
+        };
+        let take_event = match (ready, next) {
             (_, None) => false,
             (None, Some(_)) => true,
-            (Some((t, _)), Some(e)) => e <= t,
+            (Some((t, _)), Some((e, _))) => e <= t,
         };
         if take_event {
+            let (at, is_flow) = next.expect("an event");
             let mut mm = m.borrow_mut();
-            let Reverse(ev) = mm.events.pop().expect("peeked");
-            end = end.max(ev.at);
-            mm.apply(ev.at, ev.kind)?;
+            end = end.max(at);
+            if is_flow {
+                mm.finish_flows(at);
+            } else {
+                let Reverse(ev) = mm.events.pop().expect("peeked");
+                mm.apply(ev.at, ev.kind)?;
+            }
             continue;
         }
         let Some((_, core)) = ready else {
@@ -79,6 +103,7 @@ pub(crate) fn execute(
             }
             return Err(m.borrow().deadlock());
         };
+        m.borrow_mut().resumes += 1;
         let task = slots[core].as_mut().expect("a ready core has a program");
         match task.as_mut().poll(&mut cx) {
             Poll::Pending => {}
@@ -101,6 +126,17 @@ pub(crate) fn execute(
         mm.cores[i + 1].counters.ls_high_water = hw;
     }
     Ok(end)
+}
+
+/// Where core `core` stands among cores of equal clock after `resumes`
+/// resumes: SplitMix64 of the two.
+fn tie_order(resumes: u64, core: usize) -> u64 {
+    let mut z = resumes
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .wrapping_add(core as u64 + 1);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
 }
 
 /// A future that is pending once: the point where a program hands control

@@ -23,6 +23,7 @@ use std::pin::Pin;
 
 use super::clock::Cycles;
 use super::local_store::LocalStore;
+use super::memif::MemoryInterface;
 use super::memory::MainMemory;
 use super::mfc::{Direction, Segment, WaitMode};
 use super::trace::{CoreCounters, SpanKind, Trace};
@@ -54,6 +55,8 @@ pub(crate) enum Wait {
     InMboxFull(usize),
     /// PPE: SPE `k`'s outbound mailbox is empty.
     OutMbox(usize, OutBox),
+    /// PPE: its own reads or writes of main memory are on the interface.
+    Memory,
 }
 
 impl Wait {
@@ -67,11 +70,12 @@ impl Wait {
             Wait::Signal(r) => format!("{who} waits for signal-notification register {}", r + 1),
             Wait::InMboxFull(k) => format!("{who} waits for room in SPE {k}'s inbound mailbox"),
             Wait::OutMbox(k, b) => format!("{who} waits for a value in SPE {k}'s {b:?} mailbox"),
+            Wait::Memory => format!("{who} waits for its main-memory access"),
         }
     }
 
     fn is_mailbox(&self) -> bool {
-        !matches!(self, Wait::Tags { .. } | Wait::QueueFull)
+        !matches!(self, Wait::Tags { .. } | Wait::QueueFull | Wait::Memory)
     }
 }
 
@@ -116,7 +120,12 @@ pub(crate) struct SpeState {
     pub queued: usize,
     pub outstanding: [u32; 32],
     pub unwaited: Vec<Unwaited>,
+    /// When the MFC finished its last command's data.
     pub mfc_free: Cycles,
+    /// The MFC works on one command at a time (command phase, then data);
+    /// the others wait here in issue order.
+    pub mfc_busy: bool,
+    pub pending: VecDeque<Dma>,
     pub in_mbox: VecDeque<u32>,
     pub in_arriving: usize,
     pub out_mbox: [VecDeque<u32>; 2],
@@ -132,9 +141,36 @@ pub(crate) struct Dma {
     pub segments: Vec<Segment>,
     /// For a put: the local-store bytes, taken at issue.
     pub data: Vec<u8>,
+    /// Issued at; once the MFC takes it, when its command phase began.
+    pub start: Cycles,
+}
+
+impl Dma {
+    fn bytes(&self) -> u64 {
+        self.segments.iter().map(|s| s.size as u64).sum()
+    }
+}
+
+/// A 128-byte line as the atomic units see it: which core's atomic cache
+/// holds it, and until when an atomic command on it is under way.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct LockLine {
+    pub owner: Option<usize>,
+    pub busy_until: Cycles,
+}
+
+/// What ends when a flow on the memory interface ends.
+pub(crate) enum Flowing {
+    /// An SPE's DMA command: its completion follows after the latency.
+    Spe(Box<Dma>),
+    /// The PPE's own access: the PPE resumes.
+    Ppe,
 }
 
 pub(crate) enum EventKind {
+    /// The MFC has done a command's command phase: its data goes onto the
+    /// memory interface.
+    FlowStart(Box<Dma>),
     DmaDone(Box<Dma>),
     InMbox {
         spe: usize,
@@ -182,7 +218,14 @@ pub(crate) struct Machine {
     pub spes: Vec<SpeState>,
     pub(crate) events: BinaryHeap<Reverse<Event>>,
     seq: u64,
-    pub mem_free: Cycles,
+    /// The memory interface every core's traffic shares.
+    pub memif: MemoryInterface,
+    /// What each flow on the interface is, by flow id.
+    pub flows: Vec<(u64, Flowing)>,
+    /// Cores resumed so far (seeds the order of equal clocks).
+    pub resumes: u64,
+    /// Lock lines that atomic commands have touched, by line number.
+    pub lines: std::collections::HashMap<u64, LockLine>,
     pub trace: Option<Trace>,
 }
 
@@ -195,6 +238,8 @@ impl Machine {
                 outstanding: [0; 32],
                 unwaited: Vec::new(),
                 mfc_free: Cycles::ZERO,
+                mfc_busy: false,
+                pending: VecDeque::new(),
                 in_mbox: VecDeque::new(),
                 in_arriving: 0,
                 out_mbox: [VecDeque::new(), VecDeque::new()],
@@ -212,13 +257,16 @@ impl Machine {
             .collect();
         Machine {
             mem: MainMemory::new(cfg.main_memory_bytes),
+            memif: MemoryInterface::new(cfg.cost.memory_bandwidth),
+            flows: Vec::new(),
+            resumes: 0,
+            lines: Default::default(),
             trace: cfg.trace.then(|| Trace::new(cfg.spes, cfg.cost.clock_hz)),
             cfg,
             cores,
             spes,
             events: BinaryHeap::new(),
             seq: 0,
-            mem_free: Cycles::ZERO,
         }
     }
 
@@ -247,6 +295,27 @@ impl Machine {
         self.cores[core].clock += c;
         self.cores[core].counters.atomic += c;
         self.span(core, SpanKind::Atomic, start, start + c);
+    }
+
+    /// An atomic command of `core` on the lock line holding `ea`: it waits
+    /// while another atomic command on the line is under way (commands on
+    /// one line are served one at a time, in the order they are made),
+    /// then takes `hit` cycles if the line is in this core's atomic cache,
+    /// or `miss` cycles to bring it over (from main memory or another
+    /// core's atomic cache), and the line is this core's.
+    pub fn lock_line(&mut self, core: usize, ea: Ea, hit: Cycles, miss: Cycles) {
+        let now = self.cores[core].clock;
+        let line = self.lines.entry(ea.0 / 128).or_default();
+        let start = now.max(line.busy_until);
+        let cost = if line.owner == Some(core) { hit } else { miss };
+        line.owner = Some(core);
+        line.busy_until = start + cost;
+        let wait = start - now;
+        let c = &mut self.cores[core];
+        c.clock = start + cost;
+        c.counters.atomic += wait + cost;
+        c.counters.atomic_wait += wait;
+        self.span(core, SpanKind::Atomic, now, start + cost);
     }
 
     pub fn block(&mut self, core: usize, why: Wait) {
@@ -288,7 +357,8 @@ impl Machine {
     }
 
     /// Issues a DMA command for SPE `spe` (queue space already checked):
-    /// charges the issue, computes when it completes, and schedules that.
+    /// charges the issue and hands the command to the MFC, which starts it
+    /// now or after the commands before it.
     pub fn issue_dma(
         &mut self,
         spe: usize,
@@ -297,8 +367,6 @@ impl Machine {
         tag: u32,
     ) -> Result<(), CellError> {
         let core = spe + 1;
-        let cost = &self.cfg.cost;
-        let bytes: u64 = segments.iter().map(|s| s.size as u64).sum();
         // Every segment must lie inside the local store and main memory.
         for s in &segments {
             self.spes[spe].ls.check_range(spe, s.ls, s.size as u64)?;
@@ -316,49 +384,32 @@ impl Machine {
         if self.cfg.checked {
             self.check_overlap_at_issue(spe, dir, &segments)?;
         }
-        let data = match dir {
-            Direction::Put => {
-                let ls = self.spes[spe].ls.bytes();
-                segments
-                    .iter()
-                    .flat_map(|s| {
-                        ls[s.ls.0 as usize..(s.ls.0 + s.size) as usize]
-                            .iter()
-                            .copied()
-                    })
-                    .collect()
+        let bytes: u64 = segments.iter().map(|s| s.size as u64).sum();
+        let mut data = Vec::new();
+        if dir == Direction::Put {
+            data.reserve(bytes as usize);
+            let ls = self.spes[spe].ls.bytes();
+            for s in &segments {
+                data.extend_from_slice(&ls[s.ls.0 as usize..(s.ls.0 + s.size) as usize]);
             }
-            Direction::Get => Vec::new(),
-        };
-        let (issue, command, elements, latency) = (
-            cost.dma_issue_cycles,
-            cost.mfc_command_cycles,
-            Cycles(cost.mfc_list_element_cycles.0 * (segments.len() as u64 - 1)),
-            cost.dma_latency_cycles,
-        );
-        let (spe_data, mem_data) = (
-            cost.spe_bandwidth.cycles(bytes),
-            cost.memory_bandwidth.cycles(bytes),
-        );
+        }
+        let issue = self.cfg.cost.dma_issue_cycles;
         self.busy(core, issue, SpanKind::Issue);
         let issued = self.cores[core].clock;
-        // The MFC takes commands one at a time; the memory interface takes
-        // the data of every SPE's commands in issue order.
-        let start = issued.max(self.spes[spe].mfc_free);
-        let data_start = (start + command + elements).max(self.mem_free);
-        self.mem_free = data_start + mem_data;
-        self.spes[spe].mfc_free = (start + command + elements + spe_data).max(self.mem_free);
-        let done = self.spes[spe].mfc_free + latency;
         let st = &mut self.spes[spe];
         st.queued += 1;
         st.outstanding[tag as usize] += 1;
+        // One unwaited range per run of touching segments (a list's local
+        // side is contiguous), so checked mode stays linear in list length.
+        let mut runs: Vec<(u32, u32)> = Vec::new();
         for s in &segments {
-            st.unwaited.push(Unwaited {
-                tag,
-                dir,
-                lo: s.ls.0,
-                hi: s.ls.0 + s.size,
-            });
+            match runs.last_mut() {
+                Some(r) if r.1 == s.ls.0 => r.1 += s.size,
+                _ => runs.push((s.ls.0, s.ls.0 + s.size)),
+            }
+        }
+        for (lo, hi) in runs {
+            st.unwaited.push(Unwaited { tag, dir, lo, hi });
         }
         let c = &mut self.cores[core].counters;
         match dir {
@@ -371,30 +422,119 @@ impl Machine {
                 c.bytes_put += bytes;
             }
         }
+        let dma = Dma {
+            spe,
+            tag,
+            dir,
+            segments,
+            data,
+            start: issued,
+        };
+        if self.spes[spe].mfc_busy {
+            self.spes[spe].pending.push_back(dma);
+        } else {
+            let start = issued.max(self.spes[spe].mfc_free);
+            self.begin_command(dma, start);
+        }
+        Ok(())
+    }
+
+    /// The MFC takes `dma` at `start`: after its command phase (and one
+    /// step per extra list element) its data goes onto the interface.
+    fn begin_command(&mut self, mut dma: Dma, start: Cycles) {
+        let cost = &self.cfg.cost;
+        let setup = cost.mfc_command_cycles
+            + Cycles(cost.mfc_list_element_cycles.0 * (dma.segments.len() as u64 - 1));
+        self.spes[dma.spe].mfc_busy = true;
+        dma.start = start;
+        self.schedule(start + setup, EventKind::FlowStart(Box::new(dma)));
+    }
+
+    /// A command's data starts to move at `at`.
+    fn start_flow(&mut self, dma: Box<Dma>, at: Cycles) {
+        if self.memif.is_free() {
+            return self.end_transfer(dma, at, Cycles::ZERO, at);
+        }
+        let link = self.cfg.cost.spe_bandwidth;
+        let id = self.memif.start(at, dma.bytes(), link);
+        self.flows.push((id, Flowing::Spe(dma)));
+    }
+
+    /// Ends every flow of the memory interface due at `at`.
+    pub(crate) fn finish_flows(&mut self, at: Cycles) {
+        for f in self.memif.finish_due(at) {
+            let k = self
+                .flows
+                .iter()
+                .position(|(id, _)| *id == f.id)
+                .expect("every flow is known");
+            match self.flows.remove(k).1 {
+                Flowing::Spe(dma) => self.end_transfer(dma, f.started, f.alone, at),
+                Flowing::Ppe => self.end_ppe_access(f.started, f.alone, at),
+            }
+        }
+    }
+
+    /// `dma`'s data, on the interface from `data_start`, is through at
+    /// `at`; it would have taken `alone` cycles with the interface to
+    /// itself. The command completes after the latency; the MFC takes the
+    /// next one.
+    fn end_transfer(&mut self, dma: Box<Dma>, data_start: Cycles, alone: Cycles, at: Cycles) {
+        let spe = dma.spe;
+        let shared = (at - data_start).saturating_sub(alone);
+        self.cores[spe + 1].counters.memory_wait += shared;
+        let done = at + self.cfg.cost.dma_latency_cycles;
         if let Some(t) = &mut self.trace {
-            let label = format!(
-                "{} {bytes} B tag {tag}",
-                if dir == Direction::Get { "get" } else { "put" }
-            );
+            let mut label = format!("{} {} B tag {}", dma.dir, dma.bytes(), dma.tag);
+            if shared > Cycles::ZERO {
+                label += &format!(", +{} cycles sharing memory", shared.0);
+            }
             t.push(
-                Self::row(core) + 1,
+                Self::row(spe + 1) + 1,
                 SpanKind::Transfer,
-                start,
+                dma.start,
                 done,
                 Some(label),
             );
         }
-        self.schedule(
-            done,
-            EventKind::DmaDone(Box::new(Dma {
-                spe,
-                tag,
-                dir,
-                segments,
-                data,
-            })),
-        );
-        Ok(())
+        let st = &mut self.spes[spe];
+        st.mfc_free = at;
+        st.mfc_busy = false;
+        if let Some(next) = st.pending.pop_front() {
+            let start = at.max(next.start);
+            self.begin_command(next, start);
+        }
+        self.schedule(done, EventKind::DmaDone(dma));
+    }
+
+    /// The PPE moves `bytes` to or from main memory at its clock, sharing
+    /// the interface: it blocks until the access is through.
+    pub(crate) fn ppe_access(&mut self, bytes: u64) {
+        let now = self.cores[PPE].clock;
+        let link = self.cfg.cost.ppe_memory_bandwidth;
+        if bytes == 0 {
+            return;
+        }
+        if self.memif.is_free() {
+            let c = link.cycles(bytes);
+            return self.busy(PPE, c, SpanKind::Compute);
+        }
+        let id = self.memif.start(now, bytes, link);
+        self.flows.push((id, Flowing::Ppe));
+        self.block(PPE, Wait::Memory);
+    }
+
+    /// The PPE's access from `since` is through at `at`: the time it would
+    /// have taken alone is busy, the rest waiting for the interface.
+    fn end_ppe_access(&mut self, since: Cycles, alone: Cycles, at: Cycles) {
+        let shared = (at - since).saturating_sub(alone);
+        let c = &mut self.cores[PPE];
+        c.status = Status::Ready;
+        c.clock = at;
+        c.counters.busy += at - since - shared;
+        c.counters.memory_wait += shared;
+        self.span(PPE, SpanKind::Compute, since, at - shared);
+        self.span(PPE, SpanKind::MemoryWait, at - shared, at);
     }
 
     /// Checked mode: a get into bytes an unfinished put still sends, or a
@@ -457,6 +597,13 @@ impl Machine {
     /// the 128-byte lines it touches.
     pub fn lose_reservations(&mut self, ea: Ea, len: u64) {
         let (first, last) = (ea.0 / 128, (ea.0 + len.max(1) - 1) / 128);
+        if !self.lines.is_empty() {
+            for l in first..=last {
+                if let Some(line) = self.lines.get_mut(&l) {
+                    line.owner = None;
+                }
+            }
+        }
         for s in &mut self.spes {
             if let Some(line) = s.reservation
                 && (first..=last).contains(&(line / 128))
@@ -468,6 +615,7 @@ impl Machine {
 
     pub(crate) fn apply(&mut self, at: Cycles, kind: EventKind) -> Result<(), CellError> {
         match kind {
+            EventKind::FlowStart(d) => self.start_flow(d, at),
             EventKind::DmaDone(d) => {
                 let mut offset = 0usize;
                 for s in &d.segments {

@@ -57,6 +57,7 @@ pub mod cost;
 mod executor;
 pub mod local_store;
 pub(crate) mod machine;
+mod memif;
 pub mod memory;
 pub mod mfc;
 mod ppe;

@@ -41,6 +41,14 @@ impl Ppe {
         Yield::new().await;
     }
 
+    /// Yields until the machine has made the PPE ready again (after a
+    /// blocking access of main memory).
+    async fn until_ready(&self) {
+        while self.m.borrow().cores[PPE].status != Status::Ready {
+            Yield::new().await;
+        }
+    }
+
     fn check_spe(&self, m: &Machine, spe: usize) -> Result<(), CellError> {
         if spe >= m.spes.len() {
             return Err(CellError::Program {
@@ -65,26 +73,27 @@ impl Ppe {
         count: usize,
     ) -> Result<Vec<T>, CellError> {
         self.sync().await;
-        let mut m = self.m.borrow_mut();
-        let v = m.mem.read_pod(ea, count)?;
-        let c = m
-            .cfg
-            .cost
-            .ppe_memory_bandwidth
-            .cycles((count * size_of::<T>()) as u64);
-        m.busy(PPE, c, SpanKind::Compute);
+        let v = {
+            let mut m = self.m.borrow_mut();
+            let v = m.mem.read_pod(ea, count)?;
+            m.ppe_access((count * size_of::<T>()) as u64);
+            v
+        };
+        self.until_ready().await;
         Ok(v)
     }
 
     /// Writes `values` at `ea`; loses any SPE reservation on those lines.
     pub async fn write_pod<T: bytemuck::Pod>(&self, ea: Ea, values: &[T]) -> Result<(), CellError> {
         self.sync().await;
-        let mut m = self.m.borrow_mut();
-        m.mem.write_pod(ea, values)?;
-        let bytes = size_of_val(values) as u64;
-        m.lose_reservations(ea, bytes);
-        let c = m.cfg.cost.ppe_memory_bandwidth.cycles(bytes);
-        m.busy(PPE, c, SpanKind::Compute);
+        {
+            let mut m = self.m.borrow_mut();
+            m.mem.write_pod(ea, values)?;
+            let bytes = size_of_val(values) as u64;
+            m.lose_reservations(ea, bytes);
+            m.ppe_access(bytes);
+        }
+        self.until_ready().await;
         Ok(())
     }
 
@@ -97,7 +106,8 @@ impl Ppe {
         m.mem.write_pod(ea, &[old.wrapping_add(delta)])?;
         m.lose_reservations(ea, 4);
         let c = m.cfg.cost.ppe_atomic_cycles;
-        m.atomic(PPE, c);
+        // The line comes to the PPE; commands on it are served in turn.
+        m.lock_line(PPE, ea, c, c);
         Ok(old)
     }
 

@@ -365,8 +365,8 @@ impl Spe {
         m.check_ls_access(self.id, r.start as u32, r.end as u32, true)?;
         m.spes[self.id].ls.bytes_mut()[r].copy_from_slice(&line);
         m.spes[self.id].reservation = Some(ea.0);
-        let c = m.cfg.cost.getllar_cycles;
-        m.atomic(self.core(), c);
+        let (hit, miss) = (m.cfg.cost.atomic_hit_cycles, m.cfg.cost.getllar_cycles);
+        m.lock_line(self.core(), ea, hit, miss);
         Ok(())
     }
 
@@ -376,18 +376,20 @@ impl Spe {
         self.check_line("putllc", ls, ea)?;
         self.sync().await;
         let mut m = self.m.borrow_mut();
-        let c = m.cfg.cost.putllc_cycles;
+        let (hit, miss) = (m.cfg.cost.atomic_hit_cycles, m.cfg.cost.putllc_cycles);
         if m.spes[self.id].reservation != Some(ea.0) {
+            // The loss is known locally (the line was snooped away): the
+            // command fails without touching the line.
             m.cores[self.core()].counters.reservations_lost += 1;
             m.spes[self.id].reservation = None;
-            m.atomic(self.core(), c);
+            m.atomic(self.core(), hit);
             return Ok(Reservation::Lost);
         }
         let r = ls_range(self.id, &m, ls, 128)?;
         let data = m.spes[self.id].ls.bytes()[r].to_vec();
         m.mem.write(ea, &data)?;
         m.lose_reservations(ea, 128);
-        m.atomic(self.core(), c);
+        m.lock_line(self.core(), ea, hit, miss);
         Ok(Reservation::Stored)
     }
 
@@ -400,8 +402,8 @@ impl Spe {
         let data = m.spes[self.id].ls.bytes()[r].to_vec();
         m.mem.write(ea, &data)?;
         m.lose_reservations(ea, 128);
-        let c = m.cfg.cost.putllc_cycles;
-        m.atomic(self.core(), c);
+        let (hit, miss) = (m.cfg.cost.atomic_hit_cycles, m.cfg.cost.putllc_cycles);
+        m.lock_line(self.core(), ea, hit, miss);
         Ok(())
     }
 

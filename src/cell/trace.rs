@@ -18,8 +18,14 @@ pub struct CoreCounters {
     pub dma_wait: Cycles,
     /// Stalled on a mailbox or signal (empty on read, full on write).
     pub mailbox_wait: Cycles,
-    /// In getllar / putllc / putlluc.
+    /// In getllar / putllc / putlluc (including waiting for the line).
     pub atomic: Cycles,
+    /// Of which: waiting for a lock line another core's atomic command held.
+    pub atomic_wait: Cycles,
+    /// Cycles this core's transfers took on the shared memory interface
+    /// beyond their time alone on it: what sharing cost (for an SPE, time of
+    /// its MFC, which overlaps its compute; for the PPE, time it stalled).
+    pub memory_wait: Cycles,
     /// From the core's end to the end of the run.
     pub idle: Cycles,
     pub gets: u64,
@@ -43,6 +49,8 @@ pub enum SpanKind {
     Atomic,
     /// A DMA transfer on an SPE's MFC row.
     Transfer,
+    /// The PPE stalled on the shared memory interface.
+    MemoryWait,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize)]
