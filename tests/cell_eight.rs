@@ -184,3 +184,123 @@ fn a_contended_lock_line_serialises_and_shows_in_the_counters() {
         "every SPE's last fetch-and-add happened once"
     );
 }
+
+/// A PPE serving eight SPEs waits on any SPE's mailbox (libspe2's event
+/// handler) and reads the values in the order they arrived, so the SPE
+/// that asked first is served first whatever its number; each read costs
+/// the event wake-up and the MMIO read.
+#[test]
+fn a_ppe_waiting_on_any_mailbox_serves_spes_in_arrival_order() {
+    let mut cell = Cell::new(CellConfig::ps3().with_spes(8)).unwrap();
+    for id in 0..8 {
+        cell.spawn_spe(id, move |spe| async move {
+            // SPE 7 asks first, SPE 0 last.
+            spe.compute(Cycles(10_000 * (8 - id as u64)));
+            spe.write_out_mbox(100 + id as u32).await;
+            Ok(())
+        });
+    }
+    let order = Rc::new(RefCell::new(Vec::new()));
+    let seen = order.clone();
+    cell.spawn_ppe(move |ppe| async move {
+        let all: Vec<usize> = (0..8).collect();
+        for _ in 0..8 {
+            let (spe, v) = ppe.wait_any_out_mbox(&all).await?;
+            assert_eq!(v, 100 + spe as u32);
+            seen.borrow_mut().push(spe);
+        }
+        Ok(())
+    });
+    let r = cell.run().unwrap();
+    assert_eq!(*order.borrow(), vec![7, 6, 5, 4, 3, 2, 1, 0]);
+    let k = CostModel::ps3();
+    // The PPE is busy with eight wake-ups and eight MMIO reads.
+    assert_eq!(
+        r.cores[0].1.busy,
+        Cycles(8 * (k.ppe_event_cycles.0 + k.ppe_mmio_cycles.0))
+    );
+}
+
+/// Status reads never block: counts of the mailboxes, a pending signal,
+/// the immediate tag status; each charged one channel (SPE) or MMIO (PPE)
+/// access.
+#[test]
+fn status_reads_answer_without_blocking() {
+    let mut cell = Cell::new(CellConfig::ps3().with_spes(1)).unwrap();
+    let ea = cell.memory_mut().alloc("buffer", 16384, 128).unwrap();
+    let seen = Rc::new(RefCell::new(Vec::new()));
+    let s = seen.clone();
+    cell.spawn_spe(0, move |spe| async move {
+        let b = spe.ls_alloc(16384, 128)?;
+        s.borrow_mut().push(spe.in_mbox_count().await);
+        s.borrow_mut().push(spe.out_mbox_room().await);
+        s.borrow_mut().push(spe.signal_pending(1).await? as u32);
+        spe.get(b, ea, 16384, 3).await?;
+        // In flight: tag 3 not done, tag 4 (nothing issued) done.
+        s.borrow_mut().push(spe.tag_status_immediate(0b11000).await);
+        spe.wait_tag(3).await?;
+        s.borrow_mut().push(spe.tag_status_immediate(0b11000).await);
+        // The PPE's value has arrived by now.
+        s.borrow_mut().push(spe.in_mbox_count().await);
+        Ok(())
+    });
+    let ppe_seen = seen.clone();
+    cell.spawn_ppe(move |ppe| async move {
+        ppe_seen.borrow_mut().push(100 + ppe.in_mbox_room(0).await?);
+        ppe.write_in_mbox(0, 7).await?;
+        ppe_seen
+            .borrow_mut()
+            .push(200 + ppe.out_mbox_count(0).await?);
+        Ok(())
+    });
+    cell.run().unwrap();
+    let v = seen.borrow().clone();
+    assert!(v.contains(&104), "the PPE saw 4 free inbound slots: {v:?}");
+    assert!(v.contains(&200), "and no outbound value: {v:?}");
+    let spe: Vec<u32> = v.into_iter().filter(|&x| x < 100).collect();
+    assert_eq!(spe, vec![0, 1, 0, 0b10000, 0b11000, 1]);
+}
+
+/// Touching the local store from inside a `with_ls` closure is an error
+/// that says so, not a panic; the SPE's other methods work there.
+#[test]
+fn with_ls_inside_with_ls_is_a_clear_error() {
+    let mut cell = Cell::new(CellConfig::ps3().with_spes(1)).unwrap();
+    let err = Rc::new(RefCell::new(String::new()));
+    let e = err.clone();
+    cell.spawn_spe(0, move |spe| async move {
+        let b = spe.ls_alloc(128, 128)?;
+        let inner = spe.with_ls(b, 4, |_: &[u32]| {
+            spe.compute(Cycles(5));
+            spe.ls_read::<u32>(b, 1)
+        })?;
+        *e.borrow_mut() = inner.unwrap_err().to_string();
+        // The store is back after the closure.
+        assert_eq!(spe.ls_read::<u32>(b, 1)?, vec![0]);
+        Ok(())
+    });
+    cell.run().unwrap();
+    assert!(
+        err.borrow().contains("inside a with_ls closure"),
+        "{}",
+        err.borrow()
+    );
+}
+
+/// Tag groups by name: the same name gives the same groups, names get
+/// consecutive groups in order of first use, and running out is an error.
+#[test]
+fn tags_are_allocated_by_name() {
+    let mut cell = Cell::new(CellConfig::ps3().with_spes(1)).unwrap();
+    cell.spawn_spe(0, move |spe| async move {
+        assert_eq!(spe.tags("buffers", 5)?, 0);
+        assert_eq!(spe.tag("jobs")?, 5);
+        assert_eq!(spe.tags("buffers", 5)?, 0);
+        assert!(spe.tags("buffers", 2).is_err());
+        assert_eq!(spe.tags("many", 26)?, 6);
+        let e = spe.tag("one more").unwrap_err().to_string();
+        assert!(e.contains("no 1 tag groups left for 'one more'"), "{e}");
+        Ok(())
+    });
+    cell.run().unwrap();
+}

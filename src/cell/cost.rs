@@ -40,7 +40,7 @@ impl Bandwidth {
 /// Compute rates of the named kernels programs run, per core type. The
 /// machine never charges these itself; programs charge them through
 /// `compute`. Calibrations are in docs/calibration.md.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct KernelRates {
     /// PPE cycles per item looked at by an in-place partition (load the
     /// record, its box center, compare, swap), all cache effects included.
@@ -134,6 +134,13 @@ pub struct CostModel {
     /// a data-only transfer through the bus node (no command or snoop
     /// phase): costed as half a 128-byte DMA's latency.
     pub atomic_hit_cycles: Cycles,
+    /// One wake-up of a PPE thread waiting in libspe2's event handler for
+    /// any of several SPEs' mailboxes (`spe_event_wait`, an epoll system
+    /// call): estimate, about 1 µs.
+    pub ppe_event_cycles: Cycles,
+    /// One allocation of main memory by the PPE program (a `malloc` of a
+    /// block from the heap): estimate.
+    pub ppe_alloc_cycles: Cycles,
     /// The PPE's own atomic update (lwarx/stwcx. on a line): estimate.
     pub ppe_atomic_cycles: Cycles,
     /// The PPE's bandwidth to main memory through its caches, for the
@@ -162,6 +169,8 @@ impl CostModel {
             getllar_cycles: Cycles(316),
             putllc_cycles: Cycles(316),
             atomic_hit_cycles: Cycles(128),
+            ppe_event_cycles: Cycles(3200),
+            ppe_alloc_cycles: Cycles(300),
             ppe_atomic_cycles: Cycles(100),
             ppe_memory_bandwidth: Bandwidth::from_gb_per_s(6.4, hz),
             kernels: KernelRates::ps3(),
@@ -190,6 +199,8 @@ impl CostModel {
             getllar_cycles: Cycles::ZERO,
             putllc_cycles: Cycles::ZERO,
             atomic_hit_cycles: Cycles::ZERO,
+            ppe_event_cycles: Cycles::ZERO,
+            ppe_alloc_cycles: Cycles::ZERO,
             ppe_atomic_cycles: Cycles::ZERO,
             ppe_memory_bandwidth: free,
             kernels: KernelRates::free(),

@@ -27,6 +27,9 @@ pub struct LocalStore {
     /// `u128` words keep the store 16-byte aligned on the host, so typed
     /// views of 16-byte aligned buffers are plain casts.
     words: Vec<u128>,
+    size: u32,
+    /// The words are out on loan to a `with_ls` closure.
+    lent: bool,
     reserved: u32,
     next: u32,
     pub(crate) high_water: u32,
@@ -37,6 +40,8 @@ impl LocalStore {
         assert!(size.is_multiple_of(16) && reserved <= size);
         LocalStore {
             words: vec![0; size as usize / 16],
+            size,
+            lent: false,
             reserved,
             next: reserved,
             high_water: reserved,
@@ -44,7 +49,30 @@ impl LocalStore {
     }
 
     pub fn size(&self) -> u32 {
-        self.words.len() as u32 * 16
+        self.size
+    }
+
+    /// Lends the store's words to a closure that runs outside the
+    /// machine's borrow (so that it may call the SPE's other methods); a
+    /// second loan before [`LocalStore::give_back`] is an error.
+    pub(crate) fn lend(&mut self, spe: usize) -> Result<Vec<u128>, CellError> {
+        if self.lent {
+            return Err(CellError::Program {
+                core: format!("SPE {spe}"),
+                msg: "with_ls / with_ls_mut / ls_read / ls_write called inside a with_ls \
+                      closure: the local store is already lent to it (copy out what you \
+                      need first)"
+                    .into(),
+            });
+        }
+        self.lent = true;
+        Ok(std::mem::take(&mut self.words))
+    }
+
+    pub(crate) fn give_back(&mut self, words: Vec<u128>) {
+        debug_assert!(self.lent);
+        self.words = words;
+        self.lent = false;
     }
 
     pub fn bytes(&self) -> &[u8] {

@@ -57,6 +57,8 @@ pub(crate) enum Wait {
     OutMbox(usize, OutBox),
     /// PPE: its own reads or writes of main memory are on the interface.
     Memory,
+    /// PPE: the outbound mailbox of any SPE of the mask is empty.
+    AnyOutMbox(u64),
 }
 
 impl Wait {
@@ -71,6 +73,9 @@ impl Wait {
             Wait::InMboxFull(k) => format!("{who} waits for room in SPE {k}'s inbound mailbox"),
             Wait::OutMbox(k, b) => format!("{who} waits for a value in SPE {k}'s {b:?} mailbox"),
             Wait::Memory => format!("{who} waits for its main-memory access"),
+            Wait::AnyOutMbox(mask) => {
+                format!("{who} waits for a value in the Out mailbox of any SPE of mask {mask:#x}")
+            }
         }
     }
 
@@ -126,9 +131,12 @@ pub(crate) struct SpeState {
     /// the others wait here in issue order.
     pub mfc_busy: bool,
     pub pending: VecDeque<Dma>,
+    /// Tag groups allocated by name: (name, first, count).
+    pub tag_names: Vec<(&'static str, u32, u32)>,
     pub in_mbox: VecDeque<u32>,
     pub in_arriving: usize,
-    pub out_mbox: [VecDeque<u32>; 2],
+    /// Outbound mailboxes: values with the cycle they arrived.
+    pub out_mbox: [VecDeque<(u32, Cycles)>; 2],
     pub out_arriving: [usize; 2],
     pub signals: [SignalReg; 2],
     pub reservation: Option<u64>,
@@ -213,6 +221,8 @@ impl Ord for Event {
 
 pub(crate) struct Machine {
     pub cfg: CellConfig,
+    /// `cfg.cost`, shared with programs that read their rates.
+    pub cost: std::rc::Rc<super::CostModel>,
     pub mem: MainMemory,
     pub cores: Vec<Core>,
     pub spes: Vec<SpeState>,
@@ -240,6 +250,7 @@ impl Machine {
                 mfc_free: Cycles::ZERO,
                 mfc_busy: false,
                 pending: VecDeque::new(),
+                tag_names: Vec::new(),
                 in_mbox: VecDeque::new(),
                 in_arriving: 0,
                 out_mbox: [VecDeque::new(), VecDeque::new()],
@@ -256,6 +267,7 @@ impl Machine {
             })
             .collect();
         Machine {
+            cost: std::rc::Rc::new(cfg.cost.clone()),
             mem: MainMemory::new(cfg.main_memory_bytes),
             memif: MemoryInterface::new(cfg.cost.memory_bandwidth),
             flows: Vec::new(),
@@ -279,6 +291,14 @@ impl Machine {
         if let Some(t) = &mut self.trace {
             t.push(Self::row(core), kind, start, end, None);
         }
+    }
+
+    /// The tag groups of `mask` with no command of SPE `spe` outstanding.
+    pub fn tags_done(&self, spe: usize, mask: u32) -> u32 {
+        let st = &self.spes[spe];
+        (0..32)
+            .filter(|&t| mask >> t & 1 == 1 && st.outstanding[t] == 0)
+            .fold(0u32, |a, t| a | 1 << t)
     }
 
     /// Charges `c` busy cycles to `core`.
@@ -649,8 +669,12 @@ impl Machine {
             EventKind::OutMbox { spe, which, value } => {
                 let st = &mut self.spes[spe];
                 st.out_arriving[which as usize] -= 1;
-                st.out_mbox[which as usize].push_back(value);
-                self.wake_if(PPE, at, |w| *w == Wait::OutMbox(spe, which));
+                st.out_mbox[which as usize].push_back((value, at));
+                self.wake_if(PPE, at, |w| match *w {
+                    Wait::OutMbox(k, b) => (k, b) == (spe, which),
+                    Wait::AnyOutMbox(mask) => which == OutBox::Out && mask >> spe & 1 == 1,
+                    _ => false,
+                });
             }
             EventKind::Signal { spe, reg, value } => {
                 let r = &mut self.spes[spe].signals[reg];
@@ -663,6 +687,29 @@ impl Machine {
             }
         }
         Ok(())
+    }
+}
+
+/// The one loop of every blocking channel (a full MFC queue, a tag wait,
+/// mailboxes, signals): yields until `attempt` succeeds. While it fails,
+/// `core` is blocked on `why`, and the machine makes it ready again when
+/// something `why` names happens (a DMA completes, a value arrives, room is
+/// made), so the attempt is retried only then.
+pub(crate) async fn block_on<T>(
+    m: &std::rc::Rc<std::cell::RefCell<Machine>>,
+    core: usize,
+    why: Wait,
+    mut attempt: impl FnMut(&mut Machine) -> Option<T>,
+) -> T {
+    loop {
+        {
+            let mut mm = m.borrow_mut();
+            if let Some(v) = attempt(&mut mm) {
+                return v;
+            }
+            mm.block(core, why);
+        }
+        super::executor::Yield::new().await;
     }
 }
 

@@ -8,7 +8,7 @@ use std::rc::Rc;
 
 use super::clock::Cycles;
 use super::executor::Yield;
-use super::machine::{EventKind, Machine, OutBox, PPE, Status, Wait};
+use super::machine::{EventKind, Machine, OutBox, PPE, Status, Wait, block_on};
 use super::trace::SpanKind;
 use super::{CellError, CostModel, Ea};
 
@@ -22,8 +22,14 @@ impl Ppe {
         self.m.borrow().cores[PPE].clock
     }
 
-    pub fn cost(&self) -> CostModel {
-        self.m.borrow().cfg.cost.clone()
+    /// The machine's cost model, shared.
+    pub fn cost(&self) -> std::rc::Rc<CostModel> {
+        self.m.borrow().cost.clone()
+    }
+
+    /// Charges `items` items of a kernel at `rate` cycles each.
+    pub fn compute_items(&self, rate: Cycles, items: u64) {
+        self.compute(Cycles(rate.0 * items));
     }
 
     /// Number of SPEs of the machine.
@@ -60,10 +66,14 @@ impl Ppe {
     }
 
     /// Allocates `size` bytes of main memory aligned to `align` for the
-    /// buffer `what` (named in the error if memory is full).
+    /// buffer `what` (named in the error if memory is full); charged
+    /// `ppe_alloc_cycles`.
     pub async fn alloc(&self, what: &str, size: u64, align: u64) -> Result<Ea, CellError> {
         self.sync().await;
-        self.m.borrow_mut().mem.alloc(what, size, align)
+        let mut m = self.m.borrow_mut();
+        let c = m.cfg.cost.ppe_alloc_cycles;
+        m.busy(PPE, c, SpanKind::Compute);
+        m.mem.alloc(what, size, align)
     }
 
     /// Reads `count` values at `ea`, charged at the PPE's memory bandwidth.
@@ -116,42 +126,39 @@ impl Ppe {
     pub async fn write_in_mbox(&self, spe: usize, value: u32) -> Result<(), CellError> {
         self.check_spe(&self.m.borrow(), spe)?;
         self.sync().await;
-        loop {
-            {
-                let mut m = self.m.borrow_mut();
-                let st = &m.spes[spe];
-                if st.in_mbox.len() + st.in_arriving < 4 {
-                    m.spes[spe].in_arriving += 1;
-                    let c = m.cfg.cost.ppe_mmio_cycles;
-                    m.busy(PPE, c, SpanKind::Issue);
-                    m.cores[PPE].counters.mailbox_messages += 1;
-                    let at = m.cores[PPE].clock + m.cfg.cost.mailbox_latency_cycles;
-                    m.schedule(at, EventKind::InMbox { spe, value });
-                    return Ok(());
-                }
-                m.block(PPE, Wait::InMboxFull(spe));
-            }
-            Yield::new().await;
-        }
+        block_on(&self.m, PPE, Wait::InMboxFull(spe), |m| {
+            let st = &m.spes[spe];
+            (st.in_mbox.len() + st.in_arriving < 4).then_some(())
+        })
+        .await;
+        let mut m = self.m.borrow_mut();
+        m.spes[spe].in_arriving += 1;
+        let c = m.cfg.cost.ppe_mmio_cycles;
+        m.busy(PPE, c, SpanKind::Issue);
+        m.cores[PPE].counters.mailbox_messages += 1;
+        let at = m.cores[PPE].clock + m.cfg.cost.mailbox_latency_cycles;
+        m.schedule(at, EventKind::InMbox { spe, value });
+        Ok(())
     }
 
     async fn read_out(&self, spe: usize, which: OutBox) -> Result<u32, CellError> {
         self.check_spe(&self.m.borrow(), spe)?;
         self.sync().await;
-        loop {
-            {
-                let mut m = self.m.borrow_mut();
-                if let Some(v) = m.spes[spe].out_mbox[which as usize].pop_front() {
-                    let c = m.cfg.cost.ppe_mmio_cycles;
-                    m.busy(PPE, c, SpanKind::Issue);
-                    let now = m.cores[PPE].clock;
-                    m.wake_if(spe + 1, now, |w| *w == Wait::OutMboxFull(which));
-                    return Ok(v);
-                }
-                m.block(PPE, Wait::OutMbox(spe, which));
-            }
-            Yield::new().await;
-        }
+        let v = block_on(&self.m, PPE, Wait::OutMbox(spe, which), |m| {
+            m.spes[spe].out_mbox[which as usize].pop_front()
+        })
+        .await;
+        self.after_out_read(spe, which);
+        Ok(v.0)
+    }
+
+    /// Charges the MMIO read of an outbound mailbox and frees its slot.
+    fn after_out_read(&self, spe: usize, which: OutBox) {
+        let mut m = self.m.borrow_mut();
+        let c = m.cfg.cost.ppe_mmio_cycles;
+        m.busy(PPE, c, SpanKind::Issue);
+        let now = m.cores[PPE].clock;
+        m.wake_if(spe + 1, now, |w| *w == Wait::OutMboxFull(which));
     }
 
     /// Reads SPE `spe`'s outbound mailbox; blocks while it is empty.
@@ -162,6 +169,68 @@ impl Ppe {
     /// Reads SPE `spe`'s outbound interrupt mailbox; blocks while empty.
     pub async fn read_out_intr_mbox(&self, spe: usize) -> Result<u32, CellError> {
         self.read_out(spe, OutBox::OutIntr).await
+    }
+
+    /// Waits for a value in the outbound mailbox of any SPE of `spes`, as a
+    /// PPE thread serving several SPEs waits in libspe2's event handler
+    /// (`spe_event_wait` on SPE_EVENT_OUT_INTR_MBOX), and reads it: returns
+    /// (SPE, value). When several hold one, the value that arrived first
+    /// is read (ties: the lower SPE). Charged one event wake-up
+    /// (`ppe_event_cycles`) and the MMIO read.
+    pub async fn wait_any_out_mbox(&self, spes: &[usize]) -> Result<(usize, u32), CellError> {
+        let mut mask = 0u64;
+        for &s in spes {
+            self.check_spe(&self.m.borrow(), s)?;
+            mask |= 1 << s;
+        }
+        self.sync().await;
+        let (spe, v) = block_on(&self.m, PPE, Wait::AnyOutMbox(mask), |m| {
+            let k = (0..m.spes.len())
+                .filter(|&k| mask >> k & 1 == 1)
+                .filter_map(|k| m.spes[k].out_mbox[0].front().map(|&(_, at)| (at, k)))
+                .min()?
+                .1;
+            let (v, _) = m.spes[k].out_mbox[0].pop_front().expect("a value");
+            Some((k, v))
+        })
+        .await;
+        {
+            let mut m = self.m.borrow_mut();
+            let c = m.cfg.cost.ppe_event_cycles;
+            m.busy(PPE, c, SpanKind::Issue);
+        }
+        self.after_out_read(spe, OutBox::Out);
+        Ok((spe, v))
+    }
+
+    /// `spe_out_mbox_status`: values waiting in SPE `spe`'s outbound
+    /// mailbox (0 or 1), without blocking; one MMIO read.
+    pub async fn out_mbox_count(&self, spe: usize) -> Result<u32, CellError> {
+        self.status_read(spe, |m| m.spes[spe].out_mbox[0].len() as u32)
+            .await
+    }
+
+    /// `spe_in_mbox_status`: room in SPE `spe`'s inbound mailbox (0–4).
+    pub async fn in_mbox_room(&self, spe: usize) -> Result<u32, CellError> {
+        self.status_read(spe, |m| {
+            let st = &m.spes[spe];
+            (4 - st.in_mbox.len() - st.in_arriving) as u32
+        })
+        .await
+    }
+
+    async fn status_read(
+        &self,
+        spe: usize,
+        read: impl FnOnce(&Machine) -> u32,
+    ) -> Result<u32, CellError> {
+        self.check_spe(&self.m.borrow(), spe)?;
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        let v = read(&m);
+        let c = m.cfg.cost.ppe_mmio_cycles;
+        m.busy(PPE, c, SpanKind::Issue);
+        Ok(v)
     }
 
     /// Writes `value` to signal register `reg` (1 or 2) of SPE `spe`.

@@ -8,7 +8,7 @@ use std::rc::Rc;
 
 use super::clock::Cycles;
 use super::executor::Yield;
-use super::machine::{Machine, OutBox, PPE, Wait, ls_range};
+use super::machine::{Machine, OutBox, PPE, Wait, block_on, ls_range};
 use super::mfc::{self, Direction, ListElement, QUEUE_DEPTH, Segment, WaitMode};
 use super::trace::SpanKind;
 use super::{CellError, CostModel, Ea, LsAddr};
@@ -45,9 +45,9 @@ impl Spe {
     }
 
     /// The machine's cost model (for programs that derive their own compute
-    /// charges from machine rates).
-    pub fn cost(&self) -> CostModel {
-        self.m.borrow().cfg.cost.clone()
+    /// charges from machine rates); shared, not copied.
+    pub fn cost(&self) -> Rc<CostModel> {
+        self.m.borrow().cost.clone()
     }
 
     /// Charges `cycles` of computation on the local store.
@@ -55,6 +55,51 @@ impl Spe {
         self.m
             .borrow_mut()
             .busy(self.core(), cycles, SpanKind::Compute);
+    }
+
+    /// Charges `items` items of a kernel at `rate` cycles each (a named
+    /// rate of `CostModel::kernels`).
+    pub fn compute_items(&self, rate: Cycles, items: u64) {
+        self.compute(Cycles(rate.0 * items));
+    }
+
+    /// `count` consecutive tag groups for the buffers called `name`,
+    /// allocated on first use (from 0, in order of first use); the same
+    /// name gives the same groups. An error when the 32 groups run out or
+    /// the name was given another count.
+    pub fn tags(&self, name: &'static str, count: u32) -> Result<u32, CellError> {
+        let mut m = self.m.borrow_mut();
+        let st = &mut m.spes[self.id];
+        if let Some(&(_, first, n)) = st.tag_names.iter().find(|t| t.0 == name) {
+            if n != count {
+                return Err(CellError::Program {
+                    core: format!("SPE {}", self.id),
+                    msg: format!("tag groups '{name}' were allocated {n} at a time, not {count}"),
+                });
+            }
+            return Ok(first);
+        }
+        let first = st.tag_names.last().map_or(0, |&(_, f, n)| f + n);
+        if first + count > mfc::TAG_GROUPS {
+            return Err(CellError::Program {
+                core: format!("SPE {}", self.id),
+                msg: format!(
+                    "no {count} tag groups left for '{name}': {first} of 32 are taken ({})",
+                    st.tag_names
+                        .iter()
+                        .map(|t| t.0)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            });
+        }
+        st.tag_names.push((name, first, count));
+        Ok(first)
+    }
+
+    /// One tag group for `name` (see [`Spe::tags`]).
+    pub fn tag(&self, name: &'static str) -> Result<u32, CellError> {
+        self.tags(name, 1)
     }
 
     /// Hands control to the executor until this core is the earliest.
@@ -83,25 +128,18 @@ impl Spe {
 
     /// Runs `f` on `count` values of type `T` at `addr` (which must be
     /// aligned for `T`). Checked mode: an error if a get into these bytes
-    /// has not been waited for.
+    /// has not been waited for. `f` may call this SPE's other synchronous
+    /// methods (`compute`, `now`, …); touching the local store again from
+    /// inside it is an error, not a panic.
     pub fn with_ls<T: bytemuck::Pod, R>(
         &self,
         addr: LsAddr,
         count: usize,
         f: impl FnOnce(&[T]) -> R,
     ) -> Result<R, CellError> {
-        let m = self.m.borrow();
-        let bytes = (count * size_of::<T>()) as u64;
-        let r = ls_range(self.id, &m, addr, bytes)?;
-        m.check_ls_access(self.id, r.start as u32, r.end as u32, false)?;
-        let slice = bytemuck::try_cast_slice(&m.spes[self.id].ls.bytes()[r]).map_err(|_| {
-            CellError::LsAlign {
-                spe: self.id,
-                addr,
-                align: align_of::<T>(),
-            }
-        })?;
-        Ok(f(slice))
+        self.lend::<T, R>(addr, count, false, |bytes, r| {
+            bytemuck::try_cast_slice(&bytes[r]).map(f)
+        })
     }
 
     /// Runs `f` on `count` mutable values at `addr`. Checked mode: an error
@@ -112,19 +150,34 @@ impl Spe {
         count: usize,
         f: impl FnOnce(&mut [T]) -> R,
     ) -> Result<R, CellError> {
-        let mut m = self.m.borrow_mut();
-        let bytes = (count * size_of::<T>()) as u64;
-        let r = ls_range(self.id, &m, addr, bytes)?;
-        m.check_ls_access(self.id, r.start as u32, r.end as u32, true)?;
-        let slice =
-            bytemuck::try_cast_slice_mut(&mut m.spes[self.id].ls.bytes_mut()[r]).map_err(|_| {
-                CellError::LsAlign {
-                    spe: self.id,
-                    addr,
-                    align: align_of::<T>(),
-                }
-            })?;
-        Ok(f(slice))
+        self.lend::<T, R>(addr, count, true, |bytes, r| {
+            bytemuck::try_cast_slice_mut(&mut bytes[r]).map(f)
+        })
+    }
+
+    /// Checks `count` values of `T` at `addr`, lends the local store to
+    /// `f` outside the machine's borrow, and takes it back.
+    fn lend<T, R>(
+        &self,
+        addr: LsAddr,
+        count: usize,
+        write: bool,
+        f: impl FnOnce(&mut [u8], std::ops::Range<usize>) -> Result<R, bytemuck::PodCastError>,
+    ) -> Result<R, CellError> {
+        let (r, mut words) = {
+            let mut m = self.m.borrow_mut();
+            let bytes = (count * size_of::<T>()) as u64;
+            let r = ls_range(self.id, &m, addr, bytes)?;
+            m.check_ls_access(self.id, r.start as u32, r.end as u32, write)?;
+            (r, m.spes[self.id].ls.lend(self.id)?)
+        };
+        let result = f(bytemuck::cast_slice_mut(&mut words), r);
+        self.m.borrow_mut().spes[self.id].ls.give_back(words);
+        result.map_err(|_| CellError::LsAlign {
+            spe: self.id,
+            addr,
+            align: align_of::<T>(),
+        })
     }
 
     /// Copies `count` values out of the local store.
@@ -150,16 +203,14 @@ impl Spe {
         tag: u32,
     ) -> Result<(), CellError> {
         self.sync().await;
-        loop {
-            {
-                let mut m = self.m.borrow_mut();
-                if m.spes[self.id].queued < QUEUE_DEPTH {
-                    return m.issue_dma(self.id, dir, segments, tag);
-                }
-                m.block(self.core(), Wait::QueueFull);
-            }
-            Yield::new().await;
-        }
+        let mut segments = Some(segments);
+        block_on(&self.m, self.core(), Wait::QueueFull, |m| {
+            (m.spes[self.id].queued < QUEUE_DEPTH).then(|| {
+                let segs = segments.take().expect("issued once");
+                m.issue_dma(self.id, dir, segs, tag)
+            })
+        })
+        .await
     }
 
     /// `mfc_get`: `size` bytes from main memory at `ea` into the local store
@@ -197,27 +248,33 @@ impl Spe {
     /// (all of them, or any one); returns the mask of those that have none.
     pub async fn wait_tags(&self, mask: u32, mode: WaitMode) -> Result<u32, CellError> {
         self.sync().await;
-        loop {
-            {
-                let mut m = self.m.borrow_mut();
-                let st = &m.spes[self.id];
-                let done = (0..32)
-                    .filter(|&t| mask >> t & 1 == 1 && st.outstanding[t] == 0)
-                    .fold(0u32, |a, t| a | 1 << t);
-                let ok = match mode {
-                    WaitMode::All => done == mask,
-                    WaitMode::Any => done != 0 || mask == 0,
-                };
-                if ok {
-                    m.spes[self.id].unwaited.retain(|u| done >> u.tag & 1 == 0);
-                    let c = m.cfg.cost.channel_cycles;
-                    m.busy(self.core(), c, SpanKind::Issue);
-                    return Ok(done);
-                }
-                m.block(self.core(), Wait::Tags { mask, mode });
-            }
-            Yield::new().await;
-        }
+        let done = block_on(&self.m, self.core(), Wait::Tags { mask, mode }, |m| {
+            let done = m.tags_done(self.id, mask);
+            let ok = match mode {
+                WaitMode::All => done == mask,
+                WaitMode::Any => done != 0 || mask == 0,
+            };
+            ok.then_some(done)
+        })
+        .await;
+        let mut m = self.m.borrow_mut();
+        m.spes[self.id].unwaited.retain(|u| done >> u.tag & 1 == 0);
+        let c = m.cfg.cost.channel_cycles;
+        m.busy(self.core(), c, SpanKind::Issue);
+        Ok(done)
+    }
+
+    /// `mfc_read_tag_status_immediate`: the groups of `mask` with no
+    /// command outstanding, without waiting. It completes nothing for
+    /// checked mode: the buffers count as waited for only after
+    /// [`Spe::wait_tags`].
+    pub async fn tag_status_immediate(&self, mask: u32) -> u32 {
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        let done = m.tags_done(self.id, mask);
+        let c = m.cfg.cost.channel_cycles;
+        m.busy(self.core(), c, SpanKind::Issue);
+        done
     }
 
     /// Waits for every command of tag group `tag`.
@@ -236,49 +293,77 @@ impl Spe {
     /// Reads the SPU inbound mailbox (4 deep); blocks while it is empty.
     pub async fn read_in_mbox(&self) -> u32 {
         self.sync().await;
-        loop {
-            {
-                let mut m = self.m.borrow_mut();
-                if let Some(v) = m.spes[self.id].in_mbox.pop_front() {
-                    let c = m.cfg.cost.channel_cycles;
-                    m.busy(self.core(), c, SpanKind::Issue);
-                    let now = m.cores[self.core()].clock;
-                    let me = self.id;
-                    m.wake_if(PPE, now, |w| *w == Wait::InMboxFull(me));
-                    return v;
-                }
-                m.block(self.core(), Wait::InMbox);
-            }
-            Yield::new().await;
-        }
+        let v = block_on(&self.m, self.core(), Wait::InMbox, |m| {
+            m.spes[self.id].in_mbox.pop_front()
+        })
+        .await;
+        let mut m = self.m.borrow_mut();
+        let c = m.cfg.cost.channel_cycles;
+        m.busy(self.core(), c, SpanKind::Issue);
+        let now = m.cores[self.core()].clock;
+        let me = self.id;
+        m.wake_if(PPE, now, |w| *w == Wait::InMboxFull(me));
+        v
+    }
+
+    /// `spu_stat_in_mbox`: values waiting in the inbound mailbox (0–4),
+    /// without blocking.
+    pub async fn in_mbox_count(&self) -> u32 {
+        self.status_read(|m, id| m.spes[id].in_mbox.len() as u32)
+            .await
+    }
+
+    /// `spu_stat_out_mbox`: room in the outbound mailbox (0 or 1).
+    pub async fn out_mbox_room(&self) -> u32 {
+        self.status_read(|m, id| {
+            let st = &m.spes[id];
+            (st.out_mbox[0].len() + st.out_arriving[0] == 0) as u32
+        })
+        .await
+    }
+
+    /// `spu_stat_signal1/2`: whether signal register `reg` (1 or 2) holds
+    /// a signal, without reading (clearing) it.
+    pub async fn signal_pending(&self, reg: u32) -> Result<bool, CellError> {
+        let r = signal_index(reg)?;
+        Ok(self
+            .status_read(|m, id| m.spes[id].signals[r].pending as u32)
+            .await
+            == 1)
+    }
+
+    /// A channel-count read: synchronise, read, charge one channel access.
+    async fn status_read(&self, read: impl FnOnce(&Machine, usize) -> u32) -> u32 {
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        let v = read(&m, self.id);
+        let c = m.cfg.cost.channel_cycles;
+        m.busy(self.core(), c, SpanKind::Issue);
+        v
     }
 
     async fn write_out(&self, which: OutBox, value: u32) {
         self.sync().await;
-        loop {
-            {
-                let mut m = self.m.borrow_mut();
-                let st = &m.spes[self.id];
-                if st.out_mbox[which as usize].len() + st.out_arriving[which as usize] < 1 {
-                    m.spes[self.id].out_arriving[which as usize] += 1;
-                    let c = m.cfg.cost.channel_cycles;
-                    m.busy(self.core(), c, SpanKind::Issue);
-                    m.cores[self.core()].counters.mailbox_messages += 1;
-                    let at = m.cores[self.core()].clock + m.cfg.cost.mailbox_latency_cycles;
-                    m.schedule(
-                        at,
-                        super::machine::EventKind::OutMbox {
-                            spe: self.id,
-                            which,
-                            value,
-                        },
-                    );
-                    return;
-                }
-                m.block(self.core(), Wait::OutMboxFull(which));
-            }
-            Yield::new().await;
-        }
+        let w = which as usize;
+        block_on(&self.m, self.core(), Wait::OutMboxFull(which), |m| {
+            let st = &m.spes[self.id];
+            (st.out_mbox[w].len() + st.out_arriving[w] < 1).then_some(())
+        })
+        .await;
+        let mut m = self.m.borrow_mut();
+        m.spes[self.id].out_arriving[w] += 1;
+        let c = m.cfg.cost.channel_cycles;
+        m.busy(self.core(), c, SpanKind::Issue);
+        m.cores[self.core()].counters.mailbox_messages += 1;
+        let at = m.cores[self.core()].clock + m.cfg.cost.mailbox_latency_cycles;
+        m.schedule(
+            at,
+            super::machine::EventKind::OutMbox {
+                spe: self.id,
+                which,
+                value,
+            },
+        );
     }
 
     /// Writes the SPU outbound mailbox (1 deep); blocks while it is full.
@@ -296,21 +381,18 @@ impl Spe {
     pub async fn read_signal(&self, reg: u32) -> Result<u32, CellError> {
         let r = signal_index(reg)?;
         self.sync().await;
-        loop {
-            {
-                let mut m = self.m.borrow_mut();
-                let s = &mut m.spes[self.id].signals[r];
-                if s.pending {
-                    let v = std::mem::take(&mut s.value);
-                    s.pending = false;
-                    let c = m.cfg.cost.channel_cycles;
-                    m.busy(self.core(), c, SpanKind::Issue);
-                    return Ok(v);
-                }
-                m.block(self.core(), Wait::Signal(r));
-            }
-            Yield::new().await;
-        }
+        let v = block_on(&self.m, self.core(), Wait::Signal(r), |m| {
+            let s = &mut m.spes[self.id].signals[r];
+            s.pending.then(|| {
+                s.pending = false;
+                std::mem::take(&mut s.value)
+            })
+        })
+        .await;
+        let mut m = self.m.borrow_mut();
+        let c = m.cfg.cost.channel_cycles;
+        m.busy(self.core(), c, SpanKind::Issue);
+        Ok(v)
     }
 
     /// `mfc_sndsig`: sends `value` to signal register `reg` of SPE `target`.

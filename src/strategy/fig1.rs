@@ -30,6 +30,8 @@ pub const BLOCK_BYTES: u32 = 16 * 1024;
 /// The five buffers of Fig. 1, allocated once per SPE program.
 pub struct Fig1Buffers {
     bufs: [LsAddr; 5],
+    /// The first of the five buffers' tag groups.
+    tags: u32,
 }
 
 impl Fig1Buffers {
@@ -38,20 +40,26 @@ impl Fig1Buffers {
         for b in &mut bufs {
             *b = spe.ls_alloc(BLOCK_BYTES, 128)?;
         }
-        Ok(Fig1Buffers { bufs })
+        let tags = spe.tags("Fig. 1 buffers A-D, OUT", 5)?;
+        Ok(Fig1Buffers { bufs, tags })
     }
 
     /// Buffer `i` (0..5; A, B, C, D, OUT at the start), for programs that
-    /// use the buffers between partitions. Its tag group is `i`.
+    /// use the buffers between partitions.
     pub fn buffer(&self, i: usize) -> LsAddr {
         self.bufs[i]
+    }
+
+    /// The tag group of buffer `i`.
+    pub fn tag(&self, i: usize) -> u32 {
+        self.tags + i as u32
     }
 }
 
 /// A block in a buffer: where it came from and how many elements it holds.
 #[derive(Clone, Copy, Default)]
 struct Block {
-    /// Physical buffer 0..5; its tag group is the same number.
+    /// Physical buffer 0..5 (its tag group: `Fig1Buffers::tag`).
     buf: usize,
     from: u64,
     len: u64,
@@ -81,7 +89,7 @@ pub async fn partition_in_place<T: Boxed + Pod>(
     );
     let per_block = BLOCK_BYTES as u64 / size;
     let addr = |i: u64| ea.offset(i * size);
-    let charge = |count: u64| spe.compute(Cycles(cycles_per_element.0 * count));
+    let charge = |count: u64| spe.compute_items(cycles_per_element, count);
 
     if n <= per_block {
         // Small interval: load, partition, write back where it was.
@@ -92,13 +100,13 @@ pub async fn partition_in_place<T: Boxed + Pod>(
                 right: Side::EMPTY,
             });
         }
-        spe.get(b, ea, (n * size) as u32, 0).await?;
-        spe.wait_tag(0).await?;
+        spe.get(b, ea, (n * size) as u32, bufs.tag(0)).await?;
+        spe.wait_tag(bufs.tag(0)).await?;
         let (left, right) =
             spe.with_ls_mut(b, n as usize, |items: &mut [T]| partition(items, split))?;
         charge(n);
-        spe.put(b, ea, (n * size) as u32, 0).await?;
-        spe.wait_tag(0).await?;
+        spe.put(b, ea, (n * size) as u32, bufs.tag(0)).await?;
+        spe.wait_tag(bufs.tag(0)).await?;
         return Ok(Partitioned { left, right });
     }
 
@@ -119,8 +127,13 @@ pub async fn partition_in_place<T: Boxed + Pod>(
             *read_l += len
         }
         if len > 0 {
-            spe.get(bufs.bufs[buf], addr(from), (len * size) as u32, buf as u32)
-                .await?;
+            spe.get(
+                bufs.bufs[buf],
+                addr(from),
+                (len * size) as u32,
+                bufs.tag(buf),
+            )
+            .await?;
         }
         Ok(Block { buf, from, len })
     };
@@ -139,7 +152,7 @@ pub async fn partition_in_place<T: Boxed + Pod>(
 
     while d.len > 0 {
         // Step 2: partition D.
-        spe.wait_tag(d.buf as u32).await?;
+        spe.wait_tag(bufs.tag(d.buf)).await?;
         let (l, r) = spe.with_ls_mut(bufs.bufs[d.buf], d.len as usize, |items: &mut [T]| {
             partition(items, split)
         })?;
@@ -163,12 +176,12 @@ pub async fn partition_in_place<T: Boxed + Pod>(
             if count == 0 {
                 continue;
             }
-            wait_for_overlapping_gets(spe, &[a, b, c], dst, count).await?;
+            wait_for_overlapping_gets(spe, bufs, &[a, b, c], dst, count).await?;
             spe.put(
                 ls_out.offset((from_ls * size) as u32),
                 addr(dst),
                 (count * size) as u32,
-                d.buf as u32,
+                bufs.tag(d.buf),
             )
             .await?;
         }
@@ -176,7 +189,7 @@ pub async fn partition_in_place<T: Boxed + Pod>(
         write_r -= m;
         // Step 4: rotate; A, the former OUT, takes the next block once its
         // own write-back is done, from the side with less room.
-        spe.wait_tag(out.buf as u32).await?;
+        spe.wait_tag(bufs.tag(out.buf)).await?;
         let next_buf = out.buf;
         out = d;
         (d, c, b) = (c, b, a);
@@ -189,7 +202,7 @@ pub async fn partition_in_place<T: Boxed + Pod>(
             [d, c, b, a] = q;
         }
     }
-    spe.wait_tag(out.buf as u32).await?;
+    spe.wait_tag(bufs.tag(out.buf)).await?;
     debug_assert_eq!(write_l, write_r);
     debug_assert_eq!(left.count as u64, write_l);
     Ok(Partitioned { left, right })
@@ -198,13 +211,14 @@ pub async fn partition_in_place<T: Boxed + Pod>(
 /// Waits for any in-flight get whose source overlaps `dst..dst+count`.
 async fn wait_for_overlapping_gets(
     spe: &Spe,
+    bufs: &Fig1Buffers,
     blocks: &[Block],
     dst: u64,
     count: u64,
 ) -> Result<(), CellError> {
     for b in blocks {
         if b.len > 0 && b.from < dst + count && dst < b.from + b.len {
-            spe.wait_tag(b.buf as u32).await?;
+            spe.wait_tag(bufs.tag(b.buf)).await?;
         }
     }
     Ok(())
@@ -227,7 +241,8 @@ pub async fn stream_bounds<T: Boxed + Pod>(
     if blocks == 0 {
         return Ok(side);
     }
-    spe.get(bufs.bufs[0], ea, (len(0) * size) as u32, 0).await?;
+    spe.get(bufs.bufs[0], ea, (len(0) * size) as u32, bufs.tag(0))
+        .await?;
     for k in 0..blocks {
         let b = (k % 2) as usize;
         if k + 1 < blocks {
@@ -236,15 +251,15 @@ pub async fn stream_bounds<T: Boxed + Pod>(
                 bufs.bufs[1 - b],
                 next,
                 (len(k + 1) * size) as u32,
-                1 - b as u32,
+                bufs.tag(1 - b),
             )
             .await?;
         }
-        spe.wait_tag(b as u32).await?;
+        spe.wait_tag(bufs.tag(b)).await?;
         side = side.merge(spe.with_ls(bufs.bufs[b], len(k) as usize, |items: &[T]| {
             crate::build::kernels::side_of(items)
         })?);
-        spe.compute(Cycles(cycles_per_element.0 * len(k)));
+        spe.compute_items(cycles_per_element, len(k));
     }
     Ok(side)
 }

@@ -6,12 +6,14 @@
 //! columns), and the SPE's in-place streaming partition of Fig. 1
 //! ([`fig1`]), the kernel of the SPE builders.
 
+pub mod arena;
 pub mod fig1;
 pub mod layout;
 pub mod ppe_approx;
 pub mod ppe_naive;
 pub mod spe_bfs;
 pub mod spe_dfs;
+pub mod work_queue;
 
 use std::cell::RefCell;
 use std::rc::Rc;

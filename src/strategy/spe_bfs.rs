@@ -4,23 +4,16 @@
 //! allocates memory.
 //!
 //! - **Jobs** (the intervals of the next tree level, 64 bytes each, [`Job`])
-//!   live in two local-store buffers, `WorkA` (the current level) and
-//!   `WorkB` (the next). A full `WorkB` is written to main memory
-//!   (`WorkBPPE`), synchronously as in the paper; when a level spilled,
-//!   the next one reads its jobs back block by block, and `WorkAPPE` and
-//!   `WorkBPPE` swap roles (the two phases of Fig. 2). While a whole level
-//!   fits in `WorkB` — the first levels — nothing travels: the local-store
-//!   buffers swap.
+//!   live in `WorkA` (the current level) and `WorkB` (the next), spilled to
+//!   `WorkAPPE`/`WorkBPPE`: the two-phase queue of Fig. 2
+//!   ([`super::work_queue`]).
 //! - **Partitions**: an interval over 16 KiB streams through the five
 //!   buffers of Fig. 1; smaller ones are **agglomerated**: consecutive jobs
 //!   whose intervals span at most 16 KiB of the triangle array travel in one
 //!   get and one put.
-//! - **Nodes** go into an **ObjectArena**: blocks of [`BLOCK_NODES`] nodes
-//!   that the PPE allocates on request (outbound mailbox; the block's
-//!   address comes back in the inbound mailbox, asked for one block ahead).
-//!   Every job is one node, made in the order of node ids, so the SPE
-//!   computes each node's address itself (block `id / BLOCK_NODES`, offset
-//!   `id % BLOCK_NODES`) and writes the nodes in 16 KiB puts.
+//! - **Nodes** go into an **ObjectArena** ([`super::arena`]) whose blocks
+//!   the PPE allocates on request. Every job is one node, made in the order
+//!   of node ids, so the SPE computes each node's address itself.
 //!
 //! The splits are the host builder's (same heuristic, same sets on each
 //! side), so the tree is the host tree with its nodes numbered breadth first.
@@ -30,30 +23,16 @@ use std::rc::Rc;
 
 use glam::Vec3;
 
+use super::arena::{BlockSource, ObjectArena, pieces, serve_blocks};
 use super::fig1::{Fig1Buffers, partition_in_place, stream_bounds};
 use super::layout::TriRecord;
+use super::work_queue::WorkQueue;
 use super::{Output, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode};
 use crate::build::host::BuildStats;
 use crate::build::kernels::{Side, Split, choose_split, clip_planes, partition};
-use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe, WaitMode};
-
-/// Outbound-mailbox words from the SPE to the PPE.
-const REQUEST_BLOCK: u32 = 1;
-const DONE: u32 = 2;
-
-/// Jobs per `WorkA`/`WorkB` buffer: 16 KiB of 64-byte jobs.
-const JOBS_PER_BUFFER: usize = 256;
-const WORK_BYTES: u32 = (JOBS_PER_BUFFER * size_of::<Job>()) as u32;
-/// Nodes per local-store node buffer: 16,320 bytes, a multiple of 48 so
-/// that every put is a multiple of 16 bytes.
-const NODES_PER_PUT: usize = 1360;
-/// Nodes per ObjectArena block: three puts (48,960 bytes).
-pub const BLOCK_NODES: usize = 3 * NODES_PER_PUT;
-/// Tags: Fig. 1 uses 0–4 (buffer `i` on tag `i`); jobs and nodes use these.
-const WORK_TAG: u32 = 10;
-const NODE_TAG: u32 = 11;
+use crate::cell::{CellError, Ea, Spe, WaitMode};
 
 /// One job: a node to make and its interval of the triangle array. 64 bytes.
 #[repr(C)]
@@ -106,7 +85,7 @@ pub(super) fn spawn(
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     // WorkAPPE and WorkBPPE: room for as many jobs as triangles, the upper
     // bound of the jobs of one level.
-    let work_ppe_bytes = (n.div_ceil(JOBS_PER_BUFFER) * WORK_BYTES as usize) as u64;
+    let work_ppe_bytes = WorkQueue::<Job>::spill_bytes(n);
     let work_a_ppe = cell.memory_mut().alloc("WorkAPPE", work_ppe_bytes, 128)?;
     let work_b_ppe = cell.memory_mut().alloc("WorkBPPE", work_ppe_bytes, 128)?;
     let work_ppe = [work_a_ppe, work_b_ppe];
@@ -130,56 +109,13 @@ pub(super) fn spawn(
 
     cell.spawn_ppe(move |ppe| async move {
         // The PPE only allocates the arena's blocks.
-        let mut blocks = Vec::new();
-        let count = loop {
-            match ppe.read_out_mbox(0).await? {
-                REQUEST_BLOCK => {
-                    let ea = ppe
-                        .alloc(
-                            "ObjectArena block",
-                            (BLOCK_NODES * size_of::<BihNode>()) as u64,
-                            128,
-                        )
-                        .await?;
-                    blocks.push(ea);
-                    ppe.write_in_mbox(0, ea_word(ea)?).await?;
-                }
-                DONE => break ppe.read_out_mbox(0).await? as usize,
-                w => {
-                    return Err(CellError::Program {
-                        core: "PPE".into(),
-                        msg: format!("spe_bfs: unknown request {w} from SPE 0"),
-                    });
-                }
-            }
-        };
+        let (blocks, count) = serve_blocks(&ppe, 0).await?;
         let mut o = out.borrow_mut();
-        o.nodes = blocks
-            .iter()
-            .enumerate()
-            .map(|(i, &ea)| (ea, BLOCK_NODES.min(count.saturating_sub(i * BLOCK_NODES))))
-            .filter(|&(_, c)| c > 0)
-            .collect();
+        o.nodes = pieces(&blocks, count);
         o.stats = *stats.borrow();
         Ok::<(), CellError>(())
     });
     Ok(())
-}
-
-/// An effective address as one 32-bit mailbox word.
-fn ea_word(ea: Ea) -> Result<u32, CellError> {
-    u32::try_from(ea.0).map_err(|_| CellError::Program {
-        core: "PPE".into(),
-        msg: format!("address {:#x} does not fit a mailbox word", ea.0),
-    })
-}
-
-/// Where the jobs of the level being built are.
-enum Level {
-    /// All in `WorkA` in the local store.
-    Local(usize),
-    /// In `WorkAPPE`, this many.
-    InMemory(usize),
 }
 
 /// A job of the current agglomerated batch and the split it will get.
@@ -194,27 +130,11 @@ struct SpeBuilder<'a> {
     tris: Ea,
     cfg: BihConfig,
     fig1: Fig1Buffers,
-    /// `WorkA` is `work[a]`, `WorkB` is `work[1 - a]`.
-    work: [LsAddr; 2],
-    a: usize,
-    /// `WorkAPPE` is `work_ppe[a_ppe]`, `WorkBPPE` the other.
-    work_ppe: [Ea; 2],
-    a_ppe: usize,
-    /// Jobs in `WorkB` now, and blocks of it written to `WorkBPPE` this level.
-    b_len: usize,
-    b_spilled: usize,
+    /// `WorkA`/`WorkB` and their spill areas.
+    queue: WorkQueue<'a, Job>,
     /// The next node id to hand out.
     next_id: usize,
-    /// Node buffers (two, alternating), the nodes in the current one, and the
-    /// id of its first node.
-    node_bufs: [LsAddr; 2],
-    node_buf: usize,
-    nodes: Vec<BihNode>,
-    nodes_first: usize,
-    /// Arena blocks: the one being filled and the one asked for ahead.
-    block: Option<Ea>,
-    block_index: usize,
-    next_block_requested: bool,
+    arena: ObjectArena<'a>,
     /// Which Fig. 1 buffer the next agglomerated batch uses (0 or 1).
     batch_buf: usize,
     stats: BuildStats,
@@ -227,26 +147,9 @@ impl<'a> SpeBuilder<'a> {
             tris,
             cfg,
             fig1: Fig1Buffers::alloc(spe)?,
-            work: [
-                spe.ls_alloc(WORK_BYTES, 128)?,
-                spe.ls_alloc(WORK_BYTES, 128)?,
-            ],
-            a: 0,
-            work_ppe,
-            a_ppe: 0,
-            b_len: 0,
-            b_spilled: 0,
+            queue: WorkQueue::new(spe, work_ppe)?,
             next_id: 1,
-            node_bufs: [
-                spe.ls_alloc((NODES_PER_PUT * size_of::<BihNode>()) as u32, 128)?,
-                spe.ls_alloc((NODES_PER_PUT * size_of::<BihNode>()) as u32, 128)?,
-            ],
-            node_buf: 0,
-            nodes: Vec::with_capacity(NODES_PER_PUT),
-            nodes_first: 0,
-            block: None,
-            block_index: 0,
-            next_block_requested: false,
+            arena: ObjectArena::new(spe, BlockSource::Mailbox)?,
             batch_buf: 0,
             stats: BuildStats::default(),
         })
@@ -255,55 +158,19 @@ impl<'a> SpeBuilder<'a> {
     /// Builds the tree below `root`, level by level (Fig. 2).
     async fn run(&mut self, root: Job) -> Result<(), CellError> {
         // Ask for the first arena block before anything else.
-        self.spe.write_out_mbox(REQUEST_BLOCK).await;
-        self.next_block_requested = true;
-        self.spe.ls_write(self.work[self.a], &[root])?;
-        let mut level = Level::Local(1);
+        self.arena.open().await;
+        let mut level = self.queue.start(root)?;
         loop {
-            match level {
-                Level::Local(len) => {
-                    let jobs: Vec<Job> = self.spe.ls_read(self.work[self.a], len)?;
-                    self.process(&jobs).await?;
-                }
-                Level::InMemory(total) => {
-                    for k in 0..total.div_ceil(JOBS_PER_BUFFER) {
-                        let len = JOBS_PER_BUFFER.min(total - k * JOBS_PER_BUFFER);
-                        let from =
-                            self.work_ppe[self.a_ppe].offset((k * WORK_BYTES as usize) as u64);
-                        let bytes = (len * size_of::<Job>()) as u32;
-                        self.spe
-                            .get(self.work[self.a], from, bytes, WORK_TAG)
-                            .await?;
-                        self.spe.wait_tag(WORK_TAG).await?;
-                        let jobs: Vec<Job> = self.spe.ls_read(self.work[self.a], len)?;
-                        self.process(&jobs).await?;
-                    }
-                }
+            for k in 0..WorkQueue::<Job>::blocks(level) {
+                let jobs = self.queue.load(level, k).await?;
+                self.process(&jobs).await?;
             }
-            // The level is done: the next one is what WorkB collected.
-            let next = self.b_spilled * JOBS_PER_BUFFER + self.b_len;
-            if next == 0 {
-                break;
+            match self.queue.end_level().await? {
+                Some(next) => level = next,
+                None => break,
             }
-            level = if self.b_spilled == 0 {
-                // The first levels: the jobs stay in the local store.
-                Level::Local(next)
-            } else {
-                if self.b_len > 0 {
-                    self.spill_work_b().await?;
-                }
-                self.a_ppe = 1 - self.a_ppe;
-                Level::InMemory(next)
-            };
-            self.a = 1 - self.a;
-            self.b_len = 0;
-            self.b_spilled = 0;
         }
-        self.flush_nodes(true).await?;
-        let both = (1 << NODE_TAG) | (1 << (NODE_TAG + 1));
-        self.spe.wait_tags(both, WaitMode::All).await?;
-        self.spe.write_out_mbox(DONE).await;
-        self.spe.write_out_mbox(self.next_id as u32).await;
+        self.arena.close(self.next_id).await?;
         self.stats.nodes = self.next_id as u64;
         Ok(())
     }
@@ -332,7 +199,8 @@ impl<'a> SpeBuilder<'a> {
                 // A large interval: stream it through Fig. 1's buffers.
                 self.flush_batch(&mut batch, &mut span).await?;
                 // Fig. 1 reuses the batches' buffers: their puts finish first.
-                self.spe.wait_tags(0b11, WaitMode::All).await?;
+                let batches = (1 << self.fig1.tag(0)) | (1 << self.fig1.tag(1));
+                self.spe.wait_tags(batches, WaitMode::All).await?;
                 let p = partition_in_place::<TriRecord>(
                     self.spe,
                     &self.fig1,
@@ -376,9 +244,10 @@ impl<'a> SpeBuilder<'a> {
             let ls = self.fig1.buffer(buf);
             let (ea, bytes) = (self.interval(first), (end - first) * size);
             // The buffer's previous put must be done before it is reused.
-            self.spe.wait_tag(buf as u32).await?;
-            self.spe.get(ls, ea, bytes, buf as u32).await?;
-            self.spe.wait_tag(buf as u32).await?;
+            let tag = self.fig1.tag(buf);
+            self.spe.wait_tag(tag).await?;
+            self.spe.get(ls, ea, bytes, tag).await?;
+            self.spe.wait_tag(tag).await?;
             let rate = self.spe.cost().kernels.spe_partition_item;
             for p in batch.iter() {
                 if let Some((s, _)) = p.split {
@@ -388,18 +257,18 @@ impl<'a> SpeBuilder<'a> {
                         p.job.count as usize,
                         |items: &mut [TriRecord]| partition(items, s),
                     )?;
-                    self.spe.compute(Cycles(rate.0 * p.job.count as u64));
+                    self.spe.compute_items(rate, p.job.count as u64);
                     sides.push(lr);
                 }
             }
-            self.spe.put(ls, ea, bytes, buf as u32).await?;
+            self.spe.put(ls, ea, bytes, tag).await?;
         }
         let mut sides = sides.into_iter();
         for p in batch.drain(..) {
             match p.split {
                 None => {
                     let leaf = BihNode::leaf(p.job.first, p.job.count);
-                    self.emit(p.job.node, leaf).await?;
+                    self.arena.emit(p.job.node, leaf).await?;
                 }
                 Some((s, cand)) => {
                     let (l, r) = sides.next().expect("one partition per split job");
@@ -424,84 +293,18 @@ impl<'a> SpeBuilder<'a> {
         let children = self.next_id;
         self.next_id += 2;
         let [cl, cr] = clip_planes(s.axis, l, r);
-        self.emit(job.node, BihNode::inner(children as u32, s.axis, cl, cr))
+        self.arena
+            .emit(job.node, BihNode::inner(children as u32, s.axis, cl, cr))
             .await?;
         let [lc, rc] = s.candidates(cand);
         let first = job.first as usize;
         let d = job.depth + 1;
-        self.push_job(Job::new(first, l.count, children, d, lc, l))
+        self.queue
+            .push(Job::new(first, l.count, children, d, lc, l))
             .await?;
-        self.push_job(Job::new(first + l.count, r.count, children + 1, d, rc, r))
+        self.queue
+            .push(Job::new(first + l.count, r.count, children + 1, d, rc, r))
             .await
-    }
-
-    /// Appends a job to `WorkB`, writing `WorkB` to `WorkBPPE` when full.
-    async fn push_job(&mut self, job: Job) -> Result<(), CellError> {
-        let at = self.work[1 - self.a].offset((self.b_len * size_of::<Job>()) as u32);
-        self.spe.ls_write(at, &[job])?;
-        self.b_len += 1;
-        if self.b_len == JOBS_PER_BUFFER {
-            self.spill_work_b().await?;
-        }
-        Ok(())
-    }
-
-    /// Writes `WorkB` to the next block of `WorkBPPE` and waits (the paper's
-    /// write-back is synchronous).
-    async fn spill_work_b(&mut self) -> Result<(), CellError> {
-        let to =
-            self.work_ppe[1 - self.a_ppe].offset((self.b_spilled * WORK_BYTES as usize) as u64);
-        let bytes = (self.b_len * size_of::<Job>()) as u32;
-        self.spe
-            .put(self.work[1 - self.a], to, bytes, WORK_TAG)
-            .await?;
-        self.spe.wait_tag(WORK_TAG).await?;
-        self.b_spilled += 1;
-        self.b_len = 0;
-        Ok(())
-    }
-
-    /// Records node `id`; nodes come in id order.
-    async fn emit(&mut self, id: u32, node: BihNode) -> Result<(), CellError> {
-        debug_assert_eq!(id as usize, self.nodes_first + self.nodes.len());
-        self.nodes.push(node);
-        if self.nodes.len() == NODES_PER_PUT {
-            self.flush_nodes(false).await?;
-        }
-        Ok(())
-    }
-
-    /// Puts the node buffer into its arena block (padded to whole 48-byte
-    /// groups at the end), switching buffers.
-    async fn flush_nodes(&mut self, last: bool) -> Result<(), CellError> {
-        if self.nodes.is_empty() {
-            return Ok(());
-        }
-        let block_index = self.nodes_first / BLOCK_NODES;
-        if self.block.is_none() || self.block_index != block_index {
-            // The block asked for ahead arrives; ask for the one after it.
-            let ea = self.spe.read_in_mbox().await;
-            self.block = Some(Ea(ea as u64));
-            self.block_index = block_index;
-            if !last {
-                self.spe.write_out_mbox(REQUEST_BLOCK).await;
-            }
-        }
-        let ls = self.node_bufs[self.node_buf];
-        // The put from this buffer two flushes ago is done before refilling.
-        self.spe.wait_tag(NODE_TAG + self.node_buf as u32).await?;
-        let mut group = std::mem::take(&mut self.nodes);
-        group.resize(group.len().next_multiple_of(4), BihNode::default());
-        self.spe.ls_write(ls, &group)?;
-        let offset = (self.nodes_first % BLOCK_NODES) * size_of::<BihNode>();
-        let ea = self.block.expect("a block").offset(offset as u64);
-        let bytes = (group.len() * size_of::<BihNode>()) as u32;
-        self.spe
-            .put(ls, ea, bytes, NODE_TAG + self.node_buf as u32)
-            .await?;
-        self.nodes_first += NODES_PER_PUT;
-        self.node_buf = 1 - self.node_buf;
-        Ok(())
     }
 
     fn interval(&self, first: u32) -> Ea {

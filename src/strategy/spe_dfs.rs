@@ -31,8 +31,6 @@ use crate::cell::{Cell, CellError};
 const STOP: u32 = 0;
 const PARTITION: u32 = 1;
 const BOUNDS: u32 = 2;
-/// Tag groups the SPE uses for its job and result (Fig. 1 uses 0–4).
-const JOB_TAG: u32 = 30;
 
 /// A job in main memory: 32 bytes.
 #[repr(C)]
@@ -101,12 +99,13 @@ pub(super) fn spawn(
         let bufs = Fig1Buffers::alloc(&spe)?;
         let job_ls = spe.ls_alloc(size_of::<DfsJob>() as u32, 128)?;
         let result_ls = spe.ls_alloc(2 * size_of::<SideRecord>() as u32, 128)?;
+        let job_tag = spe.tag("depth-first job and result")?;
         let k = spe.cost().kernels;
         loop {
             spe.read_signal(1).await?;
-            spe.get(job_ls, job_ea, size_of::<DfsJob>() as u32, JOB_TAG)
+            spe.get(job_ls, job_ea, size_of::<DfsJob>() as u32, job_tag)
                 .await?;
-            spe.wait_tag(JOB_TAG).await?;
+            spe.wait_tag(job_tag).await?;
             let job: DfsJob = spe.ls_read(job_ls, 1)?[0];
             let at = tris.offset(job.first as u64 * size_of::<TriRecord>() as u64);
             let (left, right) = match job.kind {
@@ -147,10 +146,10 @@ pub(super) fn spawn(
                 result_ls,
                 result_ea,
                 2 * size_of::<SideRecord>() as u32,
-                JOB_TAG,
+                job_tag,
             )
             .await?;
-            spe.wait_tag(JOB_TAG).await?;
+            spe.wait_tag(job_tag).await?;
             spe.write_out_mbox(1).await;
         }
     });

@@ -1,0 +1,209 @@
+//! The **ObjectArena** (section 2, Fig. 2; section 5): where an SPE writes
+//! the nodes it makes. Blocks of [`BLOCK_NODES`] nodes live in main memory;
+//! the SPE fills a local-store node buffer and puts it into the current
+//! block in 16 KiB puts, two buffers alternating so that one fills while
+//! the other's put is under way. Nodes come in the order of their ids, so
+//! the SPE computes each node's address itself: the block `id /
+//! BLOCK_NODES` of its list, offset `id % BLOCK_NODES`.
+//!
+//! Where blocks come from ([`BlockSource`]):
+//!
+//! - `Mailbox`, the paper's: the PPE allocates a block when the SPE asks
+//!   (outbound mailbox, [`REQUEST_BLOCK`]); the address comes back in the
+//!   inbound mailbox. The SPE asks one block ahead, so the PPE's answer is
+//!   usually there before it is needed. [`serve_blocks`] is the PPE's side.
+//! - `Pool`: the PPE sizes a pool of blocks in advance and SPEs take blocks
+//!   from it by fetch-and-add on a counter (the atomic unit): no PPE work
+//!   and no mailbox per block, and several SPEs never queue behind one PPE.
+
+use crate::bih::BihNode;
+use crate::cell::{CellError, Ea, LsAddr, Ppe, Spe, WaitMode};
+
+/// Nodes per local-store node buffer: 16,320 bytes, a multiple of 48 so
+/// that every put is a multiple of 16 bytes.
+pub const NODES_PER_PUT: usize = 1360;
+/// Nodes per ObjectArena block: three puts (48,960 bytes).
+pub const BLOCK_NODES: usize = 3 * NODES_PER_PUT;
+/// Bytes of one block.
+pub const BLOCK_BYTES: u64 = (BLOCK_NODES * size_of::<BihNode>()) as u64;
+
+/// Outbound-mailbox words from the SPE to the PPE (`Mailbox` source).
+pub const REQUEST_BLOCK: u32 = 1;
+pub const DONE: u32 = 2;
+
+/// Where an arena's blocks come from.
+#[derive(Clone, Copy, Debug)]
+pub enum BlockSource {
+    /// The PPE allocates each block on request ([`serve_blocks`]).
+    Mailbox,
+    /// Blocks `0..blocks` of a pool at `base`, taken by fetch-and-add on
+    /// the `u32` counter at `counter` (128-byte aligned line).
+    Pool { base: Ea, blocks: u32, counter: Ea },
+}
+
+/// One SPE's ObjectArena: its node buffers and its list of blocks.
+pub struct ObjectArena<'a> {
+    spe: &'a Spe,
+    source: BlockSource,
+    /// The two node buffers, the one being filled, its nodes, and the id of
+    /// its first node.
+    bufs: [LsAddr; 2],
+    buf: usize,
+    nodes: Vec<BihNode>,
+    nodes_first: usize,
+    /// This SPE's blocks, in the order of the node ids they hold.
+    blocks: Vec<Ea>,
+    /// Line buffer for the pool counter's fetch-and-add.
+    line: Option<LsAddr>,
+    tags: u32,
+}
+
+impl<'a> ObjectArena<'a> {
+    /// Allocates the node buffers in `spe`'s local store.
+    pub fn new(spe: &'a Spe, source: BlockSource) -> Result<Self, CellError> {
+        let bytes = (NODES_PER_PUT * size_of::<BihNode>()) as u32;
+        Ok(ObjectArena {
+            spe,
+            source,
+            bufs: [spe.ls_alloc(bytes, 128)?, spe.ls_alloc(bytes, 128)?],
+            buf: 0,
+            nodes: Vec::with_capacity(NODES_PER_PUT),
+            nodes_first: 0,
+            blocks: Vec::new(),
+            line: match source {
+                BlockSource::Pool { .. } => Some(spe.ls_alloc(128, 128)?),
+                BlockSource::Mailbox => None,
+            },
+            tags: spe.tags("ObjectArena node puts", 2)?,
+        })
+    }
+
+    /// Asks for the first block (with the `Mailbox` source, before any work
+    /// so that the answer is there when the first nodes are).
+    pub async fn open(&mut self) {
+        if let BlockSource::Mailbox = self.source {
+            self.spe.write_out_mbox(REQUEST_BLOCK).await;
+        }
+    }
+
+    /// Records node `id`; nodes come in id order.
+    pub async fn emit(&mut self, id: u32, node: BihNode) -> Result<(), CellError> {
+        debug_assert_eq!(id as usize, self.nodes_first + self.nodes.len());
+        self.nodes.push(node);
+        if self.nodes.len() == NODES_PER_PUT {
+            self.flush(false).await?;
+        }
+        Ok(())
+    }
+
+    /// Writes the last nodes, waits for every put, and (`Mailbox`) tells
+    /// the PPE that `count` nodes were made. Returns the blocks.
+    pub async fn close(&mut self, count: usize) -> Result<Vec<Ea>, CellError> {
+        self.flush(true).await?;
+        let both = 0b11 << self.tags;
+        self.spe.wait_tags(both, WaitMode::All).await?;
+        if let BlockSource::Mailbox = self.source {
+            self.spe.write_out_mbox(DONE).await;
+            self.spe.write_out_mbox(count as u32).await;
+        }
+        Ok(std::mem::take(&mut self.blocks))
+    }
+
+    /// The next block of this SPE's list.
+    async fn next_block(&mut self, last: bool) -> Result<Ea, CellError> {
+        match self.source {
+            BlockSource::Mailbox => {
+                // The block asked for ahead arrives; ask for the one after.
+                let ea = Ea(self.spe.read_in_mbox().await as u64);
+                if !last {
+                    self.spe.write_out_mbox(REQUEST_BLOCK).await;
+                }
+                Ok(ea)
+            }
+            BlockSource::Pool {
+                base,
+                blocks,
+                counter,
+            } => {
+                let line = self.line.expect("a line buffer");
+                let k = self.spe.atomic_fetch_add_u32(line, counter, 1).await?;
+                if k >= blocks {
+                    return Err(CellError::Program {
+                        core: format!("SPE {}", self.spe.id()),
+                        msg: format!("the ObjectArena pool of {blocks} blocks is used up"),
+                    });
+                }
+                Ok(base.offset(k as u64 * BLOCK_BYTES))
+            }
+        }
+    }
+
+    /// Puts the node buffer into its block (padded to whole 48-byte groups
+    /// at the end), switching buffers.
+    async fn flush(&mut self, last: bool) -> Result<(), CellError> {
+        if self.nodes.is_empty() {
+            return Ok(());
+        }
+        let block_index = self.nodes_first / BLOCK_NODES;
+        if self.blocks.len() <= block_index {
+            let ea = self.next_block(last).await?;
+            self.blocks.push(ea);
+        }
+        let ls = self.bufs[self.buf];
+        let tag = self.tags + self.buf as u32;
+        // The put from this buffer two flushes ago is done before refilling.
+        self.spe.wait_tag(tag).await?;
+        let mut group = std::mem::take(&mut self.nodes);
+        group.resize(group.len().next_multiple_of(4), BihNode::default());
+        self.spe.ls_write(ls, &group)?;
+        let offset = (self.nodes_first % BLOCK_NODES) * size_of::<BihNode>();
+        let ea = self.blocks[block_index].offset(offset as u64);
+        let bytes = (group.len() * size_of::<BihNode>()) as u32;
+        self.spe.put(ls, ea, bytes, tag).await?;
+        self.nodes_first += NODES_PER_PUT;
+        self.buf = 1 - self.buf;
+        Ok(())
+    }
+}
+
+/// The PPE's side of the `Mailbox` source for SPE `spe`: allocates a block
+/// for each request until the SPE says it is done; returns the blocks and
+/// the number of nodes made.
+pub async fn serve_blocks(ppe: &Ppe, spe: usize) -> Result<(Vec<Ea>, usize), CellError> {
+    let mut blocks = Vec::new();
+    loop {
+        match ppe.read_out_mbox(spe).await? {
+            REQUEST_BLOCK => {
+                let ea = ppe.alloc("ObjectArena block", BLOCK_BYTES, 128).await?;
+                blocks.push(ea);
+                ppe.write_in_mbox(spe, ea_word(ea)?).await?;
+            }
+            DONE => return Ok((blocks, ppe.read_out_mbox(spe).await? as usize)),
+            w => {
+                return Err(CellError::Program {
+                    core: "PPE".into(),
+                    msg: format!("ObjectArena: unknown request {w} from SPE {spe}"),
+                });
+            }
+        }
+    }
+}
+
+/// The pieces (address, node count) of `count` nodes written block by
+/// block into `blocks`, in node-id order.
+pub fn pieces(blocks: &[Ea], count: usize) -> Vec<(Ea, usize)> {
+    blocks
+        .iter()
+        .enumerate()
+        .map(|(i, &ea)| (ea, BLOCK_NODES.min(count.saturating_sub(i * BLOCK_NODES))))
+        .filter(|&(_, c)| c > 0)
+        .collect()
+}
+
+/// An effective address as one 32-bit mailbox word.
+fn ea_word(ea: Ea) -> Result<u32, CellError> {
+    u32::try_from(ea.0).map_err(|_| CellError::Program {
+        core: "PPE".into(),
+        msg: format!("address {:#x} does not fit a mailbox word", ea.0),
+    })
+}
