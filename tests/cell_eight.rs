@@ -232,21 +232,28 @@ fn status_reads_answer_without_blocking() {
     let s = seen.clone();
     cell.spawn_spe(0, move |spe| async move {
         let b = spe.ls_alloc(16384, 128)?;
-        s.borrow_mut().push(spe.in_mbox_count().await);
-        s.borrow_mut().push(spe.out_mbox_room().await);
-        s.borrow_mut().push(spe.signal_pending(1).await? as u32);
+        let v = spe.in_mbox_count().await;
+        s.borrow_mut().push(v);
+        let v = spe.out_mbox_room().await;
+        s.borrow_mut().push(v);
+        let v = spe.signal_pending(1).await? as u32;
+        s.borrow_mut().push(v);
         spe.get(b, ea, 16384, 3).await?;
         // In flight: tag 3 not done, tag 4 (nothing issued) done.
-        s.borrow_mut().push(spe.tag_status_immediate(0b11000).await);
+        let v = spe.tag_status_immediate(0b11000).await;
+        s.borrow_mut().push(v);
         spe.wait_tag(3).await?;
-        s.borrow_mut().push(spe.tag_status_immediate(0b11000).await);
+        let v = spe.tag_status_immediate(0b11000).await;
+        s.borrow_mut().push(v);
         // The PPE's value has arrived by now.
-        s.borrow_mut().push(spe.in_mbox_count().await);
+        let v = spe.in_mbox_count().await;
+        s.borrow_mut().push(v);
         Ok(())
     });
     let ppe_seen = seen.clone();
     cell.spawn_ppe(move |ppe| async move {
-        ppe_seen.borrow_mut().push(100 + ppe.in_mbox_room(0).await?);
+        let v = 100 + ppe.in_mbox_room(0).await?;
+        ppe_seen.borrow_mut().push(v);
         ppe.write_in_mbox(0, 7).await?;
         ppe_seen
             .borrow_mut()
