@@ -255,9 +255,8 @@ fn status_reads_answer_without_blocking() {
         let v = 100 + ppe.in_mbox_room(0).await?;
         ppe_seen.borrow_mut().push(v);
         ppe.write_in_mbox(0, 7).await?;
-        ppe_seen
-            .borrow_mut()
-            .push(200 + ppe.out_mbox_count(0).await?);
+        let v = 200 + ppe.out_mbox_count(0).await?;
+        ppe_seen.borrow_mut().push(v);
         Ok(())
     });
     cell.run().unwrap();
