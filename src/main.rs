@@ -512,16 +512,25 @@ fn print_build(s: &Scene, r: &BuildReport, format: Format) {
             println!("memory      {} bytes", q.memory_bytes);
             if let Some(m) = sim {
                 println!(
-                    "\n{:<7} {:>12} {:>12} {:>12} {:>12} {:>12} {:>10} {:>10}",
-                    "core", "busy", "DMA wait", "mbox wait", "atomic", "idle", "MB in", "MB out"
+                    "\n{:<7} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12} {:>10} {:>10}",
+                    "core",
+                    "busy",
+                    "DMA wait",
+                    "mem shared",
+                    "mbox wait",
+                    "atomic",
+                    "idle",
+                    "MB in",
+                    "MB out"
                 );
                 for (name, c) in &m.run.cores {
                     let mb_in = (c.bytes_get as f64) / 1e6;
                     let mb_out = (c.bytes_put as f64) / 1e6;
                     println!(
-                        "{name:<7} {:>12} {:>12} {:>12} {:>12} {:>12} {:>10.2} {:>10.2}",
+                        "{name:<7} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12} {:>10.2} {:>10.2}",
                         c.busy.0,
                         c.dma_wait.0,
+                        c.memory_wait.0,
                         c.mailbox_wait.0,
                         c.atomic.0,
                         c.idle.0,
@@ -529,7 +538,10 @@ fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                         mb_out
                     );
                 }
-                println!("(cycles; MB moved by DMA)");
+                println!(
+                    "(cycles; \"mem shared\": what sharing the memory interface added to the \
+                     core's transfers; MB moved by DMA)"
+                );
             }
         }
     }
