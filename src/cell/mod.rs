@@ -54,6 +54,7 @@
 
 pub mod clock;
 pub mod cost;
+mod dma;
 mod executor;
 pub mod local_store;
 pub(crate) mod machine;
