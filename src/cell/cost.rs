@@ -105,6 +105,12 @@ pub struct CostModel {
     pub dma_latency_cycles: Cycles,
     /// Peak bandwidth of one SPE's MFC: 25.6 GB/s (Kistler et al. 2006).
     pub spe_bandwidth: Bandwidth,
+    /// One SPE-to-SPE transfer over the EIB (a get or put whose effective
+    /// address is another SPE's local store): 25.6 GB/s, one SPE link
+    /// (Kistler et al. 2006 measured SPE-to-SPE transfers at the link's
+    /// 25.6 GB/s and about 200 GB/s for all SPEs together, so transfers
+    /// between different pairs are modelled as not contending).
+    pub eib_bandwidth: Bandwidth,
     /// The memory interface shared by every core: XDR, 25.6 GB/s peak
     /// (CBE handbook); transfers of all SPEs queue on it in issue order.
     pub memory_bandwidth: Bandwidth,
@@ -162,6 +168,7 @@ impl CostModel {
             dma_latency_cycles: Cycles(256),
             spe_bandwidth: Bandwidth::from_gb_per_s(25.6, hz),
             memory_bandwidth: Bandwidth::from_gb_per_s(25.6, hz),
+            eib_bandwidth: Bandwidth::from_gb_per_s(25.6, hz),
             channel_cycles: Cycles(6),
             mailbox_latency_cycles: Cycles(316),
             ppe_mmio_cycles: Cycles(100),
@@ -192,6 +199,7 @@ impl CostModel {
             dma_latency_cycles: Cycles::ZERO,
             spe_bandwidth: free,
             memory_bandwidth: free,
+            eib_bandwidth: free,
             channel_cycles: Cycles::ZERO,
             mailbox_latency_cycles: Cycles::ZERO,
             ppe_mmio_cycles: Cycles::ZERO,

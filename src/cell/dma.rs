@@ -5,11 +5,11 @@
 //! accesses of main memory share the same interface. Checked mode's race
 //! checks live here too. Timing is in `docs/cost-model.md`.
 
-use super::CellError;
 use super::clock::Cycles;
-use super::machine::{Dma, EventKind, Flowing, Machine, PPE, Status, Unwaited, Wait};
-use super::mfc::{Direction, Segment};
+use super::machine::{Dma, EventKind, Flowing, InFlight, Machine, PPE, Status, Unwaited, Wait};
+use super::mfc::{Direction, Order, Segment};
 use super::trace::SpanKind;
+use super::{CellError, LsAddr};
 
 impl Machine {
     /// Issues a DMA command for SPE `spe` (queue space already checked):
@@ -19,26 +19,53 @@ impl Machine {
         &mut self,
         spe: usize,
         dir: Direction,
+        order: Order,
         segments: Vec<Segment>,
         tag: u32,
     ) -> Result<(), CellError> {
         let core = spe + 1;
-        // Every segment must lie inside the local store and main memory.
+        // Every segment must lie inside the local store and inside main
+        // memory or another SPE's local store, all of one kind.
+        let eib = segments[0].ea.local_store().is_some();
         for s in &segments {
             self.spes[spe].ls.check_range(spe, s.ls, s.size as u64)?;
-            self.mem
-                .read(s.ea, s.size as u64)
-                .map_err(|e| CellError::Dma {
-                    spe,
-                    cmd: super::mfc::command_name(dir, segments.len() > 1),
-                    ls: s.ls,
-                    ea: s.ea,
-                    size: s.size,
-                    why: e.to_string(),
-                })?;
+            let err = |why: String| CellError::Dma {
+                spe,
+                cmd: super::mfc::command_name(dir, segments.len() > 1),
+                ls: s.ls,
+                ea: s.ea,
+                size: s.size,
+                why,
+            };
+            match s.ea.local_store() {
+                Some(_) if !eib => {
+                    return Err(err("a list mixes main memory and local stores".into()));
+                }
+                None if eib => {
+                    return Err(err("a list mixes local stores and main memory".into()));
+                }
+                Some((t, off)) => {
+                    if t >= self.spes.len() {
+                        return Err(err(format!(
+                            "there is no SPE {t} whose local store this is"
+                        )));
+                    }
+                    self.spes[t]
+                        .ls
+                        .check_range(t, LsAddr(off), s.size as u64)
+                        .map_err(|e| err(e.to_string()))?;
+                }
+                None => {
+                    self.mem
+                        .read(s.ea, s.size as u64)
+                        .map_err(|e| err(e.to_string()))?;
+                }
+            }
         }
+        let ranges = merged(segments.iter().map(|s| (s.ea.0, s.ea.0 + s.size as u64)));
         if self.cfg.checked {
             self.check_overlap_at_issue(spe, dir, &segments)?;
+            self.check_order(spe, dir, order, tag, &ranges)?;
         }
         let bytes: u64 = segments.iter().map(|s| s.size as u64).sum();
         let mut data = Vec::new();
@@ -55,6 +82,17 @@ impl Machine {
         let st = &mut self.spes[spe];
         st.queued += 1;
         st.outstanding[tag as usize] += 1;
+        st.issued += 1;
+        let id = st.issued;
+        if self.cfg.checked {
+            st.incomplete.push(InFlight {
+                id,
+                tag,
+                dir,
+                order,
+                ranges,
+            });
+        }
         // One unwaited range per run of touching segments (a list's local
         // side is contiguous), so checked mode stays linear in list length.
         let mut runs: Vec<(u32, u32)> = Vec::new();
@@ -79,12 +117,15 @@ impl Machine {
             }
         }
         let dma = Dma {
+            id,
+            order,
             spe,
             tag,
             dir,
             segments,
             data,
             start: issued,
+            eib,
         };
         if self.spes[spe].mfc_busy {
             self.spes[spe].pending.push_back(dma);
@@ -98,6 +139,15 @@ impl Machine {
     /// The MFC takes `dma` at `start`: after its command phase (and one
     /// step per extra list element) its data goes onto the interface.
     fn begin_command(&mut self, mut dma: Dma, start: Cycles) {
+        // Every earlier command has moved its data by now (the MFC runs
+        // them in issue order); a fence or barrier waits for them to
+        // complete, and every command waits for an earlier barrier's.
+        let st = &self.spes[dma.spe];
+        let t = dma.tag as usize;
+        let mut start = start.max(st.barrier_done[t]);
+        if dma.order != Order::Plain {
+            start = start.max(st.tag_done[t]);
+        }
         let cost = &self.cfg.cost;
         let setup = cost.mfc_command_cycles
             + Cycles(cost.mfc_list_element_cycles.0 * (dma.segments.len() as u64 - 1));
@@ -108,6 +158,12 @@ impl Machine {
 
     /// A command's data starts to move at `at`.
     pub(crate) fn start_flow(&mut self, dma: Box<Dma>, at: Cycles) {
+        if dma.eib {
+            // Local store to local store over the EIB: the SPEs' links set
+            // the pace, the memory interface is not involved.
+            let c = self.cfg.cost.eib_bandwidth.cycles(dma.bytes());
+            return self.schedule(at + c, EventKind::EibDone(dma, at));
+        }
         if self.memif.is_free() {
             return self.end_transfer(dma, at, Cycles::ZERO, at);
         }
@@ -135,7 +191,13 @@ impl Machine {
     /// `at`; it would have taken `alone` cycles with the interface to
     /// itself. The command completes after the latency; the MFC takes the
     /// next one.
-    fn end_transfer(&mut self, dma: Box<Dma>, data_start: Cycles, alone: Cycles, at: Cycles) {
+    pub(crate) fn end_transfer(
+        &mut self,
+        dma: Box<Dma>,
+        data_start: Cycles,
+        alone: Cycles,
+        at: Cycles,
+    ) {
         let spe = dma.spe;
         let shared = (at - data_start).saturating_sub(alone);
         self.cores[spe + 1].counters.memory_wait += shared;
@@ -156,6 +218,11 @@ impl Machine {
         let st = &mut self.spes[spe];
         st.mfc_free = at;
         st.mfc_busy = false;
+        let t = dma.tag as usize;
+        st.tag_done[t] = st.tag_done[t].max(done);
+        if dma.order == Order::Barrier {
+            st.barrier_done[t] = st.barrier_done[t].max(done);
+        }
         if let Some(next) = st.pending.pop_front() {
             let start = at.max(next.start);
             self.begin_command(next, start);
@@ -219,6 +286,54 @@ impl Machine {
         Ok(())
     }
 
+    /// Checked mode: a command that touches main memory an earlier,
+    /// incomplete command of this SPE touches (one of them a put) must be
+    /// ordered after it: same tag group, and a fence or barrier on the new
+    /// command or a barrier between them. Otherwise the MFC may run the two
+    /// in either order.
+    fn check_order(
+        &self,
+        spe: usize,
+        dir: Direction,
+        order: Order,
+        tag: u32,
+        ranges: &[(u64, u64)],
+    ) -> Result<(), CellError> {
+        let earlier = &self.spes[spe].incomplete;
+        for (k, e) in earlier.iter().enumerate() {
+            if e.dir == Direction::Get && dir == Direction::Get {
+                continue;
+            }
+            let Some(&(lo, hi)) = e
+                .ranges
+                .iter()
+                .find(|a| ranges.iter().any(|b| a.0 < b.1 && b.0 < a.1))
+            else {
+                continue;
+            };
+            let barrier_between = earlier[k..]
+                .iter()
+                .any(|b| b.tag == tag && b.order == Order::Barrier);
+            let ordered = e.tag == tag && (order != Order::Plain || barrier_between);
+            if !ordered {
+                let how = if e.tag == tag {
+                    "use the fenced or barrier form (getf/putf, getb/putb)"
+                } else {
+                    "wait for its tag group first (a fence orders only within a tag group)"
+                };
+                return Err(CellError::Race {
+                    spe,
+                    what: format!(
+                        "a {dir} (tag {tag}) issued while the {} of ea {lo:#x}..{hi:#x} (tag {}) is \
+                         not complete: the MFC may run them in either order; {how}",
+                        e.dir, e.tag
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Checked mode: the program touches local store `lo..hi`; reading
     /// bytes of an unwaited get, or writing bytes of an unwaited get or put,
     /// is an error.
@@ -259,4 +374,16 @@ fn race(spe: usize, what: String, u: &Unwaited) -> CellError {
             u.dir, u.lo, u.hi, u.tag
         ),
     }
+}
+
+/// Ranges in order with the touching ones merged.
+fn merged(ranges: impl Iterator<Item = (u64, u64)>) -> Vec<(u64, u64)> {
+    let mut out: Vec<(u64, u64)> = Vec::new();
+    for (lo, hi) in ranges {
+        match out.last_mut() {
+            Some(r) if r.1 == lo => r.1 = hi,
+            _ => out.push((lo, hi)),
+        }
+    }
+    out
 }

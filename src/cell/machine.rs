@@ -25,7 +25,7 @@ use super::clock::Cycles;
 use super::local_store::LocalStore;
 use super::memif::MemoryInterface;
 use super::memory::MainMemory;
-use super::mfc::{Direction, Segment, WaitMode};
+use super::mfc::{Direction, Order, Segment, WaitMode};
 use super::trace::{CoreCounters, SpanKind, Trace};
 use super::{CellConfig, CellError, Ea, LsAddr, SignalMode};
 
@@ -133,6 +133,14 @@ pub(crate) struct SpeState {
     pub pending: VecDeque<Dma>,
     /// Tag groups allocated by name: (name, first, count).
     pub tag_names: Vec<(&'static str, u32, u32)>,
+    /// Commands issued and not yet complete, in issue order (for ordering).
+    pub incomplete: Vec<InFlight>,
+    /// Per tag group: the latest completion of a command whose data has
+    /// moved, and of a barrier command.
+    pub tag_done: [Cycles; 32],
+    pub barrier_done: [Cycles; 32],
+    /// Commands issued so far (numbers them).
+    pub issued: u64,
     pub in_mbox: VecDeque<u32>,
     pub in_arriving: usize,
     /// Outbound mailboxes: values with the cycle they arrived.
@@ -142,7 +150,20 @@ pub(crate) struct SpeState {
     pub reservation: Option<u64>,
 }
 
+/// What checked mode keeps of a command until it completes.
+pub(crate) struct InFlight {
+    pub id: u64,
+    pub tag: u32,
+    pub dir: Direction,
+    pub order: Order,
+    /// Its main-memory ranges, touching segments merged.
+    pub ranges: Vec<(u64, u64)>,
+}
+
 pub(crate) struct Dma {
+    /// The command's number on its SPE, in issue order.
+    pub id: u64,
+    pub order: Order,
     pub spe: usize,
     pub tag: u32,
     pub dir: Direction,
@@ -151,6 +172,9 @@ pub(crate) struct Dma {
     pub data: Vec<u8>,
     /// Issued at; once the MFC takes it, when its command phase began.
     pub start: Cycles,
+    /// Its effective addresses are another local store's (an SPE-to-SPE
+    /// transfer over the EIB).
+    pub eib: bool,
 }
 
 impl Dma {
@@ -179,6 +203,9 @@ pub(crate) enum EventKind {
     /// The MFC has done a command's command phase: its data goes onto the
     /// memory interface.
     FlowStart(Box<Dma>),
+    /// An SPE-to-SPE transfer's data, started at the given cycle, is
+    /// through the EIB.
+    EibDone(Box<Dma>, Cycles),
     DmaDone(Box<Dma>),
     InMbox {
         spe: usize,
@@ -251,6 +278,10 @@ impl Machine {
                 mfc_busy: false,
                 pending: VecDeque::new(),
                 tag_names: Vec::new(),
+                incomplete: Vec::new(),
+                tag_done: [Cycles::ZERO; 32],
+                barrier_done: [Cycles::ZERO; 32],
+                issued: 0,
                 in_mbox: VecDeque::new(),
                 in_arriving: 0,
                 out_mbox: [VecDeque::new(), VecDeque::new()],
@@ -399,19 +430,33 @@ impl Machine {
     pub(crate) fn apply(&mut self, at: Cycles, kind: EventKind) -> Result<(), CellError> {
         match kind {
             EventKind::FlowStart(d) => self.start_flow(d, at),
+            EventKind::EibDone(d, data_start) => {
+                self.end_transfer(d, data_start, at - data_start, at);
+            }
             EventKind::DmaDone(d) => {
                 let mut offset = 0usize;
                 for s in &d.segments {
                     let n = s.size as usize;
-                    match d.dir {
-                        Direction::Get => {
+                    let own = s.ls.0 as usize..s.ls.0 as usize + n;
+                    let other =
+                        s.ea.local_store()
+                            .map(|(t, off)| (t, off as usize..off as usize + n));
+                    match (d.dir, other) {
+                        (Direction::Get, None) => {
                             let src = self.mem.read(s.ea, n as u64)?.to_vec();
-                            let r = s.ls.0 as usize..s.ls.0 as usize + n;
-                            self.spes[d.spe].ls.bytes_mut()[r].copy_from_slice(&src);
+                            self.spes[d.spe].ls.bytes_mut()[own].copy_from_slice(&src);
                         }
-                        Direction::Put => {
+                        (Direction::Get, Some((t, r))) => {
+                            let src = self.spes[t].ls.bytes()[r].to_vec();
+                            self.spes[d.spe].ls.bytes_mut()[own].copy_from_slice(&src);
+                        }
+                        (Direction::Put, None) => {
                             self.mem.write(s.ea, &d.data[offset..offset + n])?;
                             self.lose_reservations(s.ea, n as u64);
+                        }
+                        (Direction::Put, Some((t, r))) => {
+                            self.spes[t].ls.bytes_mut()[r]
+                                .copy_from_slice(&d.data[offset..offset + n]);
                         }
                     }
                     offset += n;
@@ -419,6 +464,7 @@ impl Machine {
                 let st = &mut self.spes[d.spe];
                 st.queued -= 1;
                 st.outstanding[d.tag as usize] -= 1;
+                st.incomplete.retain(|c| c.id != d.id);
                 self.wake_if(d.spe + 1, at, |w| {
                     matches!(w, Wait::Tags { .. } | Wait::QueueFull)
                 });

@@ -36,6 +36,30 @@ impl fmt::Display for Ea {
     }
 }
 
+/// Where the SPEs' local stores appear in the effective-address space (as
+/// each SPE's local-store alias in the problem-state area does on a Cell),
+/// far above main memory: SPE `i`'s at `LS_WINDOW_BASE + i ·
+/// LS_WINDOW_STRIDE`. A DMA whose effective address falls there moves data
+/// between local stores over the EIB, not through the memory interface.
+pub const LS_WINDOW_BASE: u64 = 0x4000_0000_0000;
+/// Effective-address span of one local-store window.
+pub const LS_WINDOW_STRIDE: u64 = 0x10_0000;
+
+impl Ea {
+    /// The effective address of byte `offset` of SPE `spe`'s local store.
+    pub fn of_local_store(spe: usize, offset: u32) -> Ea {
+        Ea(LS_WINDOW_BASE + spe as u64 * LS_WINDOW_STRIDE + offset as u64)
+    }
+
+    /// The SPE and local-store offset this address names, if it lies in a
+    /// local-store window.
+    pub fn local_store(self) -> Option<(usize, u32)> {
+        let off = self.0.checked_sub(LS_WINDOW_BASE)?;
+        let spe = off / LS_WINDOW_STRIDE;
+        (spe < 64).then_some((spe as usize, (off % LS_WINDOW_STRIDE) as u32))
+    }
+}
+
 /// The first address handed out: the page at 0 stays unmapped, so that a
 /// zero effective address is always an error.
 const BASE: u64 = 0x1000;

@@ -8,11 +8,22 @@
 //!   agreeing in their low four bits; from 16 bytes: both 16-byte aligned;
 //! - tag group 0–31;
 //! - a DMA list of at most 2048 elements, each element obeying the rules
-//!   above; the list's local-store side is contiguous, element after element;
+//!   above, its local-store side starting 16-byte aligned: each element goes
+//!   to the current local address with its low four bits taken from the
+//!   element's effective address, and the address then advances by the
+//!   element's size, or by 16 for elements under 16 bytes (CBE Programming
+//!   Handbook, DMA-list transfers; RPCS3's MFC does the same);
 //! - at most 16 commands in an SPE's queue: issuing on a full queue stalls.
 //!
-//! Modelled as well: the sizes and order of transfers. Not modelled: the
-//! list stall-and-notify flag, fences and barriers, SPE-to-SPE transfers.
+//! Ordering: the MFC may run the commands in its queue in any order, except
+//! that a *fenced* command (`getf`, `putf`) runs after every command issued
+//! before it in its tag group, and a *barrier* command (`getb`, `putb`)
+//! also before every command issued after it in its tag group. The model
+//! runs commands in issue order, and times fences and barriers by waiting
+//! for those commands to complete; checked mode reports two commands in
+//! flight that touch the same main memory (one of them a put) and are not
+//! ordered so — their outcome would depend on an order the hardware does
+//! not promise. Not modelled: the list stall-and-notify flag.
 
 use super::{CellError, Ea, LsAddr};
 
@@ -47,6 +58,18 @@ impl std::fmt::Display for Direction {
             Direction::Put => "put",
         })
     }
+}
+
+/// How a command is ordered against the others of its tag group.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Order {
+    /// No ordering: `mfc_get`, `mfc_put`.
+    Plain,
+    /// After every earlier command of the tag group: `mfc_getf`, `mfc_putf`.
+    Fence,
+    /// After every earlier, and before every later, command of the tag
+    /// group: `mfc_getb`, `mfc_putb`.
+    Barrier,
 }
 
 /// How `wait_tags` waits on its mask.
@@ -127,7 +150,10 @@ pub(crate) fn check_segment(
     Ok(())
 }
 
-/// The transfers of a DMA list whose local-store side starts at `ls`.
+/// The transfers of a DMA list whose local-store side starts at `ls`
+/// (16-byte aligned): element `k` goes to the local address reached so far
+/// with its effective address's low four bits; the address advances by
+/// `max(size, 16)`.
 pub(crate) fn list_segments(
     spe: usize,
     dir: Direction,
@@ -149,17 +175,27 @@ pub(crate) fn list_segments(
             ),
         });
     }
+    if !ls.0.is_multiple_of(16) {
+        return Err(CellError::Dma {
+            spe,
+            cmd,
+            ls,
+            ea: list[0].ea,
+            size: list.iter().map(|e| e.size).sum(),
+            why: "a DMA list's local-store address must be 16-byte aligned".into(),
+        });
+    }
     let mut at = ls;
     let mut out = Vec::with_capacity(list.len());
     for e in list {
         let s = Segment {
-            ls: at,
+            ls: LsAddr(at.0 | (e.ea.0 & 15) as u32),
             ea: e.ea,
             size: e.size,
         };
         check_segment(spe, cmd, s, tag)?;
         out.push(s);
-        at = at.offset(e.size);
+        at = at.offset(e.size.max(16));
     }
     Ok(out)
 }

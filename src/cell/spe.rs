@@ -9,7 +9,7 @@ use std::rc::Rc;
 use super::clock::Cycles;
 use super::executor::Yield;
 use super::machine::{Machine, OutBox, PPE, Wait, block_on, ls_range};
-use super::mfc::{self, Direction, ListElement, QUEUE_DEPTH, Segment, WaitMode};
+use super::mfc::{self, Direction, ListElement, Order, QUEUE_DEPTH, Segment, WaitMode};
 use super::trace::SpanKind;
 use super::{CellError, CostModel, Ea, LsAddr};
 
@@ -202,15 +202,58 @@ impl Spe {
         segments: Vec<Segment>,
         tag: u32,
     ) -> Result<(), CellError> {
+        self.issue_ordered(dir, Order::Plain, segments, tag).await
+    }
+
+    async fn issue_ordered(
+        &self,
+        dir: Direction,
+        order: Order,
+        segments: Vec<Segment>,
+        tag: u32,
+    ) -> Result<(), CellError> {
         self.sync().await;
         let mut segments = Some(segments);
         block_on(&self.m, self.core(), Wait::QueueFull, |m| {
             (m.spes[self.id].queued < QUEUE_DEPTH).then(|| {
                 let segs = segments.take().expect("issued once");
-                m.issue_dma(self.id, dir, segs, tag)
+                m.issue_dma(self.id, dir, order, segs, tag)
             })
         })
         .await
+    }
+
+    /// `mfc_getf` / `mfc_getb` (with `Order::Fence` / `Order::Barrier`): a
+    /// get ordered after the earlier commands of its tag group (see
+    /// [`mfc`](super::mfc)).
+    pub async fn get_ordered(
+        &self,
+        order: Order,
+        ls: LsAddr,
+        ea: Ea,
+        size: u32,
+        tag: u32,
+    ) -> Result<(), CellError> {
+        let s = Segment { ls, ea, size };
+        mfc::check_segment(self.id, order_name(Direction::Get, order), s, tag)?;
+        self.issue_ordered(Direction::Get, order, vec![s], tag)
+            .await
+    }
+
+    /// `mfc_putf` / `mfc_putb`: a put ordered after the earlier commands of
+    /// its tag group.
+    pub async fn put_ordered(
+        &self,
+        order: Order,
+        ls: LsAddr,
+        ea: Ea,
+        size: u32,
+        tag: u32,
+    ) -> Result<(), CellError> {
+        let s = Segment { ls, ea, size };
+        mfc::check_segment(self.id, order_name(Direction::Put, order), s, tag)?;
+        self.issue_ordered(Direction::Put, order, vec![s], tag)
+            .await
     }
 
     /// `mfc_get`: `size` bytes from main memory at `ea` into the local store
@@ -541,6 +584,17 @@ impl Spe {
     ) -> Result<u32, CellError> {
         self.atomic_update_u32(line, ea, |v| v.wrapping_add(delta))
             .await
+    }
+}
+
+fn order_name(dir: Direction, order: Order) -> &'static str {
+    match (dir, order) {
+        (Direction::Get, Order::Plain) => "mfc_get",
+        (Direction::Get, Order::Fence) => "mfc_getf",
+        (Direction::Get, Order::Barrier) => "mfc_getb",
+        (Direction::Put, Order::Plain) => "mfc_put",
+        (Direction::Put, Order::Fence) => "mfc_putf",
+        (Direction::Put, Order::Barrier) => "mfc_putb",
     }
 }
 

@@ -137,6 +137,9 @@ struct SpeBuilder<'a> {
     arena: ObjectArena<'a>,
     /// Which Fig. 1 buffer the next agglomerated batch uses (0 or 1).
     batch_buf: usize,
+    /// The interval each batch buffer last put back (its put may still be
+    /// under way).
+    batch_put: [Option<(u32, u32)>; 2],
     stats: BuildStats,
 }
 
@@ -151,6 +154,7 @@ impl<'a> SpeBuilder<'a> {
             next_id: 1,
             arena: ObjectArena::new(spe, BlockSource::Mailbox)?,
             batch_buf: 0,
+            batch_put: [None, None],
             stats: BuildStats::default(),
         })
     }
@@ -243,9 +247,19 @@ impl<'a> SpeBuilder<'a> {
             self.batch_buf = 1 - buf;
             let ls = self.fig1.buffer(buf);
             let (ea, bytes) = (self.interval(first), (end - first) * size);
-            // The buffer's previous put must be done before it is reused.
+            // The buffer's previous put must be done before it is reused;
+            // and the other buffer's, if it wrote records this batch reads
+            // (the MFC does not order commands of different tag groups: a
+            // get could overtake that put). The model runs commands in
+            // order, so this wait is rare and costs only where needed.
             let tag = self.fig1.tag(buf);
             self.spe.wait_tag(tag).await?;
+            if let Some((f, e)) = self.batch_put[1 - buf]
+                && f < end
+                && first < e
+            {
+                self.spe.wait_tag(self.fig1.tag(1 - buf)).await?;
+            }
             self.spe.get(ls, ea, bytes, tag).await?;
             self.spe.wait_tag(tag).await?;
             let rate = self.spe.cost().kernels.spe_partition_item;
@@ -262,6 +276,7 @@ impl<'a> SpeBuilder<'a> {
                 }
             }
             self.spe.put(ls, ea, bytes, tag).await?;
+            self.batch_put[buf] = Some((first, end));
         }
         let mut sides = sides.into_iter();
         for p in batch.drain(..) {
