@@ -22,7 +22,9 @@ use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
 use cellbih::build::{BuilderKind, host};
-use cellbih::report::{Format, Series, line_plot, output, prepare_dir, write_json, write_rows_csv};
+use cellbih::report::{
+    Format, Series, line_plot, output, prepare_dir, print_rows, write_json, write_rows_csv,
+};
 use cellbih::scene::procedural::rtperf;
 use cellbih::update::{
     Animation, MAX_FRAMES, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play,
@@ -173,14 +175,7 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:40}\r", "");
     }
-    if args.format == Format::Json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
-        );
-    } else {
-        print_table(&rows);
-    }
+    print_rows(args.format, &rows, print_table)?;
     let io = |e: cellbih::report::OutputError| e.to_string();
     let keys = [
         "triangles",

@@ -19,7 +19,7 @@ use serde_json::json;
 
 use cellbih::bih::BihConfig;
 use cellbih::build::BuilderKind;
-use cellbih::report::{Format, output, prepare_dir, write_json, write_rows_csv};
+use cellbih::report::{Format, output, prepare_dir, print_rows, write_json, write_rows_csv};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -150,14 +150,7 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:40}\r", "");
     }
-    if args.format == Format::Json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
-        );
-    } else {
-        print_table(&rows);
-    }
+    print_rows(args.format, &rows, print_table)?;
     let io = |e: cellbih::report::OutputError| e.to_string();
     write_rows_csv(
         &output(&args.out, "table1.csv").map_err(io)?,

@@ -234,9 +234,7 @@ impl Spe {
         size: u32,
         tag: u32,
     ) -> Result<(), CellError> {
-        let s = Segment { ls, ea, size };
-        mfc::check_segment(self.id, order_name(Direction::Get, order), s, tag)?;
-        self.issue_ordered(Direction::Get, order, vec![s], tag)
+        self.single(Direction::Get, order, Segment { ls, ea, size }, tag)
             .await
     }
 
@@ -250,9 +248,7 @@ impl Spe {
         size: u32,
         tag: u32,
     ) -> Result<(), CellError> {
-        let s = Segment { ls, ea, size };
-        mfc::check_segment(self.id, order_name(Direction::Put, order), s, tag)?;
-        self.issue_ordered(Direction::Put, order, vec![s], tag)
+        self.single(Direction::Put, order, Segment { ls, ea, size }, tag)
             .await
     }
 
@@ -260,17 +256,27 @@ impl Spe {
     /// at `ls`, in tag group `tag`. The data is valid after
     /// [`Spe::wait_tags`] on the tag.
     pub async fn get(&self, ls: LsAddr, ea: Ea, size: u32, tag: u32) -> Result<(), CellError> {
-        let s = Segment { ls, ea, size };
-        mfc::check_segment(self.id, "mfc_get", s, tag)?;
-        self.issue(Direction::Get, vec![s], tag).await
+        self.single(Direction::Get, Order::Plain, Segment { ls, ea, size }, tag)
+            .await
     }
 
     /// `mfc_put`: `size` bytes from the local store at `ls` to main memory
     /// at `ea`. The buffer may be reused after waiting on the tag.
     pub async fn put(&self, ls: LsAddr, ea: Ea, size: u32, tag: u32) -> Result<(), CellError> {
-        let s = Segment { ls, ea, size };
-        mfc::check_segment(self.id, "mfc_put", s, tag)?;
-        self.issue(Direction::Put, vec![s], tag).await
+        self.single(Direction::Put, Order::Plain, Segment { ls, ea, size }, tag)
+            .await
+    }
+
+    /// One transfer, its rules checked, issued with `order`.
+    async fn single(
+        &self,
+        dir: Direction,
+        order: Order,
+        s: Segment,
+        tag: u32,
+    ) -> Result<(), CellError> {
+        mfc::check_segment(self.id, order_name(dir, order), s, tag)?;
+        self.issue_ordered(dir, order, vec![s], tag).await
     }
 
     /// `mfc_getl`: gathers the list's pieces of main memory into one

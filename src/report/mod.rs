@@ -18,6 +18,22 @@ pub enum Format {
     Json,
 }
 
+/// Prints an experiment's rows: pretty JSON, or as `table` lays them out.
+pub fn print_rows(
+    format: Format,
+    rows: &[serde_json::Value],
+    table: impl FnOnce(&[serde_json::Value]),
+) -> Result<(), String> {
+    match format {
+        Format::Json => println!(
+            "{}",
+            serde_json::to_string_pretty(rows).map_err(|e| e.to_string())?
+        ),
+        Format::Text => table(rows),
+    }
+    Ok(())
+}
+
 /// A line of a plot: its name, points, colour (an index into a fixed
 /// palette, so that related lines can share one) and whether it is dashed.
 pub struct Series {
