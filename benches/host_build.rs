@@ -31,7 +31,7 @@ fn build(c: &mut Criterion) {
         g.throughput(Throughput::Elements(s.len() as u64));
         g.bench_function(&s.name, |b| {
             b.iter(|| {
-                BuilderKind::Host
+                BuilderKind::HOST
                     .build(black_box(&s), &BihConfig::default())
                     .unwrap()
             })
@@ -44,7 +44,7 @@ fn raycast(c: &mut Criterion) {
     let mut g = c.benchmark_group("host_raycast_primary");
     g.sample_size(10);
     for s in scenes() {
-        let bih = BuilderKind::Host
+        let bih = BuilderKind::HOST
             .build(&s, &BihConfig::default())
             .unwrap()
             .bih;

@@ -22,10 +22,10 @@ use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
 
 const METHODS: [BuilderKind; 4] = [
-    BuilderKind::PpeNaive,
-    BuilderKind::PpeApprox,
-    BuilderKind::SpeDfs,
-    BuilderKind::SpeBfs,
+    BuilderKind::PPE_NAIVE,
+    BuilderKind::PPE_APPROX,
+    BuilderKind::SPE_DFS,
+    BuilderKind::SPE_BFS,
 ];
 
 thread_local! {

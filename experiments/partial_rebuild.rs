@@ -63,6 +63,7 @@ struct Args {
 }
 
 fn main() {
+    cellbih::report::quiet_on_closed_pipe();
     let args = Args::parse();
     if let Err(e) = prepare_dir(&args.out)
         .map_err(|e| e.to_string())
@@ -136,7 +137,7 @@ fn run(args: &Args) -> Result<(), String> {
             if progress {
                 eprint!("{n:>7} triangles, {:<5}\r", method.name());
             }
-            let (host, sah_ratio) = frames(&scene, &anim, BuilderKind::Host, method)?;
+            let (host, sah_ratio) = frames(&scene, &anim, BuilderKind::HOST, method)?;
             let sum = Summary::of(&host).ok_or("no frame moved anything")?;
             let median = median_partial_ms(&host);
             let mut row = json!({

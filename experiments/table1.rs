@@ -66,10 +66,10 @@ const PAPER: [(&str, usize, &str, [Option<f64>; 4]); 4] = [
 ];
 
 const METHODS: [BuilderKind; 4] = [
-    BuilderKind::PpeNaive,
-    BuilderKind::PpeApprox,
-    BuilderKind::SpeDfs,
-    BuilderKind::SpeBfs,
+    BuilderKind::PPE_NAIVE,
+    BuilderKind::PPE_APPROX,
+    BuilderKind::SPE_DFS,
+    BuilderKind::SPE_BFS,
 ];
 
 /// The model's mesh, or a stand-in of the same triangle count.
@@ -96,6 +96,7 @@ fn model(
 }
 
 fn main() {
+    cellbih::report::quiet_on_closed_pipe();
     let mut args = Args::parse();
     if args.data.is_none() {
         args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);

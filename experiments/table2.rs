@@ -59,6 +59,7 @@ const PAPER: [(&str, &str, [f64; 11]); 2] = [
 ];
 
 fn main() {
+    cellbih::report::quiet_on_closed_pipe();
     let args = Args::parse();
     if let Err(e) = prepare_dir(&args.out)
         .map_err(|e| e.to_string())
@@ -96,7 +97,7 @@ fn run(args: &Args) -> Result<(), String> {
             if progress {
                 eprint!("{spec:>4} {:<5}\r", method.name());
             }
-            let host = summary(&s, &anim, BuilderKind::Host, method)?;
+            let host = summary(&s, &anim, BuilderKind::HOST, method)?;
             let mut row = json!({
                 "scene": paper_name, "source": format!("ours ({spec})"), "method": method.name(),
                 "triangles": s.len(), "updates": host.updates, "rebuilds": host.rebuilds,

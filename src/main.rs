@@ -14,6 +14,7 @@ use serde_json::json;
 
 use cellbih::bih::{BihConfig, RayStats, Tracer};
 use cellbih::build::{BuildReport, BuilderKind};
+use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
 use cellbih::render::{Camera, trace};
 use cellbih::scene::{self, Scene};
@@ -74,6 +75,32 @@ struct BuildArgs {
     #[arg(long, default_value_t = BihConfig::default().max_depth,
           value_parser = clap::value_parser!(u32).range(0..=BihConfig::MAX_SUPPORTED_DEPTH as i64))]
     max_depth: u32,
+    /// SPEs of the emulated Cell, 1 to 8 (a PS3 program gets 6; 8 is a
+    /// whole Cell). Builders that use fewer leave the others idle.
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
+    spes: u64,
+}
+
+/// What `--builder` and its options ask for.
+struct Chosen {
+    builder: BuilderKind,
+    cfg: BihConfig,
+    cell: CellConfig,
+}
+
+impl Chosen {
+    fn build(&self, s: &Scene) -> Res<BuildReport> {
+        Ok(self.builder.build_on(s, &self.cfg, &self.cell)?)
+    }
+
+    /// "builder B" and, for an emulated one, "on N SPEs".
+    fn describe(&self) -> String {
+        if self.builder.emulated() {
+            format!("builder {} on {} SPEs", self.builder, self.cell.spes)
+        } else {
+            format!("builder {}", self.builder)
+        }
+    }
 }
 
 #[derive(Subcommand)]
@@ -170,6 +197,7 @@ enum Command {
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
 
 fn main() -> ExitCode {
+    cellbih::report::quiet_on_closed_pipe();
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -200,13 +228,13 @@ fn run(cli: Cli) -> Res<()> {
             seed,
             format,
         }) => {
-            let (builder, cfg) = parse_build(&build)?;
+            let c = parse_build(&build)?;
             let method = Method::from_name(&strategy).ok_or_else(|| {
                 format!("unknown --strategy '{strategy}': local, deep or rebuild")
             })?;
             let s = scene.load()?;
             let anim = Animation::named(&animation, &s, frames as usize, seed)?;
-            let mut u = Updater::new(s, builder, &cfg, method)?;
+            let mut u = Updater::new_on(s, c.builder, &c.cfg, c.cell, method)?;
             u.deep_stop_below = deep_stop_below;
             update(&mut u, &anim, format)
         }
@@ -216,20 +244,20 @@ fn run(cli: Cli) -> Res<()> {
             format,
             trace,
         }) => {
-            let (builder, cfg) = parse_build(&build)?;
+            let mut c = parse_build(&build)?;
             if let Some(path) = &trace {
-                if !builder.emulated() {
+                if !c.builder.emulated() {
                     return Err(format!(
-                        "--trace: builder '{builder}' does not run on the emulated Cell"
+                        "--trace: builder '{}' does not run on the emulated Cell",
+                        c.builder
                     )
                     .into());
                 }
                 check_writable(path)?;
             }
             let s = scene.load()?;
-            let mut cell = cellbih::cell::CellConfig::ps3();
-            cell.trace = trace.is_some();
-            let mut report = builder.build_on(&s, &cfg, &cell)?;
+            c.cell.trace = trace.is_some();
+            let mut report = c.build(&s)?;
             print_build(&s, &report, format);
             if let Some(path) = &trace {
                 let timeline = report
@@ -252,13 +280,13 @@ fn run(cli: Cli) -> Res<()> {
             rays,
             out,
         }) => {
-            let (builder, cfg) = parse_build(&build)?;
+            let c = parse_build(&build)?;
             check_writable(&out)?;
             let path = rays.display().to_string();
             let file = File::open(&rays).map_err(|e| format!("{path}: cannot open: {e}"))?;
             let rays = rays_csv::read_rays(&path, BufReader::new(file))?;
             let s = scene.load()?;
-            let report = builder.build(&s, &cfg)?;
+            let report = c.build(&s)?;
             let tracer = Tracer::new(&report.bih, &s);
             let hits: Vec<_> = rays
                 .par_iter()
@@ -267,8 +295,9 @@ fn run(cli: Cli) -> Res<()> {
             write_file(&out, |w| rays_csv::write_hits(w, &hits))?;
             let n_hit = hits.iter().flatten().count();
             eprintln!(
-                "{} rays, {n_hit} hits, written to {}",
+                "{} rays, {n_hit} hits ({}), written to {}",
                 hits.len(),
+                c.describe(),
                 out.display()
             );
             Ok(())
@@ -281,11 +310,11 @@ fn run(cli: Cli) -> Res<()> {
             width,
             height,
         }) => {
-            let (builder, cfg) = parse_build(&build)?;
+            let c = parse_build(&build)?;
             render::check_size(width, height)?;
             check_png(&out)?;
             let s = scene.load()?;
-            let report = builder.build(&s, &cfg)?;
+            let report = c.build(&s)?;
             let tracer = Tracer::new(&report.bih, &s);
             let frame = trace(
                 &tracer,
@@ -300,8 +329,9 @@ fn run(cli: Cli) -> Res<()> {
             write_png(&out, &img)?;
             let st = frame.stats;
             eprintln!(
-                "{} written; per ray: {:.1} nodes, {:.1} triangles{}",
+                "{} written ({}); per ray: {:.1} nodes, {:.1} triangles{}",
                 out.display(),
+                c.describe(),
                 st.nodes_visited as f64 / st.rays as f64,
                 st.triangles_tested as f64 / st.rays as f64,
                 if heatmap {
@@ -337,7 +367,7 @@ fn write_png(path: &Path, img: &image::RgbImage) -> Res<()> {
     Ok(cellbih::output::write_bytes(path, &png)?)
 }
 
-fn parse_build(args: &BuildArgs) -> Res<(BuilderKind, BihConfig)> {
+fn parse_build(args: &BuildArgs) -> Res<Chosen> {
     let builder = BuilderKind::from_name(&args.builder).ok_or_else(|| {
         let names: Vec<_> = BuilderKind::ALL.iter().map(|b| b.name()).collect();
         format!(
@@ -350,19 +380,25 @@ fn parse_build(args: &BuildArgs) -> Res<(BuilderKind, BihConfig)> {
         leaf_size: args.leaf_size,
         max_depth: args.max_depth,
     };
-    Ok((builder, cfg))
+    let cell = CellConfig::ps3().with_spes(args.spes as usize);
+    Ok(Chosen { builder, cfg, cell })
 }
 
 fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
     let text = matches!(format, Format::Text);
     if text {
         println!(
-            "{} on {} ({} triangles), {} update, builder {}",
+            "{} on {} ({} triangles), {} update, builder {}{}",
             anim.name,
             u.scene.name,
             u.scene.len(),
             u.method.name(),
-            u.builder
+            u.builder,
+            if u.builder.emulated() {
+                format!(" on {} SPEs", u.cell.spes)
+            } else {
+                String::new()
+            }
         );
         println!(
             "{:>5} {:>5} {:>8} {:>5} {:>13} {:>7} {:>7} {:>7} {:>9} {:>9}",
@@ -429,7 +465,8 @@ fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
             "{}",
             json!({
                 "scene": u.scene.name, "triangles": u.scene.len(), "animation": anim.name,
-                "method": u.method, "builder": u.builder.name(), "frames": reports,
+                "method": u.method, "builder": u.builder.name(),
+                "spes": u.builder.emulated().then_some(u.cell.spes), "frames": reports,
                 "summary": sum, "sah_after": sah, "sah_fresh_build": fresh,
             })
         );
@@ -474,6 +511,7 @@ fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                 "scene": s.name, "triangles": s.len(), "builder": r.builder.name(),
                 "host_ms": ms, "quality": q,
                 "simulated_ms": sim.map(|m| m.run.ms),
+                "spes": sim.map(|m| m.run.cores.len() - 1),
                 "simulated_cycles": sim.map(|m| m.run.cycles.0),
                 "cores": sim.map(|m| &m.run.cores),
                 "work": sim.map(|m| m.stats),
@@ -484,8 +522,10 @@ fn print_build(s: &Scene, r: &BuildReport, format: Format) {
             println!("builder     {}", r.builder);
             if let Some(m) = sim {
                 println!(
-                    "simulated   {:.2} ms on the PS3 model ({} cycles)",
-                    m.run.ms, m.run.cycles.0
+                    "simulated   {:.2} ms on the PS3 model with {} SPEs ({} cycles)",
+                    m.run.ms,
+                    m.run.cores.len() - 1,
+                    m.run.cycles.0
                 );
             }
             if sim.is_some() {

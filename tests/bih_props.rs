@@ -71,7 +71,7 @@ fn large_random_scenes_at_every_scale() {
 fn one_triangle() {
     let s =
         Scene::from_triangles("one", vec![Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)]).unwrap();
-    let r = BuilderKind::Host.build(&s, &BihConfig::default()).unwrap();
+    let r = BuilderKind::HOST.build(&s, &BihConfig::default()).unwrap();
     r.bih.validate(&s).unwrap();
     assert_eq!(r.bih.nodes.len(), 1);
     let tracer = Tracer::new(&r.bih, &s);
@@ -88,7 +88,7 @@ fn one_triangle() {
 fn a_stack_of_identical_triangles_is_one_leaf() {
     let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
     let s = Scene::from_triangles("stack", vec![t; 1000]).unwrap();
-    let r = BuilderKind::Host.build(&s, &BihConfig::default()).unwrap();
+    let r = BuilderKind::HOST.build(&s, &BihConfig::default()).unwrap();
     r.bih.validate(&s).unwrap();
     assert_eq!(
         r.bih.nodes.len(),
@@ -117,7 +117,7 @@ fn zero_area_triangles_are_kept_and_never_hit() {
     ];
     let s = Scene::from_triangles("degenerate", tris).unwrap();
     assert_eq!(s.degenerate_count(), 2);
-    let r = BuilderKind::Host
+    let r = BuilderKind::HOST
         .build(
             &s,
             &BihConfig {
@@ -143,7 +143,7 @@ fn zero_area_triangles_are_kept_and_never_hit() {
 #[test]
 fn axis_parallel_rays_stay_cheap() {
     let s = cellbih::scene::procedural::rtperf(20_000, 3);
-    let r = BuilderKind::Host.build(&s, &BihConfig::default()).unwrap();
+    let r = BuilderKind::HOST.build(&s, &BihConfig::default()).unwrap();
     let tracer = Tracer::new(&r.bih, &s);
     let c = (s.bounds().min + s.bounds().max).as_dvec3() * 0.5;
     for axis in 0..3 {
@@ -167,7 +167,7 @@ fn axis_parallel_rays_stay_cheap() {
 fn validate_catches_corrupt_trees() {
     use cellbih::bih::{BihNode, Violation};
     let s = make_scene(500, 0, 0, 0, 11);
-    let good = BuilderKind::Host
+    let good = BuilderKind::HOST
         .build(&s, &BihConfig::default())
         .unwrap()
         .bih;
@@ -238,7 +238,7 @@ fn a_ray_lying_in_a_face_plane_of_a_box_is_inside_it() {
         ],
     )
     .unwrap();
-    let bih = BuilderKind::Host
+    let bih = BuilderKind::HOST
         .build(&scene, &BihConfig::default())
         .unwrap()
         .bih;

@@ -323,3 +323,111 @@ fn ci_runs_the_readme_test_command_verbatim() {
         ".ci/run does not run the README's test command `{test_cmd}`"
     );
 }
+
+/// `cellbih builders` lists the registry; `--spes N` reaches every emulated
+/// builder through build, raycast, render and update and is said in each
+/// report; `build --format json` has the same keys for every builder. A
+/// builder that uses one SPE takes the same cycles whatever the SPE count
+/// (idle SPEs cost nothing).
+#[test]
+fn the_registry_and_spes_reach_every_command() {
+    let listed = String::from_utf8_lossy(&cellbih(&["builders"]).stdout).into_owned();
+    for b in cellbih::build::BuilderKind::ALL {
+        assert!(
+            listed.lines().any(|l| l.starts_with(b.name())),
+            "{b} in {listed}"
+        );
+        let json = |spes: &str| -> serde_json::Value {
+            let out = cellbih(&[
+                "build",
+                "--scene",
+                "cup",
+                "--builder",
+                b.name(),
+                "--spes",
+                spes,
+                "--format",
+                "json",
+            ]);
+            assert_ok(&out);
+            serde_json::from_slice(&out.stdout).unwrap()
+        };
+        let (one, eight) = (json("1"), json("8"));
+        for key in [
+            "scene",
+            "triangles",
+            "builder",
+            "host_ms",
+            "quality",
+            "simulated_ms",
+            "simulated_cycles",
+            "spes",
+            "cores",
+            "work",
+        ] {
+            assert!(eight.get(key).is_some(), "{b}: no '{key}'");
+        }
+        if b.emulated() {
+            assert_eq!(
+                (one["spes"].as_u64(), eight["spes"].as_u64()),
+                (Some(1), Some(8))
+            );
+            assert_eq!(eight["cores"].as_array().unwrap().len(), 9, "{b}");
+            assert_eq!(one["simulated_cycles"], eight["simulated_cycles"], "{b}");
+        } else {
+            assert!(eight["spes"].is_null() && eight["simulated_ms"].is_null());
+        }
+    }
+    let rays = tmp("spes.rays.csv");
+    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,5,0,0,-1,0,inf\n").unwrap();
+    let hits = tmp("spes.hits.csv");
+    let png = tmp("spes.png");
+    for (args, want) in [
+        (
+            vec![
+                "raycast",
+                "--rays",
+                rays.to_str().unwrap(),
+                "--out",
+                hits.to_str().unwrap(),
+            ],
+            "builder spe_bfs on 3 SPEs",
+        ),
+        (
+            vec![
+                "render",
+                "--width",
+                "16",
+                "--height",
+                "12",
+                "--out",
+                png.to_str().unwrap(),
+            ],
+            "builder spe_bfs on 3 SPEs",
+        ),
+    ] {
+        let mut a = args.clone();
+        a.extend(["--builder", "spe_bfs", "--spes", "3"]);
+        let out = cellbih(&a);
+        assert_ok(&out);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(want), "{err}");
+    }
+    let out = cellbih(&[
+        "update",
+        "--scene",
+        "cup",
+        "--animation",
+        "cup",
+        "--frames",
+        "1",
+        "--builder",
+        "spe_dfs",
+        "--spes",
+        "2",
+    ]);
+    assert_ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("builder spe_dfs on 2 SPEs"));
+    let out = cellbih(&["build", "--spes", "0"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("0 is not in 1..=8"));
+}

@@ -432,3 +432,31 @@ fn help_says_what_every_option_does() {
     let builders = stdout(&cellbih(&["builders", "--help"]));
     assert!(!builders.contains("--data"), "{builders}");
 }
+
+/// Output into a pipe that closes early (`cellbih update … | head -1`)
+/// ends the command quietly, as it ends other Unix tools: no panic. (The
+/// update prints more than a pipe holds, so it writes after the close.)
+#[test]
+fn a_closed_pipe_ends_the_command_quietly() {
+    use std::io::Read;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_cellbih"))
+        .args([
+            "update",
+            "--scene",
+            "rtperf:400",
+            "--animation",
+            "rtperf",
+            "--frames",
+            "3000",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Read one byte, then close our end of the pipe.
+    let mut first = [0u8; 1];
+    child.stdout.take().unwrap().read_exact(&mut first).unwrap();
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+}

@@ -86,7 +86,7 @@ fn corners_at_plus_and_minus_3e38() {
     let scene = Scene::from_triangles("corners", vec![t(-3e38, 1e37), t(3e38, -1e37), t(0.0, 1.0)])
         .unwrap();
     check_every_builder(&scene).unwrap();
-    let host = BuilderKind::Host
+    let host = BuilderKind::HOST
         .build(&scene, &BihConfig::default())
         .unwrap();
     let tracer = Tracer::new(&host.bih, &scene);

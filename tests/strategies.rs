@@ -22,8 +22,8 @@ fn ppe_naive_builds_the_host_tree() {
         common::make_scene(2000, -15, 0, 3, 5),
     ];
     for s in &scenes {
-        let host = BuilderKind::Host.build(s, &BihConfig::default()).unwrap();
-        let ppe = BuilderKind::PpeNaive
+        let host = BuilderKind::HOST.build(s, &BihConfig::default()).unwrap();
+        let ppe = BuilderKind::PPE_NAIVE
             .build(s, &BihConfig::default())
             .unwrap();
         assert_eq!(ppe.bih, host.bih, "{}", s.name);
@@ -75,8 +75,8 @@ fn spe_dfs_builds_the_host_tree_with_the_partitions_on_an_spe() {
         common::make_scene(3000, 15, 1, 1, 3),
         common::make_scene(3000, -15, 0, 2, 4),
     ] {
-        let host = BuilderKind::Host.build(&s, &BihConfig::default()).unwrap();
-        let dfs = BuilderKind::SpeDfs
+        let host = BuilderKind::HOST.build(&s, &BihConfig::default()).unwrap();
+        let dfs = BuilderKind::SPE_DFS
             .build(&s, &BihConfig::default())
             .unwrap();
         same_tree_up_to_leaf_order(&dfs.bih, &host.bih)
@@ -147,8 +147,8 @@ fn spe_bfs_builds_the_host_tree_breadth_first() {
         common::make_scene(3000, -15, 0, 2, 4),
         common::make_scene(500, 0, 0, 0, 9),
     ] {
-        let host = BuilderKind::Host.build(&s, &BihConfig::default()).unwrap();
-        let bfs = BuilderKind::SpeBfs
+        let host = BuilderKind::HOST.build(&s, &BihConfig::default()).unwrap();
+        let bfs = BuilderKind::SPE_BFS
             .build(&s, &BihConfig::default())
             .unwrap();
         same_tree_structure(&bfs.bih, &host.bih).unwrap_or_else(|e| panic!("{}: {e}", s.name));
@@ -192,7 +192,7 @@ fn node_depths(b: &Bih) -> Vec<u32> {
 #[test]
 fn an_emulated_build_gives_the_same_cycles_and_tree_every_run() {
     let s = scene::load("rtperf:10000:1", None).unwrap();
-    for &b in BuilderKind::ALL.iter().filter(|b| **b != BuilderKind::Host) {
+    for &b in BuilderKind::ALL.iter().filter(|b| **b != BuilderKind::HOST) {
         let run = || b.build(&s, &BihConfig::default()).unwrap();
         let (x, y) = (run(), run());
         assert_eq!(x.bih, y.bih, "{}", b.name());
@@ -212,7 +212,7 @@ fn an_emulated_build_gives_the_same_cycles_and_tree_every_run() {
 #[test]
 fn ppe_naive_time_is_kernels_plus_traffic() {
     let s = scene::load("car", None).unwrap();
-    let r = BuilderKind::PpeNaive
+    let r = BuilderKind::PPE_NAIVE
         .build(&s, &BihConfig::default())
         .unwrap();
     let sim = r.simulated.unwrap();
@@ -236,8 +236,8 @@ fn ppe_approx_sorts_buckets_then_finishes_naively_for_fewer_cycles() {
         scene::load("car", None).unwrap(),
     ] {
         let cfg = BihConfig::default();
-        let naive = BuilderKind::PpeNaive.build(&s, &cfg).unwrap();
-        let approx = BuilderKind::PpeApprox.build(&s, &cfg).unwrap();
+        let naive = BuilderKind::PPE_NAIVE.build(&s, &cfg).unwrap();
+        let approx = BuilderKind::PPE_APPROX.build(&s, &cfg).unwrap();
         approx.bih.validate(&s).unwrap();
         assert_ne!(
             approx.bih, naive.bih,

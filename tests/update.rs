@@ -196,7 +196,7 @@ proptest! {
         let cfg = BihConfig { leaf_size: leaf, max_depth: 64 };
         let scale = 10f32.powi(exp);
         for &method in Method::ALL {
-            let mut u = Updater::new(scene.clone(), BuilderKind::Host, &cfg, method).unwrap();
+            let mut u = Updater::new(scene.clone(), BuilderKind::HOST, &cfg, method).unwrap();
             u.deep_stop_below = (seed % 3) as usize * 8;
             let mut rng = SplitMix64::new(seed ^ 0x5eed);
             for f in 0..6 {
@@ -218,7 +218,7 @@ fn an_empty_update_changes_nothing_and_a_marked_one_keeps_the_answers() {
     for &method in Method::ALL {
         let mut u = Updater::new(
             scene.clone(),
-            BuilderKind::Host,
+            BuilderKind::HOST,
             &BihConfig::default(),
             method,
         )
@@ -242,8 +242,8 @@ fn algorithm_1_narrows_to_a_small_interval_and_deep_rebuilds_no_more() {
     let scene = cellbih::scene::load("rtperf:20000:3", None).unwrap();
     let anim = Animation::named("rtperf", &scene, 30, 1).unwrap();
     let cfg = BihConfig::default();
-    let mut local = Updater::new(scene.clone(), BuilderKind::Host, &cfg, Method::Local).unwrap();
-    let mut deep = Updater::new(scene.clone(), BuilderKind::Host, &cfg, Method::Deep).unwrap();
+    let mut local = Updater::new(scene.clone(), BuilderKind::HOST, &cfg, Method::Local).unwrap();
+    let mut deep = Updater::new(scene.clone(), BuilderKind::HOST, &cfg, Method::Deep).unwrap();
     let (mut l_sum, mut d_sum, mut partial) = (0, 0, 0);
     for f in &anim.frames {
         let (l, d) = (local.step(f).unwrap(), deep.step(f).unwrap());
@@ -271,7 +271,7 @@ fn algorithm_1_narrows_to_a_small_interval_and_deep_rebuilds_no_more() {
 #[test]
 fn a_move_that_grows_the_scene_box_rebuilds_everything() {
     let cup = cellbih::scene::load("cup", None).unwrap();
-    let mut u = Updater::new(cup, BuilderKind::Host, &BihConfig::default(), Method::Local).unwrap();
+    let mut u = Updater::new(cup, BuilderKind::HOST, &BihConfig::default(), Method::Local).unwrap();
     let r = u.step(&[Move::translate(0, Vec3::X * 0.05)]).unwrap();
     assert!(r.full_rebuild && r.rebuilt == 7040 && r.stop.is_none());
     // Marked only: the whole glass is the EBB, the root the enclosing node.
@@ -290,8 +290,8 @@ fn an_emulated_builder_rebuilds_the_interval_on_the_cell() {
     let anim = Animation::named("car", &scene, 6, 0).unwrap();
     let cfg = BihConfig::default();
     for method in [Method::Local, Method::Deep] {
-        let mut host = Updater::new(scene.clone(), BuilderKind::Host, &cfg, method).unwrap();
-        let mut cell = Updater::new(scene.clone(), BuilderKind::PpeNaive, &cfg, method).unwrap();
+        let mut host = Updater::new(scene.clone(), BuilderKind::HOST, &cfg, method).unwrap();
+        let mut cell = Updater::new(scene.clone(), BuilderKind::PPE_NAIVE, &cfg, method).unwrap();
         for f in &anim.frames {
             let (h, c) = (host.step(f).unwrap(), cell.step(f).unwrap());
             assert_eq!(h.rebuilt, c.rebuilt);
@@ -307,7 +307,7 @@ fn a_bad_move_leaves_the_updater_as_it_was() {
     let scene = cluster_scene(10, 0, 9);
     let mut u = Updater::new(
         scene.clone(),
-        BuilderKind::Host,
+        BuilderKind::HOST,
         &BihConfig::default(),
         Method::Local,
     )
@@ -333,7 +333,7 @@ fn a_builder_error_puts_the_scene_back_and_keeps_a_valid_tree() {
     for method in [Method::Local, Method::Deep, Method::Rebuild] {
         let mut u = Updater::new(
             scene.clone(),
-            BuilderKind::SpeBfs,
+            BuilderKind::SPE_BFS,
             &BihConfig::default(),
             method,
         )

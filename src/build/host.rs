@@ -63,6 +63,13 @@ pub struct BuildStats {
 }
 
 /// Builds the tree of `scene` in one host thread.
+/// The host builder in the registry of builders.
+pub const BUILDER: super::Builder = super::Builder::host(
+    "host",
+    "recursive in-place build, global heuristic, on the host (one thread)",
+    build_in,
+);
+
 pub fn build(scene: &Scene, cfg: &BihConfig) -> Bih {
     build_in(scene, scene.bounds(), cfg)
 }

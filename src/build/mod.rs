@@ -12,60 +12,95 @@ use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig};
 use crate::cell::{CellConfig, CellError, RunReport};
 use crate::scene::Scene;
-use crate::strategy::{self, Strategy};
+use crate::strategy;
 
-/// Every builder the `--builder` option accepts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BuilderKind {
-    /// Recursive in-place build on the host, one thread (the reference).
-    Host,
-    /// The paper's naive build on the emulated PPE.
-    PpeNaive,
-    /// W&K's approximate sorting on the emulated PPE, naive finish.
-    PpeApprox,
-    /// PPE recursion, one SPE partitions each interval (Fig. 1).
-    SpeDfs,
-    /// One SPE builds level by level (Fig. 2): the baseline.
-    SpeBfs,
+/// One builder: its name, what it is, and how it runs. A builder is one
+/// file that defines such a value (`pub const BUILDER: Builder = …`) and one
+/// line in [`BuilderKind::ALL`]; the CLI, tests, benches and experiments
+/// iterate over that list.
+pub struct Builder {
+    /// The `--builder` name.
+    pub name: &'static str,
+    /// One line for `cellbih builders`.
+    pub describe: &'static str,
+    run: Run,
 }
 
-impl BuilderKind {
-    pub const ALL: &'static [BuilderKind] = &[
-        BuilderKind::Host,
-        BuilderKind::PpeNaive,
-        BuilderKind::PpeApprox,
-        BuilderKind::SpeDfs,
-        BuilderKind::SpeBfs,
-    ];
+/// How a builder runs: on the host, or as a program of the emulated Cell.
+enum Run {
+    Host(fn(&Scene, Aabb, &BihConfig) -> Bih),
+    Cell(strategy::Spawn),
+}
 
-    pub fn name(self) -> &'static str {
-        match self {
-            BuilderKind::Host => "host",
-            BuilderKind::PpeNaive => "ppe_naive",
-            BuilderKind::PpeApprox => "ppe_approx",
-            BuilderKind::SpeDfs => "spe_dfs",
-            BuilderKind::SpeBfs => "spe_bfs",
+impl Builder {
+    /// A builder that runs on the host: `build(scene, region, cfg)`.
+    pub const fn host(
+        name: &'static str,
+        describe: &'static str,
+        build: fn(&Scene, Aabb, &BihConfig) -> Bih,
+    ) -> Self {
+        Builder {
+            name,
+            describe,
+            run: Run::Host(build),
         }
     }
 
-    pub fn describe(self) -> &'static str {
-        match self {
-            BuilderKind::Host => {
-                "recursive in-place build, global heuristic, on the host (one thread)"
-            }
-            BuilderKind::PpeNaive => {
-                "the paper's naive recursive build on the emulated PPE (Table 1, column 1)"
-            }
-            BuilderKind::PpeApprox => {
-                "Wachter & Keller's approximate sorting (bucket presort) on the emulated PPE, nodes over 12 triangles finished naively (Table 1, column 2)"
-            }
-            BuilderKind::SpeDfs => {
-                "depth first: PPE recursion, one SPE partitions each interval with Fig. 1's five buffers (Table 1, column 3)"
-            }
-            BuilderKind::SpeBfs => {
-                "breadth first, the baseline: one SPE builds level by level (WorkA/WorkB, Fig. 2), small jobs agglomerated, nodes in an ObjectArena (Table 1, column 4)"
-            }
+    /// A builder that runs on the emulated Cell: `spawn` sets up its
+    /// programs (see [`strategy::Spawn`]).
+    pub const fn cell(name: &'static str, describe: &'static str, spawn: strategy::Spawn) -> Self {
+        Builder {
+            name,
+            describe,
+            run: Run::Cell(spawn),
         }
+    }
+}
+
+/// A handle on one of the registered builders; what `--builder` names.
+#[derive(Clone, Copy)]
+pub struct BuilderKind(&'static Builder);
+
+impl PartialEq for BuilderKind {
+    fn eq(&self, o: &Self) -> bool {
+        self.0.name == o.0.name
+    }
+}
+impl Eq for BuilderKind {}
+
+impl std::fmt::Debug for BuilderKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.0.name)
+    }
+}
+
+impl BuilderKind {
+    /// Recursive in-place build on the host, one thread (the reference).
+    pub const HOST: BuilderKind = BuilderKind(&host::BUILDER);
+    /// The paper's naive build on the emulated PPE.
+    pub const PPE_NAIVE: BuilderKind = BuilderKind(&strategy::ppe_naive::BUILDER);
+    /// W&K's approximate sorting on the emulated PPE, naive finish.
+    pub const PPE_APPROX: BuilderKind = BuilderKind(&strategy::ppe_approx::BUILDER);
+    /// PPE recursion, one SPE partitions each interval (Fig. 1).
+    pub const SPE_DFS: BuilderKind = BuilderKind(&strategy::spe_dfs::BUILDER);
+    /// One SPE builds level by level (Fig. 2): the baseline.
+    pub const SPE_BFS: BuilderKind = BuilderKind(&strategy::spe_bfs::BUILDER);
+
+    /// Every builder, the registry: a new builder is one line here.
+    pub const ALL: &'static [BuilderKind] = &[
+        BuilderKind::HOST,
+        BuilderKind::PPE_NAIVE,
+        BuilderKind::PPE_APPROX,
+        BuilderKind::SPE_DFS,
+        BuilderKind::SPE_BFS,
+    ];
+
+    pub fn name(self) -> &'static str {
+        self.0.name
+    }
+
+    pub fn describe(self) -> &'static str {
+        self.0.describe
     }
 
     pub fn from_name(name: &str) -> Option<Self> {
@@ -75,17 +110,7 @@ impl BuilderKind {
     /// Whether the builder runs on the emulated Cell (and so reports
     /// simulated time and can keep a trace).
     pub fn emulated(self) -> bool {
-        self.strategy().is_some()
-    }
-
-    fn strategy(self) -> Option<Strategy> {
-        match self {
-            BuilderKind::Host => None,
-            BuilderKind::PpeNaive => Some(Strategy::PpeNaive),
-            BuilderKind::PpeApprox => Some(Strategy::PpeApprox),
-            BuilderKind::SpeDfs => Some(Strategy::SpeDfs),
-            BuilderKind::SpeBfs => Some(Strategy::SpeBfs),
-        }
+        matches!(self.0.run, Run::Cell(_))
     }
 
     /// Builds the tree of `scene` (on the PS3 model for emulated builders).
@@ -94,7 +119,8 @@ impl BuilderKind {
     }
 
     /// Builds the tree of `scene`; emulated builders run on a Cell
-    /// configured by `cell`. Host time is measured either way.
+    /// configured by `cell` (its SPE count among the rest). Host time is
+    /// measured either way.
     pub fn build_on(
         self,
         scene: &Scene,
@@ -115,10 +141,10 @@ impl BuilderKind {
         cell: &CellConfig,
     ) -> Result<BuildReport, CellError> {
         let start = Instant::now();
-        let (bih, simulated) = match self.strategy() {
-            None => (host::build_in(scene, region, cfg), None),
-            Some(s) => {
-                let b = strategy::run_in(s, scene, region, cfg, cell)?;
+        let (bih, simulated) = match self.0.run {
+            Run::Host(build) => (build(scene, region, cfg), None),
+            Run::Cell(spawn) => {
+                let b = strategy::run_in(spawn, scene, region, cfg, cell)?;
                 (
                     b.bih,
                     Some(Simulated {

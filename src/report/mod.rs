@@ -9,6 +9,18 @@ use plotters::prelude::*;
 pub use crate::output::OutputError;
 use crate::output::{check_writable, write_bytes, write_file};
 
+/// Lets a closed pipe end the program quietly, as it ends other Unix tools
+/// (`cellbih build | head`): Rust ignores SIGPIPE, so `println!` to a
+/// closed pipe would panic instead. Call first thing in `main`.
+pub fn quiet_on_closed_pipe() {
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of one signal at start-up,
+    // before any thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 /// How an experiment prints its results (the files are written either way).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Format {

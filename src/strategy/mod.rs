@@ -24,17 +24,12 @@ use crate::build::host::BuildStats;
 use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport, Trace};
 use crate::scene::Scene;
 
-/// The strategies that run on the emulated Cell.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Strategy {
-    PpeNaive,
-    PpeApprox,
-    SpeDfs,
-    SpeBfs,
-}
+/// How a strategy starts: it spawns its programs on the Cell for the
+/// triangles of `Setup`, and they leave the tree's node pieces in `Output`.
+pub type Spawn = fn(&mut Cell, &Setup, &BihConfig, Rc<RefCell<Output>>) -> Result<(), CellError>;
 
 /// Where a strategy finds its input in main memory.
-pub(crate) struct Setup {
+pub struct Setup {
     pub triangles: Ea,
     pub count: usize,
     pub region: Aabb,
@@ -42,7 +37,7 @@ pub(crate) struct Setup {
 
 /// What a strategy's program leaves for reading back.
 #[derive(Default)]
-pub(crate) struct Output {
+pub struct Output {
     /// The node array, in one or more pieces (address, node count) that
     /// concatenate in node-id order.
     pub nodes: Vec<(Ea, usize)>,
@@ -68,22 +63,23 @@ pub struct CellBuild {
     pub trace: Option<Trace>,
 }
 
-/// Builds the tree of `scene` with `strategy` on a Cell configured by
-/// `cell_cfg`, and reads the tree back from emulated main memory.
+/// Builds the tree of `scene` with the strategy `spawn` starts, on a Cell
+/// configured by `cell_cfg`, and reads the tree back from emulated main
+/// memory.
 pub fn run(
-    strategy: Strategy,
+    spawn: Spawn,
     scene: &Scene,
     cfg: &BihConfig,
     cell_cfg: &CellConfig,
 ) -> Result<CellBuild, CellError> {
-    run_in(strategy, scene, scene.bounds(), cfg, cell_cfg)
+    run_in(spawn, scene, scene.bounds(), cfg, cell_cfg)
 }
 
 /// [`run`] with `region` as the scene box of the global heuristic: the
 /// region of one node, when a local update rebuilds that node's interval
 /// (section 3). `region` must contain every triangle of `scene`.
 pub fn run_in(
-    strategy: Strategy,
+    spawn: Spawn,
     scene: &Scene,
     region: Aabb,
     cfg: &BihConfig,
@@ -101,12 +97,7 @@ pub fn run_in(
         region,
     };
     let out = Rc::new(RefCell::new(Output::default()));
-    match strategy {
-        Strategy::PpeNaive => ppe_naive::spawn(&mut cell, &setup, cfg, out.clone()),
-        Strategy::PpeApprox => ppe_approx::spawn(&mut cell, &setup, cfg, out.clone()),
-        Strategy::SpeDfs => spe_dfs::spawn(&mut cell, &setup, cfg, out.clone())?,
-        Strategy::SpeBfs => spe_bfs::spawn(&mut cell, &setup, cfg, out.clone())?,
-    }
+    spawn(&mut cell, &setup, cfg, out.clone())?;
     let run = cell.run()?;
     let o = out.borrow();
     if o.nodes.is_empty() {

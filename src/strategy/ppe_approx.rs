@@ -21,7 +21,19 @@ use crate::build::approx::build_approx;
 use crate::build::host::BuildStats;
 use crate::cell::{Cell, CellError, Cycles, Ea};
 
-pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<RefCell<Output>>) {
+/// `ppe_approx` in the registry of builders.
+pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
+    "ppe_approx",
+    "Wachter & Keller's approximate sorting (bucket presort) on the emulated PPE, nodes over 12 triangles finished naively (Table 1, column 2)",
+    spawn,
+);
+
+fn spawn(
+    cell: &mut Cell,
+    setup: &Setup,
+    cfg: &BihConfig,
+    out: Rc<RefCell<Output>>,
+) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     cell.spawn_ppe(move |ppe| async move {
         let items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
@@ -47,4 +59,5 @@ pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<Ref
         };
         Ok::<(), CellError>(())
     });
+    Ok(())
 }

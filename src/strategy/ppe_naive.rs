@@ -16,7 +16,19 @@ use crate::bih::BihConfig;
 use crate::build::host::{BuildStats, build_items};
 use crate::cell::{Cell, CellError, Cycles};
 
-pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<RefCell<Output>>) {
+/// `ppe_naive` in the registry of builders.
+pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
+    "ppe_naive",
+    "the paper's naive recursive build on the emulated PPE (Table 1, column 1)",
+    spawn,
+);
+
+fn spawn(
+    cell: &mut Cell,
+    setup: &Setup,
+    cfg: &BihConfig,
+    out: Rc<RefCell<Output>>,
+) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     cell.spawn_ppe(move |ppe| async move {
         let mut items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
@@ -37,4 +49,5 @@ pub(super) fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig, out: Rc<Ref
         o.stats = stats;
         Ok::<(), CellError>(())
     });
+    Ok(())
 }

@@ -76,7 +76,14 @@ impl Job {
     }
 }
 
-pub(super) fn spawn(
+/// `spe_bfs`, the baseline, in the registry of builders.
+pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
+    "spe_bfs",
+    "breadth first, the baseline: one SPE builds level by level (WorkA/WorkB, Fig. 2), small jobs agglomerated, nodes in an ObjectArena (Table 1, column 4)",
+    spawn,
+);
+
+fn spawn(
     cell: &mut crate::cell::Cell,
     setup: &Setup,
     cfg: &BihConfig,

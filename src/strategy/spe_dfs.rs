@@ -81,7 +81,14 @@ impl SideRecord {
     }
 }
 
-pub(super) fn spawn(
+/// `spe_dfs` in the registry of builders.
+pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
+    "spe_dfs",
+    "depth first: PPE recursion, one SPE partitions each interval with Fig. 1's five buffers (Table 1, column 3)",
+    spawn,
+);
+
+fn spawn(
     cell: &mut Cell,
     setup: &Setup,
     cfg: &BihConfig,

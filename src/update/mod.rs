@@ -171,8 +171,10 @@ impl Summary {
 /// The emulated builders the update experiments report simulated time on,
 /// by column prefix: the PPE, where the paper's update ran (section 3), and
 /// one SPE, the baseline.
-pub const SIMULATED_BUILDERS: [(&str, BuilderKind); 2] =
-    [("ppe", BuilderKind::PpeNaive), ("bfs", BuilderKind::SpeBfs)];
+pub const SIMULATED_BUILDERS: [(&str, BuilderKind); 2] = [
+    ("ppe", BuilderKind::PPE_NAIVE),
+    ("bfs", BuilderKind::SPE_BFS),
+];
 
 /// Plays `anim` on a fresh updater of `scene` (default tree limits);
 /// returns the updater after the last frame and every frame's report.
@@ -225,7 +227,18 @@ impl Updater {
         cfg: &BihConfig,
         method: Method,
     ) -> Result<Self, UpdateError> {
-        let cell = CellConfig::ps3();
+        Self::new_on(scene, builder, cfg, CellConfig::ps3(), method)
+    }
+
+    /// [`Updater::new`] with emulated builds on a Cell configured by `cell`
+    /// (its SPE count, say).
+    pub fn new_on(
+        scene: Scene,
+        builder: BuilderKind,
+        cfg: &BihConfig,
+        cell: CellConfig,
+        method: Method,
+    ) -> Result<Self, UpdateError> {
         let bih = builder.build_on(&scene, cfg, &cell)?.bih;
         let mut members = vec![Vec::new(); scene.geometry_names.len()];
         for (i, &g) in scene.geometry_ids.iter().enumerate() {
@@ -390,7 +403,7 @@ impl Updater {
             };
             return Ok((empty, None));
         }
-        if self.builder == BuilderKind::Host {
+        if self.builder == BuilderKind::HOST {
             let mut refs: Vec<PrimRef> = ids
                 .iter()
                 .map(|&i| PrimRef::new(i, self.scene.triangles[i as usize].bounds()))
