@@ -256,20 +256,24 @@ fn ppe_approx_sorts_buckets_then_finishes_naively_for_fewer_cycles() {
     }
 }
 
-/// The ObjectArena, shared by the SPE strategies: nodes emitted in id
-/// order come back in id order from its blocks, whether the PPE allocates
-/// each block on request (the paper's mailbox protocol) or the SPE takes
-/// blocks from a pool by fetch-and-add (no PPE at all).
+/// The ObjectArena, shared by the SPE strategies: nodes emitted in the
+/// order their ids were handed out come back at those ids, whether the PPE
+/// allocates each block on request (the paper's mailbox protocol) or the
+/// SPE takes blocks from a pool by fetch-and-add (no PPE at all). Ids are
+/// handed out as a tree needs them, a root and then pairs of children; in
+/// a pool a pair never straddles two blocks (slot 4,079 is skipped).
 #[test]
 fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
     use cellbih::bih::BihNode;
     use cellbih::cell::{Cell, CellConfig, Ea};
-    use cellbih::strategy::arena::{BLOCK_BYTES, BlockSource, ObjectArena, pieces, serve_blocks};
+    use cellbih::strategy::arena::{
+        BLOCK_BYTES, BLOCK_NODES, BlockSource, ObjectArena, pieces, serve_blocks,
+    };
     use std::cell::RefCell;
     use std::rc::Rc;
 
-    const N: usize = 10_000; // three blocks, the last one partly
-    let run = |pool: bool| -> (Vec<BihNode>, u64) {
+    const PAIRS: usize = 4_999; // 9,999 slots: three blocks, the last one partly
+    let run = |pool: bool| -> (Vec<BihNode>, u64, usize) {
         let mut cell = Cell::new(CellConfig::ps3().with_spes(1)).unwrap();
         let source = if pool {
             let base = cell
@@ -285,39 +289,55 @@ fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
         } else {
             BlockSource::Mailbox
         };
-        let blocks: Rc<RefCell<Vec<Ea>>> = Rc::default();
+        let blocks: Rc<RefCell<(Vec<Ea>, usize)>> = Rc::default();
         let b = blocks.clone();
         cell.spawn_spe(0, move |spe| async move {
             let mut arena = ObjectArena::new(&spe, source)?;
             arena.open().await;
-            for i in 0..N as u32 {
-                arena.emit(i, BihNode::leaf(i, 1)).await?;
+            let root = arena.alloc(1).await?;
+            arena.emit(root, BihNode::leaf(root, 1)).await?;
+            for _ in 0..PAIRS {
+                let id = arena.alloc(2).await?;
+                arena.emit(id, BihNode::leaf(id, 1)).await?;
+                arena.emit(id + 1, BihNode::leaf(id + 1, 1)).await?;
             }
-            *b.borrow_mut() = arena.close(N).await?;
+            let count = arena.allocated();
+            *b.borrow_mut() = (arena.close(count).await?, count);
             Ok(())
         });
         if !pool {
             let b = blocks.clone();
             cell.spawn_ppe(move |ppe| async move {
                 let (served, count) = serve_blocks(&ppe, 0).await?;
-                assert_eq!(count, N);
+                assert_eq!(count, b.borrow().1);
                 // Asked for one ahead: the last block served went unused.
-                assert_eq!(served[..served.len() - 1], *b.borrow());
+                assert_eq!(served[..served.len() - 1], b.borrow().0);
                 Ok(())
             });
         }
         let r = cell.run().unwrap();
+        let (list, count) = blocks.borrow().clone();
         let mut nodes = Vec::new();
-        for (ea, n) in pieces(&blocks.borrow(), N) {
+        for (ea, n) in pieces(&list, count) {
             nodes.extend(cell.memory().read_pod::<BihNode>(ea, n).unwrap());
         }
-        (nodes, r.cores[0].1.mailbox_messages)
+        (nodes, r.cores[0].1.mailbox_messages, count)
     };
-    let want: Vec<BihNode> = (0..N as u32).map(|i| BihNode::leaf(i, 1)).collect();
-    let (by_mailbox, ppe_messages) = run(false);
+    let (by_mailbox, ppe_messages, count) = run(false);
+    assert_eq!(count, 1 + 2 * PAIRS);
+    let want: Vec<BihNode> = (0..count as u32).map(|i| BihNode::leaf(i, 1)).collect();
     assert_eq!(by_mailbox, want);
     assert_eq!(ppe_messages, 4, "one answer per block, one ahead");
-    let (by_pool, ppe_messages) = run(true);
-    assert_eq!(by_pool, want);
+    let (by_pool, ppe_messages, count) = run(true);
+    assert_eq!(count, 2 + 2 * PAIRS, "one slot skipped");
+    let skipped = BLOCK_NODES - 1;
+    for (i, n) in by_pool.iter().enumerate() {
+        let want = if i == skipped {
+            BihNode::default()
+        } else {
+            BihNode::leaf(i as u32, 1)
+        };
+        assert_eq!(*n, want, "slot {i}");
+    }
     assert_eq!(ppe_messages, 0, "the pool needs no PPE");
 }

@@ -15,9 +15,19 @@
 //! - `Pool`: the PPE sizes a pool of blocks in advance and SPEs take blocks
 //!   from it by fetch-and-add on a counter (the atomic unit): no PPE work
 //!   and no mailbox per block, and several SPEs never queue behind one PPE.
+//!   All SPEs' arenas then share one index space (section 5's per-SPE
+//!   ObjectArena lists): a node's id is its slot in the pool, so each SPE
+//!   computes the ids of the nodes it allocates alone. A pair of children
+//!   never straddles two blocks (the slot it would leave is wasted), so the
+//!   two stay adjacent as the node format requires.
+//!
+//! Ids are handed out by [`ObjectArena::alloc`] and nodes must be emitted
+//! in the order their ids were handed out. A node whose id another arena
+//! handed out is written with [`ObjectArena::emit_foreign`] (a lock-line
+//! update, since one node is 12 bytes and DMA moves multiples of 16).
 
 use crate::bih::BihNode;
-use crate::cell::{CellError, Ea, LsAddr, Ppe, Spe, WaitMode};
+use crate::cell::{CellError, Ea, LsAddr, Ppe, Reservation, Spe, WaitMode};
 
 /// Nodes per local-store node buffer: 16,320 bytes, a multiple of 48 so
 /// that every put is a multiple of 16 bytes.
@@ -41,6 +51,19 @@ pub enum BlockSource {
     Pool { base: Ea, blocks: u32, counter: Ea },
 }
 
+/// What an arena used.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct ArenaStats {
+    /// Blocks taken.
+    pub blocks: u64,
+    /// Nodes written into its blocks.
+    pub nodes: u64,
+    /// Slots skipped to keep a pair in one block.
+    pub skipped: u64,
+    /// Nodes written into other arenas' slots (lock-line updates).
+    pub foreign: u64,
+}
+
 /// One SPE's ObjectArena: its node buffers and its list of blocks.
 pub struct ObjectArena<'a> {
     spe: &'a Spe,
@@ -53,6 +76,14 @@ pub struct ObjectArena<'a> {
     nodes_first: usize,
     /// This SPE's blocks, in the order of the node ids they hold.
     blocks: Vec<Ea>,
+    /// Pool source: each block's index in the pool.
+    pool_blocks: Vec<u32>,
+    /// The next slot of this arena's sequence to hand out.
+    alloc_seq: usize,
+    /// Slots skipped so that a pair stays in one block (emitted as zero
+    /// nodes, never reached), in order.
+    wasted: std::collections::VecDeque<usize>,
+    pub stats: ArenaStats,
     /// Line buffer for the pool counter's fetch-and-add.
     line: Option<LsAddr>,
     tags: u32,
@@ -70,6 +101,10 @@ impl<'a> ObjectArena<'a> {
             nodes: Vec::with_capacity(NODES_PER_PUT),
             nodes_first: 0,
             blocks: Vec::new(),
+            pool_blocks: Vec::new(),
+            alloc_seq: 0,
+            wasted: Default::default(),
+            stats: ArenaStats::default(),
             line: match source {
                 BlockSource::Pool { .. } => Some(spe.ls_alloc(128, 128)?),
                 BlockSource::Mailbox => None,
@@ -86,13 +121,93 @@ impl<'a> ObjectArena<'a> {
         }
     }
 
-    /// Records node `id`; nodes come in id order.
+    /// Hands out `count` (1 or 2) adjacent node ids of this arena.
+    pub async fn alloc(&mut self, count: usize) -> Result<u32, CellError> {
+        if let BlockSource::Mailbox = self.source {
+            // One SPE, blocks in id order: the id is the slot.
+            let id = self.alloc_seq;
+            self.alloc_seq += count;
+            return Ok(id as u32);
+        }
+        if count == 2 && self.alloc_seq % BLOCK_NODES == BLOCK_NODES - 1 {
+            self.wasted.push_back(self.alloc_seq);
+            self.stats.skipped += 1;
+            self.alloc_seq += 1;
+        }
+        while self.pool_blocks.len() * BLOCK_NODES < self.alloc_seq + count {
+            let (k, ea) = self.take_pool_block().await?;
+            self.pool_blocks.push(k);
+            self.blocks.push(ea);
+        }
+        let id = self.id_of(self.alloc_seq);
+        self.alloc_seq += count;
+        Ok(id)
+    }
+
+    /// Slots handed out so far (skipped ones included).
+    pub fn allocated(&self) -> usize {
+        self.alloc_seq
+    }
+
+    /// The id of slot `seq` of this arena.
+    fn id_of(&self, seq: usize) -> u32 {
+        match self.source {
+            BlockSource::Mailbox => seq as u32,
+            BlockSource::Pool { .. } => {
+                (self.pool_blocks[seq / BLOCK_NODES] as usize * BLOCK_NODES + seq % BLOCK_NODES)
+                    as u32
+            }
+        }
+    }
+
+    /// Records node `id`; nodes come in the order [`ObjectArena::alloc`]
+    /// handed their ids out.
     pub async fn emit(&mut self, id: u32, node: BihNode) -> Result<(), CellError> {
-        debug_assert_eq!(id as usize, self.nodes_first + self.nodes.len());
+        while self.wasted.front() == Some(&(self.nodes_first + self.nodes.len())) {
+            self.wasted.pop_front();
+            self.push(BihNode::default()).await?;
+        }
+        debug_assert_eq!(id, self.id_of(self.nodes_first + self.nodes.len()));
+        self.stats.nodes += 1;
+        self.push(node).await
+    }
+
+    async fn push(&mut self, node: BihNode) -> Result<(), CellError> {
         self.nodes.push(node);
         if self.nodes.len() == NODES_PER_PUT {
             self.flush(false).await?;
         }
+        Ok(())
+    }
+
+    /// Writes node `id`, a slot another arena of the pool handed out, by
+    /// lock-line updates of the one or two 128-byte lines it lies in (other
+    /// SPEs may write other nodes of those lines at the same time).
+    pub async fn emit_foreign(&mut self, id: u32, node: BihNode) -> Result<(), CellError> {
+        let BlockSource::Pool { base, .. } = self.source else {
+            panic!("foreign nodes exist only in a pool");
+        };
+        let line = self.line.expect("a line buffer");
+        let bytes: [u8; 12] = bytemuck::cast(node);
+        let at = base.0 + id as u64 * size_of::<BihNode>() as u64;
+        let mut done = 0usize;
+        while done < bytes.len() {
+            let ea = at + done as u64;
+            let line_ea = Ea(ea & !127);
+            let off = (ea & 127) as usize;
+            let n = (128 - off).min(bytes.len() - done);
+            loop {
+                self.spe.getllar(line, line_ea).await?;
+                self.spe.with_ls_mut(line, 128, |l: &mut [u8]| {
+                    l[off..off + n].copy_from_slice(&bytes[done..done + n]);
+                })?;
+                if self.spe.putllc(line, line_ea).await? == Reservation::Stored {
+                    break;
+                }
+            }
+            done += n;
+        }
+        self.stats.foreign += 1;
         Ok(())
     }
 
@@ -109,33 +224,37 @@ impl<'a> ObjectArena<'a> {
         Ok(std::mem::take(&mut self.blocks))
     }
 
-    /// The next block of this SPE's list.
-    async fn next_block(&mut self, last: bool) -> Result<Ea, CellError> {
-        match self.source {
-            BlockSource::Mailbox => {
-                // The block asked for ahead arrives; ask for the one after.
-                let ea = Ea(self.spe.read_in_mbox().await as u64);
-                if !last {
-                    self.spe.write_out_mbox(REQUEST_BLOCK).await;
-                }
-                Ok(ea)
-            }
-            BlockSource::Pool {
-                base,
-                blocks,
-                counter,
-            } => {
-                let line = self.line.expect("a line buffer");
-                let k = self.spe.atomic_fetch_add_u32(line, counter, 1).await?;
-                if k >= blocks {
-                    return Err(CellError::Program {
-                        core: format!("SPE {}", self.spe.id()),
-                        msg: format!("the ObjectArena pool of {blocks} blocks is used up"),
-                    });
-                }
-                Ok(base.offset(k as u64 * BLOCK_BYTES))
-            }
+    /// A block of the pool, by fetch-and-add: its index and address.
+    async fn take_pool_block(&mut self) -> Result<(u32, Ea), CellError> {
+        let BlockSource::Pool {
+            base,
+            blocks,
+            counter,
+        } = self.source
+        else {
+            unreachable!("only a pool has blocks to take");
+        };
+        let line = self.line.expect("a line buffer");
+        let k = self.spe.atomic_fetch_add_u32(line, counter, 1).await?;
+        if k >= blocks {
+            return Err(CellError::Program {
+                core: format!("SPE {}", self.spe.id()),
+                msg: format!("the ObjectArena pool of {blocks} blocks is used up"),
+            });
         }
+        self.stats.blocks += 1;
+        Ok((k, base.offset(k as u64 * BLOCK_BYTES)))
+    }
+
+    /// The next block of a `Mailbox` arena: the one asked for ahead
+    /// arrives; ask for the one after.
+    async fn next_block(&mut self, last: bool) -> Result<Ea, CellError> {
+        let ea = Ea(self.spe.read_in_mbox().await as u64);
+        if !last {
+            self.spe.write_out_mbox(REQUEST_BLOCK).await;
+        }
+        self.stats.blocks += 1;
+        Ok(ea)
     }
 
     /// Puts the node buffer into its block (padded to whole 48-byte groups
@@ -146,6 +265,8 @@ impl<'a> ObjectArena<'a> {
         }
         let block_index = self.nodes_first / BLOCK_NODES;
         if self.blocks.len() <= block_index {
+            // Only a mailbox arena takes blocks as it writes; a pool's were
+            // taken when their ids were handed out.
             let ea = self.next_block(last).await?;
             self.blocks.push(ea);
         }

@@ -139,8 +139,6 @@ struct SpeBuilder<'a> {
     fig1: Fig1Buffers,
     /// `WorkA`/`WorkB` and their spill areas.
     queue: WorkQueue<'a, Job>,
-    /// The next node id to hand out.
-    next_id: usize,
     arena: ObjectArena<'a>,
     /// Which Fig. 1 buffer the next agglomerated batch uses (0 or 1).
     batch_buf: usize,
@@ -158,7 +156,6 @@ impl<'a> SpeBuilder<'a> {
             cfg,
             fig1: Fig1Buffers::alloc(spe)?,
             queue: WorkQueue::new(spe, work_ppe)?,
-            next_id: 1,
             arena: ObjectArena::new(spe, BlockSource::Mailbox)?,
             batch_buf: 0,
             batch_put: [None, None],
@@ -170,6 +167,8 @@ impl<'a> SpeBuilder<'a> {
     async fn run(&mut self, root: Job) -> Result<(), CellError> {
         // Ask for the first arena block before anything else.
         self.arena.open().await;
+        let root_id = self.arena.alloc(1).await?;
+        debug_assert_eq!(root_id, root.node);
         let mut level = self.queue.start(root)?;
         loop {
             for k in 0..WorkQueue::<Job>::blocks(level) {
@@ -181,8 +180,9 @@ impl<'a> SpeBuilder<'a> {
                 None => break,
             }
         }
-        self.arena.close(self.next_id).await?;
-        self.stats.nodes = self.next_id as u64;
+        let count = self.arena.allocated();
+        self.arena.close(count).await?;
+        self.stats.nodes = count as u64;
         Ok(())
     }
 
@@ -312,8 +312,7 @@ impl<'a> SpeBuilder<'a> {
     ) -> Result<(), CellError> {
         self.stats.items_partitioned += job.count as u64;
         self.stats.partitions += 1;
-        let children = self.next_id;
-        self.next_id += 2;
+        let children = self.arena.alloc(2).await? as usize;
         let [cl, cr] = clip_planes(s.axis, l, r);
         self.arena
             .emit(job.node, BihNode::inner(children as u32, s.axis, cl, cr))
