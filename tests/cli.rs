@@ -327,8 +327,8 @@ fn ci_runs_the_readme_test_command_verbatim() {
 /// `cellbih builders` lists the registry; `--spes N` reaches every emulated
 /// builder through build, raycast, render and update and is said in each
 /// report; `build --format json` has the same keys for every builder. A
-/// builder that uses one SPE takes the same cycles whatever the SPE count
-/// (idle SPEs cost nothing).
+/// builder of the paper uses one SPE and takes the same cycles whatever the
+/// SPE count (idle SPEs cost nothing); a multi-SPE builder is faster on 8.
 #[test]
 fn the_registry_and_spes_reach_every_command() {
     let listed = String::from_utf8_lossy(&cellbih(&["builders"]).stdout).into_owned();
@@ -373,7 +373,16 @@ fn the_registry_and_spes_reach_every_command() {
                 (Some(1), Some(8))
             );
             assert_eq!(eight["cores"].as_array().unwrap().len(), 9, "{b}");
-            assert_eq!(one["simulated_cycles"], eight["simulated_cycles"], "{b}");
+            let (c1, c8) = (
+                one["simulated_cycles"].as_u64().unwrap(),
+                eight["simulated_cycles"].as_u64().unwrap(),
+            );
+            if ["ppe_naive", "ppe_approx", "spe_dfs", "spe_bfs"].contains(&b.name()) {
+                // The paper's builders use one SPE: idle ones cost nothing.
+                assert_eq!(c1, c8, "{b}");
+            } else {
+                assert!(c8 < c1, "{b}: 8 SPEs {c8} cycles, 1 SPE {c1}");
+            }
         } else {
             assert!(eight["spes"].is_null() && eight["simulated_ms"].is_null());
         }

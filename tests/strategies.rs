@@ -341,3 +341,71 @@ fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
     }
     assert_eq!(ppe_messages, 0, "the pool needs no PPE");
 }
+
+/// spe_bfs_private on 1 to 8 SPEs: the baseline's tree (same splits, same
+/// leaves; only numbering may differ), valid, the same cycles and nodes on
+/// every run; with several SPEs every SPE works once the top is dealt, and
+/// the build takes fewer simulated cycles than the baseline's.
+#[test]
+fn spe_bfs_private_builds_the_baseline_tree_on_1_to_8_spes() {
+    use cellbih::cell::CellConfig;
+    let private = BuilderKind::from_name("spe_bfs_private").unwrap();
+    let cfg = BihConfig::default();
+    for spec in ["default", "car", "rtperf:30000:3"] {
+        let s = scene::load(spec, None).unwrap();
+        let base = BuilderKind::SPE_BFS.build(&s, &cfg).unwrap();
+        let base_cycles = base.simulated.as_ref().unwrap().run.cycles;
+        for spes in 1..=8 {
+            let cell = CellConfig::ps3().with_spes(spes);
+            let r = private.build_on(&s, &cfg, &cell).unwrap();
+            let what = format!("{spec} on {spes} SPEs");
+            r.bih.validate(&s).unwrap_or_else(|v| panic!("{what}: {v}"));
+            same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{what}: {e}"));
+            let again = private.build_on(&s, &cfg, &cell).unwrap();
+            let (a, b) = (r.simulated.unwrap(), again.simulated.unwrap());
+            assert_eq!(a.run.cycles, b.run.cycles, "{what}");
+            assert_eq!(a.run.cores, b.run.cores, "{what}");
+            assert_eq!(r.bih.nodes, again.bih.nodes, "{what}");
+            assert_eq!(
+                a.stats.items_partitioned,
+                base.simulated.as_ref().unwrap().stats.items_partitioned,
+                "{what}"
+            );
+            if spes > 1 && s.len() > 10_000 {
+                for (name, c) in &a.run.cores[1..] {
+                    assert!(c.busy.0 > 0, "{what}: {name} did nothing");
+                }
+                assert!(a.run.cycles < base_cycles, "{what}");
+            }
+        }
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 64, ..Default::default() })]
+
+    /// spe_bfs_private on the property scenes (scales 1e-15 to 1e15, flat,
+    /// degenerate, stacks, grids) with 1 to 8 SPEs and small leaves (so
+    /// that the top levels deal): valid, equal to brute force, the
+    /// baseline's tree.
+    #[test]
+    fn spe_bfs_private_on_any_scene_and_spe_count(
+        scene in common::scene_strategy(),
+        spes in 1usize..=8,
+        leaf in 1u32..4,
+    ) {
+        let private = BuilderKind::from_name("spe_bfs_private").unwrap();
+        let cfg = BihConfig { leaf_size: leaf, max_depth: 64 };
+        let cell = cellbih::cell::CellConfig::ps3().with_spes(spes);
+        let r = private.build_on(&scene, &cfg, &cell).map_err(|e| {
+            proptest::test_runner::TestCaseError::fail(e.to_string())
+        })?;
+        r.bih.validate(&scene).map_err(|v| proptest::test_runner::TestCaseError::fail(v.to_string()))?;
+        let base = BuilderKind::SPE_BFS.build(&scene, &cfg).unwrap();
+        same_tree_structure(&base.bih, &r.bih).map_err(proptest::test_runner::TestCaseError::fail)?;
+        let tracer = cellbih::bih::Tracer::new(&r.bih, &scene);
+        for ray in common::rays_for(&scene, 24, 5) {
+            common::check_ray(&scene, &tracer, &ray).map_err(proptest::test_runner::TestCaseError::fail)?;
+        }
+    }
+}

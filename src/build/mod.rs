@@ -93,6 +93,7 @@ impl BuilderKind {
         BuilderKind::PPE_APPROX,
         BuilderKind::SPE_DFS,
         BuilderKind::SPE_BFS,
+        BuilderKind(&strategy::spe_bfs_private::BUILDER),
     ];
 
     pub fn name(self) -> &'static str {

@@ -12,6 +12,7 @@ pub mod layout;
 pub mod ppe_approx;
 pub mod ppe_naive;
 pub mod spe_bfs;
+pub mod spe_bfs_private;
 pub mod spe_dfs;
 pub mod work_queue;
 
@@ -42,6 +43,9 @@ pub struct Output {
     /// concatenate in node-id order.
     pub nodes: Vec<(Ea, usize)>,
     pub stats: BuildStats,
+    /// The pieces hold unreachable slots (several arenas in one pool):
+    /// drop them on read-back, keeping the tree and its sibling pairs.
+    pub compact: bool,
 }
 
 /// The PPE allocates a node array in main memory and writes `nodes` into
@@ -52,6 +56,27 @@ pub(crate) async fn write_nodes(ppe: &Ppe, nodes: &[BihNode]) -> Result<(Ea, usi
         .await?;
     ppe.write_pod(ea, nodes).await?;
     Ok((ea, nodes.len()))
+}
+
+/// The nodes reachable from node 0, renumbered breadth first (children
+/// stay adjacent): what is left of a pool shared by several arenas once its
+/// skipped and unused slots are dropped. Done on read-back, on the host,
+/// uncharged: the tree in main memory is usable as it is.
+fn compact(nodes: &[BihNode]) -> Vec<BihNode> {
+    let mut out = vec![nodes[0]];
+    let mut queue = std::collections::VecDeque::from([0usize]);
+    while let Some(at) = queue.pop_front() {
+        let n = out[at];
+        if n.is_leaf() {
+            continue;
+        }
+        let (c, first) = (n.left_child() as usize, out.len());
+        out.extend([nodes[c], nodes[c + 1]]);
+        let [l, r] = n.clip();
+        out[at] = BihNode::inner(first as u32, n.axis(), l, r);
+        queue.extend([first, first + 1]);
+    }
+    out
 }
 
 /// A tree built on the emulated Cell and what it cost there.
@@ -109,6 +134,9 @@ pub fn run_in(
     let mut nodes: Vec<BihNode> = Vec::new();
     for &(ea, count) in &o.nodes {
         nodes.extend(cell.memory().read_pod::<BihNode>(ea, count)?);
+    }
+    if o.compact {
+        nodes = compact(&nodes);
     }
     let records: Vec<layout::TriRecord> = cell.memory().read_pod(triangles, scene.len())?;
     let bih = Bih {

@@ -26,7 +26,7 @@ use glam::Vec3;
 use super::arena::{BlockSource, ObjectArena, pieces, serve_blocks};
 use super::fig1::{Fig1Buffers, partition_in_place, stream_bounds};
 use super::layout::TriRecord;
-use super::work_queue::WorkQueue;
+use super::work_queue::{Level, WorkQueue};
 use super::{Output, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode};
@@ -51,7 +51,14 @@ pub struct Job {
 const _: () = assert!(size_of::<Job>() == 64);
 
 impl Job {
-    fn new(first: usize, count: usize, node: usize, depth: u32, cand: Aabb, side: &Side) -> Self {
+    pub(super) fn new(
+        first: usize,
+        count: usize,
+        node: usize,
+        depth: u32,
+        cand: Aabb,
+        side: &Side,
+    ) -> Self {
         let c = side.centers();
         Job {
             first: first as u32,
@@ -100,7 +107,7 @@ fn spawn(
     let spe_stats = stats.clone();
 
     cell.spawn_spe(0, move |spe| async move {
-        let mut b = SpeBuilder::new(&spe, tris, work_ppe, cfg)?;
+        let mut b = SpeBuilder::new(&spe, tris, work_ppe, cfg, BlockSource::Mailbox)?;
         let all = stream_bounds::<TriRecord>(
             &spe,
             &b.fig1,
@@ -131,32 +138,47 @@ struct Pending {
     split: Option<(Split, Aabb)>,
 }
 
-/// The SPE program's state: its local-store buffers and counters.
-struct SpeBuilder<'a> {
+/// The SPE program's state: its local-store buffers and counters. The
+/// multi-SPE strategies run the same loop on every SPE.
+pub(super) struct SpeBuilder<'a> {
     spe: &'a Spe,
     tris: Ea,
     cfg: BihConfig,
-    fig1: Fig1Buffers,
+    pub(super) fig1: Fig1Buffers,
     /// `WorkA`/`WorkB` and their spill areas.
-    queue: WorkQueue<'a, Job>,
-    arena: ObjectArena<'a>,
+    pub(super) queue: WorkQueue<'a, Job>,
+    pub(super) arena: ObjectArena<'a>,
+    /// Jobs of this depth were dealt to this SPE: their nodes' slots belong
+    /// to another arena (multi-SPE strategies).
+    pub(super) foreign_depth: Option<u32>,
+    /// Where the intervals of the jobs dealt to this SPE start: a batch of
+    /// agglomerated jobs never spans two of them.
+    pub(super) dealt_starts: Vec<u32>,
     /// Which Fig. 1 buffer the next agglomerated batch uses (0 or 1).
     batch_buf: usize,
     /// The interval each batch buffer last put back (its put may still be
     /// under way).
     batch_put: [Option<(u32, u32)>; 2],
-    stats: BuildStats,
+    pub(super) stats: BuildStats,
 }
 
 impl<'a> SpeBuilder<'a> {
-    fn new(spe: &'a Spe, tris: Ea, work_ppe: [Ea; 2], cfg: BihConfig) -> Result<Self, CellError> {
+    pub(super) fn new(
+        spe: &'a Spe,
+        tris: Ea,
+        work_ppe: [Ea; 2],
+        cfg: BihConfig,
+        blocks: BlockSource,
+    ) -> Result<Self, CellError> {
         Ok(SpeBuilder {
             spe,
             tris,
             cfg,
             fig1: Fig1Buffers::alloc(spe)?,
             queue: WorkQueue::new(spe, work_ppe)?,
-            arena: ObjectArena::new(spe, BlockSource::Mailbox)?,
+            arena: ObjectArena::new(spe, blocks)?,
+            foreign_depth: None,
+            dealt_starts: Vec::new(),
             batch_buf: 0,
             batch_put: [None, None],
             stats: BuildStats::default(),
@@ -169,26 +191,55 @@ impl<'a> SpeBuilder<'a> {
         self.arena.open().await;
         let root_id = self.arena.alloc(1).await?;
         debug_assert_eq!(root_id, root.node);
-        let mut level = self.queue.start(root)?;
-        loop {
-            for k in 0..WorkQueue::<Job>::blocks(level) {
-                let jobs = self.queue.load(level, k).await?;
-                self.process(&jobs).await?;
-            }
-            match self.queue.end_level().await? {
-                Some(next) => level = next,
-                None => break,
-            }
-        }
+        let level = self.queue.start(root)?;
+        self.levels(level, None).await?;
         let count = self.arena.allocated();
         self.arena.close(count).await?;
         self.stats.nodes = count as u64;
         Ok(())
     }
 
+    /// Builds level by level from `level`. With `stop_at`, stops before the
+    /// first level of at least that many jobs (at most 128, so that it is
+    /// still in `WorkA`) and returns it; otherwise runs to the end.
+    pub(super) async fn levels(
+        &mut self,
+        mut level: Level,
+        stop_at: Option<usize>,
+    ) -> Result<Option<Level>, CellError> {
+        debug_assert!(stop_at.is_none_or(|s| s <= 128));
+        loop {
+            for k in 0..WorkQueue::<Job>::blocks(level) {
+                let jobs = self.queue.load(level, k).await?;
+                self.process(&jobs).await?;
+            }
+            match self.queue.end_level().await? {
+                Some(Level::Local(len)) if stop_at.is_some_and(|s| len >= s) => {
+                    return Ok(Some(Level::Local(len)));
+                }
+                Some(next) => level = next,
+                None => return Ok(None),
+            }
+        }
+    }
+
+    /// Writes `job`'s node: into this SPE's arena, or, for a job dealt to
+    /// it, into the slot its parent's SPE handed out.
+    async fn emit(&mut self, job: &Job, node: BihNode) -> Result<(), CellError> {
+        if self.foreign_depth == Some(job.depth) {
+            self.arena.emit_foreign(job.node, node).await
+        } else {
+            self.arena.emit(job.node, node).await
+        }
+    }
+
     /// Makes the nodes of `jobs` (consecutive jobs of one level, in node-id
     /// order), agglomerating small intervals.
     async fn process(&mut self, jobs: &[Job]) -> Result<(), CellError> {
+        if self.foreign_depth.is_some() && self.foreign_depth == jobs.first().map(|j| j.depth) {
+            // The jobs dealt to this SPE (one block: at most 128).
+            self.dealt_starts = jobs.iter().map(|j| j.first).collect();
+        }
         let k = self.spe.cost().kernels;
         let per_block = (super::fig1::BLOCK_BYTES as usize / size_of::<TriRecord>()) as u32;
         let mut batch: Vec<Pending> = Vec::new();
@@ -226,7 +277,12 @@ impl<'a> SpeBuilder<'a> {
             }
             let end = job.first + job.count;
             let grown = span.map_or((job.first, end), |(f, _)| (f, end));
-            if grown.1 - grown.0 > per_block {
+            // A batch's get and put cover its whole span: it must not reach
+            // over records another SPE owns (the start of another dealt
+            // interval lies between).
+            let foreign = span
+                .is_some_and(|(f, _)| self.dealt_starts.iter().any(|&r| f < r && r <= job.first));
+            if grown.1 - grown.0 > per_block || foreign {
                 self.flush_batch(&mut batch, &mut span).await?;
                 span = Some((job.first, end));
             } else {
@@ -290,7 +346,7 @@ impl<'a> SpeBuilder<'a> {
             match p.split {
                 None => {
                     let leaf = BihNode::leaf(p.job.first, p.job.count);
-                    self.arena.emit(p.job.node, leaf).await?;
+                    self.emit(&p.job, leaf).await?;
                 }
                 Some((s, cand)) => {
                     let (l, r) = sides.next().expect("one partition per split job");
@@ -314,8 +370,7 @@ impl<'a> SpeBuilder<'a> {
         self.stats.partitions += 1;
         let children = self.arena.alloc(2).await? as usize;
         let [cl, cr] = clip_planes(s.axis, l, r);
-        self.arena
-            .emit(job.node, BihNode::inner(children as u32, s.axis, cl, cr))
+        self.emit(job, BihNode::inner(children as u32, s.axis, cl, cr))
             .await?;
         let [lc, rc] = s.candidates(cand);
         let first = job.first as usize;

@@ -76,6 +76,31 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         Ok(Level::Local(1))
     }
 
+    /// Points `WorkAPPE`/`WorkBPPE` at other areas (between levels).
+    pub fn set_spill(&mut self, work_ppe: [Ea; 2]) {
+        self.work_ppe = work_ppe;
+        self.a_ppe = 0;
+    }
+
+    /// A level of `jobs` (at most [`Self::PER_BUFFER`]) in `WorkA`, in place
+    /// of the one there (between levels).
+    pub fn restart_local(&mut self, jobs: &[J]) -> Result<Level, CellError> {
+        debug_assert!(jobs.len() <= Self::PER_BUFFER && self.b_len == 0);
+        self.spe.ls_write(self.work[self.a], jobs)?;
+        Ok(Level::Local(jobs.len()))
+    }
+
+    /// Writes `jobs` (at most [`Self::PER_BUFFER`]) to main memory at `ea`
+    /// through `WorkB` (between levels, when `WorkB` is empty) and waits.
+    pub async fn write_jobs(&mut self, jobs: &[J], ea: Ea) -> Result<(), CellError> {
+        debug_assert!(jobs.len() <= Self::PER_BUFFER && self.b_len == 0);
+        let b = self.work[1 - self.a];
+        self.spe.ls_write(b, jobs)?;
+        let bytes = size_of_val(jobs) as u32;
+        self.spe.put(b, ea, bytes, self.tag).await?;
+        self.spe.wait_tag(self.tag).await
+    }
+
     /// Blocks of at most [`Self::PER_BUFFER`] jobs the level is read in.
     pub fn blocks(level: Level) -> usize {
         match level {

@@ -1,0 +1,220 @@
+//! `spe_bfs_private` — section 5's private per-SPE queues: breadth first on
+//! all the machine's SPEs, each on its own jobs, with no synchronisation
+//! once the work is dealt.
+//!
+//! 1. **The top levels**: SPE 0 builds alone with the baseline's loop
+//!    (`spe_bfs`: WorkA/WorkB, Fig. 1, agglomeration) until a level holds
+//!    at least [`DEAL_PER_SPE`] jobs per SPE. The other SPEs wait: this is
+//!    the paper's worry that on the upper levels most SPEs sit idle.
+//! 2. **The deal** (static, largest first): SPE 0 sorts that level's jobs
+//!    by triangle count and gives each, in turn, to the SPE with the fewest
+//!    triangles so far. It writes each SPE's jobs and a deal record (job
+//!    count, its `WorkAPPE`/`WorkBPPE`, carved from one area in proportion
+//!    to its triangles) to main memory and signals it.
+//! 3. **Private queues**: every SPE runs the baseline's WorkA/WorkB loop on
+//!    its own jobs, writing nodes into its own **ObjectArena** list: blocks
+//!    taken from one pool by fetch-and-add, so every SPE computes node ids
+//!    itself in one index space (a pair of children stays adjacent). The
+//!    dealt jobs' own nodes lie in SPE 0's blocks, where their parents put
+//!    them; each SPE writes those few by lock-line updates.
+//!
+//! The splits are the baseline's, so the tree is the baseline's tree; only
+//! the numbering differs (nodes read back are renumbered breadth first).
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource};
+use super::fig1::stream_bounds;
+use super::layout::TriRecord;
+use super::spe_bfs::{Job, SpeBuilder};
+use super::work_queue::{Level, WORK_BYTES, WorkQueue};
+use super::{Output, Setup};
+use crate::bih::BihConfig;
+use crate::build::Builder;
+use crate::cell::{Cell, CellError, Ea, Spe};
+
+/// `spe_bfs_private` in the registry of builders.
+pub const BUILDER: Builder = Builder::cell(
+    "spe_bfs_private",
+    "section 5: SPE 0 builds the top levels, deals the jobs largest first, then every SPE builds its own jobs breadth first with its own ObjectArena list (--spes)",
+    spawn,
+);
+
+/// The top levels end at the first level with this many jobs per SPE.
+/// PERF: a knob of the strategy to measure; 4 leaves LPT dealing room to
+/// balance.
+pub const DEAL_PER_SPE: usize = 4;
+
+/// A deal record in main memory, one 128-byte line per SPE: jobs dealt,
+/// the depth of their level, and the SPE's `WorkAPPE` and `WorkBPPE`.
+const RECORD_BYTES: u64 = 128;
+
+fn spawn(
+    cell: &mut Cell,
+    setup: &Setup,
+    cfg: &BihConfig,
+    out: Rc<RefCell<Output>>,
+) -> Result<(), CellError> {
+    let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    let spes = cell.config().spes;
+    let mem = || cell.memory_mut();
+    // One pool for every SPE's arena: every node, plus a pair skipped and
+    // a part-filled block per SPE and phase.
+    let pool_blocks = (2 * n + 1).div_ceil(BLOCK_NODES) + 2 * spes + 2;
+    let pool = mem().alloc("ObjectArena pool", pool_blocks as u64 * BLOCK_BYTES, 128)?;
+    let counter = mem().alloc("ObjectArena pool counter", 128, 128)?;
+    let blocks = BlockSource::Pool {
+        base: pool,
+        blocks: pool_blocks as u32,
+        counter,
+    };
+    // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
+    // triangles: room for one level of as many jobs as triangles each.
+    let per_spe_slack = 2 * WORK_BYTES as u64;
+    let work_bytes = 2 * (WorkQueue::<Job>::spill_bytes(n) + spes as u64 * per_spe_slack);
+    let work = mem().alloc("WorkAPPE/WorkBPPE of every SPE", work_bytes, 128)?;
+    let records = mem().alloc("deal records", spes as u64 * RECORD_BYTES, 128)?;
+    {
+        let mut o = out.borrow_mut();
+        o.nodes = vec![(pool, pool_blocks * BLOCK_NODES)];
+        o.compact = true;
+    }
+    for id in 0..spes {
+        let out = out.clone();
+        cell.spawn_spe(id, move |spe| async move {
+            let mut b = SpeBuilder::new(&spe, tris, [work, work], cfg, blocks)?;
+            let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
+            let tag = spe.tag("deal")?;
+            if id == 0 {
+                let all = stream_bounds::<TriRecord>(
+                    &spe,
+                    &b.fig1,
+                    tris,
+                    n as u64,
+                    spe.cost().kernels.spe_bounds_item,
+                )
+                .await?;
+                let root_id = b.arena.alloc(1).await?;
+                let level = b
+                    .queue
+                    .start(Job::new(0, n, root_id as usize, 0, region, &all))?;
+                let dealt = b.levels(level, Some(DEAL_PER_SPE * spes)).await?;
+                let top_nodes = b.arena.allocated();
+                b.arena.close(top_nodes).await?;
+                let own = match dealt {
+                    Some(level) => {
+                        deal(&spe, &mut b, level, spes, work, records, record, tag).await?
+                    }
+                    None => {
+                        // The tree ended in the top levels: nothing to deal.
+                        tell_nothing(&spe, spes, records, record, tag).await?;
+                        None
+                    }
+                };
+                if let Some((jobs, depth, areas)) = own {
+                    b.arena = super::arena::ObjectArena::new(&spe, blocks)?;
+                    b.queue.set_spill(areas);
+                    b.foreign_depth = Some(depth);
+                    let level = b.queue.restart_local(&jobs)?;
+                    b.levels(level, None).await?;
+                    let count = b.arena.allocated();
+                    b.arena.close(count).await?;
+                }
+            } else {
+                spe.read_signal(1).await?;
+                spe.get(record, records.offset(id as u64 * RECORD_BYTES), 32, tag)
+                    .await?;
+                spe.wait_tag(tag).await?;
+                let [count, depth, a, bb] = spe.ls_read::<u64>(record, 4)?[..] else {
+                    unreachable!("four words")
+                };
+                if count > 0 {
+                    b.queue.set_spill([Ea(a), Ea(bb)]);
+                    b.foreign_depth = Some(depth as u32);
+                    b.levels(Level::InMemory(count as usize), None).await?;
+                    let count = b.arena.allocated();
+                    b.arena.close(count).await?;
+                }
+            }
+            let mut o = out.borrow_mut();
+            o.stats.items_partitioned += b.stats.items_partitioned;
+            o.stats.partitions += b.stats.partitions;
+            Ok(())
+        });
+    }
+    Ok(())
+}
+
+/// SPE 0 deals the jobs of `level` (in `WorkA`): largest first, each to the
+/// SPE with the fewest triangles so far. Writes every other SPE's jobs and
+/// record and signals it; returns SPE 0's own jobs, their depth and its
+/// spill areas (or `None` if it got none).
+#[allow(clippy::too_many_arguments)]
+async fn deal(
+    spe: &Spe,
+    b: &mut SpeBuilder<'_>,
+    level: Level,
+    spes: usize,
+    work: Ea,
+    records: Ea,
+    record: crate::cell::LsAddr,
+    tag: u32,
+) -> Result<Option<(Vec<Job>, u32, [Ea; 2])>, CellError> {
+    let jobs = b.queue.load(level, 0).await?;
+    let depth = jobs[0].depth;
+    // Sorting and dealing: the per-job bookkeeping rate of the SPE loop for
+    // each job (docs/cost-model.md).
+    spe.compute_items(spe.cost().kernels.spe_job, jobs.len() as u64);
+    let mut order: Vec<usize> = (0..jobs.len()).collect();
+    order.sort_by_key(|&j| (std::cmp::Reverse(jobs[j].count), jobs[j].node));
+    let mut load = vec![0u64; spes];
+    let mut hands: Vec<Vec<Job>> = vec![Vec::new(); spes];
+    for j in order {
+        let to = (0..spes).min_by_key(|&s| (load[s], s)).expect("an SPE");
+        load[to] += jobs[j].count as u64;
+        hands[to].push(jobs[j]);
+    }
+    let mut own = None;
+    let mut at = work;
+    for (to, mut hand) in hands.into_iter().enumerate() {
+        hand.sort_by_key(|j| j.node);
+        let triangles: usize = hand.iter().map(|j| j.count as usize).sum();
+        let area = WorkQueue::<Job>::spill_bytes(triangles.max(1)) + WORK_BYTES as u64;
+        let areas = [at, at.offset(area)];
+        at = at.offset(2 * area);
+        if to == 0 {
+            own = (!hand.is_empty()).then_some((hand, depth, areas));
+            continue;
+        }
+        if !hand.is_empty() {
+            b.queue.write_jobs(&hand, areas[0]).await?;
+        }
+        let words = [hand.len() as u64, depth as u64, areas[0].0, areas[1].0];
+        spe.ls_write(record, &words)?;
+        spe.put(record, records.offset(to as u64 * RECORD_BYTES), 32, tag)
+            .await?;
+        spe.wait_tag(tag).await?;
+        spe.send_signal(to, 1, 1).await?;
+    }
+    Ok(own)
+}
+
+/// The top levels made the whole tree: every other SPE is told it has no
+/// jobs.
+async fn tell_nothing(
+    spe: &Spe,
+    spes: usize,
+    records: Ea,
+    record: crate::cell::LsAddr,
+    tag: u32,
+) -> Result<(), CellError> {
+    spe.ls_write(record, &[0u64; 4])?;
+    for to in 1..spes {
+        spe.put(record, records.offset(to as u64 * RECORD_BYTES), 32, tag)
+            .await?;
+        spe.wait_tag(tag).await?;
+        spe.send_signal(to, 1, 1).await?;
+    }
+    Ok(())
+}
