@@ -18,6 +18,7 @@ use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
 use cellbih::render::{Camera, trace};
 use cellbih::scene::{self, Scene};
+use cellbih::strategy::Knobs;
 use cellbih::update::{Animation, MAX_FRAMES, Method, Summary, Updater};
 use cellbih::{rays_csv, render};
 
@@ -79,6 +80,14 @@ struct BuildArgs {
     /// whole Cell). Builders that use fewer leave the others idle.
     #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
     spes: u64,
+    /// Multi-SPE builders: the SPEs do not help partition the top levels
+    /// (they wait for the deal instead).
+    #[arg(long)]
+    no_coop_top: bool,
+    /// Multi-SPE builders: the top levels end at the first level with this
+    /// many jobs per SPE (1 to 16).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(1..=16))]
+    deal_per_spe: u64,
 }
 
 /// What `--builder` and its options ask for.
@@ -86,11 +95,14 @@ struct Chosen {
     builder: BuilderKind,
     cfg: BihConfig,
     cell: CellConfig,
+    knobs: Knobs,
 }
 
 impl Chosen {
     fn build(&self, s: &Scene) -> Res<BuildReport> {
-        Ok(self.builder.build_on(s, &self.cfg, &self.cell)?)
+        Ok(self
+            .builder
+            .build_with(s, s.bounds(), &self.cfg, &self.cell, &self.knobs)?)
     }
 
     /// "builder B" and, for an emulated one, "on N SPEs".
@@ -381,7 +393,16 @@ fn parse_build(args: &BuildArgs) -> Res<Chosen> {
         max_depth: args.max_depth,
     };
     let cell = CellConfig::ps3().with_spes(args.spes as usize);
-    Ok(Chosen { builder, cfg, cell })
+    let knobs = Knobs {
+        coop_top: !args.no_coop_top,
+        deal_per_spe: args.deal_per_spe as usize,
+    };
+    Ok(Chosen {
+        builder,
+        cfg,
+        cell,
+        knobs,
+    })
 }
 
 fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {

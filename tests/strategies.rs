@@ -342,13 +342,15 @@ fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
     assert_eq!(ppe_messages, 0, "the pool needs no PPE");
 }
 
-/// spe_bfs_private on 1 to 8 SPEs: the baseline's tree (same splits, same
-/// leaves; only numbering may differ), valid, the same cycles and nodes on
-/// every run; with several SPEs every SPE works once the top is dealt, and
-/// the build takes fewer simulated cycles than the baseline's.
+/// spe_bfs_private on 1 to 8 SPEs, with the cooperative top levels and
+/// without: the baseline's tree (same splits, same leaves; only numbering
+/// may differ), valid, the same cycles and nodes on every run; with several
+/// SPEs every SPE works and the build takes fewer simulated cycles than the
+/// baseline's, and fewer still when the SPEs help with the top levels.
 #[test]
 fn spe_bfs_private_builds_the_baseline_tree_on_1_to_8_spes() {
     use cellbih::cell::CellConfig;
+    use cellbih::strategy::Knobs;
     let private = BuilderKind::from_name("spe_bfs_private").unwrap();
     let cfg = BihConfig::default();
     for spec in ["default", "car", "rtperf:30000:3"] {
@@ -357,25 +359,36 @@ fn spe_bfs_private_builds_the_baseline_tree_on_1_to_8_spes() {
         let base_cycles = base.simulated.as_ref().unwrap().run.cycles;
         for spes in 1..=8 {
             let cell = CellConfig::ps3().with_spes(spes);
-            let r = private.build_on(&s, &cfg, &cell).unwrap();
-            let what = format!("{spec} on {spes} SPEs");
-            r.bih.validate(&s).unwrap_or_else(|v| panic!("{what}: {v}"));
-            same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{what}: {e}"));
-            let again = private.build_on(&s, &cfg, &cell).unwrap();
-            let (a, b) = (r.simulated.unwrap(), again.simulated.unwrap());
-            assert_eq!(a.run.cycles, b.run.cycles, "{what}");
-            assert_eq!(a.run.cores, b.run.cores, "{what}");
-            assert_eq!(r.bih.nodes, again.bih.nodes, "{what}");
-            assert_eq!(
-                a.stats.items_partitioned,
-                base.simulated.as_ref().unwrap().stats.items_partitioned,
-                "{what}"
-            );
-            if spes > 1 && s.len() > 10_000 {
-                for (name, c) in &a.run.cores[1..] {
-                    assert!(c.busy.0 > 0, "{what}: {name} did nothing");
+            let mut cycles = Vec::new();
+            for coop_top in [false, true] {
+                let knobs = Knobs {
+                    coop_top,
+                    ..Knobs::default()
+                };
+                let build = || {
+                    private
+                        .build_with(&s, s.bounds(), &cfg, &cell, &knobs)
+                        .unwrap()
+                };
+                let r = build();
+                let what = format!("{spec} on {spes} SPEs, {knobs:?}");
+                r.bih.validate(&s).unwrap_or_else(|v| panic!("{what}: {v}"));
+                same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{what}: {e}"));
+                let again = build();
+                let (a, b) = (r.simulated.unwrap(), again.simulated.unwrap());
+                assert_eq!(a.run.cycles, b.run.cycles, "{what}");
+                assert_eq!(a.run.cores, b.run.cores, "{what}");
+                assert_eq!(r.bih.nodes, again.bih.nodes, "{what}");
+                if spes > 1 && s.len() > 10_000 {
+                    for (name, c) in &a.run.cores[1..] {
+                        assert!(c.busy.0 > 0, "{what}: {name} did nothing");
+                    }
+                    assert!(a.run.cycles < base_cycles, "{what}");
                 }
-                assert!(a.run.cycles < base_cycles, "{what}");
+                cycles.push(a.run.cycles);
+            }
+            if spes > 1 && s.len() > 10_000 {
+                assert!(cycles[1] < cycles[0], "{spec} on {spes} SPEs: helping pays");
             }
         }
     }

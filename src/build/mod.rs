@@ -141,11 +141,23 @@ impl BuilderKind {
         cfg: &BihConfig,
         cell: &CellConfig,
     ) -> Result<BuildReport, CellError> {
+        self.build_with(scene, region, cfg, cell, &strategy::Knobs::default())
+    }
+
+    /// [`BuilderKind::build_in`] with the multi-SPE strategies' knobs.
+    pub fn build_with(
+        self,
+        scene: &Scene,
+        region: Aabb,
+        cfg: &BihConfig,
+        cell: &CellConfig,
+        knobs: &strategy::Knobs,
+    ) -> Result<BuildReport, CellError> {
         let start = Instant::now();
         let (bih, simulated) = match self.0.run {
             Run::Host(build) => (build(scene, region, cfg), None),
             Run::Cell(spawn) => {
-                let b = strategy::run_in(spawn, scene, region, cfg, cell)?;
+                let b = strategy::run_in(spawn, scene, region, cfg, cell, knobs)?;
                 (
                     b.bih,
                     Some(Simulated {

@@ -7,6 +7,7 @@
 //! ([`fig1`]), the kernel of the SPE builders.
 
 pub mod arena;
+pub mod coop;
 pub mod fig1;
 pub mod layout;
 pub mod ppe_approx;
@@ -29,11 +30,38 @@ use crate::scene::Scene;
 /// triangles of `Setup`, and they leave the tree's node pieces in `Output`.
 pub type Spawn = fn(&mut Cell, &Setup, &BihConfig, Rc<RefCell<Output>>) -> Result<(), CellError>;
 
-/// Where a strategy finds its input in main memory.
+/// Where a strategy finds its input in main memory, and its knobs.
 pub struct Setup {
     pub triangles: Ea,
     pub count: usize,
     pub region: Aabb,
+    pub knobs: Knobs,
+}
+
+/// The knobs of the multi-SPE strategies, each declared here with what it
+/// buys and costs. The paper's builders ignore them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Knobs {
+    /// Before the deal, every SPE helps partition each large interval of
+    /// the top levels (the cooperative partition, `coop.rs`). Buys: the
+    /// other SPEs work instead of waiting for the deal (dragon on 6 SPEs:
+    /// 342 → 186 ms). Costs: every record of those levels travels twice
+    /// (through a scratch array) and two barriers per interval.
+    pub coop_top: bool,
+    /// The top levels end at the first level with this many jobs per SPE
+    /// (1 to 16: the level must fit `WorkA`). More jobs give the
+    /// largest-first deal more room to balance, but more levels are built
+    /// before it.
+    pub deal_per_spe: usize,
+}
+
+impl Default for Knobs {
+    fn default() -> Self {
+        Knobs {
+            coop_top: true,
+            deal_per_spe: 4,
+        }
+    }
 }
 
 /// What a strategy's program leaves for reading back.
@@ -97,7 +125,14 @@ pub fn run(
     cfg: &BihConfig,
     cell_cfg: &CellConfig,
 ) -> Result<CellBuild, CellError> {
-    run_in(spawn, scene, scene.bounds(), cfg, cell_cfg)
+    run_in(
+        spawn,
+        scene,
+        scene.bounds(),
+        cfg,
+        cell_cfg,
+        &Knobs::default(),
+    )
 }
 
 /// [`run`] with `region` as the scene box of the global heuristic: the
@@ -109,6 +144,7 @@ pub fn run_in(
     region: Aabb,
     cfg: &BihConfig,
     cell_cfg: &CellConfig,
+    knobs: &Knobs,
 ) -> Result<CellBuild, CellError> {
     assert!(
         region.contains_box(&scene.bounds()),
@@ -120,6 +156,7 @@ pub fn run_in(
         triangles,
         count: scene.len(),
         region,
+        knobs: *knobs,
     };
     let out = Rc::new(RefCell::new(Output::default()));
     spawn(&mut cell, &setup, cfg, out.clone())?;

@@ -154,6 +154,9 @@ pub(super) struct SpeBuilder<'a> {
     /// Where the intervals of the jobs dealt to this SPE start: a batch of
     /// agglomerated jobs never spans two of them.
     pub(super) dealt_starts: Vec<u32>,
+    /// The other SPEs help partition intervals of at least this many
+    /// triangles (multi-SPE strategies, before the deal).
+    pub(super) coop: Option<(super::coop::Coop, u32)>,
     /// Which Fig. 1 buffer the next agglomerated batch uses (0 or 1).
     batch_buf: usize,
     /// The interval each batch buffer last put back (its put may still be
@@ -179,6 +182,7 @@ impl<'a> SpeBuilder<'a> {
             arena: ObjectArena::new(spe, blocks)?,
             foreign_depth: None,
             dealt_starts: Vec::new(),
+            coop: None,
             batch_buf: 0,
             batch_put: [None, None],
             stats: BuildStats::default(),
@@ -263,6 +267,23 @@ impl<'a> SpeBuilder<'a> {
                 // Fig. 1 reuses the batches' buffers: their puts finish first.
                 let batches = (1 << self.fig1.tag(0)) | (1 << self.fig1.tag(1));
                 self.spe.wait_tags(batches, WaitMode::All).await?;
+                if let Some((coop, min)) = self.coop.as_mut()
+                    && job.count >= *min
+                {
+                    // Every SPE partitions a share of it.
+                    let (l, r) = coop
+                        .lead(
+                            self.spe,
+                            &self.fig1,
+                            job.first,
+                            job.count,
+                            s,
+                            k.spe_partition_item,
+                        )
+                        .await?;
+                    self.split_node(&job, s, cand, &l, &r).await?;
+                    continue;
+                }
                 let p = partition_in_place::<TriRecord>(
                     self.spe,
                     &self.fig1,

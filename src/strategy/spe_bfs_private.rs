@@ -4,8 +4,10 @@
 //!
 //! 1. **The top levels**: SPE 0 builds alone with the baseline's loop
 //!    (`spe_bfs`: WorkA/WorkB, Fig. 1, agglomeration) until a level holds
-//!    at least [`DEAL_PER_SPE`] jobs per SPE. The other SPEs wait: this is
-//!    the paper's worry that on the upper levels most SPEs sit idle.
+//!    at least `Knobs::deal_per_spe` jobs per SPE. Alone, the other SPEs
+//!    would wait — the paper's worry that on the upper levels most SPEs sit
+//!    idle; with `Knobs::coop_top` they help partition every large interval
+//!    of those levels ([`super::coop`]).
 //! 2. **The deal** (static, largest first): SPE 0 sorts that level's jobs
 //!    by triangle count and gives each, in turn, to the SPE with the fewest
 //!    triangles so far. It writes each SPE's jobs and a deal record (job
@@ -25,6 +27,7 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource};
+use super::coop::{Coop, CoopArea, GO};
 use super::fig1::stream_bounds;
 use super::layout::TriRecord;
 use super::spe_bfs::{Job, SpeBuilder};
@@ -41,11 +44,6 @@ pub const BUILDER: Builder = Builder::cell(
     spawn,
 );
 
-/// The top levels end at the first level with this many jobs per SPE.
-/// PERF: a knob of the strategy to measure; 4 leaves LPT dealing room to
-/// balance.
-pub const DEAL_PER_SPE: usize = 4;
-
 /// A deal record in main memory, one 128-byte line per SPE: jobs dealt,
 /// the depth of their level, and the SPE's `WorkAPPE` and `WorkBPPE`.
 const RECORD_BYTES: u64 = 128;
@@ -57,6 +55,13 @@ fn spawn(
     out: Rc<RefCell<Output>>,
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    let knobs = setup.knobs;
+    if !(1..=16).contains(&knobs.deal_per_spe) {
+        return Err(CellError::Config(format!(
+            "spe_bfs_private: {} jobs per SPE at the deal; 1 to 16",
+            knobs.deal_per_spe
+        )));
+    }
     let spes = cell.config().spes;
     let mem = || cell.memory_mut();
     // One pool for every SPE's arena: every node, plus a pair skipped and
@@ -75,6 +80,18 @@ fn spawn(
     let work_bytes = 2 * (WorkQueue::<Job>::spill_bytes(n) + spes as u64 * per_spe_slack);
     let work = mem().alloc("WorkAPPE/WorkBPPE of every SPE", work_bytes, 128)?;
     let records = mem().alloc("deal records", spes as u64 * RECORD_BYTES, 128)?;
+    let scratch = mem().alloc("cooperative partition scratch", n as u64 * 48, 128)?;
+    let descriptor = mem().alloc("cooperative partition descriptor", 128, 128)?;
+    let table = mem().alloc("cooperative partition table", spes as u64 * 128, 128)?;
+    let arrivals = mem().alloc("cooperative partition arrivals", 128, 128)?;
+    let coop = CoopArea {
+        spes,
+        tris,
+        scratch,
+        descriptor,
+        table,
+        arrivals,
+    };
     {
         let mut o = out.borrow_mut();
         o.nodes = vec![(pool, pool_blocks * BLOCK_NODES)];
@@ -86,6 +103,8 @@ fn spawn(
             let mut b = SpeBuilder::new(&spe, tris, [work, work], cfg, blocks)?;
             let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
             let tag = spe.tag("deal")?;
+            let mut helper = Coop::new(&spe, coop)?;
+            let rate = spe.cost().kernels.spe_partition_item;
             if id == 0 {
                 let all = stream_bounds::<TriRecord>(
                     &spe,
@@ -95,11 +114,17 @@ fn spawn(
                     spe.cost().kernels.spe_bounds_item,
                 )
                 .await?;
+                if spes > 1 && knobs.coop_top {
+                    let per_block = super::fig1::BLOCK_BYTES / size_of::<TriRecord>() as u32;
+                    b.coop = Some((helper, spes as u32 * per_block));
+                }
                 let root_id = b.arena.alloc(1).await?;
                 let level = b
                     .queue
                     .start(Job::new(0, n, root_id as usize, 0, region, &all))?;
-                let dealt = b.levels(level, Some(DEAL_PER_SPE * spes)).await?;
+                let dealt = b.levels(level, Some(knobs.deal_per_spe * spes)).await?;
+                // From the deal on, every SPE works alone.
+                b.coop = None;
                 let top_nodes = b.arena.allocated();
                 b.arena.close(top_nodes).await?;
                 let own = match dealt {
@@ -122,7 +147,10 @@ fn spawn(
                     b.arena.close(count).await?;
                 }
             } else {
-                spe.read_signal(1).await?;
+                // Help partition the top levels until the deal comes.
+                while spe.read_signal(1).await? == GO {
+                    helper.help(&spe, &b.fig1, rate).await?;
+                }
                 spe.get(record, records.offset(id as u64 * RECORD_BYTES), 32, tag)
                     .await?;
                 spe.wait_tag(tag).await?;

@@ -1,0 +1,303 @@
+//! The cooperative partition of one large interval by every SPE — the
+//! scheme section 2 of the paper describes and rejects for one SPE, used
+//! here for the top levels of a multi-SPE build, where there are fewer
+//! jobs than SPEs:
+//!
+//! 1. every SPE takes an equal chunk of the interval, partitions it block by
+//!    block in its local store (the baseline's kernel and rate), and writes
+//!    each block's left part upward from its chunk's start and its right
+//!    part downward from its chunk's end in a scratch array;
+//! 2. it writes its two counts and bounds to a table (one line per SPE);
+//!    a barrier; every SPE reads the table: prefix sums over the counts
+//!    give where its parts go;
+//! 3. it copies its left part to the left side of the interval and its
+//!    right part to the right side, at those places; a barrier.
+//!
+//! Barriers count arrivals with fetch-and-add; the last to arrive signals
+//! the others (signal register 2), so no SPE spins. The coordinator (SPE 0)
+//! hands out each interval by a descriptor line and signal register 1.
+//! Traffic: every record is read twice and written twice, against once
+//! and once for Fig. 1 — the price of the parallelism, charged as DMA.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3A;
+
+use super::fig1::{BLOCK_BYTES, Fig1Buffers};
+use super::layout::TriRecord;
+use crate::build::kernels::{Side, Split, partition};
+use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe, WaitMode};
+
+/// Signal-register-1 values from the coordinator.
+pub const GO: u32 = 2;
+
+/// One side as the table holds it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct SideRec {
+    count: u32,
+    lo: [f32; 3],
+    hi: [f32; 3],
+    center_lo: [f32; 3],
+    center_hi: [f32; 3],
+}
+
+impl SideRec {
+    fn of(s: &Side) -> Self {
+        SideRec {
+            count: s.count as u32,
+            lo: s.lo.to_array(),
+            hi: s.hi.to_array(),
+            center_lo: s.center_lo.to_array(),
+            center_hi: s.center_hi.to_array(),
+        }
+    }
+
+    fn side(&self) -> Side {
+        Side {
+            count: self.count as usize,
+            lo: Vec3A::from_array(self.lo),
+            hi: Vec3A::from_array(self.hi),
+            center_lo: Vec3A::from_array(self.center_lo),
+            center_hi: Vec3A::from_array(self.center_hi),
+        }
+    }
+}
+
+/// One SPE's line of the table: its left and right side. 128 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct Entry {
+    left: SideRec,
+    right: SideRec,
+    _pad: [u32; 6],
+}
+const _: () = assert!(size_of::<Entry>() == 128);
+
+/// The descriptor of the interval to partition: first, count, axis and
+/// plane (as bits). One line.
+const DESCRIPTOR_WORDS: usize = 32;
+
+/// What the SPEs share in main memory, set up by the host.
+#[derive(Clone, Copy, Debug)]
+pub struct CoopArea {
+    pub spes: usize,
+    pub tris: Ea,
+    /// A scratch array as large as the triangle records.
+    pub scratch: Ea,
+    /// The descriptor line, the table (one line per SPE), the arrival
+    /// counter line.
+    pub descriptor: Ea,
+    pub table: Ea,
+    pub arrivals: Ea,
+}
+
+/// One SPE's side of the cooperation: its local-store lines and the
+/// barriers it has passed.
+pub struct Coop {
+    pub area: CoopArea,
+    line: LsAddr,
+    table_ls: LsAddr,
+    barriers: u32,
+    tag: u32,
+}
+
+impl Coop {
+    pub fn new(spe: &Spe, area: CoopArea) -> Result<Self, CellError> {
+        Ok(Coop {
+            area,
+            line: spe.ls_alloc(128, 128)?,
+            table_ls: spe.ls_alloc(128 * area.spes as u32, 128)?,
+            barriers: 0,
+            tag: spe.tag("cooperative partition")?,
+        })
+    }
+
+    /// The coordinator: hands `first..first + count` and `split` to every
+    /// other SPE and does its own share.
+    #[allow(clippy::too_many_arguments)]
+    pub async fn lead(
+        &mut self,
+        spe: &Spe,
+        bufs: &Fig1Buffers,
+        first: u32,
+        count: u32,
+        split: Split,
+        rate: Cycles,
+    ) -> Result<(Side, Side), CellError> {
+        let mut words = [0u32; DESCRIPTOR_WORDS];
+        words[..4].copy_from_slice(&[first, count, split.axis as u32, split.plane.to_bits()]);
+        spe.ls_write(self.line, &words)?;
+        spe.put(self.line, self.area.descriptor, 128, self.tag)
+            .await?;
+        spe.wait_tag(self.tag).await?;
+        for to in 1..self.area.spes {
+            spe.send_signal(to, 1, GO).await?;
+        }
+        self.share(spe, bufs, first, count, split, rate).await
+    }
+
+    /// A helper, signalled `GO`: reads the descriptor and does its share.
+    pub async fn help(
+        &mut self,
+        spe: &Spe,
+        bufs: &Fig1Buffers,
+        rate: Cycles,
+    ) -> Result<(), CellError> {
+        spe.get(self.line, self.area.descriptor, 128, self.tag)
+            .await?;
+        spe.wait_tag(self.tag).await?;
+        let w: Vec<u32> = spe.ls_read(self.line, 4)?;
+        let split = Split {
+            axis: w[2] as usize,
+            plane: f32::from_bits(w[3]),
+        };
+        self.share(spe, bufs, w[0], w[1], split, rate).await?;
+        Ok(())
+    }
+
+    /// This SPE's share of partitioning `first..first + count` around
+    /// `split`; returns both whole sides.
+    async fn share(
+        &mut self,
+        spe: &Spe,
+        bufs: &Fig1Buffers,
+        first: u32,
+        count: u32,
+        split: Split,
+        rate: Cycles,
+    ) -> Result<(Side, Side), CellError> {
+        let (n, k) = (self.area.spes as u64, spe.id() as u64);
+        let lo = first as u64 + count as u64 * k / n;
+        let hi = first as u64 + count as u64 * (k + 1) / n;
+        let size = size_of::<TriRecord>() as u64;
+        let per_block = BLOCK_BYTES as u64 / size;
+        let rec = |base: Ea, i: u64| base.offset(i * size);
+        // 1. Partition the chunk block by block into the scratch array.
+        let (mut left, mut right) = (Side::EMPTY, Side::EMPTY);
+        let (mut up, mut down) = (lo, hi);
+        let mut at = lo;
+        let mut b = 0usize;
+        while at < hi {
+            let len = per_block.min(hi - at);
+            let (buf, tag) = (bufs.buffer(b), bufs.tag(b));
+            spe.wait_tag(tag).await?; // its last puts are done
+            spe.get(buf, rec(self.area.tris, at), (len * size) as u32, tag)
+                .await?;
+            spe.wait_tag(tag).await?;
+            let (l, r) = spe.with_ls_mut(buf, len as usize, |items: &mut [TriRecord]| {
+                partition(items, split)
+            })?;
+            spe.compute_items(rate, len);
+            let (lc, rc) = (l.count as u64, r.count as u64);
+            if lc > 0 {
+                spe.put(buf, rec(self.area.scratch, up), (lc * size) as u32, tag)
+                    .await?;
+            }
+            if rc > 0 {
+                let from = buf.offset((lc * size) as u32);
+                down -= rc;
+                spe.put(from, rec(self.area.scratch, down), (rc * size) as u32, tag)
+                    .await?;
+            }
+            up += lc;
+            left = left.merge(l);
+            right = right.merge(r);
+            at += len;
+            b = 1 - b;
+        }
+        let both = (1 << bufs.tag(0)) | (1 << bufs.tag(1));
+        spe.wait_tags(both, WaitMode::All).await?;
+        // 2. The table, a barrier, the prefix sums.
+        let entry = Entry {
+            left: SideRec::of(&left),
+            right: SideRec::of(&right),
+            _pad: [0; 6],
+        };
+        spe.ls_write(self.line, &[entry])?;
+        let mine = self.area.table.offset(k * 128);
+        spe.put(self.line, mine, 128, self.tag).await?;
+        spe.wait_tag(self.tag).await?;
+        self.barrier(spe).await?;
+        let bytes = (128 * n) as u32;
+        spe.get(self.table_ls, self.area.table, bytes, self.tag)
+            .await?;
+        spe.wait_tag(self.tag).await?;
+        let entries: Vec<Entry> = spe.ls_read(self.table_ls, n as usize)?;
+        let total_left: u64 = entries.iter().map(|e| e.left.count as u64).sum();
+        let left_at: u64 = entries[..k as usize]
+            .iter()
+            .map(|e| e.left.count as u64)
+            .sum();
+        let right_at: u64 = entries[..k as usize]
+            .iter()
+            .map(|e| e.right.count as u64)
+            .sum();
+        // 3. Each part to its place.
+        let (lc, rc) = (up - lo, hi - down);
+        let dst_left = first as u64 + left_at;
+        let dst_right = first as u64 + total_left + right_at;
+        self.copy(spe, bufs, lo, dst_left, lc, per_block).await?;
+        self.copy(spe, bufs, down, dst_right, rc, per_block).await?;
+        self.barrier(spe).await?;
+        let whole = |f: fn(&Entry) -> Side| {
+            entries
+                .iter()
+                .map(f)
+                .fold(Side::EMPTY, |a: Side, s| a.merge(s))
+        };
+        Ok((whole(|e| e.left.side()), whole(|e| e.right.side())))
+    }
+
+    /// Copies `count` records from scratch `from` to the records at `to`.
+    async fn copy(
+        &self,
+        spe: &Spe,
+        bufs: &Fig1Buffers,
+        from: u64,
+        to: u64,
+        count: u64,
+        per_block: u64,
+    ) -> Result<(), CellError> {
+        let size = size_of::<TriRecord>() as u64;
+        let mut done = 0;
+        let mut b = 0usize;
+        while done < count {
+            let len = per_block.min(count - done);
+            let (buf, tag) = (bufs.buffer(b), bufs.tag(b));
+            spe.wait_tag(tag).await?;
+            let bytes = (len * size) as u32;
+            spe.get(
+                buf,
+                self.area.scratch.offset((from + done) * size),
+                bytes,
+                tag,
+            )
+            .await?;
+            spe.wait_tag(tag).await?;
+            spe.put(buf, self.area.tris.offset((to + done) * size), bytes, tag)
+                .await?;
+            done += len;
+            b = 1 - b;
+        }
+        let both = (1 << bufs.tag(0)) | (1 << bufs.tag(1));
+        spe.wait_tags(both, WaitMode::All).await.map(|_| ())
+    }
+
+    /// Waits until every SPE has arrived: the last to arrive signals the
+    /// others.
+    async fn barrier(&mut self, spe: &Spe) -> Result<(), CellError> {
+        self.barriers += 1;
+        let n = self.area.spes as u32;
+        let old = spe
+            .atomic_fetch_add_u32(self.line, self.area.arrivals, 1)
+            .await?;
+        if old + 1 == self.barriers * n {
+            for to in (0..self.area.spes).filter(|&s| s != spe.id()) {
+                spe.send_signal(to, 2, 1).await?;
+            }
+        } else {
+            spe.read_signal(2).await?;
+        }
+        Ok(())
+    }
+}
