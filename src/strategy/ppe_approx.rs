@@ -19,7 +19,7 @@ use super::{Output, Setup};
 use crate::bih::BihConfig;
 use crate::build::approx::build_approx;
 use crate::build::host::BuildStats;
-use crate::cell::{Cell, CellError, Cycles, Ea};
+use crate::cell::{Cell, CellError, Ea};
 
 /// `ppe_approx` in the registry of builders.
 pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
@@ -40,9 +40,8 @@ fn spawn(
         let (sorted, bih, a) = build_approx(&items, region, &cfg);
         let k = ppe.cost().kernels;
         let touched = a.items_sorted + a.buckets_partitioned + a.naive.items_partitioned;
-        ppe.compute(Cycles(
-            k.ppe_partition_item.0 * touched + k.ppe_node.0 * a.nodes,
-        ));
+        ppe.compute_items(k.ppe_partition_item, touched);
+        ppe.compute_items(k.ppe_node, a.nodes);
         // The scatter's second array, written and read back by the gather.
         let size = (n * size_of::<TriRecord>()) as u64;
         let scattered: Ea = ppe.alloc("scattered records", size, 128).await?;

@@ -14,7 +14,7 @@ use super::layout::TriRecord;
 use super::{Output, Setup};
 use crate::bih::BihConfig;
 use crate::build::host::{BuildStats, build_items};
-use crate::cell::{Cell, CellError, Cycles};
+use crate::cell::{Cell, CellError};
 
 /// `ppe_naive` in the registry of builders.
 pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
@@ -39,9 +39,8 @@ fn spawn(
             nodes,
             ..
         } = stats;
-        ppe.compute(Cycles(
-            k.ppe_partition_item.0 * items_partitioned + k.ppe_node.0 * nodes,
-        ));
+        ppe.compute_items(k.ppe_partition_item, items_partitioned);
+        ppe.compute_items(k.ppe_node, nodes);
         ppe.write_pod(tris, &items).await?;
         let node_array = super::write_nodes(&ppe, &bih.nodes).await?;
         let mut o = out.borrow_mut();
