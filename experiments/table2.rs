@@ -3,8 +3,8 @@
 //!
 //! `cargo run --release --bin table2 -- [--format json] [--no-sim] [--out results]`
 //!
-//! The scenes are the procedural stand-ins `car` (22,152 triangles in 17
-//! parts; the paper's carVis has 22,106) and `cup` (7,040 triangles, as
+//! The scenes are the procedural stand-ins `car` (22,152 triangles: a body
+//! and 18 movable parts; the paper's carVis has 22,106) and `cup` (7,040 triangles, as
 //! cupVis). They run as many frames as the paper's rows count (carVis
 //! 383 + 112 = 495, cupVis 6 + 148 = 154). Times: host milliseconds (host
 //! builder, one thread) and simulated milliseconds on the PS3 model with the

@@ -377,7 +377,7 @@ fn the_registry_and_spes_reach_every_command() {
                 one["simulated_cycles"].as_u64().unwrap(),
                 eight["simulated_cycles"].as_u64().unwrap(),
             );
-            if ["ppe_naive", "ppe_approx", "spe_dfs", "spe_bfs"].contains(&b.name()) {
+            if !b.multi_spe() {
                 // The paper's builders use one SPE: idle ones cost nothing.
                 assert_eq!(c1, c8, "{b}");
             } else {
@@ -439,4 +439,49 @@ fn the_registry_and_spes_reach_every_command() {
     assert!(String::from_utf8_lossy(&out.stdout).contains("builder spe_dfs on 2 SPEs"));
     let out = cellbih(&["build", "--spes", "0"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("0 is not in 1..=8"));
+}
+
+/// The scaling experiment: every multi-SPE builder and knob setting on
+/// every SPE count up to --max-spes, each row with its speedup over the
+/// baseline and where the time went; refuses bad arguments up front.
+#[test]
+fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
+    let exe = env!("CARGO_BIN_EXE_spe_scaling");
+    let dir = tmp("scaling");
+    let out = std::process::Command::new(exe)
+        .args(["--scenes", "default", "--max-spes", "2", "--format", "json"])
+        .args(["--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    let variants = 2 * cellbih::build::BuilderKind::ALL
+        .iter()
+        .filter(|b| b.multi_spe())
+        .count();
+    assert_eq!(rows.len(), variants * 2);
+    for r in rows {
+        let spes = r["spes"].as_f64().unwrap();
+        let speedup = r["speedup"].as_f64().unwrap();
+        assert!(speedup > 0.0 && speedup <= spes * 1.001, "{r}");
+        let shares: f64 = ["busy", "dma_wait", "sync_wait", "idle", "atomic"]
+            .iter()
+            .map(|k| r[k].as_f64().unwrap())
+            .sum();
+        // Atomic cycles include their waits; the rest partition the run.
+        assert!((0.99..1.02).contains(&shares), "{r}");
+        assert_eq!(r["sah_over_baseline"], 1.0, "the baseline's tree");
+    }
+    let csv = std::fs::read_to_string(dir.join("spe_scaling.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + rows.len());
+    assert!(dir.join("spe_scaling_default.svg").exists());
+    for (args, msg) in [
+        (&["--max-spes", "0"][..], "0 is not in 1..=8"),
+        (&["--out", "/proc/x"][..], "/proc/x: cannot write"),
+    ] {
+        let out = std::process::Command::new(exe).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(msg), "{err}");
+    }
 }

@@ -23,6 +23,8 @@ pub struct Builder {
     pub name: &'static str,
     /// One line for `cellbih builders`.
     pub describe: &'static str,
+    /// It puts every SPE of the machine to work (`--spes` changes its time).
+    pub multi_spe: bool,
     run: Run,
 }
 
@@ -42,6 +44,7 @@ impl Builder {
         Builder {
             name,
             describe,
+            multi_spe: false,
             run: Run::Host(build),
         }
     }
@@ -52,7 +55,20 @@ impl Builder {
         Builder {
             name,
             describe,
+            multi_spe: false,
             run: Run::Cell(spawn),
+        }
+    }
+
+    /// A builder that runs on every SPE of the emulated Cell.
+    pub const fn multi_spe(
+        name: &'static str,
+        describe: &'static str,
+        spawn: strategy::Spawn,
+    ) -> Self {
+        Builder {
+            multi_spe: true,
+            ..Builder::cell(name, describe, spawn)
         }
     }
 }
@@ -106,6 +122,12 @@ impl BuilderKind {
 
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.iter().copied().find(|b| b.name() == name)
+    }
+
+    /// Whether the builder puts every SPE to work (`--spes` changes its
+    /// time; the paper's builders use one).
+    pub fn multi_spe(self) -> bool {
+        self.0.multi_spe
     }
 
     /// Whether the builder runs on the emulated Cell (and so reports

@@ -38,7 +38,7 @@ use crate::build::Builder;
 use crate::cell::{Cell, CellError, Ea, Spe};
 
 /// `spe_bfs_private` in the registry of builders.
-pub const BUILDER: Builder = Builder::cell(
+pub const BUILDER: Builder = Builder::multi_spe(
     "spe_bfs_private",
     "section 5: SPE 0 builds the top levels, deals the jobs largest first, then every SPE builds its own jobs breadth first with its own ObjectArena list (--spes)",
     spawn,

@@ -1,0 +1,314 @@
+//! Section 5 measured: every multi-SPE builder (and each setting of its
+//! knobs) on 1 to 8 SPEs, beside the single-SPE baseline `spe_bfs`, on the
+//! scenes that matter: simulated time, speedup, parallel efficiency, where
+//! the SPEs' cycles go, memory-interface use, tree quality.
+//!
+//! `cargo run --release --bin spe_scaling -- --data DIR [--scenes default,bunny] [--max-spes 8] [--out results]`
+//!
+//! Scenes (default): default, bunny, dragon, sponza-dabrovic, sibenik,
+//! rtperf:1000000 (those that need the data directory are skipped, said so,
+//! when it is missing). Writes spe_scaling.{csv,json}, one SVG per scene of
+//! speedup against SPEs (with the ideal line) and one of where the SPEs'
+//! time goes on the largest scene.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use clap::Parser;
+use serde_json::{Value, json};
+
+use cellbih::bih::BihConfig;
+use cellbih::build::BuilderKind;
+use cellbih::cell::CellConfig;
+use cellbih::report::{
+    Format, Series, line_plot, output, prepare_dir, print_rows, write_json, write_rows_csv,
+};
+use cellbih::scene::{self, Scene};
+use cellbih::strategy::Knobs;
+
+#[derive(Parser)]
+struct Args {
+    /// Directory of the real meshes (default: $CELLBIH_DATA).
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// Scenes, comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "default,bunny,dragon,sponza-dabrovic,sibenik,rtperf:1000000"
+    )]
+    scenes: Vec<String>,
+    /// Most SPEs (1 to 8): every count from 1 up to it is run.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..=8))]
+    max_spes: u64,
+    /// text (a table) or json (the rows).
+    #[arg(long, value_enum, default_value = "text")]
+    format: Format,
+    /// Directory for the CSV, JSON and SVG files.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+}
+
+/// A builder with one setting of the knobs, as its rows name it.
+struct Variant {
+    builder: BuilderKind,
+    knobs: Knobs,
+    name: String,
+}
+
+/// Every multi-SPE builder, with the cooperative top on and off.
+fn variants() -> Vec<Variant> {
+    let mut v = Vec::new();
+    for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
+        for coop_top in [true, false] {
+            let knobs = Knobs {
+                coop_top,
+                ..Knobs::default()
+            };
+            let name = if coop_top {
+                b.name().to_string()
+            } else {
+                format!("{} --no-coop-top", b.name())
+            };
+            v.push(Variant {
+                builder: b,
+                knobs,
+                name,
+            });
+        }
+    }
+    v
+}
+
+fn main() {
+    cellbih::report::quiet_on_closed_pipe();
+    let mut args = Args::parse();
+    if args.data.is_none() {
+        args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
+    }
+    if let Err(e) = prepare_dir(&args.out)
+        .map_err(|e| e.to_string())
+        .and_then(|()| run(&args))
+    {
+        eprintln!("spe_scaling: {e}");
+        std::process::exit(1);
+    }
+}
+
+/// One build's row.
+fn row(scene: &Scene, v: &Variant, spes: usize, base: (f64, f64)) -> Result<Value, String> {
+    let cfg = BihConfig::default();
+    let cell = CellConfig::ps3().with_spes(spes);
+    let r = v
+        .builder
+        .build_with(scene, scene.bounds(), &cfg, &cell, &v.knobs)
+        .map_err(|e| format!("{} / {} / {spes} SPEs: {e}", scene.name, v.name))?;
+    let sim = r.simulated.expect("a multi-SPE builder runs on the Cell");
+    let cycles = sim.run.cycles.0.max(1) as f64;
+    let spe_cores = &sim.run.cores[1..];
+    // Each SPE's share of the run, averaged over the SPEs.
+    let share = |f: &dyn Fn(&cellbih::cell::CoreCounters) -> u64| {
+        spe_cores.iter().map(|(_, c)| f(c) as f64).sum::<f64>() / (spes as f64 * cycles)
+    };
+    let bytes: u64 = spe_cores
+        .iter()
+        .map(|(_, c)| c.bytes_get + c.bytes_put)
+        .sum();
+    let peak = cell.cost.memory_bandwidth.bytes_per_kcycle as f64 / 1000.0;
+    let (base_ms, base_sah) = base;
+    let ms = sim.run.ms;
+    Ok(json!({
+        "scene": scene.name, "triangles": scene.len(), "builder": v.name, "spes": spes,
+        "simulated_ms": ms, "baseline_ms": base_ms,
+        "speedup": base_ms / ms, "efficiency": base_ms / ms / spes as f64,
+        "busy": share(&|c| c.busy.0), "dma_wait": share(&|c| c.dma_wait.0),
+        "sync_wait": share(&|c| c.mailbox_wait.0), "atomic": share(&|c| c.atomic.0),
+        "idle": share(&|c| c.idle.0),
+        "memory_shared": share(&|c| c.memory_wait.0),
+        "reservations_lost": spe_cores.iter().map(|(_, c)| c.reservations_lost).sum::<u64>(),
+        "memory_utilisation": bytes as f64 / (cycles * peak),
+        "sah_over_baseline": r.bih.quality().sah_cost / base_sah,
+        "host_ms": r.host_time.as_secs_f64() * 1e3,
+    }))
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let progress = std::io::stderr().is_terminal();
+    let mut rows = Vec::new();
+    for spec in &args.scenes {
+        let scene = match scene::load(spec, args.data.as_deref()) {
+            Ok(s) => s,
+            Err(e) if args.data.is_none() => {
+                eprintln!("{spec}: skipped ({e})");
+                continue;
+            }
+            Err(e) => return Err(e.to_string()),
+        };
+        let base = BuilderKind::SPE_BFS
+            .build(&scene, &BihConfig::default())
+            .map_err(|e| format!("{spec} / spe_bfs: {e}"))?;
+        let base = (
+            base.simulated.expect("emulated").run.ms,
+            base.bih.quality().sah_cost,
+        );
+        for v in variants() {
+            for spes in 1..=args.max_spes as usize {
+                if progress {
+                    eprint!("{spec:>16} {:<30} {spes} SPEs\r", v.name);
+                }
+                rows.push(row(&scene, &v, spes, base)?);
+            }
+        }
+    }
+    if progress {
+        eprint!("{:70}\r", "");
+    }
+    print_rows(args.format, &rows, print_table)?;
+    let keys = [
+        "scene",
+        "triangles",
+        "builder",
+        "spes",
+        "simulated_ms",
+        "baseline_ms",
+        "speedup",
+        "efficiency",
+        "busy",
+        "dma_wait",
+        "sync_wait",
+        "atomic",
+        "idle",
+        "memory_shared",
+        "reservations_lost",
+        "memory_utilisation",
+        "sah_over_baseline",
+        "host_ms",
+    ];
+    let io = |e: cellbih::report::OutputError| e.to_string();
+    write_rows_csv(
+        &output(&args.out, "spe_scaling.csv").map_err(io)?,
+        &keys,
+        &rows,
+    )
+    .map_err(io)?;
+    let doc = json!({
+        "rows": rows,
+        "note": "simulated ms on the PS3 model; baseline: spe_bfs (one SPE); busy..idle: mean share of the run per SPE; memory_utilisation: bytes moved / (cycles x 25.6 GB/s)",
+    });
+    write_json(&output(&args.out, "spe_scaling.json").map_err(io)?, &doc).map_err(io)?;
+    plots(&args.out, &rows).map_err(|e| e.to_string())?;
+    eprintln!(
+        "written: {}/spe_scaling.{{csv,json}}, spe_scaling_*.svg",
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error::Error>> {
+    let mut scenes: Vec<&str> = rows.iter().filter_map(|r| r["scene"].as_str()).collect();
+    scenes.dedup();
+    let pts = |scene: &str, builder: &str, key: &str| -> Vec<(f64, f64)> {
+        rows.iter()
+            .filter(|r| r["scene"] == scene && r["builder"] == builder)
+            .filter_map(|r| Some((r["spes"].as_f64()?, r[key].as_f64()?)))
+            .collect()
+    };
+    let names: Vec<String> = variants().into_iter().map(|v| v.name).collect();
+    for &scene in &scenes {
+        let mut series: Vec<Series> = names
+            .iter()
+            .enumerate()
+            .map(|(i, b)| Series {
+                name: b.clone(),
+                points: pts(scene, b, "speedup"),
+                color: i,
+                dashed: false,
+            })
+            .collect();
+        let max = series
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.0))
+            .fold(1.0, f64::max);
+        series.push(Series {
+            name: "ideal".into(),
+            points: vec![(1.0, 1.0), (max, max)],
+            color: 9,
+            dashed: true,
+        });
+        let file = format!("spe_scaling_{}.svg", scene.replace([':', '/'], "_"));
+        line_plot(
+            &output(dir, &file)?,
+            &format!("{scene}: speedup over spe_bfs (one SPE), simulated PS3 time"),
+            "SPEs",
+            "speedup",
+            &series,
+            false,
+        )?;
+    }
+    // Where the time goes: the largest scene, the first variant.
+    let largest = rows
+        .iter()
+        .max_by_key(|r| r["triangles"].as_u64())
+        .and_then(|r| r["scene"].as_str());
+    if let (Some(scene), Some(b)) = (largest, names.first()) {
+        let series: Vec<Series> = ["busy", "dma_wait", "sync_wait", "idle", "atomic"]
+            .iter()
+            .enumerate()
+            .map(|(i, k)| Series {
+                name: k.to_string(),
+                points: pts(scene, b, k),
+                color: i,
+                dashed: false,
+            })
+            .collect();
+        line_plot(
+            &output(dir, "spe_scaling_time.svg")?,
+            &format!("{scene}, {b}: where the SPEs' time goes (mean share of the run)"),
+            "SPEs",
+            "share of the run",
+            &series,
+            false,
+        )?;
+    }
+    Ok(())
+}
+
+fn print_table(rows: &[Value]) {
+    println!(
+        "{:<18} {:<30} {:>4} {:>10} {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8}",
+        "scene",
+        "builder",
+        "SPEs",
+        "sim ms",
+        "speedup",
+        "eff",
+        "busy",
+        "DMA",
+        "sync",
+        "idle",
+        "mem",
+        "host ms"
+    );
+    let pct = |v: &Value| format!("{:.0}%", v.as_f64().unwrap_or(0.0) * 100.0);
+    for r in rows {
+        println!(
+            "{:<18} {:<30} {:>4} {:>10.2} {:>8.2} {:>6.2} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8.0}",
+            r["scene"].as_str().unwrap_or(""),
+            r["builder"].as_str().unwrap_or(""),
+            r["spes"],
+            r["simulated_ms"].as_f64().unwrap_or(0.0),
+            r["speedup"].as_f64().unwrap_or(0.0),
+            r["efficiency"].as_f64().unwrap_or(0.0),
+            pct(&r["busy"]),
+            pct(&r["dma_wait"]),
+            pct(&r["sync_wait"]),
+            pct(&r["idle"]),
+            pct(&r["memory_utilisation"]),
+            r["host_ms"].as_f64().unwrap_or(0.0),
+        );
+    }
+    println!(
+        "speedup over spe_bfs on one SPE, simulated PS3 time; busy/DMA/sync/idle: mean share of the \
+         run per SPE; mem: memory-interface utilisation; host ms: the emulation, one thread"
+    );
+}
