@@ -1,0 +1,83 @@
+//! Each multi-SPE strategy beside the single-SPE baseline `spe_bfs`, on 6
+//! SPEs (the PS3's), on the default scene and (with `CELLBIH_DATA`) the
+//! Bunny: `multi_spe_simulated/*` in simulated Cell time (the shared
+//! criterion `Measurement` of `common/simulated.rs`), `multi_spe_host/*` in
+//! host time of the emulation.
+//!
+//! `CELLBIH_DATA=../shared/data cargo bench --bench multi_spe`
+
+#[path = "common/simulated.rs"]
+mod simulated;
+
+use cellbih::build::BuilderKind;
+use cellbih::cell::CellConfig;
+use cellbih::scene::{self, Scene};
+use cellbih::strategy::Knobs;
+use criterion::measurement::Measurement;
+use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
+use simulated::SimulatedTime;
+
+const SPES: usize = 6;
+
+/// The baseline and every multi-SPE builder, the latter with the
+/// cooperative top on and off: (label, builder, knobs).
+fn variants() -> Vec<(String, BuilderKind, Knobs)> {
+    let mut v = vec![(
+        "spe_bfs".to_string(),
+        BuilderKind::SPE_BFS,
+        Knobs::default(),
+    )];
+    for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
+        v.push((b.name().to_string(), b, Knobs::default()));
+        let off = Knobs {
+            coop_top: false,
+            ..Knobs::default()
+        };
+        v.push((format!("{}_no_coop_top", b.name()), b, off));
+    }
+    v
+}
+
+fn scenes() -> Vec<Scene> {
+    let mut v = vec![scene::load("default", None).unwrap()];
+    match scene::data_dir(None) {
+        Some(dir) => v.push(scene::load("bunny", Some(&dir)).unwrap()),
+        None => eprintln!("CELLBIH_DATA is not set: the default scene only"),
+    }
+    v
+}
+
+fn group<M: Measurement>(g: &mut BenchmarkGroup<M>, scenes: &[Scene]) {
+    g.sample_size(10);
+    let cell = CellConfig::ps3().with_spes(SPES);
+    for s in scenes {
+        g.throughput(Throughput::Elements(s.len() as u64));
+        for (label, b, knobs) in variants() {
+            g.bench_function(format!("{}/{label}/{SPES}_spes", s.name), |bench| {
+                bench.iter(|| simulated::build(b, s, &cell, &knobs))
+            });
+        }
+    }
+}
+
+fn simulated_group(c: &mut Criterion<SimulatedTime>) {
+    let scenes = scenes();
+    let mut g = c.benchmark_group("multi_spe_simulated");
+    group(&mut g, &scenes);
+    g.finish();
+}
+
+fn host(c: &mut Criterion) {
+    let scenes = scenes();
+    let mut g = c.benchmark_group("multi_spe_host");
+    group(&mut g, &scenes);
+    g.finish();
+}
+
+criterion_group! {
+    name = simulated_time;
+    config = Criterion::default().with_measurement(SimulatedTime);
+    targets = simulated_group
+}
+criterion_group!(host_time, host);
+criterion_main!(simulated_time, host_time);
