@@ -536,6 +536,7 @@ fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                 "simulated_cycles": sim.map(|m| m.run.cycles.0),
                 "cores": sim.map(|m| &m.run.cores),
                 "work": sim.map(|m| m.stats),
+                "spe_work": sim.map(|m| &m.spe_work),
             })
         ),
         Format::Text => {
@@ -572,40 +573,61 @@ fn print_build(s: &Scene, r: &BuildReport, format: Format) {
             println!("SAH cost    {:.2}", q.sah_cost);
             println!("memory      {} bytes", q.memory_bytes);
             if let Some(m) = sim {
-                println!(
-                    "\n{:<7} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12} {:>10} {:>10}",
-                    "core",
-                    "busy",
-                    "DMA wait",
-                    "mem shared",
-                    "mbox wait",
-                    "atomic",
-                    "idle",
-                    "MB in",
-                    "MB out"
-                );
-                for (name, c) in &m.run.cores {
-                    let mb_in = (c.bytes_get as f64) / 1e6;
-                    let mb_out = (c.bytes_put as f64) / 1e6;
-                    println!(
-                        "{name:<7} {:>12} {:>12} {:>12} {:>12} {:>12} {:>12} {:>10.2} {:>10.2}",
-                        c.busy.0,
-                        c.dma_wait.0,
-                        c.memory_wait.0,
-                        c.mailbox_wait.0,
-                        c.atomic.0,
-                        c.idle.0,
-                        mb_in,
-                        mb_out
-                    );
-                }
-                println!(
-                    "(cycles; \"mem shared\": what sharing the memory interface added to the \
-                     core's transfers; MB moved by DMA)"
-                );
+                print_cores(m);
             }
         }
     }
+}
+
+/// Every core's counters; for a multi-SPE build also each SPE's jobs and
+/// ObjectArena blocks.
+fn print_cores(m: &cellbih::build::Simulated) {
+    let work = !m.spe_work.is_empty();
+    print!(
+        "\n{:<7} {:>11} {:>11} {:>11} {:>11} {:>10} {:>5} {:>11} {:>8} {:>8}",
+        "core",
+        "busy",
+        "DMA wait",
+        "mem shared",
+        "mbox wait",
+        "atomic",
+        "lost",
+        "idle",
+        "MB in",
+        "MB out"
+    );
+    if work {
+        print!(" {:>8} {:>7} {:>7}", "jobs", "blocks", "unused");
+    }
+    println!();
+    for (i, (name, c)) in m.run.cores.iter().enumerate() {
+        print!(
+            "{name:<7} {:>11} {:>11} {:>11} {:>11} {:>10} {:>5} {:>11} {:>8.2} {:>8.2}",
+            c.busy.0,
+            c.dma_wait.0,
+            c.memory_wait.0,
+            c.mailbox_wait.0,
+            c.atomic.0,
+            c.reservations_lost,
+            c.idle.0,
+            c.bytes_get as f64 / 1e6,
+            c.bytes_put as f64 / 1e6,
+        );
+        if let Some(w) = i.checked_sub(1).and_then(|k| m.spe_work.get(k)) {
+            print!(" {:>8} {:>7} {:>7}", w.jobs, w.arena_blocks, w.arena_unused);
+        }
+        println!();
+    }
+    println!(
+        "(cycles; \"mem shared\": what sharing the memory interface added to the core's \
+         transfers; \"mbox wait\": mailboxes and signals; lost: reservations lost; MB moved by \
+         DMA{})",
+        if work {
+            "; jobs: nodes made; blocks: ObjectArena blocks taken, unused: their slots without a node"
+        } else {
+            ""
+        }
+    );
 }
 
 /// `cargo run --release`: every builder on the default scene, then primary

@@ -379,6 +379,14 @@ fn spe_bfs_private_builds_the_baseline_tree_on_1_to_8_spes() {
                 assert_eq!(a.run.cycles, b.run.cycles, "{what}");
                 assert_eq!(a.run.cores, b.run.cores, "{what}");
                 assert_eq!(r.bih.nodes, again.bih.nodes, "{what}");
+                // Every node was made by one job of one SPE; the arenas'
+                // blocks hold every node and their unused slots.
+                let jobs: u64 = a.spe_work.iter().map(|w| w.jobs).sum();
+                assert_eq!(jobs as usize, r.bih.nodes.len(), "{what}");
+                let slots: u64 = a.spe_work.iter().map(|w| w.arena_blocks).sum::<u64>()
+                    * cellbih::strategy::arena::BLOCK_NODES as u64;
+                let unused: u64 = a.spe_work.iter().map(|w| w.arena_unused).sum();
+                assert_eq!(slots - unused, jobs, "{what}");
                 if spes > 1 && s.len() > 10_000 {
                     for (name, c) in &a.run.cores[1..] {
                         assert!(c.busy.0 > 0, "{what}: {name} did nothing");

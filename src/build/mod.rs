@@ -185,6 +185,7 @@ impl BuilderKind {
                     Some(Simulated {
                         run: b.run,
                         stats: b.stats,
+                        spe_work: b.spe_work,
                         trace: b.trace,
                     }),
                 )
@@ -210,6 +211,8 @@ impl std::fmt::Display for BuilderKind {
 pub struct Simulated {
     pub run: RunReport,
     pub stats: host::BuildStats,
+    /// Multi-SPE builders: what each SPE did (jobs, arena blocks).
+    pub spe_work: Vec<strategy::SpeWork>,
     /// The timeline, if the Cell's config asked for it.
     pub trace: Option<crate::cell::Trace>,
 }

@@ -149,6 +149,13 @@ impl<'a> ObjectArena<'a> {
         self.alloc_seq
     }
 
+    /// Slots of this arena's blocks that hold no node: skipped ones and
+    /// those past the last handed out.
+    pub fn unused(&self) -> u64 {
+        let slots = self.stats.blocks as usize * BLOCK_NODES;
+        (slots.saturating_sub(self.alloc_seq)) as u64 + self.stats.skipped
+    }
+
     /// The id of slot `seq` of this arena.
     fn id_of(&self, seq: usize) -> u32 {
         match self.source {

@@ -74,6 +74,19 @@ pub struct Output {
     /// The pieces hold unreachable slots (several arenas in one pool):
     /// drop them on read-back, keeping the tree and its sibling pairs.
     pub compact: bool,
+    /// Multi-SPE strategies: what each SPE did, by SPE.
+    pub spe_work: Vec<SpeWork>,
+}
+
+/// What one SPE of a multi-SPE build did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SpeWork {
+    /// Jobs (nodes) it made.
+    pub jobs: u64,
+    /// ObjectArena blocks it took, and their slots that hold no node
+    /// (skipped to keep a pair in one block, or never reached at the end).
+    pub arena_blocks: u64,
+    pub arena_unused: u64,
 }
 
 /// The PPE allocates a node array in main memory and writes `nodes` into
@@ -112,6 +125,8 @@ pub struct CellBuild {
     pub bih: Bih,
     pub run: RunReport,
     pub stats: BuildStats,
+    /// Multi-SPE strategies: what each SPE did.
+    pub spe_work: Vec<SpeWork>,
     /// The timeline, if `cell_cfg.trace` was set.
     pub trace: Option<Trace>,
 }
@@ -186,6 +201,7 @@ pub fn run_in(
         bih,
         run,
         stats: o.stats,
+        spe_work: o.spe_work.clone(),
         trace: cell.take_trace(),
     })
 }

@@ -163,6 +163,8 @@ pub(super) struct SpeBuilder<'a> {
     /// under way).
     batch_put: [Option<(u32, u32)>; 2],
     pub(super) stats: BuildStats,
+    /// Jobs this SPE made nodes for.
+    pub(super) jobs: u64,
 }
 
 impl<'a> SpeBuilder<'a> {
@@ -183,6 +185,7 @@ impl<'a> SpeBuilder<'a> {
             foreign_depth: None,
             dealt_starts: Vec::new(),
             coop: None,
+            jobs: 0,
             batch_buf: 0,
             batch_put: [None, None],
             stats: BuildStats::default(),
@@ -250,6 +253,7 @@ impl<'a> SpeBuilder<'a> {
         // The span of the batch's intervals that need partitioning.
         let mut span: Option<(u32, u32)> = None;
         for &job in jobs {
+            self.jobs += 1;
             self.spe.compute(k.spe_job);
             let mut candidate = job.candidate();
             let split = if job.count <= self.cfg.leaf_size || job.depth >= self.cfg.max_depth {

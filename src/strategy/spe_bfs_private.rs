@@ -32,7 +32,7 @@ use super::fig1::stream_bounds;
 use super::layout::TriRecord;
 use super::spe_bfs::{Job, SpeBuilder};
 use super::work_queue::{Level, WORK_BYTES, WorkQueue};
-use super::{Output, Setup};
+use super::{Output, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::build::Builder;
 use crate::cell::{Cell, CellError, Ea, Spe};
@@ -96,6 +96,7 @@ fn spawn(
         let mut o = out.borrow_mut();
         o.nodes = vec![(pool, pool_blocks * BLOCK_NODES)];
         o.compact = true;
+        o.spe_work = vec![SpeWork::default(); spes];
     }
     for id in 0..spes {
         let out = out.clone();
@@ -127,6 +128,11 @@ fn spawn(
                 b.coop = None;
                 let top_nodes = b.arena.allocated();
                 b.arena.close(top_nodes).await?;
+                let top = (b.arena.stats.blocks, b.arena.unused());
+                {
+                    let w = &mut out.borrow_mut().spe_work[0];
+                    (w.arena_blocks, w.arena_unused) = top;
+                }
                 let own = match dealt {
                     Some(level) => {
                         deal(&spe, &mut b, level, spes, work, records, record, tag).await?
@@ -168,6 +174,13 @@ fn spawn(
             let mut o = out.borrow_mut();
             o.stats.items_partitioned += b.stats.items_partitioned;
             o.stats.partitions += b.stats.partitions;
+            let w = &mut o.spe_work[id];
+            w.jobs = b.jobs;
+            if b.foreign_depth.is_some() {
+                // The arena of its own jobs (SPE 0's top arena is counted above).
+                w.arena_blocks += b.arena.stats.blocks;
+                w.arena_unused += b.arena.unused();
+            }
             Ok(())
         });
     }
