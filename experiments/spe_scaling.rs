@@ -56,19 +56,21 @@ struct Variant {
     name: String,
 }
 
-/// Every multi-SPE builder, with the cooperative top on and off.
+/// Every multi-SPE builder: its defaults, without the cooperative top,
+/// and with work stealing.
 fn variants() -> Vec<Variant> {
     let mut v = Vec::new();
     for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
-        for coop_top in [true, false] {
+        for (coop_top, steal) in [(true, false), (false, false), (true, true)] {
             let knobs = Knobs {
                 coop_top,
+                steal,
                 ..Knobs::default()
             };
-            let name = if coop_top {
-                b.name().to_string()
-            } else {
-                format!("{} --no-coop-top", b.name())
+            let name = match (coop_top, steal) {
+                (true, false) => b.name().to_string(),
+                (false, _) => format!("{} --no-coop-top", b.name()),
+                (true, true) => format!("{} --steal", b.name()),
             };
             v.push(Variant {
                 builder: b,

@@ -88,6 +88,10 @@ struct BuildArgs {
     /// many jobs per SPE (1 to 16).
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(1..=16))]
     deal_per_spe: u64,
+    /// Multi-SPE builders: the dealt jobs stay in per-SPE lists and an SPE
+    /// whose list is empty steals from another's (the atomic unit).
+    #[arg(long)]
+    steal: bool,
 }
 
 /// What `--builder` and its options ask for.
@@ -396,6 +400,7 @@ fn parse_build(args: &BuildArgs) -> Res<Chosen> {
     let knobs = Knobs {
         coop_top: !args.no_coop_top,
         deal_per_spe: args.deal_per_spe as usize,
+        steal: args.steal,
     };
     Ok(Chosen {
         builder,
@@ -597,7 +602,10 @@ fn print_cores(m: &cellbih::build::Simulated) {
         "MB out"
     );
     if work {
-        print!(" {:>8} {:>7} {:>7}", "jobs", "blocks", "unused");
+        print!(
+            " {:>8} {:>6} {:>7} {:>7}",
+            "jobs", "stolen", "blocks", "unused"
+        );
     }
     println!();
     for (i, (name, c)) in m.run.cores.iter().enumerate() {
@@ -614,7 +622,10 @@ fn print_cores(m: &cellbih::build::Simulated) {
             c.bytes_put as f64 / 1e6,
         );
         if let Some(w) = i.checked_sub(1).and_then(|k| m.spe_work.get(k)) {
-            print!(" {:>8} {:>7} {:>7}", w.jobs, w.arena_blocks, w.arena_unused);
+            print!(
+                " {:>8} {:>6} {:>7} {:>7}",
+                w.jobs, w.stolen, w.arena_blocks, w.arena_unused
+            );
         }
         println!();
     }
@@ -623,7 +634,8 @@ fn print_cores(m: &cellbih::build::Simulated) {
          transfers; \"mbox wait\": mailboxes and signals; lost: reservations lost; MB moved by \
          DMA{})",
         if work {
-            "; jobs: nodes made; blocks: ObjectArena blocks taken, unused: their slots without a node"
+            "; jobs: nodes made; stolen: dealt jobs taken from another SPE's list; blocks: \
+             ObjectArena blocks taken, unused: their slots without a node"
         } else {
             ""
         }

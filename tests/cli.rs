@@ -456,7 +456,7 @@ fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
     assert_ok(&out);
     let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rows = rows.as_array().unwrap();
-    let variants = 2 * cellbih::build::BuilderKind::ALL
+    let variants = 3 * cellbih::build::BuilderKind::ALL
         .iter()
         .filter(|b| b.multi_spe())
         .count();

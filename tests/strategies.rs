@@ -343,7 +343,7 @@ fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
 }
 
 /// spe_bfs_private on 1 to 8 SPEs, with the cooperative top levels and
-/// without: the baseline's tree (same splits, same leaves; only numbering
+/// without, with work stealing and without: the baseline's tree (same splits, same leaves; only numbering
 /// may differ), valid, the same cycles and nodes on every run; with several
 /// SPEs every SPE works and the build takes fewer simulated cycles than the
 /// baseline's, and fewer still when the SPEs help with the top levels.
@@ -360,9 +360,10 @@ fn spe_bfs_private_builds_the_baseline_tree_on_1_to_8_spes() {
         for spes in 1..=8 {
             let cell = CellConfig::ps3().with_spes(spes);
             let mut cycles = Vec::new();
-            for coop_top in [false, true] {
+            for (coop_top, steal) in [(false, false), (true, false), (true, true)] {
                 let knobs = Knobs {
                     coop_top,
+                    steal,
                     ..Knobs::default()
                 };
                 let build = || {
@@ -414,11 +415,14 @@ proptest::proptest! {
         scene in common::scene_strategy(),
         spes in 1usize..=8,
         leaf in 1u32..4,
+        steal in proptest::bool::ANY,
+        deal_per_spe in 1usize..=16,
     ) {
         let private = BuilderKind::from_name("spe_bfs_private").unwrap();
         let cfg = BihConfig { leaf_size: leaf, max_depth: 64 };
         let cell = cellbih::cell::CellConfig::ps3().with_spes(spes);
-        let r = private.build_on(&scene, &cfg, &cell).map_err(|e| {
+        let knobs = cellbih::strategy::Knobs { steal, deal_per_spe, ..Default::default() };
+        let r = private.build_with(&scene, scene.bounds(), &cfg, &cell, &knobs).map_err(|e| {
             proptest::test_runner::TestCaseError::fail(e.to_string())
         })?;
         r.bih.validate(&scene).map_err(|v| proptest::test_runner::TestCaseError::fail(v.to_string()))?;

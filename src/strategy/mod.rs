@@ -53,6 +53,13 @@ pub struct Knobs {
     /// largest-first deal more room to balance, but more levels are built
     /// before it.
     pub deal_per_spe: usize,
+    /// The dealt jobs stay in per-SPE lists in main memory; each SPE takes
+    /// its next one when it has built the last, and when its list is empty
+    /// it steals from the end of another's (lock-line updates). Buys:
+    /// balance when a few dealt jobs hold most of the work. Costs: an
+    /// atomic update per job taken, and each dealt job is built alone (its
+    /// levels are not batched with the SPE's other jobs).
+    pub steal: bool,
 }
 
 impl Default for Knobs {
@@ -60,6 +67,7 @@ impl Default for Knobs {
         Knobs {
             coop_top: true,
             deal_per_spe: 4,
+            steal: false,
         }
     }
 }
@@ -83,6 +91,8 @@ pub struct Output {
 pub struct SpeWork {
     /// Jobs (nodes) it made.
     pub jobs: u64,
+    /// Dealt jobs it stole from another SPE's list (`Knobs::steal`).
+    pub stolen: u64,
     /// ObjectArena blocks it took, and their slots that hold no node
     /// (skipped to keep a pair in one block, or never reached at the end).
     pub arena_blocks: u64,

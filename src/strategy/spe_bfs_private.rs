@@ -76,10 +76,19 @@ fn spawn(
     };
     // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
     // triangles: room for one level of as many jobs as triangles each.
-    let per_spe_slack = 2 * WORK_BYTES as u64;
-    let work_bytes = 2 * (WorkQueue::<Job>::spill_bytes(n) + spes as u64 * per_spe_slack);
+    // (With stealing, areas go with the dealt jobs: fewer than twice the
+    // deal level's size of them.)
+    let parts = if knobs.steal {
+        2 * knobs.deal_per_spe * spes
+    } else {
+        spes
+    };
+    let per_part_slack = 2 * WORK_BYTES as u64;
+    let work_bytes = 2 * (WorkQueue::<Job>::spill_bytes(n) + parts as u64 * per_part_slack);
     let work = mem().alloc("WorkAPPE/WorkBPPE of every SPE", work_bytes, 128)?;
     let records = mem().alloc("deal records", spes as u64 * RECORD_BYTES, 128)?;
+    let dealt_jobs = mem().alloc("dealt jobs", WORK_BYTES as u64, 128)?;
+    let lists = mem().alloc("dealt job lists", spes as u64 * 128, 128)?;
     let scratch = mem().alloc("cooperative partition scratch", n as u64 * 48, 128)?;
     let descriptor = mem().alloc("cooperative partition descriptor", 128, 128)?;
     let table = mem().alloc("cooperative partition table", spes as u64 * 128, 128)?;
@@ -134,6 +143,15 @@ fn spawn(
                     (w.arena_blocks, w.arena_unused) = top;
                 }
                 let own = match dealt {
+                    Some(level) if knobs.steal => {
+                        let to = Lists {
+                            jobs: dealt_jobs,
+                            lists,
+                            records,
+                        };
+                        deal_to_lists(&spe, &mut b, level, spes, to, record, tag).await?;
+                        None
+                    }
                     Some(level) => {
                         deal(&spe, &mut b, level, spes, work, records, record, tag).await?
                     }
@@ -151,6 +169,11 @@ fn spawn(
                     b.levels(level, None).await?;
                     let count = b.arena.allocated();
                     b.arena.close(count).await?;
+                } else if knobs.steal && dealt.is_some() {
+                    b.arena = super::arena::ObjectArena::new(&spe, blocks)?;
+                    let stolen =
+                        take_and_steal(&spe, &mut b, spes, work, record, records, tag).await?;
+                    out.borrow_mut().spe_work[0].stolen = stolen;
                 }
             } else {
                 // Help partition the top levels until the deal comes.
@@ -163,7 +186,11 @@ fn spawn(
                 let [count, depth, a, bb] = spe.ls_read::<u64>(record, 4)?[..] else {
                     unreachable!("four words")
                 };
-                if count > 0 {
+                if knobs.steal && count > 0 {
+                    let stolen =
+                        take_and_steal(&spe, &mut b, spes, work, record, records, tag).await?;
+                    out.borrow_mut().spe_work[id].stolen = stolen;
+                } else if count > 0 {
                     b.queue.set_spill([Ea(a), Ea(bb)]);
                     b.foreign_depth = Some(depth as u32);
                     b.levels(Level::InMemory(count as usize), None).await?;
@@ -207,19 +234,10 @@ async fn deal(
     // Sorting and dealing: the per-job bookkeeping rate of the SPE loop for
     // each job (docs/cost-model.md).
     spe.compute_items(spe.cost().kernels.spe_job, jobs.len() as u64);
-    let mut order: Vec<usize> = (0..jobs.len()).collect();
-    order.sort_by_key(|&j| (std::cmp::Reverse(jobs[j].count), jobs[j].node));
-    let mut load = vec![0u64; spes];
-    let mut hands: Vec<Vec<Job>> = vec![Vec::new(); spes];
-    for j in order {
-        let to = (0..spes).min_by_key(|&s| (load[s], s)).expect("an SPE");
-        load[to] += jobs[j].count as u64;
-        hands[to].push(jobs[j]);
-    }
+    let hands = largest_first(&jobs, spes);
     let mut own = None;
     let mut at = work;
-    for (to, mut hand) in hands.into_iter().enumerate() {
-        hand.sort_by_key(|j| j.node);
+    for (to, hand) in hands.into_iter().enumerate() {
         let triangles: usize = hand.iter().map(|j| j.count as usize).sum();
         let area = WorkQueue::<Job>::spill_bytes(triangles.max(1)) + WORK_BYTES as u64;
         let areas = [at, at.offset(area)];
@@ -258,4 +276,166 @@ async fn tell_nothing(
         spe.send_signal(to, 1, 1).await?;
     }
     Ok(())
+}
+
+/// Where the dealt jobs go when SPEs take them one at a time.
+#[derive(Clone, Copy)]
+struct Lists {
+    /// Every dealt job, grouped by the SPE it was dealt to.
+    jobs: Ea,
+    /// One line per SPE: `head << 16 | tail`, its range in `jobs` not yet
+    /// taken.
+    lists: Ea,
+    records: Ea,
+}
+
+/// SPE 0 deals the jobs of `level` largest first into per-SPE lists in main
+/// memory (`Knobs::steal`), writes every SPE's deal record (job count,
+/// depth, the jobs, the lists) and signals the others.
+async fn deal_to_lists(
+    spe: &Spe,
+    b: &mut SpeBuilder<'_>,
+    level: Level,
+    spes: usize,
+    to: Lists,
+    record: crate::cell::LsAddr,
+    tag: u32,
+) -> Result<(), CellError> {
+    let jobs = b.queue.load(level, 0).await?;
+    let depth = jobs[0].depth;
+    spe.compute_items(spe.cost().kernels.spe_job, jobs.len() as u64);
+    let hands = largest_first(&jobs, spes);
+    let mut grouped = Vec::with_capacity(jobs.len());
+    let mut ranges = Vec::with_capacity(spes);
+    for hand in &hands {
+        let start = grouped.len() as u32;
+        grouped.extend(hand.iter().copied());
+        ranges.push((start, grouped.len() as u32));
+    }
+    b.queue.write_jobs(&grouped, to.jobs).await?;
+    for (k, &(h, t)) in ranges.iter().enumerate() {
+        let mut line = [0u32; 32];
+        line[0] = (h << 16) | t;
+        spe.ls_write(record, &line)?;
+        spe.put(record, to.lists.offset(k as u64 * 128), 128, tag)
+            .await?;
+        spe.wait_tag(tag).await?;
+    }
+    let words = [grouped.len() as u64, depth as u64, to.jobs.0, to.lists.0];
+    spe.ls_write(record, &words)?;
+    for k in 0..spes {
+        spe.put(record, to.records.offset(k as u64 * RECORD_BYTES), 32, tag)
+            .await?;
+        spe.wait_tag(tag).await?;
+        if k > 0 {
+            spe.send_signal(k, 1, 1).await?;
+        }
+    }
+    Ok(())
+}
+
+/// Every SPE with `Knobs::steal`: reads the dealt jobs, then takes the next
+/// job of its own list, or steals the last of another's, and builds it,
+/// until every list is empty. Each job's `WorkAPPE`/`WorkBPPE` are carved
+/// from `work` in the jobs' order, so any SPE can build any job. Returns
+/// the jobs it stole.
+async fn take_and_steal(
+    spe: &Spe,
+    b: &mut SpeBuilder<'_>,
+    spes: usize,
+    work: Ea,
+    record: crate::cell::LsAddr,
+    records: Ea,
+    tag: u32,
+) -> Result<u64, CellError> {
+    let id = spe.id();
+    spe.get(record, records.offset(id as u64 * RECORD_BYTES), 32, tag)
+        .await?;
+    spe.wait_tag(tag).await?;
+    let [count, depth, jobs_ea, lists] = spe.ls_read::<u64>(record, 4)?[..] else {
+        unreachable!("four words")
+    };
+    let (count, lists) = (count as usize, Ea(lists));
+    b.queue.set_spill([Ea(jobs_ea), Ea(jobs_ea)]);
+    let jobs = b.queue.load(Level::InMemory(count), 0).await?;
+    let mut areas = Vec::with_capacity(count);
+    let mut at = work;
+    for j in &jobs {
+        let area = WorkQueue::<Job>::spill_bytes(j.count as usize) + WORK_BYTES as u64;
+        areas.push([at, at.offset(area)]);
+        at = at.offset(2 * area);
+    }
+    b.foreign_depth = Some(depth as u32);
+    let mut stolen = 0;
+    loop {
+        // Choosing where to take from: the per-job bookkeeping rate.
+        spe.compute(spe.cost().kernels.spe_job);
+        let Some((k, from_other)) = take(spe, record, lists, id, spes).await? else {
+            break;
+        };
+        stolen += from_other as u64;
+        b.queue.set_spill(areas[k]);
+        let level = b.queue.restart_local(&jobs[k..k + 1])?;
+        b.levels(level, None).await?;
+    }
+    let n = b.arena.allocated();
+    b.arena.close(n).await?;
+    Ok(stolen)
+}
+
+/// The next job for SPE `id`: the head of its own list, else the tail of
+/// the first other list (from `id + 1` on) that has one. Each is one
+/// lock-line update of the list's `head << 16 | tail` word. Returns the
+/// job's index and whether it was stolen.
+async fn take(
+    spe: &Spe,
+    line: crate::cell::LsAddr,
+    lists: Ea,
+    id: usize,
+    spes: usize,
+) -> Result<Option<(usize, bool)>, CellError> {
+    let split = |w: u32| (w >> 16, w & 0xffff);
+    let own = lists.offset(id as u64 * 128);
+    let old = spe
+        .atomic_update_u32(line, own, |w| {
+            let (h, t) = split(w);
+            if h < t { ((h + 1) << 16) | t } else { w }
+        })
+        .await?;
+    let (h, t) = split(old);
+    if h < t {
+        return Ok(Some((h as usize, false)));
+    }
+    for v in 1..spes {
+        let victim = lists.offset(((id + v) % spes) as u64 * 128);
+        let old = spe
+            .atomic_update_u32(line, victim, |w| {
+                let (h, t) = split(w);
+                if h < t { (h << 16) | (t - 1) } else { w }
+            })
+            .await?;
+        let (h, t) = split(old);
+        if h < t {
+            return Ok(Some((t as usize - 1, true)));
+        }
+    }
+    Ok(None)
+}
+
+/// Deals `jobs` largest first, each to the SPE with the fewest triangles so
+/// far (ties: the lower SPE); returns each SPE's jobs in node order.
+fn largest_first(jobs: &[Job], spes: usize) -> Vec<Vec<Job>> {
+    let mut order: Vec<usize> = (0..jobs.len()).collect();
+    order.sort_by_key(|&j| (std::cmp::Reverse(jobs[j].count), jobs[j].node));
+    let mut load = vec![0u64; spes];
+    let mut hands: Vec<Vec<Job>> = vec![Vec::new(); spes];
+    for j in order {
+        let to = (0..spes).min_by_key(|&s| (load[s], s)).expect("an SPE");
+        load[to] += jobs[j].count as u64;
+        hands[to].push(jobs[j]);
+    }
+    for hand in &mut hands {
+        hand.sort_by_key(|j| j.node);
+    }
+    hands
 }
