@@ -22,6 +22,11 @@ use cellbih::strategy::Knobs;
 use cellbih::update::{Animation, MAX_FRAMES, Method, Summary, Updater};
 use cellbih::{rays_csv, render};
 
+#[path = "cli/print.rs"]
+mod print;
+
+use print::{info, print_build};
+
 /// Where the demo writes its image: the current directory.
 const DEMO_PNG: &str = "cellbih-demo.png";
 
@@ -498,148 +503,6 @@ fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
         );
     }
     Ok(())
-}
-
-fn info(s: &Scene, format: Format) -> Res<()> {
-    let b = s.bounds();
-    let degenerate = s.degenerate_count();
-    match format {
-        Format::Json => println!(
-            "{}",
-            json!({
-                "scene": s.name, "triangles": s.len(), "geometry_ids": s.geometry_names.len(),
-                "bounds_min": b.min.to_array(), "bounds_max": b.max.to_array(), "degenerate": degenerate,
-            })
-        ),
-        Format::Text => {
-            println!("scene         {}", s.name);
-            println!("triangles     {}", s.len());
-            println!("geometry ids  {}", s.geometry_names.len());
-            println!(
-                "bounds        {:?} .. {:?}",
-                b.min.to_array(),
-                b.max.to_array()
-            );
-            println!("degenerate    {degenerate} (zero-area: kept, never hit)");
-        }
-    }
-    Ok(())
-}
-
-fn print_build(s: &Scene, r: &BuildReport, format: Format) {
-    let q = r.bih.quality();
-    let ms = r.host_time.as_secs_f64() * 1e3;
-    let sim = r.simulated.as_ref();
-    match format {
-        Format::Json => println!(
-            "{}",
-            json!({
-                "scene": s.name, "triangles": s.len(), "builder": r.builder.name(),
-                "host_ms": ms, "quality": q,
-                "simulated_ms": sim.map(|m| m.run.ms),
-                "spes": sim.map(|m| m.run.cores.len() - 1),
-                "simulated_cycles": sim.map(|m| m.run.cycles.0),
-                "cores": sim.map(|m| &m.run.cores),
-                "work": sim.map(|m| m.stats),
-                "spe_work": sim.map(|m| &m.spe_work),
-            })
-        ),
-        Format::Text => {
-            println!("scene       {} ({} triangles)", s.name, s.len());
-            println!("builder     {}", r.builder);
-            if let Some(m) = sim {
-                println!(
-                    "simulated   {:.2} ms on the PS3 model with {} SPEs ({} cycles)",
-                    m.run.ms,
-                    m.run.cores.len() - 1,
-                    m.run.cycles.0
-                );
-            }
-            if sim.is_some() {
-                println!("host time   {ms:.2} ms (the emulation)");
-            } else {
-                println!(
-                    "host time   {ms:.2} ms ({:.2} Mtris/s)",
-                    s.len() as f64 / ms / 1e3
-                );
-            }
-            println!(
-                "nodes       {} ({} inner, {} leaves)",
-                q.nodes, q.inner_nodes, q.leaves
-            );
-            println!(
-                "depth       max {}, mean {:.1} (per triangle)",
-                q.max_depth, q.mean_leaf_depth
-            );
-            println!(
-                "leaves      mean {:.2} triangles, max {}",
-                q.mean_leaf_triangles, q.max_leaf_triangles
-            );
-            println!("SAH cost    {:.2}", q.sah_cost);
-            println!("memory      {} bytes", q.memory_bytes);
-            if let Some(m) = sim {
-                print_cores(m);
-            }
-        }
-    }
-}
-
-/// Every core's counters; for a multi-SPE build also each SPE's jobs and
-/// ObjectArena blocks.
-fn print_cores(m: &cellbih::build::Simulated) {
-    let work = !m.spe_work.is_empty();
-    print!(
-        "\n{:<7} {:>11} {:>11} {:>11} {:>11} {:>10} {:>5} {:>11} {:>8} {:>8}",
-        "core",
-        "busy",
-        "DMA wait",
-        "mem shared",
-        "mbox wait",
-        "atomic",
-        "lost",
-        "idle",
-        "MB in",
-        "MB out"
-    );
-    if work {
-        print!(
-            " {:>8} {:>6} {:>7} {:>7}",
-            "jobs", "stolen", "blocks", "unused"
-        );
-    }
-    println!();
-    for (i, (name, c)) in m.run.cores.iter().enumerate() {
-        print!(
-            "{name:<7} {:>11} {:>11} {:>11} {:>11} {:>10} {:>5} {:>11} {:>8.2} {:>8.2}",
-            c.busy.0,
-            c.dma_wait.0,
-            c.memory_wait.0,
-            c.mailbox_wait.0,
-            c.atomic.0,
-            c.reservations_lost,
-            c.idle.0,
-            c.bytes_get as f64 / 1e6,
-            c.bytes_put as f64 / 1e6,
-        );
-        if let Some(w) = i.checked_sub(1).and_then(|k| m.spe_work.get(k)) {
-            print!(
-                " {:>8} {:>6} {:>7} {:>7}",
-                w.jobs, w.stolen, w.arena_blocks, w.arena_unused
-            );
-        }
-        println!();
-    }
-    println!(
-        "(cycles; \"mem shared\": what sharing the memory interface added to the core's \
-         transfers; \"mbox wait\": mailboxes and signals; lost: reservations lost; MB moved by \
-         DMA{})",
-        if work {
-            "; jobs: nodes made; stolen: dealt jobs taken from another SPE's list; blocks: \
-             ObjectArena blocks taken, unused: their slots without a node"
-        } else {
-            ""
-        }
-    );
 }
 
 /// `cargo run --release`: every builder on the default scene, then primary
