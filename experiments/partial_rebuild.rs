@@ -22,9 +22,7 @@ use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
 use cellbih::build::{BuilderKind, host};
-use cellbih::report::{
-    Format, Series, line_plot, output, prepare_dir, print_rows, write_json, write_rows_csv,
-};
+use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::procedural::rtperf;
 use cellbih::update::{
     Animation, MAX_FRAMES, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play,
@@ -63,15 +61,8 @@ struct Args {
 }
 
 fn main() {
-    cellbih::report::quiet_on_closed_pipe();
     let args = Args::parse();
-    if let Err(e) = prepare_dir(&args.out)
-        .map_err(|e| e.to_string())
-        .and_then(|()| run(&args))
-    {
-        eprintln!("partial_rebuild: {e}");
-        std::process::exit(1);
-    }
+    cellbih::report::experiment_main("partial_rebuild", &args.out, || run(&args));
 }
 
 /// Plays `anim` on a fresh updater; returns every frame's report and the

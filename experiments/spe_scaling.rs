@@ -20,9 +20,7 @@ use serde_json::{Value, json};
 use cellbih::bih::BihConfig;
 use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
-use cellbih::report::{
-    Format, Series, line_plot, output, prepare_dir, print_rows, write_json, write_rows_csv,
-};
+use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
 
@@ -83,18 +81,11 @@ fn variants() -> Vec<Variant> {
 }
 
 fn main() {
-    cellbih::report::quiet_on_closed_pipe();
     let mut args = Args::parse();
     if args.data.is_none() {
         args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
     }
-    if let Err(e) = prepare_dir(&args.out)
-        .map_err(|e| e.to_string())
-        .and_then(|()| run(&args))
-    {
-        eprintln!("spe_scaling: {e}");
-        std::process::exit(1);
-    }
+    cellbih::report::experiment_main("spe_scaling", &args.out, || run(&args));
 }
 
 /// One build's row.

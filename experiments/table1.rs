@@ -20,7 +20,7 @@ use serde_json::json;
 use cellbih::bih::BihConfig;
 use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
-use cellbih::report::{Format, output, prepare_dir, print_rows, write_json, write_rows_csv};
+use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -97,18 +97,11 @@ fn model(
 }
 
 fn main() {
-    cellbih::report::quiet_on_closed_pipe();
     let mut args = Args::parse();
     if args.data.is_none() {
         args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
     }
-    if let Err(e) = prepare_dir(&args.out)
-        .map_err(|e| e.to_string())
-        .and_then(|()| run(&args))
-    {
-        eprintln!("table1: {e}");
-        std::process::exit(1);
-    }
+    cellbih::report::experiment_main("table1", &args.out, || run(&args));
 }
 
 fn run(args: &Args) -> Result<(), String> {

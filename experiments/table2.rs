@@ -19,7 +19,7 @@ use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::build::BuilderKind;
-use cellbih::report::{Format, output, prepare_dir, print_rows, write_json, write_rows_csv};
+use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene;
 use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play};
 
@@ -59,15 +59,8 @@ const PAPER: [(&str, &str, [f64; 11]); 2] = [
 ];
 
 fn main() {
-    cellbih::report::quiet_on_closed_pipe();
     let args = Args::parse();
-    if let Err(e) = prepare_dir(&args.out)
-        .map_err(|e| e.to_string())
-        .and_then(|()| run(&args))
-    {
-        eprintln!("table2: {e}");
-        std::process::exit(1);
-    }
+    cellbih::report::experiment_main("table2", &args.out, || run(&args));
 }
 
 /// The summary of `anim` played on a fresh updater.

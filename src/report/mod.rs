@@ -21,6 +21,20 @@ pub fn quiet_on_closed_pipe() {
     }
 }
 
+/// An experiment's `main`: a closed pipe ends it quietly, its `--out`
+/// directory is checked before `run` does any work, and an error is
+/// printed as `name: error` with exit code 1.
+pub fn experiment_main(name: &str, out: &Path, run: impl FnOnce() -> Result<(), String>) {
+    quiet_on_closed_pipe();
+    if let Err(e) = prepare_dir(out)
+        .map_err(|e| e.to_string())
+        .and_then(|()| run())
+    {
+        eprintln!("{name}: {e}");
+        std::process::exit(1);
+    }
+}
+
 /// How an experiment prints its results (the files are written either way).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Format {

@@ -108,14 +108,7 @@ fn spawn(
 
     cell.spawn_spe(0, move |spe| async move {
         let mut b = SpeBuilder::new(&spe, tris, work_ppe, cfg, BlockSource::Mailbox)?;
-        let all = stream_bounds::<TriRecord>(
-            &spe,
-            &b.fig1,
-            tris,
-            n as u64,
-            spe.cost().kernels.spe_bounds_item,
-        )
-        .await?;
+        let all = b.bounds_of_all(n).await?;
         b.run(Job::new(0, n, 0, 0, region, &all)).await?;
         *spe_stats.borrow_mut() = b.stats;
         Ok(())
@@ -190,6 +183,13 @@ impl<'a> SpeBuilder<'a> {
             batch_put: [None, None],
             stats: BuildStats::default(),
         })
+    }
+
+    /// The bounds of all `n` triangle records (one streaming pass), for
+    /// the root job.
+    pub(super) async fn bounds_of_all(&self, n: usize) -> Result<Side, CellError> {
+        let rate = self.spe.cost().kernels.spe_bounds_item;
+        stream_bounds::<TriRecord>(self.spe, &self.fig1, self.tris, n as u64, rate).await
     }
 
     /// Builds the tree below `root`, level by level (Fig. 2).

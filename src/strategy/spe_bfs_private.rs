@@ -28,7 +28,6 @@ use std::rc::Rc;
 
 use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource};
 use super::coop::{Coop, CoopArea, GO};
-use super::fig1::stream_bounds;
 use super::layout::TriRecord;
 use super::spe_bfs::{Job, SpeBuilder};
 use super::work_queue::{Level, WORK_BYTES, WorkQueue};
@@ -116,14 +115,7 @@ fn spawn(
             let mut helper = Coop::new(&spe, coop)?;
             let rate = spe.cost().kernels.spe_partition_item;
             if id == 0 {
-                let all = stream_bounds::<TriRecord>(
-                    &spe,
-                    &b.fig1,
-                    tris,
-                    n as u64,
-                    spe.cost().kernels.spe_bounds_item,
-                )
-                .await?;
+                let all = b.bounds_of_all(n).await?;
                 if spes > 1 && knobs.coop_top {
                     let per_block = super::fig1::BLOCK_BYTES / size_of::<TriRecord>() as u32;
                     b.coop = Some((helper, spes as u32 * per_block));
