@@ -88,7 +88,11 @@ fn spawn(
     let records = mem().alloc("deal records", spes as u64 * RECORD_BYTES, 128)?;
     let dealt_jobs = mem().alloc("dealt jobs", WORK_BYTES as u64, 128)?;
     let lists = mem().alloc("dealt job lists", spes as u64 * 128, 128)?;
-    let scratch = mem().alloc("cooperative partition scratch", n as u64 * 48, 128)?;
+    let scratch = mem().alloc(
+        "cooperative partition scratch",
+        (n * size_of::<TriRecord>()) as u64,
+        128,
+    )?;
     let descriptor = mem().alloc("cooperative partition descriptor", 128, 128)?;
     let table = mem().alloc("cooperative partition table", spes as u64 * 128, 128)?;
     let arrivals = mem().alloc("cooperative partition arrivals", 128, 128)?;
