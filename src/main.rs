@@ -97,6 +97,22 @@ struct BuildArgs {
     /// whose list is empty steals from another's (the atomic unit).
     #[arg(long)]
     steal: bool,
+    /// spe_bfs_shared: jobs taken from the shared queue per atomic
+    /// operation (1 to 256).
+    #[arg(long, default_value_t = Knobs::default().agglomerate as u64,
+          value_parser = clap::value_parser!(u64).range(1..=256))]
+    agglomerate: u64,
+    /// Multi-SPE builders: double-buffered WorkA/WorkB (no synchronous
+    /// job-queue DMA; section 5).
+    #[arg(long)]
+    double_buffer: bool,
+    /// Multi-SPE builders: DMA lists for agglomerated jobs (section 5).
+    #[arg(long)]
+    dma_lists: bool,
+    /// Multi-SPE builders: the next batch's get overlaps this batch's
+    /// partition.
+    #[arg(long)]
+    prefetch: bool,
 }
 
 /// What `--builder` and its options ask for.
@@ -406,6 +422,10 @@ fn parse_build(args: &BuildArgs) -> Res<Chosen> {
         coop_top: !args.no_coop_top,
         deal_per_spe: args.deal_per_spe as usize,
         steal: args.steal,
+        agglomerate: args.agglomerate as usize,
+        double_buffer: args.double_buffer,
+        dma_lists: args.dma_lists,
+        prefetch: args.prefetch,
     };
     Ok(Chosen {
         builder,

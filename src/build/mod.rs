@@ -109,6 +109,7 @@ impl BuilderKind {
         BuilderKind::PPE_APPROX,
         BuilderKind::SPE_DFS,
         BuilderKind::SPE_BFS,
+        BuilderKind(&strategy::spe_bfs_shared::BUILDER),
         BuilderKind(&strategy::spe_bfs_private::BUILDER),
     ];
 

@@ -75,7 +75,7 @@ pub use clock::Cycles;
 pub use cost::{Bandwidth, CostModel, KernelRates};
 pub use local_store::LsAddr;
 pub use memory::{Ea, MainMemory};
-pub use mfc::{ListElement, Order, WaitMode};
+pub use mfc::{ListElement, MAX_LIST_ELEMENTS, MAX_TRANSFER, Order, WaitMode};
 pub use ppe::Ppe;
 pub use spe::{Reservation, Spe};
 pub use trace::{CoreCounters, Trace};

@@ -538,9 +538,27 @@ impl Spe {
         Ok(())
     }
 
-    /// Atomically applies `f` to the `u32` at `ea` (4-byte aligned) with a
-    /// getllar/putllc loop through the 128-byte local-store buffer `line`;
-    /// returns the old value. Each lost reservation costs a retry.
+    /// Atomically applies `f` to the 128-byte line at `ea` (its 32 words)
+    /// with a getllar/putllc loop through the local-store buffer `line`;
+    /// returns what `f` returned on the try that stored. Each lost
+    /// reservation costs a retry.
+    pub async fn atomic_update_line<R>(
+        &self,
+        line: LsAddr,
+        ea: Ea,
+        mut f: impl FnMut(&mut [u32]) -> R,
+    ) -> Result<R, CellError> {
+        loop {
+            self.getllar(line, ea).await?;
+            let r = self.with_ls_mut(line, 32, &mut f)?;
+            if self.putllc(line, ea).await? == Reservation::Stored {
+                return Ok(r);
+            }
+        }
+    }
+
+    /// Atomically applies `f` to the `u32` at `ea` (4-byte aligned);
+    /// returns the old value ([`Spe::atomic_update_line`]).
     pub async fn atomic_update_u32(
         &self,
         line: LsAddr,
@@ -555,17 +573,12 @@ impl Spe {
                 msg: format!("{ea} is not 4-byte aligned"),
             });
         }
-        loop {
-            self.getllar(line, base).await?;
-            let old = self.with_ls_mut(line, 32, |w: &mut [u32]| {
-                let old = w[word];
-                w[word] = f(old);
-                old
-            })?;
-            if self.putllc(line, base).await? == Reservation::Stored {
-                return Ok(old);
-            }
-        }
+        self.atomic_update_line(line, base, |w: &mut [u32]| {
+            let old = w[word];
+            w[word] = f(old);
+            old
+        })
+        .await
     }
 
     /// Atomic compare-and-swap on the `u32` at `ea`: stores `new` if the

@@ -111,8 +111,8 @@ fn print_cores(m: &cellbih::build::Simulated) {
     );
     if work {
         print!(
-            " {:>8} {:>6} {:>7} {:>7}",
-            "jobs", "stolen", "blocks", "unused"
+            " {:>8} {:>6} {:>6} {:>7} {:>7}",
+            "jobs", "taken", "stolen", "blocks", "unused"
         );
     }
     println!();
@@ -131,18 +131,19 @@ fn print_cores(m: &cellbih::build::Simulated) {
         );
         if let Some(w) = i.checked_sub(1).and_then(|k| m.spe_work.get(k)) {
             print!(
-                " {:>8} {:>6} {:>7} {:>7}",
-                w.jobs, w.stolen, w.arena_blocks, w.arena_unused
+                " {:>8} {:>6} {:>6} {:>7} {:>7}",
+                w.jobs, w.taken, w.stolen, w.arena_blocks, w.arena_unused
             );
         }
         println!();
     }
     println!(
         "(cycles; \"mem shared\": what sharing the memory interface added to the core's \
-         transfers; \"mbox wait\": mailboxes and signals; lost: reservations lost; MB moved by \
+         transfers; \"mbox wait\": mailboxes and signals (a barrier's wait is one); lost: reservations lost; MB moved by \
          DMA{})",
         if work {
-            "; jobs: nodes made; stolen: dealt jobs taken from another SPE's list; blocks: \
+            "; jobs: nodes made; taken: takes from the shared job queue that found jobs; stolen: \
+             dealt jobs taken from another SPE's list; blocks: \
              ObjectArena blocks taken, unused: their slots without a node"
         } else {
             ""

@@ -99,16 +99,19 @@ pub struct Coop {
     table_ls: LsAddr,
     barriers: u32,
     tag: u32,
+    /// `Knobs::prefetch`: each block's get overlaps the block before.
+    prefetch: bool,
 }
 
 impl Coop {
-    pub fn new(spe: &Spe, area: CoopArea) -> Result<Self, CellError> {
+    pub fn new(spe: &Spe, area: CoopArea, prefetch: bool) -> Result<Self, CellError> {
         Ok(Coop {
             area,
             line: spe.ls_alloc(128, 128)?,
             table_ls: spe.ls_alloc(128 * area.spes as u32, 128)?,
             barriers: 0,
             tag: spe.tag("cooperative partition")?,
+            prefetch,
         })
     }
 
@@ -172,17 +175,36 @@ impl Coop {
         let size = size_of::<TriRecord>() as u64;
         let per_block = BLOCK_BYTES as u64 / size;
         let rec = |base: Ea, i: u64| base.offset(i * size);
-        // 1. Partition the chunk block by block into the scratch array.
+        // 1. Partition the chunk block by block into the scratch array
+        //    (prefetching: the next block's get is issued before this one
+        //    is partitioned).
         let (mut left, mut right) = (Side::EMPTY, Side::EMPTY);
         let (mut up, mut down) = (lo, hi);
-        let mut at = lo;
-        let mut b = 0usize;
-        while at < hi {
-            let len = per_block.min(hi - at);
+        let nbuf = self.buffers();
+        let tris = self.area.tris;
+        let blocks = (hi - lo).div_ceil(per_block);
+        let block = |i: u64| (lo + i * per_block, per_block.min(hi - lo - i * per_block));
+        let get = |i: u64| {
+            let (at, len) = block(i);
+            let b = i as usize % nbuf;
             let (buf, tag) = (bufs.buffer(b), bufs.tag(b));
-            spe.wait_tag(tag).await?; // its last puts are done
-            spe.get(buf, rec(self.area.tris, at), (len * size) as u32, tag)
-                .await?;
+            async move {
+                spe.wait_tag(tag).await?; // its last puts are done
+                spe.get(buf, rec(tris, at), (len * size) as u32, tag).await
+            }
+        };
+        if blocks > 0 {
+            get(0).await?;
+        }
+        for i in 0..blocks {
+            if self.prefetch && i + 1 < blocks {
+                get(i + 1).await?;
+            } else if !self.prefetch && i > 0 {
+                get(i).await?;
+            }
+            let (_, len) = block(i);
+            let b = i as usize % nbuf;
+            let (buf, tag) = (bufs.buffer(b), bufs.tag(b));
             spe.wait_tag(tag).await?;
             let (l, r) = spe.with_ls_mut(buf, len as usize, |items: &mut [TriRecord]| {
                 partition(items, split)
@@ -202,11 +224,8 @@ impl Coop {
             up += lc;
             left = left.merge(l);
             right = right.merge(r);
-            at += len;
-            b = 1 - b;
         }
-        let both = (1 << bufs.tag(0)) | (1 << bufs.tag(1));
-        spe.wait_tags(both, WaitMode::All).await?;
+        spe.wait_tags(self.all_tags(bufs), WaitMode::All).await?;
         // 2. The table, a barrier, the prefix sums.
         let entry = Entry {
             left: SideRec::of(&left),
@@ -248,7 +267,9 @@ impl Coop {
         Ok((whole(|e| e.left.side()), whole(|e| e.right.side())))
     }
 
-    /// Copies `count` records from scratch `from` to the records at `to`.
+    /// Copies `count` records from scratch `from` to the records at `to`
+    /// (prefetching: the next block's get is issued before this one's
+    /// put).
     async fn copy(
         &self,
         spe: &Spe,
@@ -259,28 +280,47 @@ impl Coop {
         per_block: u64,
     ) -> Result<(), CellError> {
         let size = size_of::<TriRecord>() as u64;
-        let mut done = 0;
-        let mut b = 0usize;
-        while done < count {
-            let len = per_block.min(count - done);
+        let nbuf = self.buffers();
+        let blocks = count.div_ceil(per_block);
+        let len = |i: u64| per_block.min(count - i * per_block);
+        let scratch = self.area.scratch;
+        let get = |i: u64| {
+            let b = i as usize % nbuf;
+            let (buf, tag) = (bufs.buffer(b), bufs.tag(b));
+            let ea = scratch.offset((from + i * per_block) * size);
+            async move {
+                spe.wait_tag(tag).await?;
+                spe.get(buf, ea, (len(i) * size) as u32, tag).await
+            }
+        };
+        if blocks > 0 {
+            get(0).await?;
+        }
+        for i in 0..blocks {
+            if self.prefetch && i + 1 < blocks {
+                get(i + 1).await?;
+            } else if !self.prefetch && i > 0 {
+                get(i).await?;
+            }
+            let b = i as usize % nbuf;
             let (buf, tag) = (bufs.buffer(b), bufs.tag(b));
             spe.wait_tag(tag).await?;
-            let bytes = (len * size) as u32;
-            spe.get(
-                buf,
-                self.area.scratch.offset((from + done) * size),
-                bytes,
-                tag,
-            )
-            .await?;
-            spe.wait_tag(tag).await?;
-            spe.put(buf, self.area.tris.offset((to + done) * size), bytes, tag)
-                .await?;
-            done += len;
-            b = 1 - b;
+            let ea = self.area.tris.offset((to + i * per_block) * size);
+            spe.put(buf, ea, (len(i) * size) as u32, tag).await?;
         }
-        let both = (1 << bufs.tag(0)) | (1 << bufs.tag(1));
-        spe.wait_tags(both, WaitMode::All).await.map(|_| ())
+        spe.wait_tags(self.all_tags(bufs), WaitMode::All)
+            .await
+            .map(|_| ())
+    }
+
+    /// Fig. 1 buffers the blocks take turns in: two, three when
+    /// prefetching.
+    fn buffers(&self) -> usize {
+        if self.prefetch { 3 } else { 2 }
+    }
+
+    fn all_tags(&self, bufs: &Fig1Buffers) -> u32 {
+        (0..self.buffers()).fold(0, |m, b| m | 1 << bufs.tag(b))
     }
 
     /// Waits until every SPE has arrived: the last to arrive signals the

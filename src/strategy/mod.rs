@@ -14,7 +14,9 @@ pub mod ppe_approx;
 pub mod ppe_naive;
 pub mod spe_bfs;
 pub mod spe_bfs_private;
+pub mod spe_bfs_shared;
 pub mod spe_dfs;
+pub mod top;
 pub mod work_queue;
 
 use std::cell::RefCell;
@@ -60,14 +62,47 @@ pub struct Knobs {
     /// atomic update per job taken, and each dealt job is built alone (its
     /// levels are not batched with the SPE's other jobs).
     pub steal: bool,
+    /// `spe_bfs_shared`: jobs taken from the shared queue per atomic
+    /// operation (1 to 256). Buys: fewer lock-line updates and larger
+    /// batches. Costs: balance at the end of a level (the last takes are
+    /// large).
+    pub agglomerate: usize,
+    /// Section 5: a second `WorkA` and `WorkB` in the local store, so that a
+    /// full `WorkB` is written back while the other fills, and the next
+    /// block of a spilled level is read while this one is built (no
+    /// synchronous queue DMA). Costs 32 KiB of local store.
+    pub double_buffer: bool,
+    /// Section 5: DMA lists for agglomerated jobs — a batch gathers the
+    /// intervals of jobs that are not adjacent in one `getl` and scatters
+    /// them back in one `putl`, and nodes written into other arenas' slots
+    /// go out in one `putl` per batch. Off, each adjacent run is its own
+    /// batch and each piece of a node its own put.
+    pub dma_lists: bool,
+    /// The get of the next agglomerated batch is issued before the current
+    /// one is partitioned, so the transfer overlaps the partition (three
+    /// batch buffers instead of two). Off, a batch's get is waited for
+    /// before its partition starts, as in the paper.
+    pub prefetch: bool,
+}
+
+impl Knobs {
+    /// The paper's single-SPE queue: none of section 5's improvements.
+    pub const PAPER: Knobs = Knobs {
+        coop_top: false,
+        deal_per_spe: 4,
+        steal: false,
+        agglomerate: 16,
+        double_buffer: false,
+        dma_lists: false,
+        prefetch: false,
+    };
 }
 
 impl Default for Knobs {
     fn default() -> Self {
         Knobs {
             coop_top: true,
-            deal_per_spe: 4,
-            steal: false,
+            ..Knobs::PAPER
         }
     }
 }
@@ -93,6 +128,8 @@ pub struct SpeWork {
     pub jobs: u64,
     /// Dealt jobs it stole from another SPE's list (`Knobs::steal`).
     pub stolen: u64,
+    /// Takes from the shared job queue that found jobs (`spe_bfs_shared`).
+    pub taken: u64,
     /// ObjectArena blocks it took, and their slots that hold no node
     /// (skipped to keep a pair in one block, or never reached at the end).
     pub arena_blocks: u64,
@@ -112,8 +149,16 @@ pub(crate) async fn write_nodes(ppe: &Ppe, nodes: &[BihNode]) -> Result<(Ea, usi
 /// The nodes reachable from node 0, renumbered breadth first (children
 /// stay adjacent): what is left of a pool shared by several arenas once its
 /// skipped and unused slots are dropped. Done on read-back, on the host,
-/// uncharged: the tree in main memory is usable as it is.
-fn compact(nodes: &[BihNode]) -> Vec<BihNode> {
+/// uncharged: the tree in main memory is usable as it is. A child outside
+/// the pool, or a slot reached twice (a slot never written reads as an
+/// inner node whose children are nodes 0 and 1), is an error, not a hang.
+fn compact(nodes: &[BihNode]) -> Result<Vec<BihNode>, CellError> {
+    let lost = |msg: String| CellError::Program {
+        core: "strategy".into(),
+        msg: format!("reading the tree back: {msg} (a node slot never written: a lost job?)"),
+    };
+    let mut seen = vec![false; nodes.len()];
+    seen[0] = true;
     let mut out = vec![nodes[0]];
     let mut queue = std::collections::VecDeque::from([0usize]);
     while let Some(at) = queue.pop_front() {
@@ -121,13 +166,45 @@ fn compact(nodes: &[BihNode]) -> Vec<BihNode> {
         if n.is_leaf() {
             continue;
         }
-        let (c, first) = (n.left_child() as usize, out.len());
+        let c = n.left_child() as usize;
+        if c + 1 >= nodes.len() {
+            return Err(lost(format!(
+                "children {c}, {} past the pool's {} slots",
+                c + 1,
+                nodes.len()
+            )));
+        }
+        for slot in [c, c + 1] {
+            if std::mem::replace(&mut seen[slot], true) {
+                return Err(lost(format!("node slot {slot} is reached twice")));
+            }
+        }
+        let first = out.len();
         out.extend([nodes[c], nodes[c + 1]]);
         let [l, r] = n.clip();
         out[at] = BihNode::inner(first as u32, n.axis(), l, r);
         queue.extend([first, first + 1]);
     }
-    out
+    Ok(out)
+}
+
+/// A multi-SPE build: the jobs the SPEs made (one node each) are the
+/// nodes read back, or a job was lost (or done twice) and the run fails.
+fn check_jobs(work: &[SpeWork], nodes: usize) -> Result<(), CellError> {
+    let jobs: u64 = work.iter().map(|w| w.jobs).sum();
+    if work.is_empty() || jobs == nodes as u64 {
+        return Ok(());
+    }
+    let by_spe: Vec<String> = (work.iter().enumerate())
+        .map(|(i, w)| format!("SPE {i}: {}", w.jobs))
+        .collect();
+    Err(CellError::Program {
+        core: "strategy".into(),
+        msg: format!(
+            "the SPEs made {jobs} nodes ({}) but the tree read back has {nodes}: a job was lost or made twice",
+            by_spe.join(", ")
+        ),
+    })
 }
 
 /// A tree built on the emulated Cell and what it cost there.
@@ -198,8 +275,9 @@ pub fn run_in(
         nodes.extend(cell.memory().read_pod::<BihNode>(ea, count)?);
     }
     if o.compact {
-        nodes = compact(&nodes);
+        nodes = compact(&nodes)?;
     }
+    check_jobs(&o.spe_work, nodes.len())?;
     let records: Vec<layout::TriRecord> = cell.memory().read_pod(triangles, scene.len())?;
     let bih = Bih {
         nodes,
@@ -214,4 +292,63 @@ pub fn run_in(
         spe_work: o.spe_work.clone(),
         trace: cell.take_trace(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{BihNode, SpeWork, check_jobs, compact};
+
+    #[test]
+    fn compact_renumbers_the_reachable_nodes_and_drops_the_rest() {
+        // Root at 0, its children at 4 and 5 (slots 1 to 3 unused), the
+        // left child's at 6 and 7.
+        let mut pool = vec![BihNode::default(); 8];
+        pool[0] = BihNode::inner(4, 0, 1.0, 2.0);
+        pool[4] = BihNode::inner(6, 1, 3.0, 4.0);
+        pool[5] = BihNode::leaf(0, 1);
+        pool[6] = BihNode::leaf(1, 1);
+        pool[7] = BihNode::leaf(2, 1);
+        let t = compact(&pool).unwrap();
+        assert_eq!(t.len(), 5);
+        assert_eq!(t[0], BihNode::inner(1, 0, 1.0, 2.0));
+        assert_eq!(t[1], BihNode::inner(3, 1, 3.0, 4.0));
+        assert_eq!(&t[2..], &[pool[5], pool[6], pool[7]]);
+    }
+
+    #[test]
+    fn a_slot_never_written_is_an_error_not_a_hang() {
+        // Node 4 was never written: a zero slot reads as an inner node
+        // whose children are 0 and 1.
+        let mut pool = vec![BihNode::default(); 8];
+        pool[0] = BihNode::inner(4, 0, 1.0, 2.0);
+        pool[5] = BihNode::leaf(0, 1);
+        let e = compact(&pool).unwrap_err().to_string();
+        assert!(e.contains("reached twice") && e.contains("lost job"), "{e}");
+        // A child past the pool.
+        pool[0] = BihNode::inner(7, 0, 1.0, 2.0);
+        let e = compact(&pool).unwrap_err().to_string();
+        assert!(e.contains("past the pool"), "{e}");
+    }
+
+    #[test]
+    fn jobs_that_do_not_add_up_to_the_nodes_are_an_error_naming_each_spe() {
+        let work = |jobs: &[u64]| -> Vec<SpeWork> {
+            (jobs.iter())
+                .map(|&jobs| SpeWork {
+                    jobs,
+                    ..Default::default()
+                })
+                .collect()
+        };
+        assert!(check_jobs(&work(&[3, 4]), 7).is_ok());
+        assert!(
+            check_jobs(&[], 7).is_ok(),
+            "single-SPE builds count no jobs"
+        );
+        let e = check_jobs(&work(&[3, 3]), 7).unwrap_err().to_string();
+        assert!(
+            e.contains("SPE 0: 3, SPE 1: 3") && e.contains("lost"),
+            "{e}"
+        );
+    }
 }

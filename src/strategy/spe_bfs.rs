@@ -23,16 +23,16 @@ use std::rc::Rc;
 
 use glam::Vec3;
 
-use super::arena::{BlockSource, ObjectArena, pieces, serve_blocks};
+use super::arena::{BlockSource, NodeWrites, ObjectArena, pieces, serve_blocks};
 use super::fig1::{Fig1Buffers, partition_in_place, stream_bounds};
 use super::layout::TriRecord;
 use super::work_queue::{Level, WorkQueue};
-use super::{Output, Setup};
+use super::{Knobs, Output, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode};
 use crate::build::host::BuildStats;
 use crate::build::kernels::{Side, Split, choose_split, clip_planes, partition};
-use crate::cell::{CellError, Ea, Spe, WaitMode};
+use crate::cell::{CellError, Ea, ListElement, Spe, WaitMode};
 
 /// One job: a node to make and its interval of the triangle array. 64 bytes.
 #[repr(C)]
@@ -107,7 +107,8 @@ fn spawn(
     let spe_stats = stats.clone();
 
     cell.spawn_spe(0, move |spe| async move {
-        let mut b = SpeBuilder::new(&spe, tris, work_ppe, cfg, BlockSource::Mailbox)?;
+        let paper = Knobs::PAPER;
+        let mut b = SpeBuilder::new(&spe, tris, work_ppe, cfg, BlockSource::Mailbox, &paper)?;
         let all = b.bounds_of_all(n).await?;
         b.run(Job::new(0, n, 0, 0, region, &all)).await?;
         *spe_stats.borrow_mut() = b.stats;
@@ -131,6 +132,35 @@ struct Pending {
     split: Option<(Split, Aabb)>,
 }
 
+/// An agglomerated batch: its jobs, and the runs of the triangle array it
+/// moves (record ranges). One run, the span of its intervals, unless DMA
+/// lists gather several.
+#[derive(Default)]
+struct Batch {
+    jobs: Vec<Pending>,
+    runs: Vec<(u32, u32)>,
+}
+
+impl Batch {
+    /// Records the runs move.
+    fn records(&self) -> u32 {
+        self.runs.iter().map(|(f, e)| e - f).sum()
+    }
+
+    /// The smallest range holding every run.
+    fn extent(&self) -> Option<(u32, u32)> {
+        let first = self.runs.iter().map(|r| r.0).min()?;
+        Some((first, self.runs.iter().map(|r| r.1).max()?))
+    }
+}
+
+/// What a block of jobs comes to: batches, and large intervals streamed
+/// through Fig. 1, in job order.
+enum Step {
+    Batch(Batch),
+    Large(Job, Split, Aabb),
+}
+
 /// The SPE program's state: its local-store buffers and counters. The
 /// multi-SPE strategies run the same loop on every SPE.
 pub(super) struct SpeBuilder<'a> {
@@ -147,14 +177,24 @@ pub(super) struct SpeBuilder<'a> {
     /// Where the intervals of the jobs dealt to this SPE start: a batch of
     /// agglomerated jobs never spans two of them.
     pub(super) dealt_starts: Vec<u32>,
+    /// A shared queue: records between two jobs this SPE took may be
+    /// another SPE's, so a batch's span never crosses a gap.
+    pub(super) strict_spans: bool,
+    /// A shared queue: every node goes straight into its slot.
+    pub(super) node_writes: Option<NodeWrites<'a>>,
+    /// Batches gather non-adjacent intervals with DMA lists.
+    dma_lists: bool,
+    /// The next batch's get is issued before this one is partitioned.
+    prefetch: bool,
     /// The other SPEs help partition intervals of at least this many
     /// triangles (multi-SPE strategies, before the deal).
     pub(super) coop: Option<(super::coop::Coop, u32)>,
-    /// Which Fig. 1 buffer the next agglomerated batch uses (0 or 1).
+    /// Which Fig. 1 buffer the next agglomerated batch uses (0 or 1; 0 to
+    /// 2 when prefetching).
     batch_buf: usize,
     /// The interval each batch buffer last put back (its put may still be
     /// under way).
-    batch_put: [Option<(u32, u32)>; 2],
+    batch_put: [Option<(u32, u32)>; 3],
     pub(super) stats: BuildStats,
     /// Jobs this SPE made nodes for.
     pub(super) jobs: u64,
@@ -167,20 +207,25 @@ impl<'a> SpeBuilder<'a> {
         work_ppe: [Ea; 2],
         cfg: BihConfig,
         blocks: BlockSource,
+        knobs: &Knobs,
     ) -> Result<Self, CellError> {
         Ok(SpeBuilder {
             spe,
             tris,
             cfg,
             fig1: Fig1Buffers::alloc(spe)?,
-            queue: WorkQueue::new(spe, work_ppe)?,
+            queue: WorkQueue::new(spe, work_ppe, knobs.double_buffer)?,
             arena: ObjectArena::new(spe, blocks)?,
             foreign_depth: None,
             dealt_starts: Vec::new(),
+            strict_spans: false,
+            node_writes: None,
+            dma_lists: knobs.dma_lists,
+            prefetch: knobs.prefetch,
             coop: None,
             jobs: 0,
             batch_buf: 0,
-            batch_put: [None, None],
+            batch_put: [None; 3],
             stats: BuildStats::default(),
         })
     }
@@ -233,6 +278,10 @@ impl<'a> SpeBuilder<'a> {
     /// Writes `job`'s node: into this SPE's arena, or, for a job dealt to
     /// it, into the slot its parent's SPE handed out.
     async fn emit(&mut self, job: &Job, node: BihNode) -> Result<(), CellError> {
+        if let Some(w) = self.node_writes.as_mut() {
+            w.push(job.node, node);
+            return Ok(());
+        }
         if self.foreign_depth == Some(job.depth) {
             self.arena.emit_foreign(job.node, node).await
         } else {
@@ -241,17 +290,17 @@ impl<'a> SpeBuilder<'a> {
     }
 
     /// Makes the nodes of `jobs` (consecutive jobs of one level, in node-id
-    /// order), agglomerating small intervals.
-    async fn process(&mut self, jobs: &[Job]) -> Result<(), CellError> {
+    /// order), agglomerating small intervals. Each batch runs as soon as
+    /// it is complete, or, prefetching, once the block is planned.
+    pub(super) async fn process(&mut self, jobs: &[Job]) -> Result<(), CellError> {
         if self.foreign_depth.is_some() && self.foreign_depth == jobs.first().map(|j| j.depth) {
             // The jobs dealt to this SPE (one block: at most 128).
             self.dealt_starts = jobs.iter().map(|j| j.first).collect();
         }
         let k = self.spe.cost().kernels;
         let per_block = (super::fig1::BLOCK_BYTES as usize / size_of::<TriRecord>()) as u32;
-        let mut batch: Vec<Pending> = Vec::new();
-        // The span of the batch's intervals that need partitioning.
-        let mut span: Option<(u32, u32)> = None;
+        let mut steps = Vec::new();
+        let mut batch = Batch::default();
         for &job in jobs {
             self.jobs += 1;
             self.spe.compute(k.spe_job);
@@ -262,98 +311,215 @@ impl<'a> SpeBuilder<'a> {
                 choose_split(&mut candidate, &job.centers()).map(|s| (s, candidate))
             };
             let Some((s, cand)) = split else {
-                batch.push(Pending { job, split: None });
+                batch.jobs.push(Pending { job, split: None });
                 continue;
             };
             if job.count > per_block {
                 // A large interval: stream it through Fig. 1's buffers.
-                self.flush_batch(&mut batch, &mut span).await?;
-                // Fig. 1 reuses the batches' buffers: their puts finish first.
-                let batches = (1 << self.fig1.tag(0)) | (1 << self.fig1.tag(1));
-                self.spe.wait_tags(batches, WaitMode::All).await?;
-                if let Some((coop, min)) = self.coop.as_mut()
-                    && job.count >= *min
-                {
-                    // Every SPE partitions a share of it.
-                    let (l, r) = coop
-                        .lead(
-                            self.spe,
-                            &self.fig1,
-                            job.first,
-                            job.count,
-                            s,
-                            k.spe_partition_item,
-                        )
-                        .await?;
-                    self.split_node(&job, s, cand, &l, &r).await?;
-                    continue;
-                }
-                let p = partition_in_place::<TriRecord>(
-                    self.spe,
-                    &self.fig1,
-                    self.interval(job.first),
-                    job.count as u64,
-                    s,
-                    k.spe_partition_item,
-                )
-                .await?;
-                self.split_node(&job, s, cand, &p.left, &p.right).await?;
+                self.step(Step::Batch(std::mem::take(&mut batch)), &mut steps)
+                    .await?;
+                self.step(Step::Large(job, s, cand), &mut steps).await?;
                 continue;
             }
             let end = job.first + job.count;
-            let grown = span.map_or((job.first, end), |(f, _)| (f, end));
-            // A batch's get and put cover its whole span: it must not reach
-            // over records another SPE owns (the start of another dealt
-            // interval lies between).
-            let foreign = span
-                .is_some_and(|(f, _)| self.dealt_starts.iter().any(|&r| f < r && r <= job.first));
-            if grown.1 - grown.0 > per_block || foreign {
-                self.flush_batch(&mut batch, &mut span).await?;
-                span = Some((job.first, end));
+            if self.dma_lists {
+                // Any intervals, up to one block in all: adjacent ones
+                // merge into one run.
+                if batch.records() + job.count > per_block
+                    || batch.runs.len() == crate::cell::MAX_LIST_ELEMENTS
+                {
+                    self.step(Step::Batch(std::mem::take(&mut batch)), &mut steps)
+                        .await?;
+                }
+                match batch.runs.last_mut() {
+                    Some(run) if run.1 == job.first => run.1 = end,
+                    _ => batch.runs.push((job.first, end)),
+                }
             } else {
-                span = Some(grown);
+                // One span: it grows over the leaves between, but must not
+                // reach over records another SPE owns (the start of
+                // another dealt interval, or any gap in a shared queue).
+                let span = batch.runs.first().copied();
+                let grown = span.map_or((job.first, end), |(f, _)| (f, end));
+                let foreign = span.is_some_and(|(f, e)| {
+                    (self.strict_spans && job.first != e)
+                        || self.dealt_starts.iter().any(|&r| f < r && r <= job.first)
+                });
+                if grown.1 - grown.0 > per_block || foreign {
+                    self.step(Step::Batch(std::mem::take(&mut batch)), &mut steps)
+                        .await?;
+                    batch.runs = vec![(job.first, end)];
+                } else {
+                    batch.runs = vec![grown];
+                }
             }
-            batch.push(Pending {
+            batch.jobs.push(Pending {
                 job,
                 split: Some((s, cand)),
             });
         }
-        self.flush_batch(&mut batch, &mut span).await
+        self.step(Step::Batch(batch), &mut steps).await?;
+        self.run_prefetching(steps).await?;
+        if let Some(w) = self.node_writes.as_mut() {
+            w.flush().await?;
+        }
+        Ok(())
     }
 
-    /// Partitions the batch's intervals with one get and one put of their
-    /// span, then makes the batch's nodes in order.
-    async fn flush_batch(
-        &mut self,
-        batch: &mut Vec<Pending>,
-        span: &mut Option<(u32, u32)>,
-    ) -> Result<(), CellError> {
-        let size = size_of::<TriRecord>() as u32;
-        let mut sides = Vec::with_capacity(batch.len());
-        if let Some((first, end)) = span.take() {
-            let buf = self.batch_buf;
-            self.batch_buf = 1 - buf;
-            let ls = self.fig1.buffer(buf);
-            let (ea, bytes) = (self.interval(first), (end - first) * size);
-            // The buffer's previous put must be done before it is reused;
-            // and the other buffer's, if it wrote records this batch reads
-            // (the MFC does not order commands of different tag groups: a
-            // get could overtake that put). The model runs commands in
-            // order, so this wait is rare and costs only where needed.
-            let tag = self.fig1.tag(buf);
-            self.spe.wait_tag(tag).await?;
-            if let Some((f, e)) = self.batch_put[1 - buf]
+    /// Runs `step` now, or, prefetching, keeps it for
+    /// [`SpeBuilder::run_prefetching`].
+    async fn step(&mut self, step: Step, later: &mut Vec<Step>) -> Result<(), CellError> {
+        if self.prefetch {
+            later.push(step);
+            return Ok(());
+        }
+        match step {
+            Step::Batch(mut b) => {
+                let buf = self.get_batch(&b).await?;
+                self.finish_batch(&mut b, buf).await
+            }
+            Step::Large(job, s, cand) => self.large(&job, s, cand).await,
+        }
+    }
+
+    /// Runs planned steps, issuing each batch's get before the batch ahead
+    /// of it is partitioned.
+    async fn run_prefetching(&mut self, steps: Vec<Step>) -> Result<(), CellError> {
+        let mut steps = steps.into_iter().peekable();
+        let mut ready = None;
+        while let Some(step) = steps.next() {
+            match step {
+                Step::Large(job, s, cand) => self.large(&job, s, cand).await?,
+                Step::Batch(mut b) => {
+                    let buf = match ready.take() {
+                        Some(buf) => buf,
+                        None => self.get_batch(&b).await?,
+                    };
+                    if let Some(Step::Batch(next)) = steps.peek() {
+                        ready = Some(self.get_batch(next).await?);
+                    }
+                    self.finish_batch(&mut b, buf).await?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Partitions a large interval: streamed through Fig. 1's buffers, or
+    /// cooperatively by every SPE.
+    async fn large(&mut self, job: &Job, s: Split, cand: Aabb) -> Result<(), CellError> {
+        let k = self.spe.cost().kernels;
+        // Fig. 1 reuses the batches' buffers: their puts finish first.
+        let batches = (0..self.batch_buffers()).fold(0, |m, b| m | 1 << self.fig1.tag(b));
+        self.spe.wait_tags(batches, WaitMode::All).await?;
+        if let Some((coop, min)) = self.coop.as_mut()
+            && job.count >= *min
+        {
+            // Every SPE partitions a share of it.
+            let (l, r) = coop
+                .lead(
+                    self.spe,
+                    &self.fig1,
+                    job.first,
+                    job.count,
+                    s,
+                    k.spe_partition_item,
+                )
+                .await?;
+            return self.split_node(job, s, cand, &l, &r).await;
+        }
+        let p = partition_in_place::<TriRecord>(
+            self.spe,
+            &self.fig1,
+            self.interval(job.first),
+            job.count as u64,
+            s,
+            k.spe_partition_item,
+        )
+        .await?;
+        self.split_node(job, s, cand, &p.left, &p.right).await
+    }
+
+    /// Waits until every partitioned record this SPE put back is in main
+    /// memory (Fig. 1's buffers, which the batches use too).
+    pub(super) async fn drain(&self) -> Result<(), CellError> {
+        let all = (0..5).fold(0, |m, b| m | 1 << self.fig1.tag(b));
+        self.spe.wait_tags(all, WaitMode::All).await.map(|_| ())
+    }
+
+    /// Fig. 1 buffers the batches take turns in: two, three when
+    /// prefetching (the next batch's get must not wait for the put of the
+    /// batch before).
+    fn batch_buffers(&self) -> usize {
+        if self.prefetch { 3 } else { 2 }
+    }
+
+    /// Issues the get of the batch's runs (one get, or a DMA list) into the
+    /// next batch buffer; returns the buffer (`None`: only leaves).
+    async fn get_batch(&mut self, batch: &Batch) -> Result<Option<usize>, CellError> {
+        let Some((first, end)) = batch.extent() else {
+            return Ok(None);
+        };
+        let buf = self.batch_buf;
+        self.batch_buf = (buf + 1) % self.batch_buffers();
+        // The buffer's previous put must be done before it is reused; and
+        // another buffer's, if it wrote records this batch reads (the MFC
+        // does not order commands of different tag groups: a get could
+        // overtake that put). The model runs commands in order, so this
+        // wait is rare and costs only where needed.
+        let tag = self.fig1.tag(buf);
+        self.spe.wait_tag(tag).await?;
+        for other in (0..self.batch_buffers()).filter(|&b| b != buf) {
+            if let Some((f, e)) = self.batch_put[other]
                 && f < end
                 && first < e
             {
-                self.spe.wait_tag(self.fig1.tag(1 - buf)).await?;
+                self.spe.wait_tag(self.fig1.tag(other)).await?;
             }
-            self.spe.get(ls, ea, bytes, tag).await?;
+        }
+        let ls = self.fig1.buffer(buf);
+        match &self.run_list(batch)[..] {
+            [one] => self.spe.get(ls, one.ea, one.size, tag).await?,
+            list => self.spe.getl(ls, list, tag).await?,
+        }
+        Ok(Some(buf))
+    }
+
+    /// The batch's runs as DMA-list elements.
+    fn run_list(&self, batch: &Batch) -> Vec<ListElement> {
+        let size = size_of::<TriRecord>() as u32;
+        let run = |&(f, e): &(u32, u32)| ListElement {
+            ea: self.interval(f),
+            size: (e - f) * size,
+        };
+        batch.runs.iter().map(run).collect()
+    }
+
+    /// Waits for the batch's get (into `buf`), partitions its intervals,
+    /// puts them back, then makes the batch's nodes in order.
+    async fn finish_batch(
+        &mut self,
+        batch: &mut Batch,
+        buf: Option<usize>,
+    ) -> Result<(), CellError> {
+        let size = size_of::<TriRecord>() as u32;
+        let mut sides = Vec::with_capacity(batch.jobs.len());
+        if let Some(buf) = buf {
+            let (ls, tag) = (self.fig1.buffer(buf), self.fig1.tag(buf));
             self.spe.wait_tag(tag).await?;
             let rate = self.spe.cost().kernels.spe_partition_item;
-            for p in batch.iter() {
+            // Where each run starts in the local store. Runs are in job
+            // order (a job extends the last run or starts one), not in
+            // address order: jobs a shared queue hands out need not be.
+            let mut run = 0;
+            let mut run_at = 0u32;
+            for p in batch.jobs.iter() {
                 if let Some((s, _)) = p.split {
-                    let at = ls.offset((p.job.first - first) * size);
+                    while !(batch.runs[run].0..batch.runs[run].1).contains(&p.job.first) {
+                        run_at += (batch.runs[run].1 - batch.runs[run].0) * size;
+                        run += 1;
+                    }
+                    let at = ls.offset(run_at + (p.job.first - batch.runs[run].0) * size);
                     let lr = self.spe.with_ls_mut(
                         at,
                         p.job.count as usize,
@@ -363,11 +529,14 @@ impl<'a> SpeBuilder<'a> {
                     sides.push(lr);
                 }
             }
-            self.spe.put(ls, ea, bytes, tag).await?;
-            self.batch_put[buf] = Some((first, end));
+            match &self.run_list(batch)[..] {
+                [one] => self.spe.put(ls, one.ea, one.size, tag).await?,
+                list => self.spe.putl(ls, list, tag).await?,
+            }
+            self.batch_put[buf] = batch.extent();
         }
         let mut sides = sides.into_iter();
-        for p in batch.drain(..) {
+        for p in batch.jobs.drain(..) {
             match p.split {
                 None => {
                     let leaf = BihNode::leaf(p.job.first, p.job.count);

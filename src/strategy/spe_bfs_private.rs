@@ -26,10 +26,9 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource};
-use super::coop::{Coop, CoopArea, GO};
-use super::layout::TriRecord;
+use super::coop::Coop;
 use super::spe_bfs::{Job, SpeBuilder};
+use super::top::{Common, build_top, help_top};
 use super::work_queue::{Level, WORK_BYTES, WorkQueue};
 use super::{Output, Setup, SpeWork};
 use crate::bih::BihConfig;
@@ -55,24 +54,9 @@ fn spawn(
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let knobs = setup.knobs;
-    if !(1..=16).contains(&knobs.deal_per_spe) {
-        return Err(CellError::Config(format!(
-            "spe_bfs_private: {} jobs per SPE at the deal; 1 to 16",
-            knobs.deal_per_spe
-        )));
-    }
-    let spes = cell.config().spes;
+    let common = Common::alloc(cell, BUILDER.name, tris, n, &knobs, &out)?;
+    let (spes, blocks) = (cell.config().spes, common.blocks);
     let mem = || cell.memory_mut();
-    // One pool for every SPE's arena: every node, plus a pair skipped and
-    // a part-filled block per SPE and phase.
-    let pool_blocks = (2 * n + 1).div_ceil(BLOCK_NODES) + 2 * spes + 2;
-    let pool = mem().alloc("ObjectArena pool", pool_blocks as u64 * BLOCK_BYTES, 128)?;
-    let counter = mem().alloc("ObjectArena pool counter", 128, 128)?;
-    let blocks = BlockSource::Pool {
-        base: pool,
-        blocks: pool_blocks as u32,
-        counter,
-    };
     // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
     // triangles: room for one level of as many jobs as triangles each.
     // (With stealing, areas go with the dealt jobs: fewer than twice the
@@ -88,56 +72,17 @@ fn spawn(
     let records = mem().alloc("deal records", spes as u64 * RECORD_BYTES, 128)?;
     let dealt_jobs = mem().alloc("dealt jobs", WORK_BYTES as u64, 128)?;
     let lists = mem().alloc("dealt job lists", spes as u64 * 128, 128)?;
-    let scratch = mem().alloc(
-        "cooperative partition scratch",
-        (n * size_of::<TriRecord>()) as u64,
-        128,
-    )?;
-    let descriptor = mem().alloc("cooperative partition descriptor", 128, 128)?;
-    let table = mem().alloc("cooperative partition table", spes as u64 * 128, 128)?;
-    let arrivals = mem().alloc("cooperative partition arrivals", 128, 128)?;
-    let coop = CoopArea {
-        spes,
-        tris,
-        scratch,
-        descriptor,
-        table,
-        arrivals,
-    };
-    {
-        let mut o = out.borrow_mut();
-        o.nodes = vec![(pool, pool_blocks * BLOCK_NODES)];
-        o.compact = true;
-        o.spe_work = vec![SpeWork::default(); spes];
-    }
     for id in 0..spes {
         let out = out.clone();
         cell.spawn_spe(id, move |spe| async move {
-            let mut b = SpeBuilder::new(&spe, tris, [work, work], cfg, blocks)?;
+            let mut b = SpeBuilder::new(&spe, tris, [work, work], cfg, blocks, &knobs)?;
             let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
             let tag = spe.tag("deal")?;
-            let mut helper = Coop::new(&spe, coop)?;
-            let rate = spe.cost().kernels.spe_partition_item;
+            let mut helper = Coop::new(&spe, common.coop, knobs.prefetch)?;
             if id == 0 {
-                let all = b.bounds_of_all(n).await?;
-                if spes > 1 && knobs.coop_top {
-                    let per_block = super::fig1::BLOCK_BYTES / size_of::<TriRecord>() as u32;
-                    b.coop = Some((helper, spes as u32 * per_block));
-                }
-                let root_id = b.arena.alloc(1).await?;
-                let level = b
-                    .queue
-                    .start(Job::new(0, n, root_id as usize, 0, region, &all))?;
-                let dealt = b.levels(level, Some(knobs.deal_per_spe * spes)).await?;
-                // From the deal on, every SPE works alone.
-                b.coop = None;
-                let top_nodes = b.arena.allocated();
-                b.arena.close(top_nodes).await?;
-                let top = (b.arena.stats.blocks, b.arena.unused());
-                {
-                    let w = &mut out.borrow_mut().spe_work[0];
-                    (w.arena_blocks, w.arena_unused) = top;
-                }
+                let mut top = SpeWork::default();
+                let dealt = build_top(&mut b, helper, n, region, &knobs, &mut top).await?;
+                out.borrow_mut().spe_work[0] = top;
                 let own = match dealt {
                     Some(level) if knobs.steal => {
                         let to = Lists {
@@ -158,7 +103,7 @@ fn spawn(
                     }
                 };
                 if let Some((jobs, depth, areas)) = own {
-                    b.arena = super::arena::ObjectArena::new(&spe, blocks)?;
+                    b.arena.renew(blocks);
                     b.queue.set_spill(areas);
                     b.foreign_depth = Some(depth);
                     let level = b.queue.restart_local(&jobs)?;
@@ -166,16 +111,14 @@ fn spawn(
                     let count = b.arena.allocated();
                     b.arena.close(count).await?;
                 } else if knobs.steal && dealt.is_some() {
-                    b.arena = super::arena::ObjectArena::new(&spe, blocks)?;
+                    b.arena.renew(blocks);
                     let stolen =
                         take_and_steal(&spe, &mut b, spes, work, record, records, tag).await?;
                     out.borrow_mut().spe_work[0].stolen = stolen;
                 }
             } else {
                 // Help partition the top levels until the deal comes.
-                while spe.read_signal(1).await? == GO {
-                    helper.help(&spe, &b.fig1, rate).await?;
-                }
+                help_top(&spe, &b, &mut helper).await?;
                 spe.get(record, records.offset(id as u64 * RECORD_BYTES), 32, tag)
                     .await?;
                 spe.wait_tag(tag).await?;

@@ -5,12 +5,21 @@
 //! a level spilled, the next one reads its jobs back block by block, and
 //! `WorkAPPE` and `WorkBPPE` swap roles. While a whole level fits in `WorkB`
 //! — the first levels — nothing travels: the local-store buffers swap.
+//!
+//! Section 5's improvement, a knob (`double`): a second `WorkB`, so that a
+//! full one is written back while the other fills (no synchronous spill),
+//! and a second `WorkA`, into which the next block of a spilled level is
+//! read while the current one is built. Off, the queue is the paper's.
+//!
+//! For a queue shared by several SPEs (`spe_bfs_shared`), `WorkB` spills
+//! to places reserved by fetch-and-add in one next-level array
+//! ([`WorkQueue::share`]).
 
 use std::marker::PhantomData;
 
 use bytemuck::Pod;
 
-use crate::cell::{CellError, Ea, LsAddr, Spe};
+use crate::cell::{CellError, Ea, LsAddr, Spe, WaitMode};
 
 /// Bytes of `WorkA` and of `WorkB`: one 16 KiB transfer.
 pub const WORK_BYTES: u32 = 16 * 1024;
@@ -24,20 +33,42 @@ pub enum Level {
     InMemory(usize),
 }
 
+/// Where a shared queue's `WorkB` goes: the next level's job array, at
+/// places reserved by fetch-and-add on the `u32` counter at `counter`
+/// (through the 128-byte local-store line `line`).
+#[derive(Clone, Copy, Debug)]
+pub struct SharedSpill {
+    pub to: Ea,
+    /// Jobs the array at `to` holds.
+    pub capacity: u32,
+    pub counter: Ea,
+    pub line: LsAddr,
+}
+
 /// One SPE's `WorkA`/`WorkB` with their spill areas `WorkAPPE`/`WorkBPPE`,
 /// for jobs of type `J`.
 pub struct WorkQueue<'a, J> {
     spe: &'a Spe,
-    /// `WorkA` is `work[a]`, `WorkB` is `work[1 - a]`.
-    work: [LsAddr; 2],
+    /// The local-store buffers: two, or four when double-buffered.
+    work: Vec<LsAddr>,
+    /// `WorkA` is `work[a]`; `WorkB` is `work[b[0]]` (and `work[b[1]]`,
+    /// the one being written back, when double-buffered); `work[a_next]`
+    /// receives the next block of `WorkA` when double-buffered.
     a: usize,
+    b: [usize; 2],
+    a_next: usize,
+    /// The block of the level read ahead into `work[a_next]`.
+    prefetched: Option<usize>,
     /// `WorkAPPE` is `work_ppe[a_ppe]`, `WorkBPPE` the other.
     work_ppe: [Ea; 2],
     a_ppe: usize,
     /// Jobs in `WorkB` now, and blocks of it written to `WorkBPPE` this level.
     b_len: usize,
     b_spilled: usize,
-    tag: u32,
+    /// Tag groups: one per buffer.
+    tags: u32,
+    double: bool,
+    shared: Option<SharedSpill>,
     _job: PhantomData<J>,
 }
 
@@ -51,23 +82,44 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         (jobs.div_ceil(Self::PER_BUFFER) * WORK_BYTES as usize) as u64
     }
 
-    /// Allocates `WorkA` and `WorkB` in `spe`'s local store; `work_ppe` are
-    /// `WorkAPPE` and `WorkBPPE` in main memory.
-    pub fn new(spe: &'a Spe, work_ppe: [Ea; 2]) -> Result<Self, CellError> {
+    /// Allocates `WorkA` and `WorkB` in `spe`'s local store (and their
+    /// second buffers if `double`); `work_ppe` are `WorkAPPE` and
+    /// `WorkBPPE` in main memory.
+    pub fn new(spe: &'a Spe, work_ppe: [Ea; 2], double: bool) -> Result<Self, CellError> {
+        let buffers = if double { 4 } else { 2 };
+        let work = (0..buffers)
+            .map(|_| spe.ls_alloc(WORK_BYTES, 128))
+            .collect::<Result<Vec<_>, _>>()?;
+        let tags = if double {
+            spe.tags("WorkA/WorkB", 4)?
+        } else {
+            spe.tag("WorkA/WorkB")?
+        };
         Ok(WorkQueue {
             spe,
-            work: [
-                spe.ls_alloc(WORK_BYTES, 128)?,
-                spe.ls_alloc(WORK_BYTES, 128)?,
-            ],
+            work,
             a: 0,
+            b: if double { [1, 2] } else { [1, 1] },
+            a_next: if double { 3 } else { 0 },
+            prefetched: None,
             work_ppe,
             a_ppe: 0,
             b_len: 0,
             b_spilled: 0,
-            tag: spe.tag("WorkA/WorkB")?,
+            tags,
+            double,
+            shared: None,
             _job: PhantomData,
         })
+    }
+
+    /// The tag group of buffer `i` (all share one when not double-buffered).
+    fn tag(&self, i: usize) -> u32 {
+        if self.double {
+            self.tags + i as u32
+        } else {
+            self.tags
+        }
     }
 
     /// The first level: `root` alone, in `WorkA`.
@@ -82,6 +134,13 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         self.a_ppe = 0;
     }
 
+    /// From now on `WorkB` spills into a shared next-level array (`None`:
+    /// into `WorkBPPE` again). Between levels.
+    pub fn share(&mut self, to: Option<SharedSpill>) {
+        debug_assert!(self.b_len == 0);
+        self.shared = to;
+    }
+
     /// A level of `jobs` (at most [`Self::PER_BUFFER`]) in `WorkA`, in place
     /// of the one there (between levels).
     pub fn restart_local(&mut self, jobs: &[J]) -> Result<Level, CellError> {
@@ -94,11 +153,23 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
     /// through `WorkB` (between levels, when `WorkB` is empty) and waits.
     pub async fn write_jobs(&mut self, jobs: &[J], ea: Ea) -> Result<(), CellError> {
         debug_assert!(jobs.len() <= Self::PER_BUFFER && self.b_len == 0);
-        let b = self.work[1 - self.a];
+        let (b, tag) = (self.work[self.b[0]], self.tag(self.b[0]));
         self.spe.ls_write(b, jobs)?;
         let bytes = size_of_val(jobs) as u32;
-        self.spe.put(b, ea, bytes, self.tag).await?;
-        self.spe.wait_tag(self.tag).await
+        self.spe.put(b, ea, bytes, tag).await?;
+        self.spe.wait_tag(tag).await
+    }
+
+    /// `count` jobs (at most [`Self::PER_BUFFER`]) read from main memory at
+    /// `ea` into `WorkA` (a shared queue's take).
+    pub async fn read_jobs(&mut self, ea: Ea, count: usize) -> Result<Vec<J>, CellError> {
+        debug_assert!(count <= Self::PER_BUFFER);
+        let (a, tag) = (self.work[self.a], self.tag(self.a));
+        self.spe
+            .get(a, ea, (count * size_of::<J>()) as u32, tag)
+            .await?;
+        self.spe.wait_tag(tag).await?;
+        self.spe.ls_read(a, count)
     }
 
     /// Blocks of at most [`Self::PER_BUFFER`] jobs the level is read in.
@@ -110,28 +181,44 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
     }
 
     /// The jobs of block `k` of `level`, read into `WorkA` (from `WorkAPPE`
-    /// if the level spilled).
+    /// if the level spilled; double-buffered, the next block is read ahead).
     pub async fn load(&mut self, level: Level, k: usize) -> Result<Vec<J>, CellError> {
         let len = match level {
             Level::Local(len) => len,
             Level::InMemory(total) => {
-                let len = Self::PER_BUFFER.min(total - k * Self::PER_BUFFER);
-                let from = self.work_ppe[self.a_ppe].offset((k * WORK_BYTES as usize) as u64);
-                let bytes = (len * size_of::<J>()) as u32;
-                self.spe
-                    .get(self.work[self.a], from, bytes, self.tag)
-                    .await?;
-                self.spe.wait_tag(self.tag).await?;
-                len
+                if self.prefetched == Some(k) {
+                    self.prefetched = None;
+                    std::mem::swap(&mut self.a, &mut self.a_next);
+                    self.spe.wait_tag(self.tag(self.a)).await?;
+                } else {
+                    self.get_block(total, k, self.a).await?;
+                    self.spe.wait_tag(self.tag(self.a)).await?;
+                }
+                if self.double && k + 1 < Self::blocks(level) {
+                    self.get_block(total, k + 1, self.a_next).await?;
+                    self.prefetched = Some(k + 1);
+                }
+                Self::PER_BUFFER.min(total - k * Self::PER_BUFFER)
             }
         };
         self.spe.ls_read(self.work[self.a], len)
     }
 
+    /// Issues the get of block `k` of a level of `total` jobs in
+    /// `WorkAPPE` into buffer `buf`.
+    async fn get_block(&mut self, total: usize, k: usize, buf: usize) -> Result<(), CellError> {
+        let len = Self::PER_BUFFER.min(total - k * Self::PER_BUFFER);
+        let from = self.work_ppe[self.a_ppe].offset((k * WORK_BYTES as usize) as u64);
+        let bytes = (len * size_of::<J>()) as u32;
+        self.spe
+            .get(self.work[buf], from, bytes, self.tag(buf))
+            .await
+    }
+
     /// Appends a job of the next level to `WorkB`, writing `WorkB` to
     /// `WorkBPPE` when full.
     pub async fn push(&mut self, job: J) -> Result<(), CellError> {
-        let at = self.work[1 - self.a].offset((self.b_len * size_of::<J>()) as u32);
+        let at = self.work[self.b[0]].offset((self.b_len * size_of::<J>()) as u32);
         self.spe.ls_write(at, &[job])?;
         self.b_len += 1;
         if self.b_len == Self::PER_BUFFER {
@@ -149,30 +236,85 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         }
         let level = if self.b_spilled == 0 {
             // The first levels: the jobs stay in the local store.
+            std::mem::swap(&mut self.a, &mut self.b[0]);
             Level::Local(next)
         } else {
             if self.b_len > 0 {
                 self.spill().await?;
             }
+            self.wait_spills().await?;
             self.a_ppe = 1 - self.a_ppe;
+            if !self.double {
+                // The paper's two buffers swap roles after every level.
+                std::mem::swap(&mut self.a, &mut self.b[0]);
+            }
             Level::InMemory(next)
         };
-        self.a = 1 - self.a;
+        if !self.double {
+            self.b = [self.b[0]; 2];
+        }
         self.b_len = 0;
         self.b_spilled = 0;
         Ok(Some(level))
     }
 
-    /// Writes `WorkB` to the next block of `WorkBPPE` and waits (the paper's
-    /// write-back is synchronous).
+    /// A shared queue's level is done for this SPE: writes what `WorkB`
+    /// holds and waits until every spill is in main memory.
+    pub async fn flush_shared(&mut self) -> Result<(), CellError> {
+        if self.b_len > 0 {
+            self.spill().await?;
+        }
+        self.wait_spills().await?;
+        self.b_spilled = 0;
+        Ok(())
+    }
+
+    /// Double-buffered: waits for both `WorkB` write-backs (the next level
+    /// reads what they wrote).
+    async fn wait_spills(&mut self) -> Result<(), CellError> {
+        if self.double {
+            let mask = (1 << self.tag(self.b[0])) | (1 << self.tag(self.b[1]));
+            self.spe.wait_tags(mask, WaitMode::All).await?;
+        }
+        Ok(())
+    }
+
+    /// Writes `WorkB` to the next block of `WorkBPPE` (or to its reserved
+    /// place in a shared array): synchronously, as in the paper, or,
+    /// double-buffered, while the other `WorkB` fills.
     async fn spill(&mut self) -> Result<(), CellError> {
-        let to =
-            self.work_ppe[1 - self.a_ppe].offset((self.b_spilled * WORK_BYTES as usize) as u64);
         let bytes = (self.b_len * size_of::<J>()) as u32;
-        self.spe
-            .put(self.work[1 - self.a], to, bytes, self.tag)
-            .await?;
-        self.spe.wait_tag(self.tag).await?;
+        let to = match self.shared {
+            Some(s) => {
+                let place = self
+                    .spe
+                    .atomic_fetch_add_u32(s.line, s.counter, self.b_len as u32)
+                    .await?;
+                if place as u64 + self.b_len as u64 > s.capacity as u64 {
+                    return Err(CellError::Program {
+                        core: format!("SPE {}", self.spe.id()),
+                        msg: format!(
+                            "the shared job queue's next level holds {} jobs; {} pushed",
+                            s.capacity,
+                            place as u64 + self.b_len as u64
+                        ),
+                    });
+                }
+                s.to.offset(place as u64 * size_of::<J>() as u64)
+            }
+            None => {
+                self.work_ppe[1 - self.a_ppe].offset((self.b_spilled * WORK_BYTES as usize) as u64)
+            }
+        };
+        let (b, tag) = (self.work[self.b[0]], self.tag(self.b[0]));
+        self.spe.put(b, to, bytes, tag).await?;
+        if self.double {
+            // Fill the other buffer once its own write-back is done.
+            self.b.swap(0, 1);
+            self.spe.wait_tag(self.tag(self.b[0])).await?;
+        } else {
+            self.spe.wait_tag(tag).await?;
+        }
         self.b_spilled += 1;
         self.b_len = 0;
         Ok(())

@@ -1,0 +1,237 @@
+//! `spe_bfs_shared` — section 5's **one common job queue**: breadth first
+//! on all the machine's SPEs, every SPE taking jobs from one queue in main
+//! memory, synchronised only by the atomic unit (getllar/putllc on
+//! 128-byte lock lines; the PPE does nothing per job).
+//!
+//! 1. **The top levels** ([`super::top`]): SPE 0 builds until a level holds
+//!    `Knobs::deal_per_spe` jobs per SPE (the others help partition with
+//!    `Knobs::coop_top`), then writes that level into the queue.
+//! 2. **The shared queue**, one tree level at a time: the level's jobs lie
+//!    in one array (the shared `WorkAPPE`); an SPE takes
+//!    `Knobs::agglomerate` jobs per fetch-and-add on the *take* line,
+//!    builds them with the baseline's loop (Fig. 1, agglomeration), and
+//!    collects their children in its own `WorkB`, which it writes into the
+//!    next level's array (the shared `WorkBPPE`) at places reserved by
+//!    fetch-and-add on the *push* line. A level ends at a **barrier**
+//!    (fetch-and-add on the *arrivals* line; the last SPE to arrive opens
+//!    the next level and signals the others), so idle time at the end of
+//!    each level is measured, not hidden.
+//! 3. **Per-SPE ObjectArena lists**: the SPE that splits a job takes the
+//!    children's two adjacent ids from its own arena (blocks from one pool
+//!    by fetch-and-add); the SPE that later takes a child writes its node
+//!    straight into that slot, computing the address itself
+//!    ([`NodeWrites`]: one `putl` per batch with `Knobs::dma_lists`).
+//!
+//! A batch of agglomerated jobs moves only records of jobs this SPE took:
+//! two jobs adjacent in the queue need not be adjacent in the triangle
+//! array, and the records between may be another SPE's.
+//!
+//! The splits are the baseline's, so the tree is the baseline's tree; only
+//! the numbering differs (nodes read back are renumbered breadth first).
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use super::arena::NodeWrites;
+use super::coop::Coop;
+use super::spe_bfs::{Job, SpeBuilder};
+use super::top::{Common, build_top, help_top};
+use super::work_queue::{SharedSpill, WorkQueue};
+use super::{Output, Setup, SpeWork};
+use crate::bih::BihConfig;
+use crate::build::Builder;
+use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
+
+/// `spe_bfs_shared` in the registry of builders.
+pub const BUILDER: Builder = Builder::multi_spe(
+    "spe_bfs_shared",
+    "section 5: every SPE takes jobs from one shared job queue (lock-line atomics, --agglomerate jobs per take), a barrier per level, each SPE's nodes in its own ObjectArena list (--spes)",
+    spawn,
+);
+
+/// The queue's lock lines in main memory.
+#[derive(Clone, Copy)]
+struct Queue {
+    /// The two level arrays (the shared `WorkAPPE`/`WorkBPPE`).
+    levels: [Ea; 2],
+    /// Jobs each level array holds.
+    capacity: u32,
+    /// Words 0 and 1: the next job to take, and the level's job count.
+    take: Ea,
+    /// Word 0: jobs reserved in the next level's array.
+    push: Ea,
+    /// Word 0: SPEs arrived at a level's end, counted over all levels.
+    arrivals: Ea,
+    spes: usize,
+}
+
+fn spawn(
+    cell: &mut Cell,
+    setup: &Setup,
+    cfg: &BihConfig,
+    out: Rc<RefCell<Output>>,
+) -> Result<(), CellError> {
+    let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    let knobs = setup.knobs;
+    if !(1..=WorkQueue::<Job>::PER_BUFFER).contains(&knobs.agglomerate) {
+        return Err(CellError::Config(format!(
+            "spe_bfs_shared: {} jobs per take; 1 to {}",
+            knobs.agglomerate,
+            WorkQueue::<Job>::PER_BUFFER
+        )));
+    }
+    let common = Common::alloc(cell, BUILDER.name, tris, n, &knobs, &out)?;
+    let spes = cell.config().spes;
+    // A level's jobs: two per job of the level before with more than a
+    // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1);
+    // the level handed over from the top is under 32 jobs per SPE.
+    let jobs = (2 * (n / (cfg.leaf_size as usize + 1))).max(32 * spes);
+    let capacity = u32::try_from(jobs).map_err(|_| {
+        CellError::Config(format!(
+            "spe_bfs_shared: {n} triangles are too many for one queue"
+        ))
+    })?;
+    let level_bytes = jobs as u64 * size_of::<Job>() as u64;
+    let mem = || cell.memory_mut();
+    let level_a = mem().alloc("shared job queue: level A", level_bytes, 128)?;
+    let level_b = mem().alloc("shared job queue: level B", level_bytes, 128)?;
+    let take = mem().alloc("shared job queue: take line", 128, 128)?;
+    let push = mem().alloc("shared job queue: push line", 128, 128)?;
+    let arrivals = mem().alloc("shared job queue: arrivals line", 128, 128)?;
+    let queue = Queue {
+        levels: [level_a, level_b],
+        capacity,
+        take,
+        push,
+        arrivals,
+        spes,
+    };
+    for id in 0..spes {
+        let out = out.clone();
+        cell.spawn_spe(id, move |spe| async move {
+            let mut b = SpeBuilder::new(&spe, tris, queue.levels, cfg, common.blocks, &knobs)?;
+            let mut helper = Coop::new(&spe, common.coop, knobs.prefetch)?;
+            let line = spe.ls_alloc(128, 128)?;
+            let mut work = SpeWork::default();
+            if id == 0 {
+                let top = build_top(&mut b, helper, n, region, &knobs, &mut work).await?;
+                let count = match top {
+                    Some(level) => {
+                        let mut count = 0;
+                        for k in 0..WorkQueue::<Job>::blocks(level) {
+                            let jobs = b.queue.load(level, k).await?;
+                            let at = queue.levels[0].offset(count * size_of::<Job>() as u64);
+                            b.queue.write_jobs(&jobs, at).await?;
+                            count += jobs.len() as u64;
+                        }
+                        count as u32
+                    }
+                    None => 0,
+                };
+                spe.atomic_update_line(line, queue.take, |w| {
+                    (w[0], w[1]) = (0, count);
+                })
+                .await?;
+                for to in 1..spes {
+                    spe.send_signal(to, 1, 1).await?;
+                }
+            } else {
+                help_top(&spe, &b, &mut helper).await?;
+            }
+            b.arena.renew(common.blocks);
+            b.node_writes = Some(NodeWrites::new(&spe, common.pool, knobs.dma_lists)?);
+            b.strict_spans = true;
+            let taken = shared_levels(&spe, &mut b, queue, knobs.agglomerate, line).await?;
+            let count = b.arena.allocated();
+            b.arena.close(count).await?;
+            let mut o = out.borrow_mut();
+            o.stats.items_partitioned += b.stats.items_partitioned;
+            o.stats.partitions += b.stats.partitions;
+            work.jobs = b.jobs;
+            work.taken = taken;
+            work.arena_blocks += b.arena.stats.blocks;
+            work.arena_unused += b.arena.unused();
+            o.spe_work[id] = work;
+            Ok(())
+        });
+    }
+    Ok(())
+}
+
+/// Every SPE: takes jobs from the shared queue level by level until a
+/// level is empty; returns how many takes found jobs.
+async fn shared_levels(
+    spe: &Spe,
+    b: &mut SpeBuilder<'_>,
+    q: Queue,
+    agglomerate: usize,
+    line: LsAddr,
+) -> Result<u64, CellError> {
+    let job_bytes = size_of::<Job>() as u64;
+    let mut taken = 0u64;
+    let mut level = 0usize;
+    loop {
+        let (this, next) = (q.levels[level % 2], q.levels[1 - level % 2]);
+        b.queue.share(Some(SharedSpill {
+            to: next,
+            capacity: q.capacity,
+            counter: q.push,
+            line,
+        }));
+        loop {
+            // One lock-line update takes up to `agglomerate` jobs.
+            let (first, len) = spe
+                .atomic_update_line(line, q.take, |w| {
+                    let (first, len) = (w[0], w[1]);
+                    w[0] = len.min(first + agglomerate as u32);
+                    (first, len)
+                })
+                .await?;
+            if first >= len {
+                if len == 0 {
+                    // An empty level: the tree is done.
+                    b.node_writes
+                        .as_mut()
+                        .expect("shared builds write nodes directly")
+                        .finish()
+                        .await?;
+                    return Ok(taken);
+                }
+                break;
+            }
+            let count = (len - first).min(agglomerate as u32) as usize;
+            let jobs = b
+                .queue
+                .read_jobs(this.offset(first as u64 * job_bytes), count)
+                .await?;
+            b.process(&jobs).await?;
+            taken += 1;
+        }
+        // The next level reads what this SPE wrote: its children's jobs
+        // and its partitioned records are in main memory first.
+        b.queue.flush_shared().await?;
+        b.drain().await?;
+        level += 1;
+        barrier(spe, q, level, line).await?;
+    }
+}
+
+/// The end of level `level` (counting from 1): the last SPE to arrive
+/// makes the next level the one to take from (its job count is what was
+/// pushed) and signals the others (signal register 2).
+async fn barrier(spe: &Spe, q: Queue, level: usize, line: LsAddr) -> Result<(), CellError> {
+    let arrived = spe.atomic_fetch_add_u32(line, q.arrivals, 1).await? + 1;
+    if arrived as usize == level * q.spes {
+        let pushed = spe.atomic_update_u32(line, q.push, |_| 0).await?;
+        spe.atomic_update_line(line, q.take, |w| {
+            (w[0], w[1]) = (0, pushed);
+        })
+        .await?;
+        for to in (0..q.spes).filter(|&s| s != spe.id()) {
+            spe.send_signal(to, 2, 1).await?;
+        }
+    } else {
+        spe.read_signal(2).await?;
+    }
+    Ok(())
+}

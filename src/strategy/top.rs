@@ -1,0 +1,127 @@
+//! The top levels of the multi-SPE strategies (section 5: "on the upper
+//! tree levels many SPEs would be idle"), and what those strategies share
+//! in main memory.
+//!
+//! SPE 0 builds the first levels with the baseline's loop until a level
+//! holds `Knobs::deal_per_spe` jobs per SPE; with `Knobs::coop_top` the
+//! other SPEs help partition each large interval of those levels (the
+//! cooperative partition of section 2, [`super::coop`]), otherwise they
+//! wait. Then `spe_bfs_private` deals that level and `spe_bfs_shared` puts
+//! it in its shared queue.
+
+use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource};
+use super::coop::{Coop, CoopArea, GO};
+use super::layout::TriRecord;
+use super::spe_bfs::{Job, SpeBuilder};
+use super::work_queue::Level;
+use super::{Knobs, Output, SpeWork};
+use crate::aabb::Aabb;
+use crate::cell::{Cell, CellError, Ea, Spe};
+
+/// The ObjectArena pool and the cooperative partition's areas.
+#[derive(Clone, Copy)]
+pub(super) struct Common {
+    pub pool: Ea,
+    pub blocks: BlockSource,
+    pub coop: CoopArea,
+}
+
+impl Common {
+    /// Allocates them for `n` triangle records at `tris`, and checks the
+    /// knobs of the top levels.
+    pub fn alloc(
+        cell: &mut Cell,
+        name: &str,
+        tris: Ea,
+        n: usize,
+        knobs: &Knobs,
+        out: &std::cell::RefCell<Output>,
+    ) -> Result<Self, CellError> {
+        if !(1..=16).contains(&knobs.deal_per_spe) {
+            return Err(CellError::Config(format!(
+                "{name}: the top levels end at {} jobs per SPE; 1 to 16",
+                knobs.deal_per_spe
+            )));
+        }
+        let spes = cell.config().spes;
+        let mut mem = cell.memory_mut();
+        // One pool for every SPE's arena: every node, plus a pair skipped
+        // and a part-filled block per SPE and phase.
+        let pool_blocks = (2 * n + 1).div_ceil(BLOCK_NODES) + 2 * spes + 2;
+        let pool = mem.alloc("ObjectArena pool", pool_blocks as u64 * BLOCK_BYTES, 128)?;
+        let counter = mem.alloc("ObjectArena pool counter", 128, 128)?;
+        let scratch = mem.alloc(
+            "cooperative partition scratch",
+            (n * size_of::<TriRecord>()) as u64,
+            128,
+        )?;
+        let coop = CoopArea {
+            spes,
+            tris,
+            scratch,
+            descriptor: mem.alloc("cooperative partition descriptor", 128, 128)?,
+            table: mem.alloc("cooperative partition table", spes as u64 * 128, 128)?,
+            arrivals: mem.alloc("cooperative partition arrivals", 128, 128)?,
+        };
+        let mut o = out.borrow_mut();
+        o.nodes = vec![(pool, pool_blocks * BLOCK_NODES)];
+        o.compact = true;
+        o.spe_work = vec![SpeWork::default(); spes];
+        Ok(Common {
+            pool,
+            blocks: BlockSource::Pool {
+                base: pool,
+                blocks: pool_blocks as u32,
+                counter,
+            },
+            coop,
+        })
+    }
+}
+
+/// SPE 0: builds the top levels of the `n` records in `region`, helped by
+/// the others with `Knobs::coop_top`; returns the first level of at least
+/// `deal_per_spe` jobs per SPE (in `WorkA`), or `None` if the tree ended
+/// before. The top levels' arena is closed; its blocks are counted in
+/// `work`.
+pub(super) async fn build_top(
+    b: &mut SpeBuilder<'_>,
+    helper: Coop,
+    n: usize,
+    region: Aabb,
+    knobs: &Knobs,
+    work: &mut SpeWork,
+) -> Result<Option<Level>, CellError> {
+    let spes = helper.area.spes;
+    let all = b.bounds_of_all(n).await?;
+    if spes > 1 && knobs.coop_top {
+        let per_block = super::fig1::BLOCK_BYTES / size_of::<TriRecord>() as u32;
+        b.coop = Some((helper, spes as u32 * per_block));
+    }
+    let root_id = b.arena.alloc(1).await?;
+    let level = b
+        .queue
+        .start(Job::new(0, n, root_id as usize, 0, region, &all))?;
+    let top = b.levels(level, Some(knobs.deal_per_spe * spes)).await?;
+    // From here on, every SPE works on whole jobs.
+    b.coop = None;
+    let top_nodes = b.arena.allocated();
+    b.arena.close(top_nodes).await?;
+    work.arena_blocks += b.arena.stats.blocks;
+    work.arena_unused += b.arena.unused();
+    Ok(top)
+}
+
+/// Every SPE but 0: helps partition the top levels until SPE 0 signals
+/// their end (signal register 1, anything but `GO`).
+pub(super) async fn help_top(
+    spe: &Spe,
+    b: &SpeBuilder<'_>,
+    helper: &mut Coop,
+) -> Result<(), CellError> {
+    let rate = spe.cost().kernels.spe_partition_item;
+    while spe.read_signal(1).await? == GO {
+        helper.help(spe, &b.fig1, rate).await?;
+    }
+    Ok(())
+}
