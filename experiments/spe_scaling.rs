@@ -55,25 +55,88 @@ struct Variant {
 }
 
 /// Every multi-SPE builder: its defaults, without the cooperative top,
-/// and with work stealing.
+/// with its own knob (work stealing; one job per take), with each of
+/// section 5's queue improvements alone, with all of them, and (private)
+/// all of them dealt at two jobs per SPE. Named by their CLI options.
 fn variants() -> Vec<Variant> {
+    let d = Knobs::default();
+    let all = Knobs {
+        double_buffer: true,
+        dma_lists: true,
+        prefetch: true,
+        ..d
+    };
     let mut v = Vec::new();
     for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
-        for (coop_top, steal) in [(true, false), (false, false), (true, true)] {
-            let knobs = Knobs {
-                coop_top,
-                steal,
-                ..Knobs::default()
-            };
-            let name = match (coop_top, steal) {
-                (true, false) => b.name().to_string(),
-                (false, _) => format!("{} --no-coop-top", b.name()),
-                (true, true) => format!("{} --steal", b.name()),
-            };
+        let shared = b.name() == "spe_bfs_shared";
+        let mut settings = vec![
+            ("", d),
+            (
+                " --no-coop-top",
+                Knobs {
+                    coop_top: false,
+                    ..d
+                },
+            ),
+            (
+                " --double-buffer",
+                Knobs {
+                    double_buffer: true,
+                    ..d
+                },
+            ),
+            (
+                " --dma-lists",
+                Knobs {
+                    dma_lists: true,
+                    ..d
+                },
+            ),
+            (
+                " --prefetch",
+                Knobs {
+                    prefetch: true,
+                    ..d
+                },
+            ),
+            (" --double-buffer --dma-lists --prefetch", all),
+        ];
+        if shared {
+            settings.insert(
+                2,
+                (
+                    " --agglomerate 1",
+                    Knobs {
+                        agglomerate: 1,
+                        ..d
+                    },
+                ),
+            );
+            settings.insert(
+                3,
+                (
+                    " --agglomerate 64",
+                    Knobs {
+                        agglomerate: 64,
+                        ..d
+                    },
+                ),
+            );
+        } else {
+            settings.insert(2, (" --steal", Knobs { steal: true, ..d }));
+            settings.push((
+                " --double-buffer --dma-lists --prefetch --deal-per-spe 2",
+                Knobs {
+                    deal_per_spe: 2,
+                    ..all
+                },
+            ));
+        }
+        for (flags, knobs) in settings {
             v.push(Variant {
                 builder: b,
                 knobs,
-                name,
+                name: format!("{}{flags}", b.name()),
             });
         }
     }
@@ -109,6 +172,9 @@ fn row(scene: &Scene, v: &Variant, spes: usize, base: (f64, f64)) -> Result<Valu
         .sum();
     let peak = cell.cost.memory_bandwidth.bytes_per_kcycle as f64 / 1000.0;
     let (base_ms, base_sah) = base;
+    let arena_slots: u64 = sim.spe_work.iter().map(|w| w.arena_blocks).sum::<u64>()
+        * cellbih::strategy::arena::BLOCK_NODES as u64;
+    let arena_unused: u64 = sim.spe_work.iter().map(|w| w.arena_unused).sum();
     let ms = sim.run.ms;
     Ok(json!({
         "scene": scene.name, "triangles": scene.len(), "builder": v.name, "spes": spes,
@@ -119,6 +185,9 @@ fn row(scene: &Scene, v: &Variant, spes: usize, base: (f64, f64)) -> Result<Valu
         "idle": share(&|c| c.idle.0),
         "memory_shared": share(&|c| c.memory_wait.0),
         "reservations_lost": spe_cores.iter().map(|(_, c)| c.reservations_lost).sum::<u64>(),
+        "jobs_taken": sim.spe_work.iter().map(|w| w.taken).sum::<u64>(),
+        "jobs_stolen": sim.spe_work.iter().map(|w| w.stolen).sum::<u64>(),
+        "arena_waste": arena_unused as f64 / arena_slots.max(1) as f64,
         "memory_utilisation": bytes as f64 / (cycles * peak),
         "sah_over_baseline": r.bih.quality().sah_cost / base_sah,
         "host_ms": r.host_time.as_secs_f64() * 1e3,
@@ -147,14 +216,14 @@ fn run(args: &Args) -> Result<(), String> {
         for v in variants() {
             for spes in 1..=args.max_spes as usize {
                 if progress {
-                    eprint!("{spec:>16} {:<30} {spes} SPEs\r", v.name);
+                    eprint!("{spec:>16} {:<58} {spes} SPEs\r", v.name);
                 }
                 rows.push(row(&scene, &v, spes, base)?);
             }
         }
     }
     if progress {
-        eprint!("{:70}\r", "");
+        eprint!("{:90}\r", "");
     }
     print_rows(args.format, &rows, print_table)?;
     let keys = [
@@ -173,6 +242,9 @@ fn run(args: &Args) -> Result<(), String> {
         "idle",
         "memory_shared",
         "reservations_lost",
+        "jobs_taken",
+        "jobs_stolen",
+        "arena_waste",
         "memory_utilisation",
         "sah_over_baseline",
         "host_ms",
@@ -268,7 +340,7 @@ fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error
 
 fn print_table(rows: &[Value]) {
     println!(
-        "{:<18} {:<30} {:>4} {:>10} {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8}",
+        "{:<18} {:<58} {:>4} {:>10} {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8}",
         "scene",
         "builder",
         "SPEs",
@@ -279,13 +351,15 @@ fn print_table(rows: &[Value]) {
         "DMA",
         "sync",
         "idle",
+        "atomic",
+        "lost",
         "mem",
         "host ms"
     );
     let pct = |v: &Value| format!("{:.0}%", v.as_f64().unwrap_or(0.0) * 100.0);
     for r in rows {
         println!(
-            "{:<18} {:<30} {:>4} {:>10.2} {:>8.2} {:>6.2} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8.0}",
+            "{:<18} {:<58} {:>4} {:>10.2} {:>8.2} {:>6.2} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8.0}",
             r["scene"].as_str().unwrap_or(""),
             r["builder"].as_str().unwrap_or(""),
             r["spes"],
@@ -296,12 +370,15 @@ fn print_table(rows: &[Value]) {
             pct(&r["dma_wait"]),
             pct(&r["sync_wait"]),
             pct(&r["idle"]),
+            pct(&r["atomic"]),
+            r["reservations_lost"],
             pct(&r["memory_utilisation"]),
             r["host_ms"].as_f64().unwrap_or(0.0),
         );
     }
     println!(
-        "speedup over spe_bfs on one SPE, simulated PS3 time; busy/DMA/sync/idle: mean share of the \
-         run per SPE; mem: memory-interface utilisation; host ms: the emulation, one thread"
+        "speedup over spe_bfs on one SPE, simulated PS3 time; busy/DMA/sync/idle/atomic: mean share \
+         of the run per SPE (sync: mailboxes and signals, a barrier's wait among them); lost: \
+         reservations lost; mem: memory-interface utilisation; host ms: the emulation, one thread"
     );
 }

@@ -456,15 +456,48 @@ fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
     assert_ok(&out);
     let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rows = rows.as_array().unwrap();
-    let variants = 3 * cellbih::build::BuilderKind::ALL
+    // Each variant on 1 and 2 SPEs; every multi-SPE builder with its
+    // defaults, without the cooperative top and with section 5's queue
+    // improvements.
+    let mut by_variant: std::collections::BTreeMap<&str, Vec<u64>> = Default::default();
+    for r in rows {
+        let v = by_variant
+            .entry(r["builder"].as_str().unwrap())
+            .or_default();
+        v.push(r["spes"].as_u64().unwrap());
+    }
+    assert!(by_variant.values().all(|s| s == &[1, 2]), "{by_variant:?}");
+    for b in cellbih::build::BuilderKind::ALL
         .iter()
         .filter(|b| b.multi_spe())
-        .count();
-    assert_eq!(rows.len(), variants * 2);
+    {
+        for flags in [
+            "",
+            " --no-coop-top",
+            " --double-buffer --dma-lists --prefetch",
+        ] {
+            let name = format!("{}{flags}", b.name());
+            assert!(by_variant.contains_key(name.as_str()), "{name} missing");
+        }
+    }
     for r in rows {
+        let waste = r["arena_waste"].as_f64().unwrap();
+        assert!((0.0..1.0).contains(&waste), "{r}");
+        if r["builder"].as_str().unwrap().starts_with("spe_bfs_shared") {
+            assert!(r["jobs_taken"].as_u64().unwrap() > 0, "{r}");
+        }
         let spes = r["spes"].as_f64().unwrap();
         let speedup = r["speedup"].as_f64().unwrap();
-        assert!(speedup > 0.0 && speedup <= spes * 1.001, "{r}");
+        assert!(speedup > 0.0, "{r}");
+        // With the paper's queue, N SPEs are at most N times one; section
+        // 5's improvements (overlapped transfers) may beat the baseline
+        // on one SPE too.
+        let improved = ["--double-buffer", "--dma-lists", "--prefetch"]
+            .iter()
+            .any(|k| r["builder"].as_str().unwrap().contains(k));
+        if !improved {
+            assert!(speedup <= spes * 1.001, "{r}");
+        }
         let shares: f64 = ["busy", "dma_wait", "sync_wait", "idle", "atomic"]
             .iter()
             .map(|k| r[k].as_f64().unwrap())

@@ -94,44 +94,6 @@ fn spe_dfs_builds_the_host_tree_with_the_partitions_on_an_spe() {
     }
 }
 
-/// The same tree whatever the node numbering: walks both trees together and
-/// compares every node's kind, axis, clip planes and leaf range, and the
-/// set of triangles in every leaf.
-fn same_tree_structure(a: &Bih, b: &Bih) -> Result<(), String> {
-    let mut stack = vec![(0u32, 0u32, String::from("root"))];
-    while let Some((i, j, path)) = stack.pop() {
-        let (x, y) = (a.nodes[i as usize], b.nodes[j as usize]);
-        match (x.is_leaf(), y.is_leaf()) {
-            (true, true) => {
-                if x.leaf_range() != y.leaf_range() {
-                    return Err(format!("{path}: leaf ranges differ"));
-                }
-                let (f, c) = x.leaf_range();
-                let r = f as usize..(f + c) as usize;
-                let (mut p, mut q) = (a.prim_ids[r.clone()].to_vec(), b.prim_ids[r].to_vec());
-                p.sort_unstable();
-                q.sort_unstable();
-                if p != q {
-                    return Err(format!("{path}: leaves hold different triangles"));
-                }
-            }
-            (false, false) => {
-                if (x.axis(), x.clip()) != (y.axis(), y.clip()) {
-                    return Err(format!("{path}: splits differ"));
-                }
-                let (l, m) = (x.left_child(), y.left_child());
-                stack.push((l + 1, m + 1, format!("{path}/R")));
-                stack.push((l, m, format!("{path}/L")));
-            }
-            _ => return Err(format!("{path}: a leaf against an inner node")),
-        }
-    }
-    if a.nodes.len() != b.nodes.len() {
-        return Err(format!("{} vs {} nodes", a.nodes.len(), b.nodes.len()));
-    }
-    Ok(())
-}
-
 /// spe_bfs, the baseline, makes the host tree's splits level by level: the
 /// same tree with its nodes numbered breadth first. The scenes are large
 /// enough for every path of the program: levels wider than WorkB (spilled
@@ -151,7 +113,8 @@ fn spe_bfs_builds_the_host_tree_breadth_first() {
         let bfs = BuilderKind::SPE_BFS
             .build(&s, &BihConfig::default())
             .unwrap();
-        same_tree_structure(&bfs.bih, &host.bih).unwrap_or_else(|e| panic!("{}: {e}", s.name));
+        common::same_tree_structure(&bfs.bih, &host.bih)
+            .unwrap_or_else(|e| panic!("{}: {e}", s.name));
         // Breadth first: a node's children come after every node of its level.
         let depth_of = node_depths(&bfs.bih);
         assert!(
@@ -340,97 +303,4 @@ fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
         assert_eq!(*n, want, "slot {i}");
     }
     assert_eq!(ppe_messages, 0, "the pool needs no PPE");
-}
-
-/// spe_bfs_private on 1 to 8 SPEs, with the cooperative top levels and
-/// without, with work stealing and without: the baseline's tree (same splits, same leaves; only numbering
-/// may differ), valid, the same cycles and nodes on every run; with several
-/// SPEs every SPE works and the build takes fewer simulated cycles than the
-/// baseline's, and fewer still when the SPEs help with the top levels.
-#[test]
-fn spe_bfs_private_builds_the_baseline_tree_on_1_to_8_spes() {
-    use cellbih::cell::CellConfig;
-    use cellbih::strategy::Knobs;
-    let private = BuilderKind::from_name("spe_bfs_private").unwrap();
-    let cfg = BihConfig::default();
-    for spec in ["default", "car", "rtperf:30000:3"] {
-        let s = scene::load(spec, None).unwrap();
-        let base = BuilderKind::SPE_BFS.build(&s, &cfg).unwrap();
-        let base_cycles = base.simulated.as_ref().unwrap().run.cycles;
-        for spes in 1..=8 {
-            let cell = CellConfig::ps3().with_spes(spes);
-            let mut cycles = Vec::new();
-            for (coop_top, steal) in [(false, false), (true, false), (true, true)] {
-                let knobs = Knobs {
-                    coop_top,
-                    steal,
-                    ..Knobs::default()
-                };
-                let build = || {
-                    private
-                        .build_with(&s, s.bounds(), &cfg, &cell, &knobs)
-                        .unwrap()
-                };
-                let r = build();
-                let what = format!("{spec} on {spes} SPEs, {knobs:?}");
-                r.bih.validate(&s).unwrap_or_else(|v| panic!("{what}: {v}"));
-                same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{what}: {e}"));
-                let again = build();
-                let (a, b) = (r.simulated.unwrap(), again.simulated.unwrap());
-                assert_eq!(a.run.cycles, b.run.cycles, "{what}");
-                assert_eq!(a.run.cores, b.run.cores, "{what}");
-                assert_eq!(r.bih.nodes, again.bih.nodes, "{what}");
-                // Every node was made by one job of one SPE; the arenas'
-                // blocks hold every node and their unused slots.
-                let jobs: u64 = a.spe_work.iter().map(|w| w.jobs).sum();
-                assert_eq!(jobs as usize, r.bih.nodes.len(), "{what}");
-                let slots: u64 = a.spe_work.iter().map(|w| w.arena_blocks).sum::<u64>()
-                    * cellbih::strategy::arena::BLOCK_NODES as u64;
-                let unused: u64 = a.spe_work.iter().map(|w| w.arena_unused).sum();
-                assert_eq!(slots - unused, jobs, "{what}");
-                if spes > 1 && s.len() > 10_000 {
-                    for (name, c) in &a.run.cores[1..] {
-                        assert!(c.busy.0 > 0, "{what}: {name} did nothing");
-                    }
-                    assert!(a.run.cycles < base_cycles, "{what}");
-                }
-                cycles.push(a.run.cycles);
-            }
-            if spes > 1 && s.len() > 10_000 {
-                assert!(cycles[1] < cycles[0], "{spec} on {spes} SPEs: helping pays");
-            }
-        }
-    }
-}
-
-proptest::proptest! {
-    #![proptest_config(proptest::prelude::ProptestConfig { cases: 64, ..Default::default() })]
-
-    /// spe_bfs_private on the property scenes (scales 1e-15 to 1e15, flat,
-    /// degenerate, stacks, grids) with 1 to 8 SPEs and small leaves (so
-    /// that the top levels deal): valid, equal to brute force, the
-    /// baseline's tree.
-    #[test]
-    fn spe_bfs_private_on_any_scene_and_spe_count(
-        scene in common::scene_strategy(),
-        spes in 1usize..=8,
-        leaf in 1u32..4,
-        steal in proptest::bool::ANY,
-        deal_per_spe in 1usize..=16,
-    ) {
-        let private = BuilderKind::from_name("spe_bfs_private").unwrap();
-        let cfg = BihConfig { leaf_size: leaf, max_depth: 64 };
-        let cell = cellbih::cell::CellConfig::ps3().with_spes(spes);
-        let knobs = cellbih::strategy::Knobs { steal, deal_per_spe, ..Default::default() };
-        let r = private.build_with(&scene, scene.bounds(), &cfg, &cell, &knobs).map_err(|e| {
-            proptest::test_runner::TestCaseError::fail(e.to_string())
-        })?;
-        r.bih.validate(&scene).map_err(|v| proptest::test_runner::TestCaseError::fail(v.to_string()))?;
-        let base = BuilderKind::SPE_BFS.build(&scene, &cfg).unwrap();
-        same_tree_structure(&base.bih, &r.bih).map_err(proptest::test_runner::TestCaseError::fail)?;
-        let tracer = cellbih::bih::Tracer::new(&r.bih, &scene);
-        for ray in common::rays_for(&scene, 24, 5) {
-            common::check_ray(&scene, &tracer, &ray).map_err(proptest::test_runner::TestCaseError::fail)?;
-        }
-    }
 }

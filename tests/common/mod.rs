@@ -2,7 +2,7 @@
 //! proptest, the brute-force comparison, and the data directory.
 #![allow(dead_code)]
 
-use cellbih::bih::{Hit, Ray, RayStats, Tracer, brute_force_closest, intersect_triangle};
+use cellbih::bih::{Bih, Hit, Ray, RayStats, Tracer, brute_force_closest, intersect_triangle};
 use cellbih::scene::{Scene, SplitMix64, Triangle};
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;
@@ -195,4 +195,42 @@ pub fn make_scene(n: usize, exp: i32, offset: i32, kind: u8, seed: u64) -> Scene
         ));
     }
     Scene::from_triangles(format!("prop n={n} 1e{exp} off={offset} kind={kind}"), tris).unwrap()
+}
+
+/// The same tree whatever the node numbering: walks both trees together and
+/// compares every node's kind, axis, clip planes and leaf range, and the
+/// set of triangles in every leaf.
+pub fn same_tree_structure(a: &Bih, b: &Bih) -> Result<(), String> {
+    let mut stack = vec![(0u32, 0u32, String::from("root"))];
+    while let Some((i, j, path)) = stack.pop() {
+        let (x, y) = (a.nodes[i as usize], b.nodes[j as usize]);
+        match (x.is_leaf(), y.is_leaf()) {
+            (true, true) => {
+                if x.leaf_range() != y.leaf_range() {
+                    return Err(format!("{path}: leaf ranges differ"));
+                }
+                let (f, c) = x.leaf_range();
+                let r = f as usize..(f + c) as usize;
+                let (mut p, mut q) = (a.prim_ids[r.clone()].to_vec(), b.prim_ids[r].to_vec());
+                p.sort_unstable();
+                q.sort_unstable();
+                if p != q {
+                    return Err(format!("{path}: leaves hold different triangles"));
+                }
+            }
+            (false, false) => {
+                if (x.axis(), x.clip()) != (y.axis(), y.clip()) {
+                    return Err(format!("{path}: splits differ"));
+                }
+                let (l, m) = (x.left_child(), y.left_child());
+                stack.push((l + 1, m + 1, format!("{path}/R")));
+                stack.push((l, m, format!("{path}/L")));
+            }
+            _ => return Err(format!("{path}: a leaf against an inner node")),
+        }
+    }
+    if a.nodes.len() != b.nodes.len() {
+        return Err(format!("{} vs {} nodes", a.nodes.len(), b.nodes.len()));
+    }
+    Ok(())
 }
