@@ -1,6 +1,6 @@
-//! Each multi-SPE strategy beside the single-SPE baseline `spe_bfs`, on 6
-//! SPEs (the PS3's), on the default scene and (with `CELLBIH_DATA`) the
-//! Bunny: `multi_spe_simulated/*` in simulated Cell time (the shared
+//! Each multi-SPE strategy (and its main knobs) beside the single-SPE
+//! baseline `spe_bfs`, on 6 SPEs (the PS3's), on the default scene and
+//! (with `CELLBIH_DATA`) the Bunny: `multi_spe_simulated/*` in simulated Cell time (the shared
 //! criterion `Measurement` of `common/simulated.rs`), `multi_spe_host/*` in
 //! host time of the emulation.
 //!
@@ -19,21 +19,31 @@ use simulated::SimulatedTime;
 
 const SPES: usize = 6;
 
-/// The baseline and every multi-SPE builder, the latter with the
-/// cooperative top on and off: (label, builder, knobs).
+/// The baseline and every multi-SPE builder, the latter with its
+/// defaults, without the cooperative top, and with section 5's queue
+/// improvements (double-buffered WorkA/WorkB, DMA lists, prefetched
+/// batches): (label, builder, knobs).
 fn variants() -> Vec<(String, BuilderKind, Knobs)> {
     let mut v = vec![(
         "spe_bfs".to_string(),
         BuilderKind::SPE_BFS,
         Knobs::default(),
     )];
+    let d = Knobs::default();
+    let off = Knobs {
+        coop_top: false,
+        ..d
+    };
+    let queue = Knobs {
+        double_buffer: true,
+        dma_lists: true,
+        prefetch: true,
+        ..d
+    };
     for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
-        v.push((b.name().to_string(), b, Knobs::default()));
-        let off = Knobs {
-            coop_top: false,
-            ..Knobs::default()
-        };
+        v.push((b.name().to_string(), b, d));
         v.push((format!("{}_no_coop_top", b.name()), b, off));
+        v.push((format!("{}_queue_knobs", b.name()), b, queue));
     }
     v
 }

@@ -55,7 +55,8 @@ struct Variant {
 }
 
 /// Every multi-SPE builder: its defaults, without the cooperative top,
-/// with its own knob (work stealing; one job per take), with each of
+/// with its own knobs (work stealing; one job or 64 per take, fixed
+/// takes), with each of
 /// section 5's queue improvements alone, with all of them, and (private)
 /// all of them dealt at two jobs per SPE. Named by their CLI options.
 fn variants() -> Vec<Variant> {
@@ -102,25 +103,25 @@ fn variants() -> Vec<Variant> {
             (" --double-buffer --dma-lists --prefetch", all),
         ];
         if shared {
-            settings.insert(
-                2,
-                (
-                    " --agglomerate 1",
-                    Knobs {
-                        agglomerate: 1,
-                        ..d
-                    },
-                ),
-            );
-            settings.insert(
-                3,
-                (
-                    " --agglomerate 64",
-                    Knobs {
-                        agglomerate: 64,
-                        ..d
-                    },
-                ),
+            settings.splice(
+                2..2,
+                [
+                    (
+                        " --agglomerate 1",
+                        Knobs {
+                            agglomerate: 1,
+                            ..d
+                        },
+                    ),
+                    (
+                        " --agglomerate 64",
+                        Knobs {
+                            agglomerate: 64,
+                            ..d
+                        },
+                    ),
+                    (" --fixed-takes", Knobs { guided: false, ..d }),
+                ],
             );
         } else {
             settings.insert(2, (" --steal", Knobs { steal: true, ..d }));

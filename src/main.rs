@@ -102,6 +102,10 @@ struct BuildArgs {
     #[arg(long, default_value_t = Knobs::default().agglomerate as u64,
           value_parser = clap::value_parser!(u64).range(1..=256))]
     agglomerate: u64,
+    /// spe_bfs_shared: every take is --agglomerate jobs, not an SPE's
+    /// share of the jobs left (guided self-scheduling, the default).
+    #[arg(long)]
+    fixed_takes: bool,
     /// Multi-SPE builders: double-buffered WorkA/WorkB (no synchronous
     /// job-queue DMA; section 5).
     #[arg(long)]
@@ -423,6 +427,7 @@ fn parse_build(args: &BuildArgs) -> Res<Chosen> {
         deal_per_spe: args.deal_per_spe as usize,
         steal: args.steal,
         agglomerate: args.agglomerate as usize,
+        guided: !args.fixed_takes,
         double_buffer: args.double_buffer,
         dma_lists: args.dma_lists,
         prefetch: args.prefetch,

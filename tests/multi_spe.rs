@@ -78,8 +78,9 @@ fn settings(name: &str) -> Vec<(&'static str, Knobs, Vec<usize>)> {
                 agglomerate: 1,
                 ..d
             },
-            some,
+            some.clone(),
         ));
+        v.push(("fixed takes", Knobs { guided: false, ..d }, some));
         v.push(("all", all, every));
     }
     v
@@ -203,6 +204,10 @@ fn every_queue_knob_changes_the_run() {
         ] {
             assert_ne!(run(knobs), default, "{name}: {label} changed nothing");
         }
+        if name == "spe_bfs_shared" {
+            let fixed = run(Knobs { guided: false, ..d });
+            assert_ne!(fixed, default, "{name}: fixed takes changed nothing");
+        }
     }
 }
 
@@ -253,25 +258,24 @@ fn knobs_out_of_range_are_errors() {
 
 fn knobs_strategy() -> impl Strategy<Value = Knobs> {
     (
-        any::<bool>(),
-        1usize..=16,
-        any::<bool>(),
-        1usize..=32,
-        any::<bool>(),
-        any::<bool>(),
-        any::<bool>(),
+        (any::<bool>(), 1usize..=16, any::<bool>()),
+        (1usize..=32, any::<bool>()),
+        (any::<bool>(), any::<bool>(), any::<bool>()),
     )
         .prop_map(
-            |(coop_top, deal_per_spe, steal, agglomerate, double_buffer, dma_lists, prefetch)| {
-                Knobs {
-                    coop_top,
-                    deal_per_spe,
-                    steal,
-                    agglomerate,
-                    double_buffer,
-                    dma_lists,
-                    prefetch,
-                }
+            |(
+                (coop_top, deal_per_spe, steal),
+                (agglomerate, guided),
+                (double_buffer, dma_lists, prefetch),
+            )| Knobs {
+                coop_top,
+                deal_per_spe,
+                steal,
+                agglomerate,
+                guided,
+                double_buffer,
+                dma_lists,
+                prefetch,
             },
         )
 }

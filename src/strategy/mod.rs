@@ -67,6 +67,12 @@ pub struct Knobs {
     /// batches. Costs: balance at the end of a level (the last takes are
     /// large).
     pub agglomerate: usize,
+    /// `spe_bfs_shared`: a take hands out no more than an equal share of
+    /// the level's jobs left among the SPEs (guided self-scheduling), so
+    /// that a level of few jobs is spread over every SPE. Buys: balance at
+    /// the top of the shared levels and at each level's end. Costs: more
+    /// takes (lock-line updates) near each level's end.
+    pub guided: bool,
     /// Section 5: a second `WorkA` and `WorkB` in the local store, so that a
     /// full `WorkB` is written back while the other fills, and the next
     /// block of a spilled level is read while this one is built (no
@@ -92,6 +98,7 @@ impl Knobs {
         deal_per_spe: 4,
         steal: false,
         agglomerate: 16,
+        guided: false,
         double_buffer: false,
         dma_lists: false,
         prefetch: false,
@@ -102,6 +109,7 @@ impl Default for Knobs {
     fn default() -> Self {
         Knobs {
             coop_top: true,
+            guided: true,
             ..Knobs::PAPER
         }
     }

@@ -7,8 +7,9 @@
 //!    `Knobs::deal_per_spe` jobs per SPE (the others help partition with
 //!    `Knobs::coop_top`), then writes that level into the queue.
 //! 2. **The shared queue**, one tree level at a time: the level's jobs lie
-//!    in one array (the shared `WorkAPPE`); an SPE takes
-//!    `Knobs::agglomerate` jobs per fetch-and-add on the *take* line,
+//!    in one array (the shared `WorkAPPE`); an SPE takes up to
+//!    `Knobs::agglomerate` jobs per lock-line update of the *take* line
+//!    (with `Knobs::guided`, no more than its share of the jobs left),
 //!    builds them with the baseline's loop (Fig. 1, agglomeration), and
 //!    collects their children in its own `WorkB`, which it writes into the
 //!    next level's array (the shared `WorkBPPE`) at places reserved by
@@ -141,7 +142,8 @@ fn spawn(
             b.arena.renew(common.blocks);
             b.node_writes = Some(NodeWrites::new(&spe, common.pool, knobs.dma_lists)?);
             b.strict_spans = true;
-            let taken = shared_levels(&spe, &mut b, queue, knobs.agglomerate, line).await?;
+            let taken =
+                shared_levels(&spe, &mut b, queue, knobs.agglomerate, knobs.guided, line).await?;
             let count = b.arena.allocated();
             b.arena.close(count).await?;
             let mut o = out.borrow_mut();
@@ -165,6 +167,7 @@ async fn shared_levels(
     b: &mut SpeBuilder<'_>,
     q: Queue,
     agglomerate: usize,
+    guided: bool,
     line: LsAddr,
 ) -> Result<u64, CellError> {
     let job_bytes = size_of::<Job>() as u64;
@@ -179,12 +182,14 @@ async fn shared_levels(
             line,
         }));
         loop {
-            // One lock-line update takes up to `agglomerate` jobs.
-            let (first, len) = spe
+            // One lock-line update takes up to `agglomerate` jobs; guided,
+            // no more than an SPE's share of the jobs left.
+            let (first, len, size) = spe
                 .atomic_update_line(line, q.take, |w| {
                     let (first, len) = (w[0], w[1]);
-                    w[0] = len.min(first + agglomerate as u32);
-                    (first, len)
+                    let size = take_size(len.saturating_sub(first), q.spes, agglomerate, guided);
+                    w[0] = len.min(first + size);
+                    (first, len, size)
                 })
                 .await?;
             if first >= len {
@@ -199,7 +204,7 @@ async fn shared_levels(
                 }
                 break;
             }
-            let count = (len - first).min(agglomerate as u32) as usize;
+            let count = (len - first).min(size) as usize;
             let jobs = b
                 .queue
                 .read_jobs(this.offset(first as u64 * job_bytes), count)
@@ -213,6 +218,20 @@ async fn shared_levels(
         b.drain().await?;
         level += 1;
         barrier(spe, q, level, line).await?;
+    }
+}
+
+/// Jobs one take hands out when `left` jobs of the level are left:
+/// `agglomerate`, or, guided (guided self-scheduling, Polychronopoulos &
+/// Kuck 1987), an equal share of what is left among the `spes` SPEs,
+/// capped at `agglomerate`, so that a level's first takes are large and
+/// its last ones small and no SPE takes a level's few jobs alone.
+fn take_size(left: u32, spes: usize, agglomerate: usize, guided: bool) -> u32 {
+    let most = agglomerate as u32;
+    if guided {
+        left.div_ceil(spes as u32).clamp(1, most)
+    } else {
+        most
     }
 }
 
@@ -234,4 +253,19 @@ async fn barrier(spe: &Spe, q: Queue, level: usize, line: LsAddr) -> Result<(), 
         spe.read_signal(2).await?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::take_size;
+
+    #[test]
+    fn guided_takes_shrink_to_a_share_of_what_is_left() {
+        // 24 jobs among 6 SPEs, 16 a take: 4 each, not 16 and 8.
+        assert_eq!(take_size(24, 6, 16, true), 4);
+        assert_eq!(take_size(24, 6, 16, false), 16);
+        assert_eq!(take_size(1000, 6, 16, true), 16);
+        assert_eq!(take_size(5, 6, 16, true), 1);
+        assert_eq!(take_size(0, 6, 16, true), 1);
+    }
 }
