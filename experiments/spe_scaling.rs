@@ -279,7 +279,18 @@ fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error
             .filter_map(|r| Some((r["spes"].as_f64()?, r[key].as_f64()?)))
             .collect()
     };
-    let names: Vec<String> = variants().into_iter().map(|v| v.name).collect();
+    // The plots show each builder's defaults, the top levels alone, its
+    // scheduling knobs and all of section 5's queue knobs (the table and
+    // CSV have every variant).
+    let plotted = |name: &str| {
+        let flags = name.split_once(' ').map_or("", |(_, f)| f);
+        ["", "--no-coop-top", "--fixed-takes", "--agglomerate 1"].contains(&flags)
+            || flags.starts_with("--double-buffer --dma-lists --prefetch")
+    };
+    let names: Vec<String> = (variants().into_iter())
+        .map(|v| v.name)
+        .filter(|n| plotted(n))
+        .collect();
     for &scene in &scenes {
         let mut series: Vec<Series> = names
             .iter()
