@@ -211,6 +211,45 @@ fn every_queue_knob_changes_the_run() {
     }
 }
 
+/// The same cycles, counters and tree whatever the host does: builds run
+/// side by side in rayon pools of one and two threads agree with a lone
+/// build.
+#[test]
+fn host_threads_change_nothing() {
+    use rayon::prelude::*;
+    let s = scene::load("rtperf:20000:5", None).unwrap();
+    let cell = CellConfig::ps3().with_spes(8);
+    let knobs = Knobs {
+        prefetch: true,
+        ..Knobs::default()
+    };
+    for name in ["spe_bfs_shared", "spe_bfs_private"] {
+        let b = builder(name);
+        let build = || {
+            let r = b.build_with(&s, s.bounds(), &BihConfig::default(), &cell, &knobs);
+            let r = r.unwrap();
+            let sim = r.simulated.unwrap();
+            (
+                sim.run.cycles,
+                format!("{:?}", sim.run.cores),
+                sim.spe_work,
+                r.bih.nodes,
+            )
+        };
+        let alone = build();
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let runs: Vec<_> = pool.install(|| (0..4).into_par_iter().map(|_| build()).collect());
+            for r in runs {
+                assert!(r == alone, "{name}: {threads} host threads changed the run");
+            }
+        }
+    }
+}
+
 /// Knobs out of range are errors that name the builder, not panics.
 #[test]
 fn knobs_out_of_range_are_errors() {

@@ -93,10 +93,27 @@ impl<'a> ObjectArena<'a> {
     /// Allocates the node buffers in `spe`'s local store.
     pub fn new(spe: &'a Spe, source: BlockSource) -> Result<Self, CellError> {
         let bytes = (NODES_PER_PUT * size_of::<BihNode>()) as u32;
-        Ok(ObjectArena {
+        let bufs = [spe.ls_alloc(bytes, 128)?, spe.ls_alloc(bytes, 128)?];
+        let line = match source {
+            BlockSource::Pool { .. } => Some(spe.ls_alloc(128, 128)?),
+            BlockSource::Mailbox => None,
+        };
+        let tags = spe.tags("ObjectArena node puts", 2)?;
+        Ok(Self::in_buffers(spe, source, bufs, line, tags))
+    }
+
+    /// An empty arena in local-store buffers allocated already.
+    fn in_buffers(
+        spe: &'a Spe,
+        source: BlockSource,
+        bufs: [LsAddr; 2],
+        line: Option<LsAddr>,
+        tags: u32,
+    ) -> Self {
+        ObjectArena {
             spe,
             source,
-            bufs: [spe.ls_alloc(bytes, 128)?, spe.ls_alloc(bytes, 128)?],
+            bufs,
             buf: 0,
             nodes: Vec::with_capacity(NODES_PER_PUT),
             nodes_first: 0,
@@ -105,12 +122,9 @@ impl<'a> ObjectArena<'a> {
             alloc_seq: 0,
             wasted: Default::default(),
             stats: ArenaStats::default(),
-            line: match source {
-                BlockSource::Pool { .. } => Some(spe.ls_alloc(128, 128)?),
-                BlockSource::Mailbox => None,
-            },
-            tags: spe.tags("ObjectArena node puts", 2)?,
-        })
+            line,
+            tags,
+        }
     }
 
     /// Asks for the first block (with the `Mailbox` source, before any work
@@ -237,21 +251,7 @@ impl<'a> ObjectArena<'a> {
     pub fn renew(&mut self, source: BlockSource) {
         debug_assert!(self.nodes.is_empty());
         debug_assert!(matches!(source, BlockSource::Mailbox) || self.line.is_some());
-        *self = ObjectArena {
-            spe: self.spe,
-            source,
-            bufs: self.bufs,
-            buf: 0,
-            nodes: Vec::with_capacity(NODES_PER_PUT),
-            nodes_first: 0,
-            blocks: Vec::new(),
-            pool_blocks: Vec::new(),
-            alloc_seq: 0,
-            wasted: Default::default(),
-            stats: ArenaStats::default(),
-            line: self.line,
-            tags: self.tags,
-        };
+        *self = Self::in_buffers(self.spe, source, self.bufs, self.line, self.tags);
     }
 
     /// A block of the pool, by fetch-and-add: its index and address.

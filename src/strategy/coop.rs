@@ -197,10 +197,8 @@ impl Coop {
             get(0).await?;
         }
         for i in 0..blocks {
-            if self.prefetch && i + 1 < blocks {
-                get(i + 1).await?;
-            } else if !self.prefetch && i > 0 {
-                get(i).await?;
+            if let Some(k) = self.get_before(i, blocks) {
+                get(k).await?;
             }
             let (_, len) = block(i);
             let b = i as usize % nbuf;
@@ -297,10 +295,8 @@ impl Coop {
             get(0).await?;
         }
         for i in 0..blocks {
-            if self.prefetch && i + 1 < blocks {
-                get(i + 1).await?;
-            } else if !self.prefetch && i > 0 {
-                get(i).await?;
+            if let Some(k) = self.get_before(i, blocks) {
+                get(k).await?;
             }
             let b = i as usize % nbuf;
             let (buf, tag) = (bufs.buffer(b), bufs.tag(b));
@@ -311,6 +307,17 @@ impl Coop {
         spe.wait_tags(self.all_tags(bufs), WaitMode::All)
             .await
             .map(|_| ())
+    }
+
+    /// The block whose get is issued just before block `i` of `blocks` is
+    /// worked on (block 0's is issued before the loop): the next one when
+    /// prefetching, so that its transfer overlaps block `i`'s work; else
+    /// block `i` itself.
+    fn get_before(&self, i: u64, blocks: u64) -> Option<u64> {
+        match self.prefetch {
+            true => Some(i + 1).filter(|&k| k < blocks),
+            false => Some(i).filter(|&k| k > 0),
+        }
     }
 
     /// Fig. 1 buffers the blocks take turns in: two, three when
