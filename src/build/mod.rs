@@ -5,6 +5,8 @@
 pub mod approx;
 pub mod host;
 pub mod kernels;
+pub mod morton;
+pub mod radix;
 
 use std::time::{Duration, Instant};
 
