@@ -20,9 +20,10 @@ use simulated::SimulatedTime;
 const SPES: usize = 6;
 
 /// The baseline and every multi-SPE builder, the latter with its
-/// defaults, without the cooperative top, and with section 5's queue
-/// improvements (double-buffered WorkA/WorkB, DMA lists, prefetched
-/// batches): (label, builder, knobs).
+/// defaults and, for the breadth-first ones, without the cooperative top
+/// and with section 5's queue improvements (double-buffered WorkA/WorkB,
+/// DMA lists, prefetched batches); `spe_morton` also with round-robin
+/// keys: (label, builder, knobs).
 fn variants() -> Vec<(String, BuilderKind, Knobs)> {
     let mut v = vec![(
         "spe_bfs".to_string(),
@@ -42,6 +43,14 @@ fn variants() -> Vec<(String, BuilderKind, Knobs)> {
     };
     for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
         v.push((b.name().to_string(), b, d));
+        if b.name() == "spe_morton" {
+            let rr = Knobs {
+                key_order: cellbih::strategy::KeyOrder::RoundRobin,
+                ..d
+            };
+            v.push((format!("{}_xyz", b.name()), b, rr));
+            continue;
+        }
         v.push((format!("{}_no_coop_top", b.name()), b, off));
         v.push((format!("{}_queue_knobs", b.name()), b, queue));
     }

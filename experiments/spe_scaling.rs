@@ -69,6 +69,10 @@ fn variants() -> Vec<Variant> {
     };
     let mut v = Vec::new();
     for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
+        if b.name() == "spe_morton" {
+            v.extend(morton_variants(b));
+            continue;
+        }
         let shared = b.name() == "spe_bfs_shared";
         let mut settings = vec![
             ("", d),
@@ -144,6 +148,55 @@ fn variants() -> Vec<Variant> {
     v
 }
 
+/// `spe_morton`: its defaults (global heuristic's order, 32-bit keys,
+/// 8-bit digits, regions of 2,048, taken from an atomic counter) and each
+/// knob changed alone.
+fn morton_variants(b: BuilderKind) -> Vec<Variant> {
+    let d = Knobs::default();
+    let rr = cellbih::strategy::KeyOrder::RoundRobin;
+    [
+        ("", d),
+        (" --key-order xyz", Knobs { key_order: rr, ..d }),
+        (" --key-bits 64", Knobs { key_bits: 64, ..d }),
+        (" --digit-bits 4", Knobs { digit_bits: 4, ..d }),
+        (
+            " --digit-bits 11",
+            Knobs {
+                digit_bits: 11,
+                ..d
+            },
+        ),
+        (
+            " --region-size 512",
+            Knobs {
+                region_size: 512,
+                ..d
+            },
+        ),
+        (
+            " --region-size 8192",
+            Knobs {
+                region_size: 8192,
+                ..d
+            },
+        ),
+        (
+            " --static-regions",
+            Knobs {
+                static_regions: true,
+                ..d
+            },
+        ),
+    ]
+    .into_iter()
+    .map(|(flags, knobs)| Variant {
+        builder: b,
+        knobs,
+        name: format!("{}{flags}", b.name()),
+    })
+    .collect()
+}
+
 fn main() {
     let mut args = Args::parse();
     if args.data.is_none() {
@@ -191,6 +244,7 @@ fn row(scene: &Scene, v: &Variant, spes: usize, base: (f64, f64)) -> Result<Valu
         "arena_waste": arena_unused as f64 / arena_slots.max(1) as f64,
         "memory_utilisation": bytes as f64 / (cycles * peak),
         "sah_over_baseline": r.bih.quality().sah_cost / base_sah,
+        "phases": sim.phase_ms().iter().map(|(p, ms)| json!({ "phase": p, "ms": ms })).collect::<Vec<_>>(),
         "host_ms": r.host_time.as_secs_f64() * 1e3,
     }))
 }
@@ -284,7 +338,14 @@ fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error
     // CSV have every variant).
     let plotted = |name: &str| {
         let flags = name.split_once(' ').map_or("", |(_, f)| f);
-        ["", "--no-coop-top", "--fixed-takes", "--agglomerate 1"].contains(&flags)
+        [
+            "",
+            "--no-coop-top",
+            "--fixed-takes",
+            "--agglomerate 1",
+            "--key-order xyz",
+        ]
+        .contains(&flags)
             || flags.starts_with("--double-buffer --dma-lists --prefetch")
     };
     let names: Vec<String> = (variants().into_iter())

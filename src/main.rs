@@ -18,7 +18,7 @@ use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
 use cellbih::render::{Camera, trace};
 use cellbih::scene::{self, Scene};
-use cellbih::strategy::Knobs;
+use cellbih::strategy::{KeyOrder, Knobs};
 use cellbih::update::{Animation, MAX_FRAMES, Method, Summary, Updater};
 use cellbih::{rays_csv, render};
 
@@ -117,6 +117,42 @@ struct BuildArgs {
     /// partition.
     #[arg(long)]
     prefetch: bool,
+    /// spe_morton: the keys' bit order: the global heuristic's halvings
+    /// (gh: the baseline's tree) or round robin x, y, z (xyz: LBVH).
+    #[arg(long, value_enum, default_value = "gh")]
+    key_order: KeyOrderArg,
+    /// spe_morton: key bits, 32 or 64.
+    #[arg(long, default_value_t = Knobs::default().key_bits,
+          value_parser = parse_key_bits)]
+    key_bits: u32,
+    /// spe_morton: bits per radix-sort pass (4 to 11).
+    #[arg(long, default_value_t = Knobs::default().digit_bits as u64,
+          value_parser = clap::value_parser!(u64).range(4..=11))]
+    digit_bits: u64,
+    /// spe_morton: the largest region built by one SPE alone (triangles).
+    #[arg(long, default_value_t = Knobs::default().region_size as u64,
+          value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
+    region_size: u64,
+    /// spe_morton: regions dealt before the builds, not taken from an
+    /// atomic counter.
+    #[arg(long)]
+    static_regions: bool,
+}
+
+/// `--key-bits`: 32 or 64.
+fn parse_key_bits(s: &str) -> Result<u32, String> {
+    match s {
+        "32" => Ok(32),
+        "64" => Ok(64),
+        _ => Err(format!("{s} bits: keys are 32 or 64 bits wide")),
+    }
+}
+
+/// `--key-order`.
+#[derive(Clone, Copy, ValueEnum)]
+enum KeyOrderArg {
+    Gh,
+    Xyz,
 }
 
 /// What `--builder` and its options ask for.
@@ -431,6 +467,14 @@ fn parse_build(args: &BuildArgs) -> Res<Chosen> {
         double_buffer: args.double_buffer,
         dma_lists: args.dma_lists,
         prefetch: args.prefetch,
+        key_order: match args.key_order {
+            KeyOrderArg::Gh => KeyOrder::GlobalHeuristic,
+            KeyOrderArg::Xyz => KeyOrder::RoundRobin,
+        },
+        key_bits: args.key_bits,
+        digit_bits: args.digit_bits as u32,
+        region_size: args.region_size as usize,
+        static_regions: args.static_regions,
     };
     Ok(Chosen {
         builder,

@@ -315,6 +315,7 @@ fn knobs_strategy() -> impl Strategy<Value = Knobs> {
                 double_buffer,
                 dma_lists,
                 prefetch,
+                ..Knobs::default()
             },
         )
 }

@@ -113,6 +113,7 @@ impl BuilderKind {
         BuilderKind::SPE_BFS,
         BuilderKind(&strategy::spe_bfs_shared::BUILDER),
         BuilderKind(&strategy::spe_bfs_private::BUILDER),
+        BuilderKind(&strategy::spe_morton::BUILDER),
     ];
 
     pub fn name(self) -> &'static str {
@@ -189,6 +190,7 @@ impl BuilderKind {
                         run: b.run,
                         stats: b.stats,
                         spe_work: b.spe_work,
+                        phases: b.phases,
                         trace: b.trace,
                     }),
                 )
@@ -216,8 +218,27 @@ pub struct Simulated {
     pub stats: host::BuildStats,
     /// Multi-SPE builders: what each SPE did (jobs, arena blocks).
     pub spe_work: Vec<strategy::SpeWork>,
+    /// Strategies made of phases: each phase's name and the cycle it
+    /// ended at.
+    pub phases: Vec<(&'static str, u64)>,
     /// The timeline, if the Cell's config asked for it.
     pub trace: Option<crate::cell::Trace>,
+}
+
+impl Simulated {
+    /// Each phase's name and simulated milliseconds, in order (empty for
+    /// strategies without phases).
+    pub fn phase_ms(&self) -> Vec<(&'static str, f64)> {
+        let ms_per_cycle = self.run.ms / self.run.cycles.0.max(1) as f64;
+        let mut start = 0;
+        (self.phases.iter())
+            .map(|&(name, end)| {
+                let ms = end.saturating_sub(start) as f64 * ms_per_cycle;
+                start = end;
+                (name, ms)
+            })
+            .collect()
+    }
 }
 
 /// What a build produced and what it cost.

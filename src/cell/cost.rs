@@ -60,6 +60,20 @@ pub struct KernelRates {
     /// SPE cycles per job of a build run on the SPE (read the job, choose
     /// the split, write the node, push the children's jobs). Estimate.
     pub spe_job: Cycles,
+    /// SPE cycles per triangle per key bit of a Morton key (`spe_morton`):
+    /// one halving of the candidate cell, four triangles a vector.
+    /// Derived from an instruction count and scaled by the partition's
+    /// fitted/derived ratio (`docs/cost-model.md`).
+    pub spe_morton_bit: Cycles,
+    /// SPE cycles per key of a radix-sort histogram step (digit, count
+    /// update), and per entry of the prefix sum over the counts. Derived
+    /// and scaled the same way.
+    pub spe_radix_count: Cycles,
+    /// SPE cycles per key of a radix-sort scatter step (digit, offset
+    /// update, the pair copied to its place in the staging buffer, a
+    /// DMA-list element where a run ends), and per record of the
+    /// permutation's gather list. Derived and scaled the same way.
+    pub spe_radix_scatter: Cycles,
 }
 
 impl KernelRates {
@@ -70,6 +84,11 @@ impl KernelRates {
             spe_partition_item: Cycles(161),
             spe_bounds_item: Cycles(20),
             spe_job: Cycles(200),
+            // Derived: 7.5, 3 and 5.5 SPU cycles; x4 (the partition's
+            // fitted 161 over its derived 40 cycles), rounded.
+            spe_morton_bit: Cycles(30),
+            spe_radix_count: Cycles(12),
+            spe_radix_scatter: Cycles(22),
         }
     }
 
@@ -80,6 +99,9 @@ impl KernelRates {
             spe_partition_item: Cycles::ZERO,
             spe_bounds_item: Cycles::ZERO,
             spe_job: Cycles::ZERO,
+            spe_morton_bit: Cycles::ZERO,
+            spe_radix_count: Cycles::ZERO,
+            spe_radix_scatter: Cycles::ZERO,
         }
     }
 }

@@ -121,6 +121,13 @@ impl Spe {
         self.m.borrow().spes[self.id].ls.mark()
     }
 
+    /// Bytes of the local store not yet allocated.
+    pub fn ls_free_bytes(&self) -> u32 {
+        let m = self.m.borrow();
+        let ls = &m.spes[self.id].ls;
+        ls.size() - ls.mark()
+    }
+
     /// Frees every buffer allocated since `mark`.
     pub fn ls_release_to(&self, mark: u32) {
         self.m.borrow_mut().spes[self.id].ls.release_to(mark);

@@ -50,6 +50,9 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                 "cores": sim.map(|m| &m.run.cores),
                 "work": sim.map(|m| m.stats),
                 "spe_work": sim.map(|m| &m.spe_work),
+                "phases": sim.map(|m| m.phase_ms().iter()
+                    .map(|(name, ms)| json!({ "phase": name, "ms": ms }))
+                    .collect::<Vec<_>>()),
             })
         ),
         Format::Text => {
@@ -87,6 +90,14 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
             println!("memory      {} bytes", q.memory_bytes);
             if let Some(m) = sim {
                 print_cores(m);
+                let phases = m.phase_ms();
+                if !phases.is_empty() {
+                    let list: Vec<String> = phases
+                        .iter()
+                        .map(|(n, ms)| format!("{n} {ms:.2} ms"))
+                        .collect();
+                    println!("phases      {}", list.join(", "));
+                }
             }
         }
     }

@@ -16,6 +16,7 @@ pub mod spe_bfs;
 pub mod spe_bfs_private;
 pub mod spe_bfs_shared;
 pub mod spe_dfs;
+pub mod spe_morton;
 pub mod top;
 pub mod work_queue;
 
@@ -25,6 +26,7 @@ use std::rc::Rc;
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
 use crate::build::host::BuildStats;
+pub use crate::build::morton::KeyOrder;
 use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport, Trace};
 use crate::scene::Scene;
 
@@ -89,6 +91,25 @@ pub struct Knobs {
     /// batch buffers instead of two). Off, a batch's get is waited for
     /// before its partition starts, as in the paper.
     pub prefetch: bool,
+    /// `spe_morton`: the order of the keys' bits. The global heuristic's
+    /// order gives the baseline's tree; round robin (LBVH) another tree,
+    /// its keys cheaper to reason about, its quality the cost.
+    pub key_order: KeyOrder,
+    /// `spe_morton`: key bits, 32 or 64. Buys: fewer ranges left to the
+    /// global heuristic (64). Costs: key time per bit, radix passes.
+    pub key_bits: u32,
+    /// `spe_morton`: bits per radix pass (4 to 11). Buys: fewer passes
+    /// over the keys. Costs: larger count tables (2^bits per SPE) and
+    /// more scattered runs per pass.
+    pub digit_bits: u32,
+    /// `spe_morton`: the top of the tree stops at ranges of at most this
+    /// many triangles (regions), each built by one SPE alone. Buys: fewer
+    /// top nodes and probes (large); more regions to balance (small).
+    pub region_size: usize,
+    /// `spe_morton`: regions dealt before the builds (largest first, each
+    /// to the least-loaded SPE) instead of taken largest first from an
+    /// atomic counter. Buys: no atomics. Costs: balance.
+    pub static_regions: bool,
 }
 
 impl Knobs {
@@ -102,6 +123,11 @@ impl Knobs {
         double_buffer: false,
         dma_lists: false,
         prefetch: false,
+        key_order: KeyOrder::GlobalHeuristic,
+        key_bits: 32,
+        digit_bits: 8,
+        region_size: 2048,
+        static_regions: false,
     };
 }
 
@@ -127,6 +153,12 @@ pub struct Output {
     pub compact: bool,
     /// Multi-SPE strategies: what each SPE did, by SPE.
     pub spe_work: Vec<SpeWork>,
+    /// Where the triangle records end, if not in the array they started
+    /// in (a strategy that permuted them into another).
+    pub records: Option<Ea>,
+    /// A strategy made of phases separated by barriers: each phase's name
+    /// and the cycle at which it ended (all SPEs through the barrier).
+    pub phases: Vec<(&'static str, u64)>,
 }
 
 /// What one SPE of a multi-SPE build did.
@@ -222,6 +254,8 @@ pub struct CellBuild {
     pub stats: BuildStats,
     /// Multi-SPE strategies: what each SPE did.
     pub spe_work: Vec<SpeWork>,
+    /// Phases and the cycle each ended at ([`Output::phases`]).
+    pub phases: Vec<(&'static str, u64)>,
     /// The timeline, if `cell_cfg.trace` was set.
     pub trace: Option<Trace>,
 }
@@ -286,7 +320,8 @@ pub fn run_in(
         nodes = compact(&nodes)?;
     }
     check_jobs(&o.spe_work, nodes.len())?;
-    let records: Vec<layout::TriRecord> = cell.memory().read_pod(triangles, scene.len())?;
+    let at = o.records.unwrap_or(triangles);
+    let records: Vec<layout::TriRecord> = cell.memory().read_pod(at, scene.len())?;
     let bih = Bih {
         nodes,
         prim_ids: records.iter().map(|r| r.id).collect(),
@@ -298,6 +333,7 @@ pub fn run_in(
         run,
         stats: o.stats,
         spe_work: o.spe_work.clone(),
+        phases: o.phases.clone(),
         trace: cell.take_trace(),
     })
 }

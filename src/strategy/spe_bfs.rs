@@ -69,7 +69,7 @@ impl Job {
             centers: [c.min.to_array(), c.max.to_array()],
         }
     }
-    fn candidate(&self) -> Aabb {
+    pub(super) fn candidate(&self) -> Aabb {
         Aabb::new(
             Vec3::from_array(self.candidate[0]),
             Vec3::from_array(self.candidate[1]),

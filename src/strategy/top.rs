@@ -44,12 +44,8 @@ impl Common {
             )));
         }
         let spes = cell.config().spes;
+        let (pool, blocks) = alloc_pool(cell, n, out)?;
         let mut mem = cell.memory_mut();
-        // One pool for every SPE's arena: every node, plus a pair skipped
-        // and a part-filled block per SPE and phase.
-        let pool_blocks = (2 * n + 1).div_ceil(BLOCK_NODES) + 2 * spes + 2;
-        let pool = mem.alloc("ObjectArena pool", pool_blocks as u64 * BLOCK_BYTES, 128)?;
-        let counter = mem.alloc("ObjectArena pool counter", 128, 128)?;
         let scratch = mem.alloc(
             "cooperative partition scratch",
             (n * size_of::<TriRecord>()) as u64,
@@ -63,20 +59,33 @@ impl Common {
             table: mem.alloc("cooperative partition table", spes as u64 * 128, 128)?,
             arrivals: mem.alloc("cooperative partition arrivals", 128, 128)?,
         };
-        let mut o = out.borrow_mut();
-        o.nodes = vec![(pool, pool_blocks * BLOCK_NODES)];
-        o.compact = true;
-        o.spe_work = vec![SpeWork::default(); spes];
-        Ok(Common {
-            pool,
-            blocks: BlockSource::Pool {
-                base: pool,
-                blocks: pool_blocks as u32,
-                counter,
-            },
-            coop,
-        })
+        Ok(Common { pool, blocks, coop })
     }
+}
+
+/// One ObjectArena pool for every SPE's arena, for `n` triangles: every
+/// node, plus a pair skipped and a part-filled block per SPE and phase.
+/// The output reads the pool back (compacted) and has a slot per SPE.
+pub(super) fn alloc_pool(
+    cell: &mut Cell,
+    n: usize,
+    out: &std::cell::RefCell<Output>,
+) -> Result<(Ea, BlockSource), CellError> {
+    let spes = cell.config().spes;
+    let mut mem = cell.memory_mut();
+    let pool_blocks = (2 * n + 1).div_ceil(BLOCK_NODES) + 2 * spes + 2;
+    let pool = mem.alloc("ObjectArena pool", pool_blocks as u64 * BLOCK_BYTES, 128)?;
+    let counter = mem.alloc("ObjectArena pool counter", 128, 128)?;
+    let mut o = out.borrow_mut();
+    o.nodes = vec![(pool, pool_blocks * BLOCK_NODES)];
+    o.compact = true;
+    o.spe_work = vec![SpeWork::default(); spes];
+    let blocks = BlockSource::Pool {
+        base: pool,
+        blocks: pool_blocks as u32,
+        counter,
+    };
+    Ok((pool, blocks))
 }
 
 /// SPE 0: builds the top levels of the `n` records in `region`, helped by
