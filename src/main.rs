@@ -290,7 +290,8 @@ fn run(cli: Cli) -> Res<()> {
         None => demo(),
         Some(Command::Builders) => {
             for b in BuilderKind::ALL {
-                println!("{:<12} {}", b.name(), b.describe());
+                let width = BuilderKind::ALL.iter().map(|b| b.name().len()).max();
+                println!("{:<w$} {}", b.name(), b.describe(), w = width.unwrap_or(0));
             }
             Ok(())
         }
@@ -585,8 +586,13 @@ fn demo() -> Res<()> {
         s.len(),
         s.geometry_names.len()
     );
+    let w = BuilderKind::ALL
+        .iter()
+        .map(|b| b.name().len())
+        .max()
+        .unwrap_or(0);
     println!(
-        "{:<10} {:>10} {:>8} {:>8} {:>8} {:>6} {:>9} {:>10}",
+        "{:<w$} {:>10} {:>8} {:>8} {:>8} {:>6} {:>9} {:>10}",
         "builder", "host ms", "Cell ms", "nodes", "leaves", "depth", "SAH", "Mrays/s"
     );
     let cam = Camera::framing(&s.bounds(), 640, 480);
@@ -604,7 +610,7 @@ fn demo() -> Res<()> {
         }
         let mrays = rays.len() as f64 / start.elapsed().as_secs_f64() / 1e6;
         println!(
-            "{:<10} {:>10.3} {:>8} {:>8} {:>8} {:>6} {:>9.2} {:>10.2}",
+            "{:<w$} {:>10.3} {:>8} {:>8} {:>8} {:>6} {:>9.2} {:>10.2}",
             b.name(),
             r.host_time.as_secs_f64() * 1e3,
             r.simulated
@@ -623,7 +629,7 @@ fn demo() -> Res<()> {
     let frame = render::trace(&tracer, &s.triangles, &cam);
     write_png(Path::new(DEMO_PNG), &frame.shaded())?;
     println!(
-        "\ntrees valid; \"Cell ms\" is simulated time on the PS3 model; rays cast on one host thread;"
+        "\ntrees valid; \"Cell ms\" is simulated time on the PS3 model (multi-SPE builders on its 6 SPEs); rays cast on one host thread;"
     );
     println!("image written to {DEMO_PNG} (in the current directory)");
     println!(

@@ -153,7 +153,7 @@ fn print_cores(m: &cellbih::build::Simulated) {
          transfers; \"mbox wait\": mailboxes and signals (a barrier's wait is one); lost: reservations lost; MB moved by \
          DMA{})",
         if work {
-            "; jobs: nodes made; taken: takes from the shared job queue that found jobs; stolen: \
+            "; jobs: nodes made; taken: takes from the shared job queue that found jobs (spe_bfs_shared) or regions built (spe_morton); stolen: \
              dealt jobs taken from another SPE's list; blocks: \
              ObjectArena blocks taken, unused: their slots without a node"
         } else {

@@ -168,7 +168,8 @@ pub struct SpeWork {
     pub jobs: u64,
     /// Dealt jobs it stole from another SPE's list (`Knobs::steal`).
     pub stolen: u64,
-    /// Takes from the shared job queue that found jobs (`spe_bfs_shared`).
+    /// Takes from the shared job queue that found jobs (`spe_bfs_shared`),
+    /// or regions built (`spe_morton`).
     pub taken: u64,
     /// ObjectArena blocks it took, and their slots that hold no node
     /// (skipped to keep a pair in one block, or never reached at the end).

@@ -1,0 +1,344 @@
+//! `spe_morton` — section 5's second proposal: "a pre-processing step
+//! using Morton curves is performed to find regions of primitives that then
+//! could be built-up totally independent", with the Morton codes computed
+//! on the SPEs and "a radix sort [...] on the Cell B. E." (the keys and the
+//! passes are the shared kernels of `build::morton` and `build::radix`).
+//!
+//! 1. **Keys**: each SPE streams its slice of the triangle records and
+//!    writes a (key, record index) pair per triangle (`Knobs::key_order`,
+//!    `Knobs::key_bits`).
+//! 2. **Radix sort**, LSD, `Knobs::digit_bits` a pass: each SPE counts the
+//!    digits of its slice and writes its row of the count table; after a
+//!    barrier each reads the table, prefix-sums its offsets and scatters
+//!    its pairs to their places, each block's pairs as one DMA list (`putl`)
+//!    of runs of consecutive places.
+//! 3. **Permutation**: each SPE gathers the records of its slice of sorted
+//!    pairs with a DMA list (`getl`) and writes them, in key order, to a
+//!    second record array where the tree is built.
+//! 4. **The top of the tree** (SPE 0): a node wherever a range's keys first
+//!    differ (Karras 2012), found by binary search over the sorted keys in
+//!    main memory, down to **regions** of at most `Knobs::region_size`
+//!    triangles (or ranges that share their whole key, or leaves).
+//! 5. **Independent subtrees**: every SPE takes regions largest first from
+//!    an atomic counter (or, `Knobs::static_regions`, from its own dealt
+//!    list) and builds each alone: a region that fits in the local store is
+//!    loaded once, built there with the global heuristic and written back
+//!    once; a larger one is split depth first by Fig. 1's streaming
+//!    partition until its pieces fit. Nodes go straight into slots of the
+//!    per-SPE ObjectArena lists of one pool. Each region's bounds go to a
+//!    table, from which SPE 0 finally writes the top nodes' clip planes.
+//!
+//! With the global heuristic's order the splits are the baseline's, so the
+//! tree is the baseline's tree.
+
+mod regions;
+mod sort;
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use bytemuck::{Pod, Zeroable};
+
+use super::arena::{BlockSource, NodeWrites, ObjectArena};
+use super::layout::TriRecord;
+use super::top::alloc_pool;
+use super::{Knobs, Output, Setup};
+use crate::bih::BihConfig;
+use crate::build::Builder;
+use crate::build::morton::KeySpec;
+use crate::build::radix;
+use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
+
+/// `spe_morton` in the registry of builders.
+pub const BUILDER: Builder = Builder::multi_spe(
+    "spe_morton",
+    "section 5: Morton keys and a radix sort on the SPEs, the top of the tree from the sorted keys, then regions built independently, one SPE each, in the local store where they fit (--spes)",
+    spawn,
+);
+
+/// A key and the index of its triangle record: 16 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct KeyRec {
+    key: u64,
+    index: u32,
+    pad: u32,
+}
+
+/// One DMA block of records (341 of 48 bytes) and of key pairs (1,024).
+const RECORDS_PER_BLOCK: usize = (16 * 1024) / size_of::<TriRecord>();
+const KEYS_PER_BLOCK: usize = (16 * 1024) / size_of::<KeyRec>();
+
+/// What the PPE lays out in main memory for the SPEs.
+#[derive(Clone, Copy)]
+struct Areas {
+    n: usize,
+    spes: usize,
+    tris: Ea,
+    sorted: Ea,
+    keys: [Ea; 2],
+    /// The radix count table: a row of `1 << digit_bits` words per SPE.
+    counts: Ea,
+    /// The static deal's header line: per SPE, the start and count of its
+    /// positions in the deal array.
+    deal_header: Ea,
+    /// Lock lines: barrier arrivals; the regions' line: word 0 the next
+    /// region to take, word 1 the number of regions, words 2 to 4 where
+    /// the PPE put the region jobs, their bounds and the static deal.
+    arrivals: Ea,
+    take: Ea,
+    pool: Ea,
+    blocks: BlockSource,
+}
+
+fn spawn(
+    cell: &mut Cell,
+    setup: &Setup,
+    cfg: &BihConfig,
+    out: Rc<RefCell<Output>>,
+) -> Result<(), CellError> {
+    let (n, knobs, cfg) = (setup.count, setup.knobs, *cfg);
+    let bad = |msg: String| Err(CellError::Config(format!("spe_morton: {msg}")));
+    if knobs.key_bits != 32 && knobs.key_bits != 64 {
+        return bad(format!("{}-bit keys; 32 or 64", knobs.key_bits));
+    }
+    if !(4..=11).contains(&knobs.digit_bits) {
+        return bad(format!("{}-bit digits; 4 to 11", knobs.digit_bits));
+    }
+    if knobs.region_size == 0 {
+        return bad("regions of 0 triangles".into());
+    }
+    let spes = cell.config().spes;
+    let (pool, blocks) = alloc_pool(cell, n, &out)?;
+    let mut mem = cell.memory_mut();
+    let n64 = n as u64;
+    let line = 128;
+    let a = Areas {
+        n,
+        spes,
+        tris: setup.triangles,
+        sorted: mem.alloc("records in key order", n64 * 48, 128)?,
+        keys: [
+            mem.alloc("keys A", n64 * 16, 128)?,
+            mem.alloc("keys B", n64 * 16, 128)?,
+        ],
+        counts: mem.alloc(
+            "radix count table",
+            spes as u64 * (4 << knobs.digit_bits),
+            128,
+        )?,
+        deal_header: mem.alloc("region deal header", line, 128)?,
+        arrivals: mem.alloc("barrier arrivals", line, 128)?,
+        take: mem.alloc("region counter", line, 128)?,
+        pool,
+        blocks,
+    };
+    drop(mem);
+    out.borrow_mut().records = Some(a.sorted);
+    let spec = KeySpec {
+        order: knobs.key_order,
+        bits: knobs.key_bits,
+        scene: setup.region,
+    };
+    for id in 0..spes {
+        let out = out.clone();
+        cell.spawn_spe(id, move |spe| async move {
+            let mut p = Program::new(&spe, a, spec, knobs, cfg)?;
+            p.run(&out).await
+        });
+    }
+    // The PPE only allocates: the region tables, once SPE 0 knows how many
+    // regions the top of the tree made (memory to what the scene needs).
+    cell.spawn_ppe(move |ppe| async move {
+        let regions = ppe.read_out_mbox(0).await? as u64;
+        for (what, bytes) in [
+            ("spe_morton: region jobs", regions * 64),
+            ("spe_morton: region bounds", regions * 32),
+            (
+                "spe_morton: region deal",
+                (regions * 4).next_multiple_of(16),
+            ),
+        ] {
+            let ea = ppe.alloc(what, bytes, 128).await?;
+            let word = u32::try_from(ea.0).map_err(|_| CellError::Program {
+                core: "PPE".into(),
+                msg: format!("{what} at {ea} does not fit a mailbox word"),
+            })?;
+            ppe.write_in_mbox(0, word).await?;
+        }
+        Ok::<(), CellError>(())
+    });
+    Ok(())
+}
+
+/// A barrier of every SPE on one lock line: arrivals counted by
+/// fetch-and-add; the last to arrive signals the others (register 2).
+struct Barrier {
+    rounds: u32,
+}
+
+impl Barrier {
+    async fn wait(&mut self, spe: &Spe, line: LsAddr, a: &Areas) -> Result<(), CellError> {
+        self.rounds += 1;
+        let old = spe.atomic_fetch_add_u32(line, a.arrivals, 1).await?;
+        if old + 1 == self.rounds * a.spes as u32 {
+            for to in (0..a.spes).filter(|&s| s != spe.id()) {
+                spe.send_signal(to, 2, 1).await?;
+            }
+        } else {
+            spe.read_signal(2).await?;
+        }
+        Ok(())
+    }
+}
+
+/// One node of the top of the tree, as SPE 0 keeps it until the regions'
+/// bounds are known.
+enum Top {
+    Inner {
+        id: u32,
+        children: u32,
+        axis: usize,
+        /// Top indices of the two children.
+        kids: [usize; 2],
+    },
+    Region(usize),
+}
+
+/// One SPE's program.
+struct Program<'a> {
+    spe: &'a Spe,
+    a: Areas,
+    spec: KeySpec,
+    knobs: Knobs,
+    cfg: BihConfig,
+    line: LsAddr,
+    tags: u32,
+    barrier: Barrier,
+    arena: ObjectArena<'a>,
+    writes: NodeWrites<'a>,
+    items_partitioned: u64,
+    partitions: u64,
+    regions_built: u64,
+    /// SPE 0: each phase and the cycle it ended at.
+    phases: Vec<(&'static str, u64)>,
+    /// The region jobs (largest first), their bounds (by the same
+    /// position) and the static deal, where the PPE allocated them.
+    tables: [Ea; 3],
+}
+
+/// Names of the radix passes, for the phase list.
+const PASSES: [&str; 16] = [
+    "radix pass 1",
+    "radix pass 2",
+    "radix pass 3",
+    "radix pass 4",
+    "radix pass 5",
+    "radix pass 6",
+    "radix pass 7",
+    "radix pass 8",
+    "radix pass 9",
+    "radix pass 10",
+    "radix pass 11",
+    "radix pass 12",
+    "radix pass 13",
+    "radix pass 14",
+    "radix pass 15",
+    "radix pass 16",
+];
+
+impl<'a> Program<'a> {
+    fn new(
+        spe: &'a Spe,
+        a: Areas,
+        spec: KeySpec,
+        knobs: Knobs,
+        cfg: BihConfig,
+    ) -> Result<Self, CellError> {
+        Ok(Program {
+            spe,
+            a,
+            spec,
+            knobs,
+            cfg,
+            line: spe.ls_alloc(128, 128)?,
+            tags: spe.tags("spe_morton streams", 4)?,
+            barrier: Barrier { rounds: 0 },
+            arena: ObjectArena::new(spe, a.blocks)?,
+            writes: NodeWrites::new(spe, a.pool, true)?,
+            items_partitioned: 0,
+            partitions: 0,
+            regions_built: 0,
+            phases: Vec::new(),
+            tables: [Ea(0); 3],
+        })
+    }
+
+    /// This SPE's slice of `0..n`.
+    fn slice(&self) -> (usize, usize) {
+        let (n, s, id) = (self.a.n, self.a.spes, self.spe.id());
+        (n * id / s, n * (id + 1) / s)
+    }
+
+    async fn barrier(&mut self) -> Result<(), CellError> {
+        let (spe, line, a) = (self.spe, self.line, self.a);
+        self.barrier.wait(spe, line, &a).await
+    }
+
+    /// A barrier that ends a phase (SPE 0 notes when).
+    async fn end_phase(&mut self, name: &'static str) -> Result<(), CellError> {
+        self.barrier().await?;
+        if self.spe.id() == 0 {
+            self.phases.push((name, self.spe.now().0));
+        }
+        Ok(())
+    }
+
+    async fn run(&mut self, out: &RefCell<Output>) -> Result<(), CellError> {
+        let mark = self.spe.ls_mark();
+        let bufs = [
+            self.spe.ls_alloc(16 * 1024, 128)?,
+            self.spe.ls_alloc(16 * 1024, 128)?,
+            self.spe.ls_alloc(16 * 1024, 128)?,
+            self.spe.ls_alloc(16 * 1024, 128)?,
+        ];
+        self.keys(bufs).await?;
+        self.end_phase("Morton keys").await?;
+        let passes = radix::passes(self.knobs.key_bits, self.knobs.digit_bits);
+        for pass in 0..passes {
+            self.radix_pass(pass, bufs).await?;
+            self.end_phase(PASSES[pass as usize]).await?;
+        }
+        let keys = self.a.keys[passes as usize % 2];
+        self.permute(keys, bufs).await?;
+        self.end_phase("permutation").await?;
+        self.spe.ls_release_to(mark);
+        let top = if self.spe.id() == 0 {
+            Some(self.top(keys).await?)
+        } else {
+            None
+        };
+        self.end_phase("top of the tree").await?;
+        self.build_regions().await?;
+        self.end_phase("regions").await?;
+        if let Some(top) = top {
+            self.write_top(&top).await?;
+        }
+        self.writes.finish().await?;
+        let count = self.arena.allocated();
+        self.arena.close(count).await?;
+        let mut o = out.borrow_mut();
+        if self.spe.id() == 0 {
+            self.phases.push(("top nodes", self.spe.now().0));
+            o.phases = std::mem::take(&mut self.phases);
+        }
+        o.stats.items_partitioned += self.items_partitioned;
+        o.stats.partitions += self.partitions;
+        let w = &mut o.spe_work[self.spe.id()];
+        w.jobs = self.writes.nodes;
+        w.taken = self.regions_built;
+        w.arena_blocks = self.arena.stats.blocks;
+        w.arena_unused = self.arena.unused();
+        Ok(())
+    }
+}

@@ -1,0 +1,439 @@
+//! `spe_morton`, phases 4 and 5 (section 5: "regions of primitives that
+//! then could be built-up totally independent"): the top of the tree from
+//! the sorted keys on SPE 0, the regions built by every SPE alone, and
+//! the top nodes' clip planes from the regions' bounds.
+
+use bytemuck::Pod;
+use glam::Vec3;
+
+use super::{KeyRec, Program, RECORDS_PER_BLOCK, Top};
+use crate::aabb::Aabb;
+use crate::bih::BihNode;
+use crate::build::host::build_subtree;
+use crate::build::kernels::{Side, choose_split, clip_planes, side_of};
+use crate::build::morton::KeyOrder;
+use crate::cell::{CellError, Ea};
+use crate::strategy::fig1::{Fig1Buffers, partition_in_place, stream_bounds};
+use crate::strategy::layout::TriRecord;
+use crate::strategy::spe_bfs::Job;
+
+impl Program<'_> {
+    /// The key at sorted position `i` (one small get from main memory).
+    async fn key_at(&self, keys: Ea, i: usize) -> Result<u64, CellError> {
+        let tag = self.tags;
+        self.spe
+            .get(self.line, keys.offset(i as u64 * 16), 16, tag)
+            .await?;
+        self.spe.wait_tag(tag).await?;
+        Ok(self.spe.ls_read::<KeyRec>(self.line, 1)?[0].key)
+    }
+
+    /// Phase 4, SPE 0: the top of the tree from the sorted keys, down to
+    /// regions; writes the regions largest first (and their static deal).
+    pub(super) async fn top(&mut self, keys: Ea) -> Result<Vec<Top>, CellError> {
+        let k = self.spe.cost().kernels;
+        let bits = self.spec.bits;
+        let root = self.arena.alloc(1).await?;
+        let mut top: Vec<Top> = Vec::new();
+        let mut regions: Vec<Job> = Vec::new();
+        // (top index, node id, first, count, depth, key bits the cell has
+        // consumed)
+        let mut stack = vec![(usize::MAX, root, 0usize, self.a.n, 0u32, 0u32)];
+        while let Some((parent_slot, id, first, count, depth, used)) = stack.pop() {
+            self.spe.compute(k.spe_job);
+            let at = top.len();
+            if parent_slot != usize::MAX {
+                let (kid, slot) = (parent_slot / 2, parent_slot % 2);
+                if let Top::Inner { kids, .. } = &mut top[kid] {
+                    kids[slot] = at;
+                }
+            }
+            let key_first = self.key_at(keys, first).await?;
+            let leafish = count <= self.knobs.region_size
+                || count <= self.cfg.leaf_size as usize
+                || depth >= self.cfg.max_depth;
+            let split = if leafish {
+                None
+            } else {
+                let key_last = self.key_at(keys, first + count - 1).await?;
+                let diff = key_first ^ key_last;
+                if diff == 0 {
+                    None
+                } else {
+                    let bit = diff.leading_zeros() - (64 - bits);
+                    let mask = 1u64 << (bits - 1 - bit);
+                    // The first key with the bit set: binary search.
+                    let (mut l, mut r) = (first + 1, first + count - 1);
+                    while l < r {
+                        let m = l + (r - l) / 2;
+                        if self.key_at(keys, m).await? & mask == 0 {
+                            l = m + 1;
+                        } else {
+                            r = m;
+                        }
+                    }
+                    Some((bit, l - first))
+                }
+            };
+            let Some((bit, left)) = split else {
+                let cell = self.spec.cell(key_first, used);
+                let job = Job::new(first, count, id as usize, depth, cell, &Side::EMPTY);
+                top.push(Top::Region(regions.len()));
+                regions.push(job);
+                continue;
+            };
+            let axis = match self.spec.order {
+                KeyOrder::GlobalHeuristic => self.spec.cell(key_first, bit).longest_axis(),
+                KeyOrder::RoundRobin => (bit % 3) as usize,
+            };
+            let children = self.arena.alloc(2).await?;
+            top.push(Top::Inner {
+                id,
+                children,
+                axis,
+                kids: [0, 0],
+            });
+            stack.push((
+                2 * at + 1,
+                children + 1,
+                first + left,
+                count - left,
+                depth + 1,
+                bit + 1,
+            ));
+            stack.push((2 * at, children, first, left, depth + 1, bit + 1));
+        }
+        // Largest first (ties by position: deterministic).
+        let mut order: Vec<usize> = (0..regions.len()).collect();
+        order.sort_by_key(|&r| std::cmp::Reverse(regions[r].count));
+        self.spe.compute_items(k.spe_job, regions.len() as u64);
+        let mut position = vec![0; regions.len()];
+        for (pos, &r) in order.iter().enumerate() {
+            position[r] = pos;
+        }
+        for t in &mut top {
+            if let Top::Region(r) = t {
+                *r = position[*r];
+            }
+        }
+        let sorted: Vec<Job> = order.iter().map(|&r| regions[r]).collect();
+        self.spe.write_out_mbox(sorted.len() as u32).await;
+        for t in &mut self.tables {
+            *t = Ea(self.spe.read_in_mbox().await as u64);
+        }
+        self.write_array(self.tables[0], &sorted).await?;
+        if self.knobs.static_regions {
+            self.deal(&sorted).await?;
+        }
+        let (line, take, tables) = (self.line, self.a.take, self.tables);
+        let total = sorted.len() as u32;
+        self.spe
+            .atomic_update_line(line, take, |w| {
+                (w[0], w[1]) = (0, total);
+                for (i, t) in tables.iter().enumerate() {
+                    w[2 + i] = t.0 as u32;
+                }
+            })
+            .await?;
+        Ok(top)
+    }
+
+    /// Writes `items` to `ea` in puts of at most 16 KiB, and waits.
+    async fn write_array<T: Pod>(&self, ea: Ea, items: &[T]) -> Result<(), CellError> {
+        let per = (16 * 1024) / size_of::<T>();
+        let tag = self.tags;
+        let mark = self.spe.ls_mark();
+        let buf = self.spe.ls_alloc(16 * 1024, 128)?;
+        for (i, chunk) in items.chunks(per).enumerate() {
+            self.spe.wait_tag(tag).await?;
+            self.spe.ls_write(buf, chunk)?;
+            let bytes = size_of_val(chunk).next_multiple_of(16) as u32;
+            let at = ea.offset((i * per * size_of::<T>()) as u64);
+            self.spe.put(buf, at, bytes, tag).await?;
+        }
+        self.spe.wait_tag(tag).await?;
+        self.spe.ls_release_to(mark);
+        Ok(())
+    }
+
+    /// The static deal: each region, largest first, to the SPE with the
+    /// fewest triangles so far; per SPE its positions, contiguous.
+    async fn deal(&mut self, regions: &[Job]) -> Result<(), CellError> {
+        let spes = self.a.spes;
+        let mut load = vec![0u64; spes];
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); spes];
+        for (pos, r) in regions.iter().enumerate() {
+            let s = (0..spes).min_by_key(|&s| (load[s], s)).expect("an SPE");
+            load[s] += r.count as u64;
+            lists[s].push(pos as u32);
+        }
+        self.spe
+            .compute_items(self.spe.cost().kernels.spe_job, regions.len() as u64);
+        let mut header = vec![0u32; 32];
+        let mut all = Vec::with_capacity(regions.len());
+        for (s, l) in lists.iter().enumerate() {
+            header[2 * s] = all.len() as u32;
+            header[2 * s + 1] = l.len() as u32;
+            all.extend_from_slice(l);
+        }
+        self.write_array(self.tables[2], &all).await?;
+        self.write_array(self.a.deal_header, &header).await
+    }
+
+    /// Phase 5, every SPE: builds regions until none is left.
+    pub(super) async fn build_regions(&mut self) -> Result<(), CellError> {
+        let tag = self.tags;
+        let (line, take) = (self.line, self.a.take);
+        self.spe.get(line, take, 128, tag).await?;
+        self.spe.wait_tag(tag).await?;
+        let w = self.spe.ls_read::<u32>(line, 5)?;
+        let total = w[1];
+        self.tables = [w[2], w[3], w[4]].map(|t| Ea(t as u64));
+        let mine: Option<Vec<u32>> = if self.knobs.static_regions {
+            self.spe.get(line, self.a.deal_header, 128, tag).await?;
+            self.spe.wait_tag(tag).await?;
+            let h = self.spe.ls_read::<u32>(line, 32)?;
+            let (start, len) = (
+                h[2 * self.spe.id()] as usize,
+                h[2 * self.spe.id() + 1] as usize,
+            );
+            let mut v = Vec::with_capacity(len);
+            for i in 0..len {
+                let at = self.tables[2].offset(((start + i) * 4) as u64);
+                self.spe.get(line, Ea(at.0 & !15), 16, tag).await?;
+                self.spe.wait_tag(tag).await?;
+                v.push(self.spe.ls_read::<u32>(line, 4)?[(at.0 as usize & 15) / 4]);
+            }
+            Some(v)
+        } else {
+            None
+        };
+        let mut next = 0;
+        loop {
+            let pos = match &mine {
+                Some(v) => match v.get(next) {
+                    Some(&p) => p,
+                    None => break,
+                },
+                None => {
+                    let p = self.spe.atomic_fetch_add_u32(line, take, 1).await?;
+                    if p >= total {
+                        break;
+                    }
+                    p
+                }
+            };
+            next += 1;
+            self.spe
+                .get(line, self.tables[0].offset(pos as u64 * 64), 64, tag)
+                .await?;
+            self.spe.wait_tag(tag).await?;
+            let job = self.spe.ls_read::<Job>(line, 1)?[0];
+            let side = self.region(&job).await?;
+            let bounds: [f32; 8] = [
+                side.lo.x, side.lo.y, side.lo.z, 0.0, side.hi.x, side.hi.y, side.hi.z, 0.0,
+            ];
+            self.spe.ls_write(line, &bounds)?;
+            let at = self.tables[1].offset(pos as u64 * 32);
+            self.spe.put(line, at, 32, tag).await?;
+            self.spe.wait_tag(tag).await?;
+            self.regions_built += 1;
+        }
+        Ok(())
+    }
+
+    /// Records the local store can hold with their nodes (48 bytes and at
+    /// most two 12-byte nodes each).
+    fn ls_capacity(&self) -> usize {
+        let free = self.spe.ls_free_bytes().saturating_sub(256);
+        free as usize / (48 + 24)
+    }
+
+    /// Builds one region; returns its bounds.
+    async fn region(&mut self, job: &Job) -> Result<Side, CellError> {
+        let (first, count) = (job.first as usize, job.count as usize);
+        if count <= self.ls_capacity() {
+            return self
+                .in_local_store(first, count, job.node, job.depth, job.candidate())
+                .await;
+        }
+        // Too large: split depth first by Fig. 1's streaming partition
+        // until the pieces fit.
+        let k = self.spe.cost().kernels;
+        let mark = self.spe.ls_mark();
+        let fig1 = Fig1Buffers::alloc(self.spe)?;
+        let at = self.a.sorted.offset(first as u64 * 48);
+        let whole =
+            stream_bounds::<TriRecord>(self.spe, &fig1, at, count as u64, k.spe_bounds_item)
+                .await?;
+        self.spe.ls_release_to(mark);
+        let mut stack = vec![(first, count, job.node, job.depth, job.candidate(), whole)];
+        while let Some((first, count, id, depth, mut cand, side)) = stack.pop() {
+            if count <= self.ls_capacity() {
+                self.in_local_store(first, count, id, depth, cand).await?;
+                continue;
+            }
+            self.spe.compute(k.spe_job);
+            let leaf = BihNode::leaf(first as u32, count as u32);
+            let split = (count > self.cfg.leaf_size as usize && depth < self.cfg.max_depth)
+                .then(|| choose_split(&mut cand, &side.centers()))
+                .flatten();
+            let Some(s) = split else {
+                self.writes.push(id, leaf);
+                continue;
+            };
+            let mark = self.spe.ls_mark();
+            let fig1 = Fig1Buffers::alloc(self.spe)?;
+            let at = self.a.sorted.offset(first as u64 * 48);
+            let p = partition_in_place::<TriRecord>(
+                self.spe,
+                &fig1,
+                at,
+                count as u64,
+                s,
+                k.spe_partition_item,
+            )
+            .await?;
+            self.spe.ls_release_to(mark);
+            self.items_partitioned += count as u64;
+            self.partitions += 1;
+            let children = self.arena.alloc(2).await?;
+            let [cl, cr] = clip_planes(s.axis, &p.left, &p.right);
+            self.writes
+                .push(id, BihNode::inner(children, s.axis, cl, cr));
+            let [lc, rc] = s.candidates(cand);
+            let l = p.left.count;
+            stack.push((
+                first + l,
+                p.right.count,
+                children + 1,
+                depth + 1,
+                rc,
+                p.right,
+            ));
+            stack.push((first, l, children, depth + 1, lc, p.left));
+        }
+        self.writes.flush().await?;
+        Ok(whole)
+    }
+
+    /// A region (or piece) that fits: loaded once, built in the local store
+    /// with the global heuristic, written back once; returns its bounds.
+    async fn in_local_store(
+        &mut self,
+        first: usize,
+        count: usize,
+        id: u32,
+        depth: u32,
+        cand: Aabb,
+    ) -> Result<Side, CellError> {
+        let k = self.spe.cost().kernels;
+        let tag = self.tags;
+        let mark = self.spe.ls_mark();
+        let recs = self
+            .spe
+            .ls_alloc((count * 48).next_multiple_of(128) as u32, 128)?;
+        let at = self.a.sorted.offset(first as u64 * 48);
+        for (i, c) in (0..count).step_by(RECORDS_PER_BLOCK).enumerate() {
+            let len = RECORDS_PER_BLOCK.min(count - c);
+            let ls = recs.offset((i * RECORDS_PER_BLOCK * 48) as u32);
+            self.spe
+                .get(ls, at.offset((c * 48) as u64), (len * 48) as u32, tag)
+                .await?;
+        }
+        self.spe.wait_tag(tag).await?;
+        let cfg = self.cfg;
+        let (side, nodes, stats) =
+            self.spe
+                .with_ls_mut(recs, count, |items: &mut [TriRecord]| {
+                    let side = side_of(items);
+                    let mut nodes = vec![BihNode::default()];
+                    let stats = build_subtree(items, &mut nodes, 0, 0, count, cand, depth, &cfg);
+                    (side, nodes, stats)
+                })?;
+        // The nodes take their room in the local store too.
+        self.spe
+            .ls_alloc((nodes.len() * 12).next_multiple_of(16) as u32, 16)?;
+        self.spe.compute_items(k.spe_bounds_item, count as u64);
+        let partitioned = stats.items_partitioned - count as u64;
+        self.spe.compute_items(k.spe_partition_item, partitioned);
+        self.spe.compute_items(k.spe_job, nodes.len() as u64);
+        self.items_partitioned += partitioned;
+        self.partitions += stats.partitions;
+        for (i, c) in (0..count).step_by(RECORDS_PER_BLOCK).enumerate() {
+            let len = RECORDS_PER_BLOCK.min(count - c);
+            let ls = recs.offset((i * RECORDS_PER_BLOCK * 48) as u32);
+            self.spe
+                .put(ls, at.offset((c * 48) as u64), (len * 48) as u32, tag)
+                .await?;
+        }
+        // Local pairs (1, 2), (3, 4), ... take pairs of this SPE's arena.
+        let mut global = vec![id; nodes.len()];
+        for pair in (1..nodes.len()).step_by(2) {
+            let g = self.arena.alloc(2).await?;
+            global[pair] = g;
+            global[pair + 1] = g + 1;
+        }
+        for (i, n) in nodes.iter().enumerate() {
+            let node = if n.is_leaf() {
+                let (f, c) = n.leaf_range();
+                BihNode::leaf(f + first as u32, c)
+            } else {
+                let [l, r] = n.clip();
+                BihNode::inner(global[n.left_child() as usize], n.axis(), l, r)
+            };
+            self.writes.push(global[i], node);
+        }
+        self.writes.flush().await?;
+        self.spe.wait_tag(tag).await?;
+        self.spe.ls_release_to(mark);
+        Ok(side)
+    }
+
+    /// Last, SPE 0: the top nodes, their clip planes from the regions' bounds.
+    pub(super) async fn write_top(&mut self, top: &[Top]) -> Result<(), CellError> {
+        let regions = top.iter().filter(|t| matches!(t, Top::Region(_))).count();
+        let tag = self.tags;
+        let mut bounds: Vec<Aabb> = Vec::with_capacity(regions);
+        let mark = self.spe.ls_mark();
+        let buf = self.spe.ls_alloc(16 * 1024, 128)?;
+        for c in (0..regions).step_by(512) {
+            let len = 512.min(regions - c);
+            self.spe
+                .get(
+                    buf,
+                    self.tables[1].offset(c as u64 * 32),
+                    (len * 32) as u32,
+                    tag,
+                )
+                .await?;
+            self.spe.wait_tag(tag).await?;
+            let b: Vec<[f32; 8]> = self.spe.ls_read(buf, len)?;
+            bounds.extend(
+                b.iter()
+                    .map(|b| Aabb::new(Vec3::new(b[0], b[1], b[2]), Vec3::new(b[4], b[5], b[6]))),
+            );
+        }
+        self.spe.ls_release_to(mark);
+        // Children come after their parents: bounds bottom-up in reverse.
+        let mut of = vec![Aabb::EMPTY; top.len()];
+        for (i, t) in top.iter().enumerate().rev() {
+            of[i] = match *t {
+                Top::Region(pos) => bounds[pos],
+                Top::Inner {
+                    id,
+                    children,
+                    axis,
+                    kids,
+                } => {
+                    let (l, r) = (of[kids[0]], of[kids[1]]);
+                    self.writes
+                        .push(id, BihNode::inner(children, axis, l.max[axis], r.min[axis]));
+                    self.spe.compute(self.spe.cost().kernels.spe_job);
+                    l.union(r)
+                }
+            };
+        }
+        self.writes.flush().await
+    }
+}

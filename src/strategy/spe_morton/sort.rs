@@ -1,0 +1,198 @@
+//! `spe_morton`, phases 1 to 3 (section 5: "the Morton code construction
+//! [...] can be done totally independent from the others. After the
+//! Morton code construction a radix sort needs to be performed"): the
+//! keys, the radix passes and the permutation of the records, every SPE
+//! on its slice, streamed through the local store.
+
+use super::{KEYS_PER_BLOCK, KeyRec, Program, RECORDS_PER_BLOCK};
+use crate::build::kernels::Boxed;
+use crate::build::radix;
+use crate::cell::{CellError, Cycles, Ea, ListElement, LsAddr, WaitMode};
+use crate::strategy::layout::TriRecord;
+
+impl Program<'_> {
+    /// Issues the get of block `k` of `count` elements of `size` bytes at
+    /// `ea`, `per_block` a block, into `bufs[k % 2]` (tag `tags + k % 2`);
+    /// returns the block's first element and length.
+    async fn get_block(
+        &self,
+        ea: Ea,
+        size: usize,
+        count: usize,
+        per_block: usize,
+        k: usize,
+        bufs: [LsAddr; 4],
+    ) -> Result<(usize, usize), CellError> {
+        let first = k * per_block;
+        let len = per_block.min(count - first);
+        let (buf, tag) = (bufs[k % 2], self.tags + (k % 2) as u32);
+        let at = ea.offset((first * size) as u64);
+        self.spe.get(buf, at, (len * size) as u32, tag).await?;
+        Ok((first, len))
+    }
+
+    /// Block `k` of a stream: waits for its get after issuing the next
+    /// block's (so that the transfer overlaps this block's work).
+    async fn next_block(
+        &self,
+        ea: Ea,
+        size: usize,
+        count: usize,
+        per_block: usize,
+        k: usize,
+        bufs: [LsAddr; 4],
+    ) -> Result<(usize, usize, LsAddr), CellError> {
+        let blocks = count.div_ceil(per_block);
+        if k == 0 {
+            self.get_block(ea, size, count, per_block, 0, bufs).await?;
+        }
+        if k + 1 < blocks {
+            self.get_block(ea, size, count, per_block, k + 1, bufs)
+                .await?;
+        }
+        self.spe.wait_tag(self.tags + (k % 2) as u32).await?;
+        let first = k * per_block;
+        Ok((first, per_block.min(count - first), bufs[k % 2]))
+    }
+
+    /// The output buffer `k % 2` of `bufs[2..]`, once its last put is done.
+    async fn out_buffer(&self, k: usize, bufs: [LsAddr; 4]) -> Result<(LsAddr, u32), CellError> {
+        let tag = self.tags + 2 + (k % 2) as u32;
+        self.spe.wait_tag(tag).await?;
+        Ok((bufs[2 + k % 2], tag))
+    }
+
+    async fn drain(&self) -> Result<(), CellError> {
+        let all = 0b1111 << self.tags;
+        self.spe.wait_tags(all, WaitMode::All).await.map(|_| ())
+    }
+
+    /// Phase 1: a key for every record of this SPE's slice, into keys A.
+    pub(super) async fn keys(&mut self, bufs: [LsAddr; 4]) -> Result<(), CellError> {
+        let (lo, hi) = self.slice();
+        let k = self.spe.cost().kernels;
+        let rate = Cycles(k.spe_morton_bit.0 * self.spec.bits as u64);
+        let src = self.a.tris.offset(lo as u64 * 48);
+        let count = hi - lo;
+        for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
+            let (first, len, buf) = self
+                .next_block(src, 48, count, RECORDS_PER_BLOCK, b, bufs)
+                .await?;
+            let spec = self.spec;
+            let keys: Vec<KeyRec> = self.spe.with_ls(buf, len, |recs: &[TriRecord]| {
+                (recs.iter().enumerate())
+                    .map(|(i, r)| KeyRec {
+                        key: spec.key(r.center()),
+                        index: (lo + first + i) as u32,
+                        pad: 0,
+                    })
+                    .collect()
+            })?;
+            self.spe.compute_items(rate, len as u64);
+            let (obuf, tag) = self.out_buffer(b, bufs).await?;
+            self.spe.ls_write(obuf, &keys)?;
+            let to = self.a.keys[0].offset(((lo + first) * 16) as u64);
+            self.spe.put(obuf, to, (len * 16) as u32, tag).await?;
+        }
+        self.drain().await
+    }
+
+    /// Phase 2: one LSD pass: count, share the counts, scatter.
+    pub(super) async fn radix_pass(
+        &mut self,
+        pass: u32,
+        bufs: [LsAddr; 4],
+    ) -> Result<(), CellError> {
+        let (lo, hi) = self.slice();
+        let (count, d) = (hi - lo, self.knobs.digit_bits);
+        let digits = 1usize << d;
+        let k = self.spe.cost().kernels;
+        let (src, dst) = (
+            self.a.keys[pass as usize % 2],
+            self.a.keys[1 - pass as usize % 2],
+        );
+        let slice = src.offset(lo as u64 * 16);
+        let mut counts = vec![0u32; digits];
+        for b in 0..count.div_ceil(KEYS_PER_BLOCK) {
+            let (_, len, buf) = self
+                .next_block(slice, 16, count, KEYS_PER_BLOCK, b, bufs)
+                .await?;
+            self.spe.with_ls(buf, len, |keys: &[KeyRec]| {
+                let keys: Vec<u64> = keys.iter().map(|r| r.key).collect();
+                radix::histogram(&keys, pass, d, &mut counts);
+            })?;
+            self.spe.compute_items(k.spe_radix_count, len as u64);
+        }
+        // This SPE's row of the table, then everyone's.
+        let (row, tag) = (bufs[2], self.tags + 2);
+        self.spe.wait_tag(tag).await?;
+        self.spe.ls_write(row, &counts)?;
+        let row_bytes = (digits * 4) as u64;
+        let me = self.a.counts.offset(self.spe.id() as u64 * row_bytes);
+        self.spe.put(row, me, row_bytes as u32, tag).await?;
+        self.spe.wait_tag(tag).await?;
+        self.barrier().await?;
+        let mut rows = Vec::with_capacity(self.a.spes);
+        for s in 0..self.a.spes {
+            let at = self.a.counts.offset(s as u64 * row_bytes);
+            self.spe.get(row, at, row_bytes as u32, tag).await?;
+            self.spe.wait_tag(tag).await?;
+            rows.push(self.spe.ls_read::<u32>(row, digits)?);
+            self.spe.compute_items(k.spe_radix_count, digits as u64);
+        }
+        let mut offsets = radix::offsets(&rows).swap_remove(self.spe.id());
+        // Scatter: each block's pairs in order of their places, one putl.
+        for b in 0..count.div_ceil(KEYS_PER_BLOCK) {
+            let (_, len, buf) = self
+                .next_block(slice, 16, count, KEYS_PER_BLOCK, b, bufs)
+                .await?;
+            let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
+            let keys: Vec<u64> = recs.iter().map(|r| r.key).collect();
+            let to = radix::scatter(&keys, pass, d, &mut offsets);
+            self.spe.compute_items(k.spe_radix_scatter, len as u64);
+            let mut order: Vec<usize> = (0..len).collect();
+            order.sort_by_key(|&i| to[i]);
+            let staged: Vec<KeyRec> = order.iter().map(|&i| recs[i]).collect();
+            let mut list: Vec<ListElement> = Vec::new();
+            for &i in &order {
+                let ea = dst.offset(to[i] as u64 * 16);
+                match list.last_mut() {
+                    Some(e) if e.ea.0 + e.size as u64 == ea.0 => e.size += 16,
+                    _ => list.push(ListElement { ea, size: 16 }),
+                }
+            }
+            let (obuf, tag) = self.out_buffer(b, bufs).await?;
+            self.spe.ls_write(obuf, &staged)?;
+            self.spe.putl(obuf, &list, tag).await?;
+        }
+        self.drain().await
+    }
+
+    /// Phase 3: gathers this SPE's slice of records in key order (one
+    /// getl a block) into the sorted array.
+    pub(super) async fn permute(&mut self, keys: Ea, bufs: [LsAddr; 4]) -> Result<(), CellError> {
+        let (lo, hi) = self.slice();
+        let count = hi - lo;
+        let k = self.spe.cost().kernels;
+        let slice = keys.offset(lo as u64 * 16);
+        for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
+            let (first, len, buf) = self
+                .next_block(slice, 16, count, RECORDS_PER_BLOCK, b, bufs)
+                .await?;
+            let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
+            let list: Vec<ListElement> = (recs.iter())
+                .map(|r| ListElement {
+                    ea: self.a.tris.offset(r.index as u64 * 48),
+                    size: 48,
+                })
+                .collect();
+            self.spe.compute_items(k.spe_radix_scatter, len as u64);
+            let (obuf, tag) = self.out_buffer(b, bufs).await?;
+            self.spe.getl(obuf, &list, tag).await?;
+            self.spe.wait_tag(tag).await?;
+            let to = self.a.sorted.offset(((lo + first) * 48) as u64);
+            self.spe.put(obuf, to, (len * 48) as u32, tag).await?;
+        }
+        self.drain().await
+    }
+}
