@@ -206,7 +206,12 @@ fn main() {
 }
 
 /// One build's row.
-fn row(scene: &Scene, v: &Variant, spes: usize, base: (f64, f64)) -> Result<Value, String> {
+fn row(
+    scene: &Scene,
+    v: &Variant,
+    spes: usize,
+    base: (f64, f64),
+) -> Result<(Value, cellbih::bih::Bih), String> {
     let cfg = BihConfig::default();
     let cell = CellConfig::ps3().with_spes(spes);
     let r = v
@@ -230,7 +235,7 @@ fn row(scene: &Scene, v: &Variant, spes: usize, base: (f64, f64)) -> Result<Valu
         * cellbih::strategy::arena::BLOCK_NODES as u64;
     let arena_unused: u64 = sim.spe_work.iter().map(|w| w.arena_unused).sum();
     let ms = sim.run.ms;
-    Ok(json!({
+    let row = json!({
         "scene": scene.name, "triangles": scene.len(), "builder": v.name, "spes": spes,
         "simulated_ms": ms, "baseline_ms": base_ms,
         "speedup": base_ms / ms, "efficiency": base_ms / ms / spes as f64,
@@ -246,7 +251,24 @@ fn row(scene: &Scene, v: &Variant, spes: usize, base: (f64, f64)) -> Result<Valu
         "sah_over_baseline": r.bih.quality().sah_cost / base_sah,
         "phases": sim.phase_ms().iter().map(|(p, ms)| json!({ "phase": p, "ms": ms })).collect::<Vec<_>>(),
         "host_ms": r.host_time.as_secs_f64() * 1e3,
-    }))
+    });
+    Ok((row, r.bih))
+}
+
+/// Measured ray cost of `bih`: nodes visited and triangles tested per
+/// primary ray of a 128 x 96 view from the render camera (one thread).
+fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih) -> (f64, f64) {
+    let tracer = cellbih::bih::Tracer::new(bih, scene);
+    let cam = cellbih::render::Camera::framing(&scene.bounds(), 128, 96);
+    let mut stats = cellbih::bih::RayStats::default();
+    for ray in cam.rays() {
+        tracer.closest(&ray, &mut stats);
+    }
+    let rays = stats.rays.max(1) as f64;
+    (
+        stats.nodes_visited as f64 / rays,
+        stats.triangles_tested as f64 / rays,
+    )
 }
 
 fn run(args: &Args) -> Result<(), String> {
@@ -264,16 +286,25 @@ fn run(args: &Args) -> Result<(), String> {
         let base = BuilderKind::SPE_BFS
             .build(&scene, &BihConfig::default())
             .map_err(|e| format!("{spec} / spe_bfs: {e}"))?;
+        let base_rays = ray_cost(&scene, &base.bih);
         let base = (
             base.simulated.expect("emulated").run.ms,
             base.bih.quality().sah_cost,
         );
         for v in variants() {
+            let mut cost = None;
             for spes in 1..=args.max_spes as usize {
                 if progress {
                     eprint!("{spec:>16} {:<58} {spes} SPEs\r", v.name);
                 }
-                rows.push(row(&scene, &v, spes, base)?);
+                let (mut r, bih) = row(&scene, &v, spes, base)?;
+                // The tree does not depend on the SPE count: its rays are
+                // cast once.
+                let (nodes, tris) = *cost.get_or_insert_with(|| ray_cost(&scene, &bih));
+                r["ray_nodes"] = json!(nodes);
+                r["ray_triangles"] = json!(tris);
+                r["ray_cost_over_baseline"] = json!((nodes + tris) / (base_rays.0 + base_rays.1));
+                rows.push(r);
             }
         }
     }
@@ -302,6 +333,9 @@ fn run(args: &Args) -> Result<(), String> {
         "arena_waste",
         "memory_utilisation",
         "sah_over_baseline",
+        "ray_nodes",
+        "ray_triangles",
+        "ray_cost_over_baseline",
         "host_ms",
     ];
     let io = |e: cellbih::report::OutputError| e.to_string();
@@ -370,7 +404,7 @@ fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error
         series.push(Series {
             name: "ideal".into(),
             points: vec![(1.0, 1.0), (max, max)],
-            color: 9,
+            color: names.len(),
             dashed: true,
         });
         let file = format!("spe_scaling_{}.svg", scene.replace([':', '/'], "_"));

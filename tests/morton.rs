@@ -82,28 +82,14 @@ fn morton_build(
     };
     let r = build();
     r.bih.validate(s).unwrap_or_else(|v| panic!("{what}: {v}"));
-    let again = build();
-    let (a, b) = (
-        r.simulated.as_ref().unwrap(),
-        again.simulated.as_ref().unwrap(),
-    );
-    assert_eq!(a.run.cycles, b.run.cycles, "{what}");
-    assert_eq!(a.run.cores, b.run.cores, "{what}");
-    assert_eq!(a.spe_work, b.spe_work, "{what}");
-    assert_eq!(r.bih.nodes, again.bih.nodes, "{what}");
-    let jobs: u64 = a.spe_work.iter().map(|w| w.jobs).sum();
-    assert_eq!(jobs as usize, r.bih.nodes.len(), "{what}");
-    let slots: u64 = a.spe_work.iter().map(|w| w.arena_blocks).sum::<u64>()
-        * cellbih::strategy::arena::BLOCK_NODES as u64;
-    let unused: u64 = a.spe_work.iter().map(|w| w.arena_unused).sum();
-    assert_eq!(slots - unused, jobs, "{what}");
+    common::check_multi_spe_runs(&r, &build(), what);
     r
 }
 
 /// With the global heuristic's order, `spe_morton` gives the baseline's
 /// tree on 1 to 8 SPEs and with every knob: key width, digit width,
 /// region size (small: a deep top; huge: regions too large for the local
-/// store, split by Fig. 1's streaming partition), static dealing. With
+/// store, built by the baseline's breadth-first loop), static dealing. With
 /// several SPEs on a large scene it beats the baseline.
 #[test]
 fn spe_morton_builds_the_baseline_tree_with_every_knob() {

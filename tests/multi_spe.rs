@@ -11,7 +11,6 @@ use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
-use cellbih::strategy::arena::BLOCK_NODES;
 use common::same_tree_structure;
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
@@ -96,19 +95,8 @@ fn check_build(b: BuilderKind, s: &Scene, spes: usize, knobs: &Knobs, what: &str
     r.bih.validate(s).unwrap_or_else(|v| panic!("{what}: {v}"));
     let base = BuilderKind::SPE_BFS.build(s, &cfg).unwrap();
     same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{what}: {e}"));
-    let again = build();
-    let (a, b) = (r.simulated.unwrap(), again.simulated.unwrap());
-    assert_eq!(a.run.cycles, b.run.cycles, "{what}");
-    assert_eq!(a.run.cores, b.run.cores, "{what}");
-    assert_eq!(a.spe_work, b.spe_work, "{what}");
-    assert_eq!(r.bih.nodes, again.bih.nodes, "{what}");
-    // Every node was made by one job of one SPE; the arenas' blocks hold
-    // every node and their unused slots.
-    let jobs: u64 = a.spe_work.iter().map(|w| w.jobs).sum();
-    assert_eq!(jobs as usize, r.bih.nodes.len(), "{what}");
-    let slots: u64 = a.spe_work.iter().map(|w| w.arena_blocks).sum::<u64>() * BLOCK_NODES as u64;
-    let unused: u64 = a.spe_work.iter().map(|w| w.arena_unused).sum();
-    assert_eq!(slots - unused, jobs, "{what}");
+    common::check_multi_spe_runs(&r, &build(), what);
+    let a = r.simulated.unwrap();
     if spes > 1 && s.len() > 10_000 {
         for (name, c) in &a.run.cores[1..] {
             assert!(c.busy.0 > 0, "{what}: {name} did nothing");

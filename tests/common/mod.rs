@@ -234,3 +234,27 @@ pub fn same_tree_structure(a: &Bih, b: &Bih) -> Result<(), String> {
     }
     Ok(())
 }
+
+/// Two runs of one multi-SPE build agree (cycles, per-core counters,
+/// per-SPE work, node array); every node was made by one job of one SPE;
+/// the arenas' blocks hold exactly the nodes and their unused slots.
+pub fn check_multi_spe_runs(
+    r: &cellbih::build::BuildReport,
+    again: &cellbih::build::BuildReport,
+    what: &str,
+) {
+    let (a, b) = (
+        r.simulated.as_ref().unwrap(),
+        again.simulated.as_ref().unwrap(),
+    );
+    assert_eq!(a.run.cycles, b.run.cycles, "{what}");
+    assert_eq!(a.run.cores, b.run.cores, "{what}");
+    assert_eq!(a.spe_work, b.spe_work, "{what}");
+    assert_eq!(r.bih.nodes, again.bih.nodes, "{what}");
+    let jobs: u64 = a.spe_work.iter().map(|w| w.jobs).sum();
+    assert_eq!(jobs as usize, r.bih.nodes.len(), "{what}");
+    let slots: u64 = a.spe_work.iter().map(|w| w.arena_blocks).sum::<u64>()
+        * cellbih::strategy::arena::BLOCK_NODES as u64;
+    let unused: u64 = a.spe_work.iter().map(|w| w.arena_unused).sum();
+    assert_eq!(slots - unused, jobs, "{what}");
+}

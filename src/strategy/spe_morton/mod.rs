@@ -23,8 +23,9 @@
 //!    an atomic counter (or, `Knobs::static_regions`, from its own dealt
 //!    list) and builds each alone: a region that fits in the local store is
 //!    loaded once, built there with the global heuristic and written back
-//!    once; a larger one is split depth first by Fig. 1's streaming
-//!    partition until its pieces fit. Nodes go straight into slots of the
+//!    once; a larger one runs the baseline's breadth-first loop, its
+//!    WorkAPPE/WorkBPPE in a spill area the PPE allocates for exactly the
+//!    large regions. Nodes go straight into slots of the
 //!    per-SPE ObjectArena lists of one pool. Each region's bounds go to a
 //!    table, from which SPE 0 finally writes the top nodes' clip planes.
 //!
@@ -64,6 +65,22 @@ struct KeyRec {
     index: u32,
     pad: u32,
 }
+
+/// A region as the table holds it: its job, and where its WorkAPPE/WorkBPPE
+/// start in the large regions' spill area (bytes; used only by a region
+/// too large for the local store). 96 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct Region {
+    job: super::spe_bfs::Job,
+    spill: u64,
+    pad: [u64; 3],
+}
+const _: () = assert!(size_of::<Region>() == 96);
+
+/// The large regions' spill area is asked for in units of this many bytes
+/// (one `WorkAPPE` block), so that one mailbox word holds it.
+const SPILL_UNIT: u64 = 16 * 1024;
 
 /// One DMA block of records (341 of 48 bytes) and of key pairs (1,024).
 const RECORDS_PER_BLOCK: usize = (16 * 1024) / size_of::<TriRecord>();
@@ -151,14 +168,20 @@ fn spawn(
     // regions the top of the tree made (memory to what the scene needs).
     cell.spawn_ppe(move |ppe| async move {
         let regions = ppe.read_out_mbox(0).await? as u64;
+        let spill = ppe.read_out_mbox(0).await? as u64 * SPILL_UNIT;
         for (what, bytes) in [
-            ("spe_morton: region jobs", regions * 64),
+            ("spe_morton: region jobs", regions * 96),
             ("spe_morton: region bounds", regions * 32),
             (
                 "spe_morton: region deal",
                 (regions * 4).next_multiple_of(16),
             ),
+            ("spe_morton: WorkAPPE/WorkBPPE of large regions", spill),
         ] {
+            if bytes == 0 {
+                ppe.write_in_mbox(0, 0).await?;
+                continue;
+            }
             let ea = ppe.alloc(what, bytes, 128).await?;
             let word = u32::try_from(ea.0).map_err(|_| CellError::Program {
                 core: "PPE".into(),
@@ -216,15 +239,18 @@ struct Program<'a> {
     tags: u32,
     barrier: Barrier,
     arena: ObjectArena<'a>,
-    writes: NodeWrites<'a>,
+    /// Nodes straight into their slots (lent to the breadth-first loop
+    /// while it builds a large region).
+    writes: Option<NodeWrites<'a>>,
     items_partitioned: u64,
     partitions: u64,
     regions_built: u64,
     /// SPE 0: each phase and the cycle it ended at.
     phases: Vec<(&'static str, u64)>,
     /// The region jobs (largest first), their bounds (by the same
-    /// position) and the static deal, where the PPE allocated them.
-    tables: [Ea; 3],
+    /// position), the static deal and the large regions' WorkAPPE/WorkBPPE,
+    /// where the PPE allocated them.
+    tables: [Ea; 4],
 }
 
 /// Names of the radix passes, for the phase list.
@@ -265,12 +291,12 @@ impl<'a> Program<'a> {
             tags: spe.tags("spe_morton streams", 4)?,
             barrier: Barrier { rounds: 0 },
             arena: ObjectArena::new(spe, a.blocks)?,
-            writes: NodeWrites::new(spe, a.pool, true)?,
+            writes: Some(NodeWrites::new(spe, a.pool, true)?),
             items_partitioned: 0,
             partitions: 0,
             regions_built: 0,
             phases: Vec::new(),
-            tables: [Ea(0); 3],
+            tables: [Ea(0); 4],
         })
     }
 
@@ -278,6 +304,12 @@ impl<'a> Program<'a> {
     fn slice(&self) -> (usize, usize) {
         let (n, s, id) = (self.a.n, self.a.spes, self.spe.id());
         (n * id / s, n * (id + 1) / s)
+    }
+
+    fn w(&mut self) -> &mut NodeWrites<'a> {
+        self.writes
+            .as_mut()
+            .expect("node writes are back from the loop")
     }
 
     async fn barrier(&mut self) -> Result<(), CellError> {
@@ -324,7 +356,8 @@ impl<'a> Program<'a> {
         if let Some(top) = top {
             self.write_top(&top).await?;
         }
-        self.writes.finish().await?;
+        self.w().finish().await?;
+        let nodes = self.w().nodes;
         let count = self.arena.allocated();
         self.arena.close(count).await?;
         let mut o = out.borrow_mut();
@@ -335,7 +368,7 @@ impl<'a> Program<'a> {
         o.stats.items_partitioned += self.items_partitioned;
         o.stats.partitions += self.partitions;
         let w = &mut o.spe_work[self.spe.id()];
-        w.jobs = self.writes.nodes;
+        w.jobs = nodes;
         w.taken = self.regions_built;
         w.arena_blocks = self.arena.stats.blocks;
         w.arena_unused = self.arena.unused();

@@ -6,16 +6,17 @@
 use bytemuck::Pod;
 use glam::Vec3;
 
-use super::{KeyRec, Program, RECORDS_PER_BLOCK, Top};
+use super::{KeyRec, Program, RECORDS_PER_BLOCK, Region, SPILL_UNIT, Top};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 use crate::build::host::build_subtree;
-use crate::build::kernels::{Side, choose_split, clip_planes, side_of};
+use crate::build::kernels::{Side, side_of};
 use crate::build::morton::KeyOrder;
 use crate::cell::{CellError, Ea};
-use crate::strategy::fig1::{Fig1Buffers, partition_in_place, stream_bounds};
+use crate::strategy::fig1::stream_bounds;
 use crate::strategy::layout::TriRecord;
-use crate::strategy::spe_bfs::Job;
+use crate::strategy::spe_bfs::{Job, SpeBuilder};
+use crate::strategy::work_queue::WorkQueue;
 
 impl Program<'_> {
     /// The key at sorted position `i` (one small get from main memory).
@@ -117,11 +118,31 @@ impl Program<'_> {
             }
         }
         let sorted: Vec<Job> = order.iter().map(|&r| regions[r]).collect();
+        // Regions too large for the local store run the breadth-first loop:
+        // WorkAPPE and WorkBPPE for each, in one area.
+        let cap = self.ls_capacity();
+        let mut spill = 0u64;
+        let table: Vec<Region> = (sorted.iter())
+            .map(|&job| {
+                let at = spill;
+                if job.count as usize > cap {
+                    spill += 2 * WorkQueue::<Job>::spill_bytes(job.count as usize);
+                }
+                Region {
+                    job,
+                    spill: at,
+                    pad: [0; 3],
+                }
+            })
+            .collect();
         self.spe.write_out_mbox(sorted.len() as u32).await;
+        self.spe
+            .write_out_mbox(spill.div_ceil(SPILL_UNIT) as u32)
+            .await;
         for t in &mut self.tables {
             *t = Ea(self.spe.read_in_mbox().await as u64);
         }
-        self.write_array(self.tables[0], &sorted).await?;
+        self.write_array(self.tables[0], &table).await?;
         if self.knobs.static_regions {
             self.deal(&sorted).await?;
         }
@@ -186,9 +207,9 @@ impl Program<'_> {
         let (line, take) = (self.line, self.a.take);
         self.spe.get(line, take, 128, tag).await?;
         self.spe.wait_tag(tag).await?;
-        let w = self.spe.ls_read::<u32>(line, 5)?;
+        let w = self.spe.ls_read::<u32>(line, 6)?;
         let total = w[1];
-        self.tables = [w[2], w[3], w[4]].map(|t| Ea(t as u64));
+        self.tables = [w[2], w[3], w[4], w[5]].map(|t| Ea(t as u64));
         let mine: Option<Vec<u32>> = if self.knobs.static_regions {
             self.spe.get(line, self.a.deal_header, 128, tag).await?;
             self.spe.wait_tag(tag).await?;
@@ -225,11 +246,11 @@ impl Program<'_> {
             };
             next += 1;
             self.spe
-                .get(line, self.tables[0].offset(pos as u64 * 64), 64, tag)
+                .get(line, self.tables[0].offset(pos as u64 * 96), 96, tag)
                 .await?;
             self.spe.wait_tag(tag).await?;
-            let job = self.spe.ls_read::<Job>(line, 1)?[0];
-            let side = self.region(&job).await?;
+            let r = self.spe.ls_read::<Region>(line, 1)?[0];
+            let side = self.region(&r.job, r.spill).await?;
             let bounds: [f32; 8] = [
                 side.lo.x, side.lo.y, side.lo.z, 0.0, side.hi.x, side.hi.y, side.hi.z, 0.0,
             ];
@@ -250,71 +271,56 @@ impl Program<'_> {
     }
 
     /// Builds one region; returns its bounds.
-    async fn region(&mut self, job: &Job) -> Result<Side, CellError> {
+    async fn region(&mut self, job: &Job, spill: u64) -> Result<Side, CellError> {
         let (first, count) = (job.first as usize, job.count as usize);
         if count <= self.ls_capacity() {
             return self
                 .in_local_store(first, count, job.node, job.depth, job.candidate())
                 .await;
         }
-        // Too large: split depth first by Fig. 1's streaming partition
-        // until the pieces fit.
-        let k = self.spe.cost().kernels;
+        // Too large for the local store (a range that shares its whole
+        // key): the baseline's breadth-first loop, its WorkAPPE/WorkBPPE in
+        // the spill area the PPE allocated for exactly these regions.
+        let size = WorkQueue::<Job>::spill_bytes(count);
+        let work_ppe = [
+            self.tables[3].offset(spill),
+            self.tables[3].offset(spill + size),
+        ];
         let mark = self.spe.ls_mark();
-        let fig1 = Fig1Buffers::alloc(self.spe)?;
+        let mut b = SpeBuilder::new(
+            self.spe,
+            self.a.sorted,
+            work_ppe,
+            self.cfg,
+            self.a.blocks,
+            &self.knobs,
+        )?;
+        // This SPE's own arena list and node writes go on.
+        std::mem::swap(&mut b.arena, &mut self.arena);
+        b.node_writes = self.writes.take();
+        let k = self.spe.cost().kernels;
         let at = self.a.sorted.offset(first as u64 * 48);
-        let whole =
-            stream_bounds::<TriRecord>(self.spe, &fig1, at, count as u64, k.spe_bounds_item)
+        let side =
+            stream_bounds::<TriRecord>(self.spe, &b.fig1, at, count as u64, k.spe_bounds_item)
                 .await?;
+        let root = Job::new(
+            first,
+            count,
+            job.node as usize,
+            job.depth,
+            job.candidate(),
+            &side,
+        );
+        let level = b.queue.start(root)?;
+        b.levels(level, None).await?;
+        b.drain().await?;
+        self.items_partitioned += b.stats.items_partitioned;
+        self.partitions += b.stats.partitions;
+        std::mem::swap(&mut b.arena, &mut self.arena);
+        self.writes = b.node_writes.take();
+        drop(b);
         self.spe.ls_release_to(mark);
-        let mut stack = vec![(first, count, job.node, job.depth, job.candidate(), whole)];
-        while let Some((first, count, id, depth, mut cand, side)) = stack.pop() {
-            if count <= self.ls_capacity() {
-                self.in_local_store(first, count, id, depth, cand).await?;
-                continue;
-            }
-            self.spe.compute(k.spe_job);
-            let leaf = BihNode::leaf(first as u32, count as u32);
-            let split = (count > self.cfg.leaf_size as usize && depth < self.cfg.max_depth)
-                .then(|| choose_split(&mut cand, &side.centers()))
-                .flatten();
-            let Some(s) = split else {
-                self.writes.push(id, leaf);
-                continue;
-            };
-            let mark = self.spe.ls_mark();
-            let fig1 = Fig1Buffers::alloc(self.spe)?;
-            let at = self.a.sorted.offset(first as u64 * 48);
-            let p = partition_in_place::<TriRecord>(
-                self.spe,
-                &fig1,
-                at,
-                count as u64,
-                s,
-                k.spe_partition_item,
-            )
-            .await?;
-            self.spe.ls_release_to(mark);
-            self.items_partitioned += count as u64;
-            self.partitions += 1;
-            let children = self.arena.alloc(2).await?;
-            let [cl, cr] = clip_planes(s.axis, &p.left, &p.right);
-            self.writes
-                .push(id, BihNode::inner(children, s.axis, cl, cr));
-            let [lc, rc] = s.candidates(cand);
-            let l = p.left.count;
-            stack.push((
-                first + l,
-                p.right.count,
-                children + 1,
-                depth + 1,
-                rc,
-                p.right,
-            ));
-            stack.push((first, l, children, depth + 1, lc, p.left));
-        }
-        self.writes.flush().await?;
-        Ok(whole)
+        Ok(side)
     }
 
     /// A region (or piece) that fits: loaded once, built in the local store
@@ -382,9 +388,9 @@ impl Program<'_> {
                 let [l, r] = n.clip();
                 BihNode::inner(global[n.left_child() as usize], n.axis(), l, r)
             };
-            self.writes.push(global[i], node);
+            self.w().push(global[i], node);
         }
-        self.writes.flush().await?;
+        self.w().flush().await?;
         self.spe.wait_tag(tag).await?;
         self.spe.ls_release_to(mark);
         Ok(side)
@@ -427,13 +433,13 @@ impl Program<'_> {
                     kids,
                 } => {
                     let (l, r) = (of[kids[0]], of[kids[1]]);
-                    self.writes
+                    self.w()
                         .push(id, BihNode::inner(children, axis, l.max[axis], r.min[axis]));
                     self.spe.compute(self.spe.cost().kernels.spe_job);
                     l.union(r)
                 }
             };
         }
-        self.writes.flush().await
+        self.w().flush().await
     }
 }
