@@ -24,8 +24,8 @@
 //!    list) and builds each alone: a region that fits in the local store is
 //!    loaded once, built there with the global heuristic and written back
 //!    once; a larger one runs the baseline's breadth-first loop, its
-//!    WorkAPPE/WorkBPPE in a spill area the PPE allocates for exactly the
-//!    large regions. Nodes go straight into slots of the
+//!    WorkAPPE/WorkBPPE in a spill area the PPE allocates per SPE, sized
+//!    for the largest such region. Nodes go straight into slots of the
 //!    per-SPE ObjectArena lists of one pool. Each region's bounds go to a
 //!    table, from which SPE 0 finally writes the top nodes' clip planes.
 //!
@@ -66,20 +66,9 @@ struct KeyRec {
     pad: u32,
 }
 
-/// A region as the table holds it: its job, and where its WorkAPPE/WorkBPPE
-/// start in the large regions' spill area (bytes; used only by a region
-/// too large for the local store). 96 bytes.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct Region {
-    job: super::spe_bfs::Job,
-    spill: u64,
-    pad: [u64; 3],
-}
-const _: () = assert!(size_of::<Region>() == 96);
-
-/// The large regions' spill area is asked for in units of this many bytes
-/// (one `WorkAPPE` block), so that one mailbox word holds it.
+/// Each SPE's WorkAPPE/WorkBPPE for regions too large for the local store
+/// is asked for in units of this many bytes (one `WorkAPPE` block), so that
+/// one mailbox word holds it.
 const SPILL_UNIT: u64 = 16 * 1024;
 
 /// One DMA block of records (341 of 48 bytes) and of key pairs (1,024).
@@ -168,9 +157,10 @@ fn spawn(
     // regions the top of the tree made (memory to what the scene needs).
     cell.spawn_ppe(move |ppe| async move {
         let regions = ppe.read_out_mbox(0).await? as u64;
-        let spill = ppe.read_out_mbox(0).await? as u64 * SPILL_UNIT;
+        // Per SPE: room for the largest region's two levels of jobs.
+        let spill = ppe.read_out_mbox(0).await? as u64 * SPILL_UNIT * spes as u64;
         for (what, bytes) in [
-            ("spe_morton: region jobs", regions * 96),
+            ("spe_morton: region jobs", regions * 64),
             ("spe_morton: region bounds", regions * 32),
             (
                 "spe_morton: region deal",
@@ -251,6 +241,8 @@ struct Program<'a> {
     /// position), the static deal and the large regions' WorkAPPE/WorkBPPE,
     /// where the PPE allocated them.
     tables: [Ea; 4],
+    /// Bytes of each SPE's part of the spill area (`tables[3]`).
+    spill_per_spe: u64,
 }
 
 /// Names of the radix passes, for the phase list.
@@ -297,6 +289,7 @@ impl<'a> Program<'a> {
             regions_built: 0,
             phases: Vec::new(),
             tables: [Ea(0); 4],
+            spill_per_spe: 0,
         })
     }
 

@@ -6,7 +6,7 @@
 use bytemuck::Pod;
 use glam::Vec3;
 
-use super::{KeyRec, Program, RECORDS_PER_BLOCK, Region, SPILL_UNIT, Top};
+use super::{KeyRec, Program, RECORDS_PER_BLOCK, SPILL_UNIT, Top};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 use crate::build::host::build_subtree;
@@ -119,41 +119,37 @@ impl Program<'_> {
         }
         let sorted: Vec<Job> = order.iter().map(|&r| regions[r]).collect();
         // Regions too large for the local store run the breadth-first loop:
-        // WorkAPPE and WorkBPPE for each, in one area.
+        // each SPE gets WorkAPPE and WorkBPPE for the largest of them (the
+        // first, largest first), and reuses them region after region.
         let cap = self.ls_capacity();
-        let mut spill = 0u64;
-        let table: Vec<Region> = (sorted.iter())
-            .map(|&job| {
-                let at = spill;
-                if job.count as usize > cap {
-                    spill += 2 * WorkQueue::<Job>::spill_bytes(job.count as usize);
-                }
-                Region {
-                    job,
-                    spill: at,
-                    pad: [0; 3],
-                }
-            })
-            .collect();
+        let largest = sorted.first().map_or(0, |j| j.count as usize);
+        self.spill_per_spe = match largest > cap {
+            true => (2 * WorkQueue::<Job>::spill_bytes(largest)).next_multiple_of(SPILL_UNIT),
+            false => 0,
+        };
         self.spe.write_out_mbox(sorted.len() as u32).await;
         self.spe
-            .write_out_mbox(spill.div_ceil(SPILL_UNIT) as u32)
+            .write_out_mbox((self.spill_per_spe / SPILL_UNIT) as u32)
             .await;
         for t in &mut self.tables {
             *t = Ea(self.spe.read_in_mbox().await as u64);
         }
-        self.write_array(self.tables[0], &table).await?;
+        self.write_array(self.tables[0], &sorted).await?;
         if self.knobs.static_regions {
             self.deal(&sorted).await?;
         }
         let (line, take, tables) = (self.line, self.a.take, self.tables);
-        let total = sorted.len() as u32;
+        let (total, spill) = (
+            sorted.len() as u32,
+            (self.spill_per_spe / SPILL_UNIT) as u32,
+        );
         self.spe
             .atomic_update_line(line, take, |w| {
                 (w[0], w[1]) = (0, total);
                 for (i, t) in tables.iter().enumerate() {
                     w[2 + i] = t.0 as u32;
                 }
+                w[6] = spill;
             })
             .await?;
         Ok(top)
@@ -207,9 +203,10 @@ impl Program<'_> {
         let (line, take) = (self.line, self.a.take);
         self.spe.get(line, take, 128, tag).await?;
         self.spe.wait_tag(tag).await?;
-        let w = self.spe.ls_read::<u32>(line, 6)?;
+        let w = self.spe.ls_read::<u32>(line, 7)?;
         let total = w[1];
         self.tables = [w[2], w[3], w[4], w[5]].map(|t| Ea(t as u64));
+        self.spill_per_spe = w[6] as u64 * SPILL_UNIT;
         let mine: Option<Vec<u32>> = if self.knobs.static_regions {
             self.spe.get(line, self.a.deal_header, 128, tag).await?;
             self.spe.wait_tag(tag).await?;
@@ -246,11 +243,11 @@ impl Program<'_> {
             };
             next += 1;
             self.spe
-                .get(line, self.tables[0].offset(pos as u64 * 96), 96, tag)
+                .get(line, self.tables[0].offset(pos as u64 * 64), 64, tag)
                 .await?;
             self.spe.wait_tag(tag).await?;
-            let r = self.spe.ls_read::<Region>(line, 1)?[0];
-            let side = self.region(&r.job, r.spill).await?;
+            let job = self.spe.ls_read::<Job>(line, 1)?[0];
+            let side = self.region(&job).await?;
             let bounds: [f32; 8] = [
                 side.lo.x, side.lo.y, side.lo.z, 0.0, side.hi.x, side.hi.y, side.hi.z, 0.0,
             ];
@@ -271,21 +268,17 @@ impl Program<'_> {
     }
 
     /// Builds one region; returns its bounds.
-    async fn region(&mut self, job: &Job, spill: u64) -> Result<Side, CellError> {
+    async fn region(&mut self, job: &Job) -> Result<Side, CellError> {
         let (first, count) = (job.first as usize, job.count as usize);
         if count <= self.ls_capacity() {
             return self
                 .in_local_store(first, count, job.node, job.depth, job.candidate())
                 .await;
         }
-        // Too large for the local store (a range that shares its whole
-        // key): the baseline's breadth-first loop, its WorkAPPE/WorkBPPE in
-        // the spill area the PPE allocated for exactly these regions.
-        let size = WorkQueue::<Job>::spill_bytes(count);
-        let work_ppe = [
-            self.tables[3].offset(spill),
-            self.tables[3].offset(spill + size),
-        ];
+        // Too large for the local store: the baseline's breadth-first loop,
+        // its WorkAPPE/WorkBPPE in this SPE's part of the spill area.
+        let mine = self.tables[3].offset(self.spe.id() as u64 * self.spill_per_spe);
+        let work_ppe = [mine, mine.offset(self.spill_per_spe / 2)];
         let mark = self.spe.ls_mark();
         let mut b = SpeBuilder::new(
             self.spe,
