@@ -10,49 +10,64 @@ use crate::build::radix;
 use crate::cell::{CellError, Cycles, Ea, ListElement, LsAddr, WaitMode};
 use crate::strategy::layout::TriRecord;
 
-impl Program<'_> {
-    /// Issues the get of block `k` of `count` elements of `size` bytes at
-    /// `ea`, `per_block` a block, into `bufs[k % 2]` (tag `tags + k % 2`);
-    /// returns the block's first element and length.
-    async fn get_block(
-        &self,
-        ea: Ea,
-        size: usize,
-        count: usize,
-        per_block: usize,
-        k: usize,
-        bufs: [LsAddr; 4],
-    ) -> Result<(usize, usize), CellError> {
-        let first = k * per_block;
-        let len = per_block.min(count - first);
-        let (buf, tag) = (bufs[k % 2], self.tags + (k % 2) as u32);
-        let at = ea.offset((first * size) as u64);
-        self.spe.get(buf, at, (len * size) as u32, tag).await?;
-        Ok((first, len))
+/// `count` elements of `size` bytes at `ea`, read `per_block` a block.
+#[derive(Clone, Copy)]
+struct Stream {
+    ea: Ea,
+    size: usize,
+    count: usize,
+    per_block: usize,
+}
+
+impl Stream {
+    fn new(ea: Ea, size: usize, count: usize, per_block: usize) -> Self {
+        Stream {
+            ea,
+            size,
+            count,
+            per_block,
+        }
     }
 
-    /// Block `k` of a stream: waits for its get after issuing the next
-    /// block's (so that the transfer overlaps this block's work).
+    fn blocks(&self) -> usize {
+        self.count.div_ceil(self.per_block)
+    }
+
+    /// Block `k`'s first element and length.
+    fn block(&self, k: usize) -> (usize, usize) {
+        let first = k * self.per_block;
+        (first, self.per_block.min(self.count - first))
+    }
+}
+
+impl Program<'_> {
+    /// Issues the get of block `k` of stream `s` into `bufs[k % 2]` (tag
+    /// `tags + k % 2`).
+    async fn get_block(&self, s: Stream, k: usize, bufs: [LsAddr; 4]) -> Result<(), CellError> {
+        let (first, len) = s.block(k);
+        let (buf, tag) = (bufs[k % 2], self.tags + (k % 2) as u32);
+        let at = s.ea.offset((first * s.size) as u64);
+        self.spe.get(buf, at, (len * s.size) as u32, tag).await
+    }
+
+    /// Block `k` of stream `s` (its first element, length and buffer):
+    /// waits for its get after issuing the next block's, so that the
+    /// transfer overlaps this block's work.
     async fn next_block(
         &self,
-        ea: Ea,
-        size: usize,
-        count: usize,
-        per_block: usize,
+        s: Stream,
         k: usize,
         bufs: [LsAddr; 4],
     ) -> Result<(usize, usize, LsAddr), CellError> {
-        let blocks = count.div_ceil(per_block);
         if k == 0 {
-            self.get_block(ea, size, count, per_block, 0, bufs).await?;
+            self.get_block(s, 0, bufs).await?;
         }
-        if k + 1 < blocks {
-            self.get_block(ea, size, count, per_block, k + 1, bufs)
-                .await?;
+        if k + 1 < s.blocks() {
+            self.get_block(s, k + 1, bufs).await?;
         }
         self.spe.wait_tag(self.tags + (k % 2) as u32).await?;
-        let first = k * per_block;
-        Ok((first, per_block.min(count - first), bufs[k % 2]))
+        let (first, len) = s.block(k);
+        Ok((first, len, bufs[k % 2]))
     }
 
     /// The output buffer `k % 2` of `bufs[2..]`, once its last put is done.
@@ -76,7 +91,7 @@ impl Program<'_> {
         let count = hi - lo;
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
             let (first, len, buf) = self
-                .next_block(src, 48, count, RECORDS_PER_BLOCK, b, bufs)
+                .next_block(Stream::new(src, 48, count, RECORDS_PER_BLOCK), b, bufs)
                 .await?;
             let spec = self.spec;
             let keys: Vec<KeyRec> = self.spe.with_ls(buf, len, |recs: &[TriRecord]| {
@@ -115,7 +130,7 @@ impl Program<'_> {
         let mut counts = vec![0u32; digits];
         for b in 0..count.div_ceil(KEYS_PER_BLOCK) {
             let (_, len, buf) = self
-                .next_block(slice, 16, count, KEYS_PER_BLOCK, b, bufs)
+                .next_block(Stream::new(slice, 16, count, KEYS_PER_BLOCK), b, bufs)
                 .await?;
             self.spe.with_ls(buf, len, |keys: &[KeyRec]| {
                 let keys: Vec<u64> = keys.iter().map(|r| r.key).collect();
@@ -144,7 +159,7 @@ impl Program<'_> {
         // Scatter: each block's pairs in order of their places, one putl.
         for b in 0..count.div_ceil(KEYS_PER_BLOCK) {
             let (_, len, buf) = self
-                .next_block(slice, 16, count, KEYS_PER_BLOCK, b, bufs)
+                .next_block(Stream::new(slice, 16, count, KEYS_PER_BLOCK), b, bufs)
                 .await?;
             let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
             let keys: Vec<u64> = recs.iter().map(|r| r.key).collect();
@@ -177,7 +192,7 @@ impl Program<'_> {
         let slice = keys.offset(lo as u64 * 16);
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
             let (first, len, buf) = self
-                .next_block(slice, 16, count, RECORDS_PER_BLOCK, b, bufs)
+                .next_block(Stream::new(slice, 16, count, RECORDS_PER_BLOCK), b, bufs)
                 .await?;
             let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
             let list: Vec<ListElement> = (recs.iter())
