@@ -85,6 +85,11 @@ struct BuildArgs {
     /// whole Cell). Builders that use fewer leave the others idle.
     #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
     spes: u64,
+    /// How the Cell is emulated: checked (timed, every DMA rule and race
+    /// checked: the reference), timed (the same cycles, no race checks),
+    /// or functional (no timing: fastest, for correctness runs).
+    #[arg(long, value_enum, default_value = "checked")]
+    mode: Mode,
     /// Multi-SPE builders: the SPEs do not help partition the top levels
     /// (they wait for the deal instead).
     #[arg(long)]
@@ -137,6 +142,14 @@ struct BuildArgs {
     /// atomic counter.
     #[arg(long)]
     static_regions: bool,
+}
+
+/// `--mode`: the emulator's own speed/accuracy trade.
+#[derive(Clone, Copy, ValueEnum)]
+enum Mode {
+    Checked,
+    Timed,
+    Functional,
 }
 
 /// `--key-bits`: 32 or 64.
@@ -458,7 +471,11 @@ fn parse_build(args: &BuildArgs) -> Res<Chosen> {
         leaf_size: args.leaf_size,
         max_depth: args.max_depth,
     };
-    let cell = CellConfig::ps3().with_spes(args.spes as usize);
+    let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
+    cell.checked = matches!(args.mode, Mode::Checked);
+    if let Mode::Functional = args.mode {
+        cell.cost = cellbih::cell::CostModel::functional();
+    }
     let knobs = Knobs {
         coop_top: !args.no_coop_top,
         deal_per_spe: args.deal_per_spe as usize,

@@ -526,3 +526,44 @@ fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
         assert!(!out.status.success() && err.contains(msg), "{err}");
     }
 }
+
+/// `--mode`: checked and timed give the same cycles and tree; functional
+/// the same tree and no simulated time, said in words.
+#[test]
+fn the_emulator_modes_agree_on_the_tree() {
+    let run = |mode: &str| -> serde_json::Value {
+        let out = cellbih(&[
+            "build",
+            "--scene",
+            "car",
+            "--builder",
+            "spe_morton",
+            "--mode",
+            mode,
+            "--format",
+            "json",
+        ]);
+        assert_ok(&out);
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let (checked, timed, functional) = (run("checked"), run("timed"), run("functional"));
+    assert!(checked["simulated_cycles"].as_u64().unwrap() > 0);
+    assert_eq!(checked["simulated_cycles"], timed["simulated_cycles"]);
+    assert_eq!(functional["simulated_cycles"], 0);
+    for m in [&timed, &functional] {
+        assert_eq!(m["quality"], checked["quality"]);
+    }
+    let out = cellbih(&[
+        "build",
+        "--scene",
+        "car",
+        "--builder",
+        "spe_bfs",
+        "--mode",
+        "functional",
+    ]);
+    assert_ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("functional mode (no timing)"));
+    let out = cellbih(&["build", "--mode", "fast"]);
+    assert!(!out.status.success());
+}

@@ -58,13 +58,18 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
         Format::Text => {
             println!("scene       {} ({} triangles)", s.name, s.len());
             println!("builder     {}", r.builder);
-            if let Some(m) = sim {
-                println!(
+            match sim {
+                Some(m) if m.run.cycles.0 == 0 => println!(
+                    "simulated   none: functional mode (no timing) with {} SPEs",
+                    m.run.cores.len() - 1
+                ),
+                Some(m) => println!(
                     "simulated   {:.2} ms on the PS3 model with {} SPEs ({} cycles)",
                     m.run.ms,
                     m.run.cores.len() - 1,
                     m.run.cycles.0
-                );
+                ),
+                None => {}
             }
             if sim.is_some() {
                 println!("host time   {ms:.2} ms (the emulation)");
