@@ -6,7 +6,6 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use rayon::prelude::*;
@@ -22,6 +21,8 @@ use cellbih::strategy::{KeyOrder, Knobs};
 use cellbih::update::{Animation, MAX_FRAMES, Method, Summary, Updater};
 use cellbih::{rays_csv, render};
 
+#[path = "cli/compare.rs"]
+mod compare;
 #[path = "cli/print.rs"]
 mod print;
 
@@ -202,6 +203,17 @@ enum Command {
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
     },
+    /// Every builder side by side on one scene: simulated ms and speedup
+    /// over spe_bfs, host ms, SAH, measured ray cost, the tree's memory.
+    Compare {
+        #[command(flatten)]
+        scene: SceneArg,
+        /// SPEs of the emulated Cell for the multi-SPE builders, 1 to 8.
+        #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
+        spes: u64,
+        #[arg(long, value_enum, default_value = "text")]
+        format: Format,
+    },
     /// Builds the tree and reports its time and quality.
     Build {
         #[command(flatten)]
@@ -309,6 +321,17 @@ fn run(cli: Cli) -> Res<()> {
             Ok(())
         }
         Some(Command::Info { scene, format }) => info(&scene.load()?, format),
+        Some(Command::Compare {
+            scene,
+            spes,
+            format,
+        }) => {
+            let s = scene.load()?;
+            let cell = CellConfig::ps3().with_spes(spes as usize);
+            let (rows, _) = compare::rows(&s, &cell, 640, 480)?;
+            compare::print(&s, spes as usize, &rows, format);
+            Ok(())
+        }
         Some(Command::Update {
             scene,
             build,
@@ -598,59 +621,21 @@ fn demo() -> Res<()> {
     check_writable(Path::new(DEMO_PNG))?;
     let s = scene::load("default", None)?;
     println!(
-        "cellbih demo: scene '{}', {} triangles in {} objects\n",
+        "cellbih demo: `cellbih compare` on scene '{}', {} triangles in {} objects\n",
         s.name,
         s.len(),
         s.geometry_names.len()
     );
-    let w = BuilderKind::ALL
-        .iter()
-        .map(|b| b.name().len())
-        .max()
-        .unwrap_or(0);
-    println!(
-        "{:<w$} {:>10} {:>8} {:>8} {:>8} {:>6} {:>9} {:>10}",
-        "builder", "host ms", "Cell ms", "nodes", "leaves", "depth", "SAH", "Mrays/s"
-    );
+    let cell = CellConfig::ps3();
+    let (rows, r) = compare::rows(&s, &cell, 640, 480)?;
+    compare::print(&s, cell.spes, &rows, Format::Text);
     let cam = Camera::framing(&s.bounds(), 640, 480);
-    let mut last = None;
-    for &b in BuilderKind::ALL {
-        let r = b.build(&s, &BihConfig::default())?;
-        r.bih.validate(&s)?;
-        let q = r.bih.quality();
-        let tracer = Tracer::new(&r.bih, &s);
-        let rays = cam.rays();
-        let start = Instant::now();
-        let mut st = RayStats::default();
-        for ray in &rays {
-            tracer.closest(ray, &mut st);
-        }
-        let mrays = rays.len() as f64 / start.elapsed().as_secs_f64() / 1e6;
-        println!(
-            "{:<w$} {:>10.3} {:>8} {:>8} {:>8} {:>6} {:>9.2} {:>10.2}",
-            b.name(),
-            r.host_time.as_secs_f64() * 1e3,
-            r.simulated
-                .as_ref()
-                .map_or("-".to_string(), |m| format!("{:.2}", m.run.ms)),
-            q.nodes,
-            q.leaves,
-            q.max_depth,
-            q.sah_cost,
-            mrays
-        );
-        last = Some(r);
-    }
-    let r = last.expect("at least one builder");
     let tracer = Tracer::new(&r.bih, &s);
     let frame = render::trace(&tracer, &s.triangles, &cam);
     write_png(Path::new(DEMO_PNG), &frame.shaded())?;
-    println!(
-        "\ntrees valid; \"Cell ms\" is simulated time on the PS3 model (multi-SPE builders on its 6 SPEs); rays cast on one host thread;"
-    );
     println!("image written to {DEMO_PNG} (in the current directory)");
     println!(
-        "next: `cellbih --help`, `cellbih build --scene rtperf:100000`, `cellbih update --scene car --animation car`, `cargo test --release`"
+        "next: `cellbih --help`, `cellbih compare --scene rtperf:100000`, `cellbih build --scene rtperf:100000`, `cellbih update --scene car --animation car`, `cargo test --release`"
     );
     Ok(())
 }
