@@ -71,6 +71,11 @@ struct KeyRec {
 /// one mailbox word holds it.
 const SPILL_UNIT: u64 = 16 * 1024;
 
+/// Bytes of a triangle record, of a key pair, of a node.
+const RECORD: usize = size_of::<TriRecord>();
+const KEY: usize = size_of::<KeyRec>();
+const NODE: usize = size_of::<crate::bih::BihNode>();
+
 /// One DMA block of records (341 of 48 bytes) and of key pairs (1,024).
 const RECORDS_PER_BLOCK: usize = (16 * 1024) / size_of::<TriRecord>();
 const KEYS_PER_BLOCK: usize = (16 * 1024) / size_of::<KeyRec>();
@@ -123,10 +128,10 @@ fn spawn(
         n,
         spes,
         tris: setup.triangles,
-        sorted: mem.alloc("records in key order", n64 * 48, 128)?,
+        sorted: mem.alloc("records in key order", n64 * RECORD as u64, 128)?,
         keys: [
-            mem.alloc("keys A", n64 * 16, 128)?,
-            mem.alloc("keys B", n64 * 16, 128)?,
+            mem.alloc("keys A", n64 * KEY as u64, 128)?,
+            mem.alloc("keys B", n64 * KEY as u64, 128)?,
         ],
         counts: mem.alloc(
             "radix count table",

@@ -6,7 +6,7 @@
 use bytemuck::Pod;
 use glam::Vec3;
 
-use super::{KeyRec, Program, RECORDS_PER_BLOCK, SPILL_UNIT, Top};
+use super::{KEY, KeyRec, NODE, Program, RECORD, RECORDS_PER_BLOCK, SPILL_UNIT, Top};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 use crate::build::host::build_subtree;
@@ -23,7 +23,7 @@ impl Program<'_> {
     async fn key_at(&self, keys: Ea, i: usize) -> Result<u64, CellError> {
         let tag = self.tags;
         self.spe
-            .get(self.line, keys.offset(i as u64 * 16), 16, tag)
+            .get(self.line, keys.offset((i * KEY) as u64), KEY as u32, tag)
             .await?;
         self.spe.wait_tag(tag).await?;
         Ok(self.spe.ls_read::<KeyRec>(self.line, 1)?[0].key)
@@ -264,7 +264,7 @@ impl Program<'_> {
     /// most two 12-byte nodes each).
     fn ls_capacity(&self) -> usize {
         let free = self.spe.ls_free_bytes().saturating_sub(256);
-        free as usize / (48 + 24)
+        free as usize / (RECORD + 2 * NODE)
     }
 
     /// Builds one region; returns its bounds.
@@ -292,7 +292,7 @@ impl Program<'_> {
         std::mem::swap(&mut b.arena, &mut self.arena);
         b.node_writes = self.writes.take();
         let k = self.spe.cost().kernels;
-        let at = self.a.sorted.offset(first as u64 * 48);
+        let at = self.a.sorted.offset((first * RECORD) as u64);
         let side =
             stream_bounds::<TriRecord>(self.spe, &b.fig1, at, count as u64, k.spe_bounds_item)
                 .await?;
@@ -331,13 +331,18 @@ impl Program<'_> {
         let mark = self.spe.ls_mark();
         let recs = self
             .spe
-            .ls_alloc((count * 48).next_multiple_of(128) as u32, 128)?;
-        let at = self.a.sorted.offset(first as u64 * 48);
+            .ls_alloc((count * RECORD).next_multiple_of(128) as u32, 128)?;
+        let at = self.a.sorted.offset((first * RECORD) as u64);
         for (i, c) in (0..count).step_by(RECORDS_PER_BLOCK).enumerate() {
             let len = RECORDS_PER_BLOCK.min(count - c);
-            let ls = recs.offset((i * RECORDS_PER_BLOCK * 48) as u32);
+            let ls = recs.offset((i * RECORDS_PER_BLOCK * RECORD) as u32);
             self.spe
-                .get(ls, at.offset((c * 48) as u64), (len * 48) as u32, tag)
+                .get(
+                    ls,
+                    at.offset((c * RECORD) as u64),
+                    (len * RECORD) as u32,
+                    tag,
+                )
                 .await?;
         }
         self.spe.wait_tag(tag).await?;
@@ -352,7 +357,7 @@ impl Program<'_> {
                 })?;
         // The nodes take their room in the local store too.
         self.spe
-            .ls_alloc((nodes.len() * 12).next_multiple_of(16) as u32, 16)?;
+            .ls_alloc((nodes.len() * NODE).next_multiple_of(16) as u32, 16)?;
         self.spe.compute_items(k.spe_bounds_item, count as u64);
         let partitioned = stats.items_partitioned - count as u64;
         self.spe.compute_items(k.spe_partition_item, partitioned);
@@ -361,9 +366,14 @@ impl Program<'_> {
         self.partitions += stats.partitions;
         for (i, c) in (0..count).step_by(RECORDS_PER_BLOCK).enumerate() {
             let len = RECORDS_PER_BLOCK.min(count - c);
-            let ls = recs.offset((i * RECORDS_PER_BLOCK * 48) as u32);
+            let ls = recs.offset((i * RECORDS_PER_BLOCK * RECORD) as u32);
             self.spe
-                .put(ls, at.offset((c * 48) as u64), (len * 48) as u32, tag)
+                .put(
+                    ls,
+                    at.offset((c * RECORD) as u64),
+                    (len * RECORD) as u32,
+                    tag,
+                )
                 .await?;
         }
         // Local pairs (1, 2), (3, 4), ... take pairs of this SPE's arena.

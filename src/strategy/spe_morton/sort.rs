@@ -4,7 +4,7 @@
 //! keys, the radix passes and the permutation of the records, every SPE
 //! on its slice, streamed through the local store.
 
-use super::{KEYS_PER_BLOCK, KeyRec, Program, RECORDS_PER_BLOCK};
+use super::{KEY, KEYS_PER_BLOCK, KeyRec, Program, RECORD, RECORDS_PER_BLOCK};
 use crate::build::kernels::Boxed;
 use crate::build::radix;
 use crate::cell::{CellError, Cycles, Ea, ListElement, LsAddr, WaitMode};
@@ -87,11 +87,11 @@ impl Program<'_> {
         let (lo, hi) = self.slice();
         let k = self.spe.cost().kernels;
         let rate = Cycles(k.spe_morton_bit.0 * self.spec.bits as u64);
-        let src = self.a.tris.offset(lo as u64 * 48);
+        let src = self.a.tris.offset((lo * RECORD) as u64);
         let count = hi - lo;
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
             let (first, len, buf) = self
-                .next_block(Stream::new(src, 48, count, RECORDS_PER_BLOCK), b, bufs)
+                .next_block(Stream::new(src, RECORD, count, RECORDS_PER_BLOCK), b, bufs)
                 .await?;
             let spec = self.spec;
             let keys: Vec<KeyRec> = self.spe.with_ls(buf, len, |recs: &[TriRecord]| {
@@ -106,8 +106,8 @@ impl Program<'_> {
             self.spe.compute_items(rate, len as u64);
             let (obuf, tag) = self.out_buffer(b, bufs).await?;
             self.spe.ls_write(obuf, &keys)?;
-            let to = self.a.keys[0].offset(((lo + first) * 16) as u64);
-            self.spe.put(obuf, to, (len * 16) as u32, tag).await?;
+            let to = self.a.keys[0].offset(((lo + first) * KEY) as u64);
+            self.spe.put(obuf, to, (len * KEY) as u32, tag).await?;
         }
         self.drain().await
     }
@@ -126,11 +126,11 @@ impl Program<'_> {
             self.a.keys[pass as usize % 2],
             self.a.keys[1 - pass as usize % 2],
         );
-        let slice = src.offset(lo as u64 * 16);
+        let slice = src.offset((lo * KEY) as u64);
         let mut counts = vec![0u32; digits];
         for b in 0..count.div_ceil(KEYS_PER_BLOCK) {
             let (_, len, buf) = self
-                .next_block(Stream::new(slice, 16, count, KEYS_PER_BLOCK), b, bufs)
+                .next_block(Stream::new(slice, KEY, count, KEYS_PER_BLOCK), b, bufs)
                 .await?;
             self.spe.with_ls(buf, len, |keys: &[KeyRec]| {
                 let keys: Vec<u64> = keys.iter().map(|r| r.key).collect();
@@ -159,7 +159,7 @@ impl Program<'_> {
         // Scatter: each block's pairs in order of their places, one putl.
         for b in 0..count.div_ceil(KEYS_PER_BLOCK) {
             let (_, len, buf) = self
-                .next_block(Stream::new(slice, 16, count, KEYS_PER_BLOCK), b, bufs)
+                .next_block(Stream::new(slice, KEY, count, KEYS_PER_BLOCK), b, bufs)
                 .await?;
             let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
             let keys: Vec<u64> = recs.iter().map(|r| r.key).collect();
@@ -170,10 +170,13 @@ impl Program<'_> {
             let staged: Vec<KeyRec> = order.iter().map(|&i| recs[i]).collect();
             let mut list: Vec<ListElement> = Vec::new();
             for &i in &order {
-                let ea = dst.offset(to[i] as u64 * 16);
+                let ea = dst.offset(to[i] as u64 * KEY as u64);
                 match list.last_mut() {
-                    Some(e) if e.ea.0 + e.size as u64 == ea.0 => e.size += 16,
-                    _ => list.push(ListElement { ea, size: 16 }),
+                    Some(e) if e.ea.0 + e.size as u64 == ea.0 => e.size += KEY as u32,
+                    _ => list.push(ListElement {
+                        ea,
+                        size: KEY as u32,
+                    }),
                 }
             }
             let (obuf, tag) = self.out_buffer(b, bufs).await?;
@@ -189,24 +192,24 @@ impl Program<'_> {
         let (lo, hi) = self.slice();
         let count = hi - lo;
         let k = self.spe.cost().kernels;
-        let slice = keys.offset(lo as u64 * 16);
+        let slice = keys.offset((lo * KEY) as u64);
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
             let (first, len, buf) = self
-                .next_block(Stream::new(slice, 16, count, RECORDS_PER_BLOCK), b, bufs)
+                .next_block(Stream::new(slice, KEY, count, RECORDS_PER_BLOCK), b, bufs)
                 .await?;
             let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
             let list: Vec<ListElement> = (recs.iter())
                 .map(|r| ListElement {
-                    ea: self.a.tris.offset(r.index as u64 * 48),
-                    size: 48,
+                    ea: self.a.tris.offset(r.index as u64 * RECORD as u64),
+                    size: RECORD as u32,
                 })
                 .collect();
             self.spe.compute_items(k.spe_radix_scatter, len as u64);
             let (obuf, tag) = self.out_buffer(b, bufs).await?;
             self.spe.getl(obuf, &list, tag).await?;
             self.spe.wait_tag(tag).await?;
-            let to = self.a.sorted.offset(((lo + first) * 48) as u64);
-            self.spe.put(obuf, to, (len * 48) as u32, tag).await?;
+            let to = self.a.sorted.offset(((lo + first) * RECORD) as u64);
+            self.spe.put(obuf, to, (len * RECORD) as u32, tag).await?;
         }
         self.drain().await
     }
