@@ -260,15 +260,8 @@ fn row(
 fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih) -> (f64, f64) {
     let tracer = cellbih::bih::Tracer::new(bih, scene);
     let cam = cellbih::render::Camera::framing(&scene.bounds(), 128, 96);
-    let mut stats = cellbih::bih::RayStats::default();
-    for ray in cam.rays() {
-        tracer.closest(&ray, &mut stats);
-    }
-    let rays = stats.rays.max(1) as f64;
-    (
-        stats.nodes_visited as f64 / rays,
-        stats.triangles_tested as f64 / rays,
-    )
+    let c = cellbih::quality::rays::measure(&tracer, &cam.rays());
+    (c.nodes, c.triangles)
 }
 
 fn run(args: &Args) -> Result<(), String> {

@@ -592,6 +592,7 @@ fn compare_puts_every_builder_side_by_side() {
     }
     for r in rows {
         assert!(r["ray_nodes"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["incoherent"]["nodes"].as_f64().unwrap() > 0.0, "{r}");
         assert!(r["tree_bytes"].as_u64().unwrap() > 0, "{r}");
     }
     let text = cellbih(&["compare", "--scene", "car"]);

@@ -13,6 +13,8 @@
 //! operations and a load), and the convention of many BVH papers. For a
 //! scene whose box has zero area (all triangles on a line) every P is 1.
 
+pub mod rays;
+
 use serde::Serialize;
 
 use crate::aabb::Aabb;
