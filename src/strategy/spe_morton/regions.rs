@@ -316,6 +316,31 @@ impl Program<'_> {
         Ok(side)
     }
 
+    /// Issues the gets (`into_ls`) or puts of `count` records between the
+    /// local store at `recs` and main memory at `at`, 16 KiB at a time, on
+    /// the first stream tag.
+    async fn move_records(
+        &self,
+        recs: crate::cell::LsAddr,
+        at: Ea,
+        count: usize,
+        into_ls: bool,
+    ) -> Result<(), CellError> {
+        for c in (0..count).step_by(RECORDS_PER_BLOCK) {
+            let len = RECORDS_PER_BLOCK.min(count - c);
+            let (ls, ea) = (
+                recs.offset((c * RECORD) as u32),
+                at.offset((c * RECORD) as u64),
+            );
+            let bytes = (len * RECORD) as u32;
+            match into_ls {
+                true => self.spe.get(ls, ea, bytes, self.tags).await?,
+                false => self.spe.put(ls, ea, bytes, self.tags).await?,
+            }
+        }
+        Ok(())
+    }
+
     /// A region (or piece) that fits: loaded once, built in the local store
     /// with the global heuristic, written back once; returns its bounds.
     async fn in_local_store(
@@ -333,18 +358,7 @@ impl Program<'_> {
             .spe
             .ls_alloc((count * RECORD).next_multiple_of(128) as u32, 128)?;
         let at = self.a.sorted.offset((first * RECORD) as u64);
-        for (i, c) in (0..count).step_by(RECORDS_PER_BLOCK).enumerate() {
-            let len = RECORDS_PER_BLOCK.min(count - c);
-            let ls = recs.offset((i * RECORDS_PER_BLOCK * RECORD) as u32);
-            self.spe
-                .get(
-                    ls,
-                    at.offset((c * RECORD) as u64),
-                    (len * RECORD) as u32,
-                    tag,
-                )
-                .await?;
-        }
+        self.move_records(recs, at, count, true).await?;
         self.spe.wait_tag(tag).await?;
         let cfg = self.cfg;
         let (side, nodes, stats) =
@@ -364,18 +378,7 @@ impl Program<'_> {
         self.spe.compute_items(k.spe_job, nodes.len() as u64);
         self.items_partitioned += partitioned;
         self.partitions += stats.partitions;
-        for (i, c) in (0..count).step_by(RECORDS_PER_BLOCK).enumerate() {
-            let len = RECORDS_PER_BLOCK.min(count - c);
-            let ls = recs.offset((i * RECORDS_PER_BLOCK * RECORD) as u32);
-            self.spe
-                .put(
-                    ls,
-                    at.offset((c * RECORD) as u64),
-                    (len * RECORD) as u32,
-                    tag,
-                )
-                .await?;
-        }
+        self.move_records(recs, at, count, false).await?;
         // Local pairs (1, 2), (3, 4), ... take pairs of this SPE's arena.
         let mut global = vec![id; nodes.len()];
         for pair in (1..nodes.len()).step_by(2) {
