@@ -37,6 +37,13 @@ impl Default for BihConfig {
 impl BihConfig {
     /// The deepest tree traversal supports (its stack has this many slots).
     pub const MAX_SUPPORTED_DEPTH: u32 = 126;
+
+    /// Whether a node of `count` triangles at `depth` is a leaf whatever
+    /// its triangles: the one rule every builder applies, so that they all
+    /// make the same tree.
+    pub fn ends_in_leaf(&self, count: usize, depth: u32) -> bool {
+        count <= self.leaf_size as usize || depth >= self.max_depth
+    }
 }
 
 /// A Bounding Interval Hierarchy over a scene's triangles.

@@ -159,7 +159,7 @@ pub fn build_approx<T: Item>(
     stats.items_sorted = 3 * n as u64;
     for (id, first, count, candidate, depth) in open {
         let (tf, tl) = (bucket_first[first], bucket_first[first + count]);
-        if tl - tf <= cfg.leaf_size as usize || depth >= cfg.max_depth {
+        if cfg.ends_in_leaf(tl - tf, depth) {
             nodes[id] = BihNode::leaf(tf as u32, (tl - tf) as u32);
             continue;
         }

@@ -159,7 +159,7 @@ impl<T: Item> Builder<'_, T> {
         depth: u32,
     ) {
         let leaf = BihNode::leaf(first as u32, count as u32);
-        if count <= self.cfg.leaf_size as usize || depth >= self.cfg.max_depth {
+        if self.cfg.ends_in_leaf(count, depth) {
             self.nodes[id] = leaf;
             return;
         }

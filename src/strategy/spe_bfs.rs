@@ -305,7 +305,7 @@ impl<'a> SpeBuilder<'a> {
             self.jobs += 1;
             self.spe.compute(k.spe_job);
             let mut candidate = job.candidate();
-            let split = if job.count <= self.cfg.leaf_size || job.depth >= self.cfg.max_depth {
+            let split = if self.cfg.ends_in_leaf(job.count as usize, job.depth) {
                 None
             } else {
                 choose_split(&mut candidate, &job.centers()).map(|s| (s, candidate))

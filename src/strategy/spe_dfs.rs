@@ -185,7 +185,7 @@ fn spawn(
         while let Some((id, first, count, mut candidate, side, depth)) = stack.pop() {
             ppe.compute(k.ppe_node);
             let leaf = BihNode::leaf(first as u32, count as u32);
-            if count <= cfg.leaf_size as usize || depth >= cfg.max_depth {
+            if cfg.ends_in_leaf(count, depth) {
                 nodes[id] = leaf;
                 continue;
             }

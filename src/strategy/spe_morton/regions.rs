@@ -50,9 +50,7 @@ impl Program<'_> {
                 }
             }
             let key_first = self.key_at(keys, first).await?;
-            let leafish = count <= self.knobs.region_size
-                || count <= self.cfg.leaf_size as usize
-                || depth >= self.cfg.max_depth;
+            let leafish = count <= self.knobs.region_size || self.cfg.ends_in_leaf(count, depth);
             let split = if leafish {
                 None
             } else {
