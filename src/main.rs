@@ -11,20 +11,23 @@ use clap::{Parser, Subcommand, ValueEnum};
 use rayon::prelude::*;
 use serde_json::json;
 
-use cellbih::bih::{BihConfig, RayStats, Tracer};
-use cellbih::build::{BuildReport, BuilderKind};
+use cellbih::bih::{RayStats, Tracer};
+use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
 use cellbih::render::{Camera, trace};
 use cellbih::scene::{self, Scene};
-use cellbih::strategy::{KeyOrder, Knobs};
 use cellbih::update::{Animation, MAX_FRAMES, Method, Summary, Updater};
 use cellbih::{rays_csv, render};
 
+#[path = "cli/build_args.rs"]
+mod build_args;
 #[path = "cli/compare.rs"]
 mod compare;
 #[path = "cli/print.rs"]
 mod print;
+
+use build_args::{BuildArgs, parse_build};
 
 use print::{info, print_build};
 
@@ -66,131 +69,6 @@ struct SceneArg {
 impl SceneArg {
     fn load(&self) -> Res<Scene> {
         Ok(scene::load(&self.scene, self.data.as_deref())?)
-    }
-}
-
-#[derive(clap::Args)]
-struct BuildArgs {
-    /// Which builder makes the tree (see `cellbih builders`).
-    #[arg(long, default_value = "host")]
-    builder: String,
-    /// Largest leaf, in triangles (at least 1).
-    #[arg(long, default_value_t = BihConfig::default().leaf_size,
-          value_parser = clap::value_parser!(u32).range(1..))]
-    leaf_size: u32,
-    /// Deepest leaf (root = 0), at most 126 (the traversal stack's depth).
-    #[arg(long, default_value_t = BihConfig::default().max_depth,
-          value_parser = clap::value_parser!(u32).range(0..=BihConfig::MAX_SUPPORTED_DEPTH as i64))]
-    max_depth: u32,
-    /// SPEs of the emulated Cell, 1 to 8 (a PS3 program gets 6; 8 is a
-    /// whole Cell). Builders that use fewer leave the others idle.
-    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
-    spes: u64,
-    /// How the Cell is emulated: checked (timed, every DMA rule and race
-    /// checked: the reference), timed (the same cycles, no race checks),
-    /// or functional (no timing: fastest, for correctness runs).
-    #[arg(long, value_enum, default_value = "checked")]
-    mode: Mode,
-    /// Multi-SPE builders: the SPEs do not help partition the top levels
-    /// (they wait for the deal instead).
-    #[arg(long)]
-    no_coop_top: bool,
-    /// Multi-SPE builders: the top levels end at the first level with this
-    /// many jobs per SPE (1 to 16).
-    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(1..=16))]
-    deal_per_spe: u64,
-    /// Multi-SPE builders: the dealt jobs stay in per-SPE lists and an SPE
-    /// whose list is empty steals from another's (the atomic unit).
-    #[arg(long)]
-    steal: bool,
-    /// spe_bfs_shared: jobs taken from the shared queue per atomic
-    /// operation (1 to 256).
-    #[arg(long, default_value_t = Knobs::default().agglomerate as u64,
-          value_parser = clap::value_parser!(u64).range(1..=256))]
-    agglomerate: u64,
-    /// spe_bfs_shared: every take is --agglomerate jobs, not an SPE's
-    /// share of the jobs left (guided self-scheduling, the default).
-    #[arg(long)]
-    fixed_takes: bool,
-    /// Multi-SPE builders: double-buffered WorkA/WorkB (no synchronous
-    /// job-queue DMA; section 5).
-    #[arg(long)]
-    double_buffer: bool,
-    /// Multi-SPE builders: DMA lists for agglomerated jobs (section 5).
-    #[arg(long)]
-    dma_lists: bool,
-    /// Multi-SPE builders: the next batch's get overlaps this batch's
-    /// partition.
-    #[arg(long)]
-    prefetch: bool,
-    /// spe_morton: the keys' bit order: the global heuristic's halvings
-    /// (gh: the baseline's tree) or round robin x, y, z (xyz: LBVH).
-    #[arg(long, value_enum, default_value = "gh")]
-    key_order: KeyOrderArg,
-    /// spe_morton: key bits, 32 or 64.
-    #[arg(long, default_value_t = Knobs::default().key_bits,
-          value_parser = parse_key_bits)]
-    key_bits: u32,
-    /// spe_morton: bits per radix-sort pass (4 to 11).
-    #[arg(long, default_value_t = Knobs::default().digit_bits as u64,
-          value_parser = clap::value_parser!(u64).range(4..=11))]
-    digit_bits: u64,
-    /// spe_morton: the largest region built by one SPE alone (triangles).
-    #[arg(long, default_value_t = Knobs::default().region_size as u64,
-          value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
-    region_size: u64,
-    /// spe_morton: regions dealt before the builds, not taken from an
-    /// atomic counter.
-    #[arg(long)]
-    static_regions: bool,
-}
-
-/// `--mode`: the emulator's own speed/accuracy trade.
-#[derive(Clone, Copy, ValueEnum)]
-enum Mode {
-    Checked,
-    Timed,
-    Functional,
-}
-
-/// `--key-bits`: 32 or 64.
-fn parse_key_bits(s: &str) -> Result<u32, String> {
-    match s {
-        "32" => Ok(32),
-        "64" => Ok(64),
-        _ => Err(format!("{s} bits: keys are 32 or 64 bits wide")),
-    }
-}
-
-/// `--key-order`.
-#[derive(Clone, Copy, ValueEnum)]
-enum KeyOrderArg {
-    Gh,
-    Xyz,
-}
-
-/// What `--builder` and its options ask for.
-struct Chosen {
-    builder: BuilderKind,
-    cfg: BihConfig,
-    cell: CellConfig,
-    knobs: Knobs,
-}
-
-impl Chosen {
-    fn build(&self, s: &Scene) -> Res<BuildReport> {
-        Ok(self
-            .builder
-            .build_with(s, s.bounds(), &self.cfg, &self.cell, &self.knobs)?)
-    }
-
-    /// "builder B" and, for an emulated one, "on N SPEs".
-    fn describe(&self) -> String {
-        if self.builder.emulated() {
-            format!("builder {} on {} SPEs", self.builder, self.cell.spes)
-        } else {
-            format!("builder {}", self.builder)
-        }
     }
 }
 
@@ -328,7 +206,7 @@ fn run(cli: Cli) -> Res<()> {
         }) => {
             let s = scene.load()?;
             let cell = CellConfig::ps3().with_spes(spes as usize);
-            let (rows, _) = compare::rows(&s, &cell, 640, 480)?;
+            let (rows, _) = compare::rows(&s, &cell)?;
             compare::print(&s, spes as usize, &rows, format);
             Ok(())
         }
@@ -481,50 +359,6 @@ fn write_png(path: &Path, img: &image::RgbImage) -> Res<()> {
     Ok(cellbih::output::write_bytes(path, &png)?)
 }
 
-fn parse_build(args: &BuildArgs) -> Res<Chosen> {
-    let builder = BuilderKind::from_name(&args.builder).ok_or_else(|| {
-        let names: Vec<_> = BuilderKind::ALL.iter().map(|b| b.name()).collect();
-        format!(
-            "unknown builder '{}'; the builders are: {}",
-            args.builder,
-            names.join(", ")
-        )
-    })?;
-    let cfg = BihConfig {
-        leaf_size: args.leaf_size,
-        max_depth: args.max_depth,
-    };
-    let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
-    cell.checked = matches!(args.mode, Mode::Checked);
-    if let Mode::Functional = args.mode {
-        cell.cost = cellbih::cell::CostModel::functional();
-    }
-    let knobs = Knobs {
-        coop_top: !args.no_coop_top,
-        deal_per_spe: args.deal_per_spe as usize,
-        steal: args.steal,
-        agglomerate: args.agglomerate as usize,
-        guided: !args.fixed_takes,
-        double_buffer: args.double_buffer,
-        dma_lists: args.dma_lists,
-        prefetch: args.prefetch,
-        key_order: match args.key_order {
-            KeyOrderArg::Gh => KeyOrder::GlobalHeuristic,
-            KeyOrderArg::Xyz => KeyOrder::RoundRobin,
-        },
-        key_bits: args.key_bits,
-        digit_bits: args.digit_bits as u32,
-        region_size: args.region_size as usize,
-        static_regions: args.static_regions,
-    };
-    Ok(Chosen {
-        builder,
-        cfg,
-        cell,
-        knobs,
-    })
-}
-
 fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
     let text = matches!(format, Format::Text);
     if text {
@@ -627,7 +461,7 @@ fn demo() -> Res<()> {
         s.geometry_names.len()
     );
     let cell = CellConfig::ps3();
-    let (rows, r) = compare::rows(&s, &cell, 640, 480)?;
+    let (rows, r) = compare::rows(&s, &cell)?;
     compare::print(&s, cell.spes, &rows, Format::Text);
     let cam = Camera::framing(&s.bounds(), 640, 480);
     let tracer = Tracer::new(&r.bih, &s);

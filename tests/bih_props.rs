@@ -5,7 +5,7 @@
 
 mod common;
 
-use cellbih::bih::{BihConfig, Ray, RayStats, Tracer};
+use cellbih::bih::{BihConfig, Ray, RayStats, SplitChoice, Tracer};
 use cellbih::build::BuilderKind;
 use cellbih::scene::{Scene, Triangle};
 use common::{check_ray, make_scene, rays_for, scene_strategy};
@@ -14,9 +14,15 @@ use proptest::prelude::*;
 
 fn check_scene(scene: &Scene, cfg: &BihConfig, rays: usize) -> Result<(), TestCaseError> {
     for &b in BuilderKind::ALL {
-        let r = b
-            .build(scene, cfg)
-            .map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
+        let built = b.build(scene, cfg);
+        if !cfg.paper_quality() && !b.quality_knobs() {
+            // A builder that builds only the paper's quality refuses the
+            // other knobs, by name.
+            let e = built.err().map(|e| e.to_string()).unwrap_or_default();
+            prop_assert!(e.contains("global heuristic"), "{b}: {e}");
+            continue;
+        }
+        let r = built.map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
         r.bih
             .validate(scene)
             .map_err(|v| TestCaseError::fail(format!("{b}: {v}")))?;
@@ -41,12 +47,29 @@ proptest! {
 
     #[test]
     fn trees_are_valid_and_agree_with_brute_force(scene in scene_strategy(), leaf in 1u32..14) {
-        check_scene(&scene, &BihConfig { leaf_size: leaf, max_depth: 64 }, 64)?;
+        check_scene(&scene, &BihConfig { leaf_size: leaf, ..BihConfig::default() }, 64)?;
+    }
+
+    /// The quality knobs (binned SAH, the empty-space cut-off, leaf sizes
+    /// 1 to 16, shallow limits) at every scale of the scene strategy.
+    #[test]
+    fn quality_knobs_give_valid_trees_that_agree_with_brute_force(
+        scene in scene_strategy(),
+        leaf in 1u32..=16,
+        max_depth in prop_oneof![Just(64u32), 0u32..8],
+        sah in proptest::option::of(2u32..=32),
+        empty_cut in proptest::option::of(1u32..=99),
+    ) {
+        let split = match sah {
+            Some(bins) => SplitChoice::BinnedSah { bins },
+            None => SplitChoice::GlobalHeuristic,
+        };
+        check_scene(&scene, &BihConfig { leaf_size: leaf, max_depth, split, empty_cut }, 48)?;
     }
 
     #[test]
     fn a_shallow_depth_limit_gives_valid_trees(scene in scene_strategy(), depth in 0u32..4) {
-        check_scene(&scene, &BihConfig { leaf_size: 1, max_depth: depth }, 16)?;
+        check_scene(&scene, &BihConfig { leaf_size: 1, max_depth: depth, ..BihConfig::default() }, 16)?;
     }
 }
 
@@ -64,6 +87,12 @@ fn large_random_scenes_at_every_scale() {
     ] {
         let scene = make_scene(3000, exp, 1, kind, 7);
         check_scene(&scene, &BihConfig::default(), 400).unwrap();
+        let best = BihConfig {
+            split: SplitChoice::BinnedSah { bins: 16 },
+            empty_cut: Some(10),
+            ..BihConfig::default()
+        };
+        check_scene(&scene, &best, 400).unwrap();
     }
 }
 
@@ -122,7 +151,7 @@ fn zero_area_triangles_are_kept_and_never_hit() {
             &s,
             &BihConfig {
                 leaf_size: 1,
-                max_depth: 64,
+                ..BihConfig::default()
             },
         )
         .unwrap();
@@ -249,4 +278,61 @@ fn a_ray_lying_in_a_face_plane_of_a_box_is_inside_it() {
         assert_eq!(hit.map(|h| (h.prim, h.t)), Some((0, 5.0)), "{dir:?}");
         check_ray(&scene, &tracer, &ray).unwrap();
     }
+}
+
+/// The empty-space cut-off emits clip nodes (an empty leaf behind a plane
+/// at ∓∞), and a ray through the cut-off space no longer descends: on a
+/// cluster of 200 triangles in the unit cube and one triangle 100 away, a
+/// ray through the empty space above the cluster visits fewer nodes.
+#[test]
+fn the_empty_space_cut_off_emits_clip_nodes_that_rays_skip() {
+    let mut rng = cellbih::scene::SplitMix64::new(3);
+    let mut tris: Vec<Triangle> = (0..200)
+        .map(|_| {
+            let p = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            Triangle::new(p, p + Vec3::X * 0.05, p + Vec3::Y * 0.05)
+        })
+        .collect();
+    let far = Vec3::splat(100.0);
+    tris.push(Triangle::new(far, far + Vec3::X, far + Vec3::Y));
+    let s = Scene::from_triangles("cluster and one far", tris).unwrap();
+    let paper = BuilderKind::HOST
+        .build(&s, &BihConfig::default())
+        .unwrap()
+        .bih;
+    let cut = BihConfig {
+        empty_cut: Some(20),
+        ..BihConfig::default()
+    };
+    let clipped = BuilderKind::HOST.build(&s, &cut).unwrap().bih;
+    clipped.validate(&s).unwrap();
+    let clip_nodes = (clipped.nodes.iter().filter(|n| !n.is_leaf()))
+        .filter(|n| n.clip().iter().any(|c| c.is_infinite()))
+        .count();
+    let empty_leaves = (clipped.nodes.iter())
+        .filter(|n| n.is_leaf() && n.leaf_range().1 == 0)
+        .count();
+    assert!(
+        clip_nodes > 0 && clip_nodes == empty_leaves,
+        "{clip_nodes} clip nodes, {empty_leaves} empty leaves"
+    );
+    assert!(
+        paper
+            .nodes
+            .iter()
+            .all(|n| n.is_leaf() || n.clip().iter().all(|c| c.is_finite()))
+    );
+    // Along z through the cluster's x range, far above it in y: inside
+    // the region of the root's left child, but misses everything.
+    let ray = Ray::new(DVec3::new(0.5, 60.0, -10.0), DVec3::Z);
+    let visits = |bih: &cellbih::bih::Bih| {
+        let mut st = RayStats::default();
+        assert_eq!(Tracer::new(bih, &s).closest(&ray, &mut st), None);
+        st.nodes_visited
+    };
+    let (before, after) = (visits(&paper), visits(&clipped));
+    assert!(
+        after < before,
+        "{after} nodes visited with the cut-off, {before} without"
+    );
 }

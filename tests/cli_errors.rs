@@ -465,3 +465,40 @@ fn a_closed_pipe_ends_the_command_quietly() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// A quality knob a builder does not build is refused by name, saying which
+/// builders build it; out-of-range knob values are refused by the parser.
+#[test]
+fn quality_knobs_a_builder_does_not_build_are_refused_by_name() {
+    for knob in [&["--split", "sah"][..], &["--empty-cut", "10"]] {
+        let mut args = vec!["build", "--builder", "spe_bfs"];
+        args.extend_from_slice(knob);
+        let out = cellbih(&args);
+        assert_fails_with(&out, "builder spe_bfs builds the paper's split choice");
+        assert!(
+            stderr(&out).contains("host and ppe_naive"),
+            "{}",
+            stderr(&out)
+        );
+    }
+    for bad in [
+        &["--empty-cut", "100"][..],
+        &["--empty-cut", "0"],
+        &["--sah-bins", "1"],
+    ] {
+        let mut args = vec!["build"];
+        args.extend_from_slice(bad);
+        assert!(!cellbih(&args).status.success(), "{bad:?} was accepted");
+    }
+    let out = cellbih(&[
+        "build",
+        "--builder",
+        "ppe_naive",
+        "--split",
+        "sah",
+        "--empty-cut",
+        "10",
+    ]);
+    assert_ok(&out);
+    assert!(stdout(&out).contains("simulated"), "{}", stdout(&out));
+}

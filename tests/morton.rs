@@ -42,7 +42,7 @@ proptest! {
         depth in prop::sample::select(vec![2u32, 64]),
         wide in any::<bool>(),
     ) {
-        let cfg = BihConfig { leaf_size: leaf, max_depth: depth };
+        let cfg = BihConfig { leaf_size: leaf, max_depth: depth, ..BihConfig::default() };
         let bits = if wide { 64 } else { 32 };
         let host = BuilderKind::HOST.build(&scene, &cfg).unwrap().bih;
         let gh = build_scene(&scene, KeyOrder::GlobalHeuristic, bits, &cfg);
@@ -221,7 +221,7 @@ proptest! {
         region_size in 1usize..100,
         static_regions in any::<bool>(),
     ) {
-        let cfg = BihConfig { leaf_size: leaf, max_depth: 64 };
+        let cfg = BihConfig { leaf_size: leaf, ..BihConfig::default() };
         let knobs = Knobs {
             key_order: if round_robin { Order::RoundRobin } else { Order::GlobalHeuristic },
             key_bits: if wide { 64 } else { 32 },

@@ -324,7 +324,7 @@ proptest! {
         knobs in knobs_strategy(),
     ) {
         let name = if shared { "spe_bfs_shared" } else { "spe_bfs_private" };
-        let cfg = BihConfig { leaf_size: leaf, max_depth: 64 };
+        let cfg = BihConfig { leaf_size: leaf, ..BihConfig::default() };
         let cell = CellConfig::ps3().with_spes(spes);
         let fail = |e: String| TestCaseError::fail(format!("{name} on {spes} SPEs, {knobs:?}: {e}"));
         let r = builder(name)

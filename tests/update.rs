@@ -111,7 +111,7 @@ fn animations_are_deterministic_and_move_like_the_papers() {
 
 mod common;
 
-use cellbih::bih::{BihConfig, Tracer};
+use cellbih::bih::{BihConfig, SplitChoice, Tracer};
 use cellbih::build::BuilderKind;
 use cellbih::scene::{Scene, SplitMix64, Triangle};
 use cellbih::update::{Method, Stop, Updater};
@@ -191,9 +191,13 @@ proptest! {
         exp in prop::sample::select(vec![-15i32, 0, 15]),
         leaf in 1u32..13,
         seed in any::<u64>(),
+        sah in any::<bool>(),
+        empty_cut in proptest::option::of(1u32..=99),
     ) {
         let scene = cluster_scene(objects, exp, seed);
-        let cfg = BihConfig { leaf_size: leaf, max_depth: 64 };
+        // The quality knobs too: an update rebuilds with the tree's own.
+        let split = if sah { SplitChoice::BinnedSah { bins: 8 } } else { SplitChoice::GlobalHeuristic };
+        let cfg = BihConfig { leaf_size: leaf, split, empty_cut, ..BihConfig::default() };
         let scale = 10f32.powi(exp);
         for &method in Method::ALL {
             let mut u = Updater::new(scene.clone(), BuilderKind::HOST, &cfg, method).unwrap();

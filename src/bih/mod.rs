@@ -14,15 +14,45 @@ pub use validate::Violation;
 
 use crate::aabb::Aabb;
 
-/// The limits every builder honours.
+/// The limits every builder honours, and the quality knobs of the builders
+/// that run the shared recursion (`host`, `ppe_naive`; see
+/// [`BihConfig::paper_quality`]). Each knob is off by default: the default
+/// is the paper's tree, and Table 1 does not move.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct BihConfig {
     /// A node with at most this many triangles becomes a leaf. The paper's
-    /// ray tracer used 12 (section 4.1), and so do we by default.
+    /// ray tracer used 12 (section 4.1), and so do we by default. Buys
+    /// (smaller): fewer triangle tests per ray. Costs: more nodes, more
+    /// partitions, more node visits.
     pub leaf_size: u32,
     /// Deepest level (root = 0) a leaf may sit at; a node there becomes a
     /// leaf whatever its size. Traversal stacks are sized from it.
     pub max_depth: u32,
+    /// How an inner node chooses its plane.
+    pub split: SplitChoice,
+    /// Empty-space cut-off (Wächter & Keller 2006, section 3.2; Sunflow's
+    /// BIH): when the node's triangles leave a gap of more than this
+    /// percentage of the node's extent on one side of one axis, a *clip
+    /// node* cuts the gap off before the node splits. Buys: rays that pass
+    /// through the gap no longer descend into the node. Costs: two more
+    /// nodes (24 bytes) and one more level per cut. `None`: off.
+    pub empty_cut: Option<u32>,
+}
+
+/// The split choice of an inner node.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum SplitChoice {
+    /// The paper's: halve the candidate box at the middle of its longest
+    /// side, the *global heuristic* ([`crate::build::kernels::choose_split`]).
+    /// Buys: no pass over the triangles to choose. Costs: planes blind to
+    /// where the triangles are.
+    GlobalHeuristic,
+    /// The plane of least surface-area cost among `bins - 1` candidates on
+    /// each axis, the triangles binned by their box centers
+    /// ([`crate::build::sah`]). Buys: fewer nodes visited and triangles
+    /// tested per ray (the high-quality end of the trade). Costs: one more
+    /// pass over every node's triangles to bin them.
+    BinnedSah { bins: u32 },
 }
 
 impl Default for BihConfig {
@@ -30,6 +60,8 @@ impl Default for BihConfig {
         BihConfig {
             leaf_size: 12,
             max_depth: 64,
+            split: SplitChoice::GlobalHeuristic,
+            empty_cut: None,
         }
     }
 }
@@ -43,6 +75,14 @@ impl BihConfig {
     /// make the same tree.
     pub fn ends_in_leaf(&self, count: usize, depth: u32) -> bool {
         count <= self.leaf_size as usize || depth >= self.max_depth
+    }
+
+    /// Whether the split choice and empty-space cut-off are the paper's
+    /// (the global heuristic, no cut-off): what every builder supports.
+    /// The other settings are built by the builders that run the shared
+    /// recursion of [`crate::build::host`].
+    pub fn paper_quality(&self) -> bool {
+        self.split == SplitChoice::GlobalHeuristic && self.empty_cut.is_none()
     }
 }
 

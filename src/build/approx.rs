@@ -24,8 +24,8 @@ use super::kernels::{Boxed, Side, choose_split, clip_planes, partition, side_of}
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
 
-/// At most this many cells per axis.
-const MAX_RESOLUTION: usize = 1024;
+/// At most this many cells per axis (the default of `--approx-cells`).
+pub const MAX_RESOLUTION: usize = 1024;
 
 /// The work an approximate build did, for the PPE's cost model.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -63,20 +63,22 @@ impl Boxed for Bucket {
     }
 }
 
-/// Builds a tree over `items` with `region` as the scene box. Returns the
+/// Builds a tree over `items` with `region` as the scene box and at most
+/// `max_cells` grid cells per axis (1 to [`MAX_RESOLUTION`]). Returns the
 /// items in their final order (the tree's leaves index it), the tree, and
 /// the work done.
 pub fn build_approx<T: Item>(
     items: &[T],
     region: Aabb,
     cfg: &BihConfig,
+    max_cells: usize,
 ) -> (Vec<T>, Bih, ApproxStats) {
     assert!(!items.is_empty(), "a scene has at least one triangle");
     let n = items.len();
     let mut stats = ApproxStats::default();
 
     // 1. Bucket presort.
-    let res = resolution(items, region);
+    let res = resolution(items, region, max_cells.clamp(1, MAX_RESOLUTION));
     stats.grid = res.map(|r| r as u32);
     // In f64: a scene may span more than f32::MAX.
     let (lo, ext) = (region.min.as_dvec3(), region.extent_f64());
@@ -188,7 +190,7 @@ pub fn build_approx<T: Item>(
 
 /// Cells per axis: the scene's extent over the average triangle extent,
 /// scaled down so that there are at most as many cells as triangles.
-fn resolution<T: Boxed>(items: &[T], region: Aabb) -> [usize; 3] {
+fn resolution<T: Boxed>(items: &[T], region: Aabb, max_cells: usize) -> [usize; 3] {
     let n = items.len();
     let mut sum = [0f64; 3];
     for it in items {
@@ -205,9 +207,9 @@ fn resolution<T: Boxed>(items: &[T], region: Aabb) -> [usize; 3] {
             res[a] = if avg > 0.0 {
                 (ext[a] / avg).ceil()
             } else {
-                MAX_RESOLUTION as f64
+                max_cells as f64
             };
-            res[a] = res[a].clamp(1.0, MAX_RESOLUTION as f64);
+            res[a] = res[a].clamp(1.0, max_cells as f64);
         }
     }
     let cells = res[0] * res[1] * res[2];
@@ -248,7 +250,8 @@ mod tests {
                 .collect::<Vec<_>>(),
         );
         let region = Aabb::new(Vec3::ZERO, Vec3::new(1000.0, 1.0, 1.0));
-        assert_eq!(resolution(&items, region), [1000, 1, 1]);
+        assert_eq!(resolution(&items, region, MAX_RESOLUTION), [1000, 1, 1]);
+        assert_eq!(resolution(&items, region, 64), [64, 1, 1]);
         // A cube of 1,000 boxes of size 1 in a 100-unit cube: 100³ cells
         // scaled down to 10³.
         let items = refs(
@@ -261,7 +264,7 @@ mod tests {
                 .collect::<Vec<_>>(),
         );
         let region = Aabb::new(Vec3::ZERO, Vec3::splat(100.0));
-        let r = resolution(&items, region);
+        let r = resolution(&items, region, MAX_RESOLUTION);
         assert!(r.iter().product::<usize>() <= 1000, "{r:?}");
         assert!(r.iter().all(|&x| x >= 9), "{r:?}");
     }
@@ -285,7 +288,8 @@ mod tests {
             .fold(Aabb::new(Vec3::INFINITY, Vec3::NEG_INFINITY), |b, it| {
                 b.union(Aabb::new(it.lo().into(), it.hi().into()))
             });
-        let (sorted, bih, stats) = build_approx(&items, region, &BihConfig::default());
+        let (sorted, bih, stats) =
+            build_approx(&items, region, &BihConfig::default(), MAX_RESOLUTION);
         let mut ids: Vec<u32> = sorted.iter().map(|t| t.id()).collect();
         ids.sort_unstable();
         assert_eq!(ids, (0..3000).collect::<Vec<u32>>());

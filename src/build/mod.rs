@@ -7,6 +7,7 @@ pub mod host;
 pub mod kernels;
 pub mod morton;
 pub mod radix;
+pub mod sah;
 
 use std::time::{Duration, Instant};
 
@@ -27,6 +28,10 @@ pub struct Builder {
     pub describe: &'static str,
     /// It puts every SPE of the machine to work (`--spes` changes its time).
     pub multi_spe: bool,
+    /// It runs the shared recursion of [`host`], and so builds every split
+    /// choice and the empty-space cut-off of [`BihConfig`]; the others
+    /// build the paper's quality only (and refuse the rest).
+    pub quality_knobs: bool,
     run: Run,
 }
 
@@ -47,6 +52,7 @@ impl Builder {
             name,
             describe,
             multi_spe: false,
+            quality_knobs: true,
             run: Run::Host(build),
         }
     }
@@ -58,7 +64,17 @@ impl Builder {
             name,
             describe,
             multi_spe: false,
+            quality_knobs: false,
             run: Run::Cell(spawn),
+        }
+    }
+
+    /// This builder runs the shared recursion and builds every quality
+    /// knob of [`BihConfig`].
+    pub const fn with_quality_knobs(self) -> Self {
+        Builder {
+            quality_knobs: true,
+            ..self
         }
     }
 
@@ -134,6 +150,12 @@ impl BuilderKind {
         self.0.multi_spe
     }
 
+    /// Whether the builder builds every split choice and the empty-space
+    /// cut-off (not only the paper's tree).
+    pub fn quality_knobs(self) -> bool {
+        self.0.quality_knobs
+    }
+
     /// Whether the builder runs on the emulated Cell (and so reports
     /// simulated time and can keep a trace).
     pub fn emulated(self) -> bool {
@@ -179,6 +201,16 @@ impl BuilderKind {
         cell: &CellConfig,
         knobs: &strategy::Knobs,
     ) -> Result<BuildReport, CellError> {
+        if !cfg.paper_quality() && !self.quality_knobs() {
+            let with: Vec<&str> = (Self::ALL.iter())
+                .filter(|b| b.quality_knobs())
+                .map(|b| b.name())
+                .collect();
+            return Err(CellError::Config(format!(
+                "builder {self} builds the paper's split choice (global heuristic) without empty-space cut-off only; {} build the others",
+                with.join(" and ")
+            )));
+        }
         let start = Instant::now();
         let (bih, simulated) = match self.0.run {
             Run::Host(build) => (build(scene, region, cfg), None),

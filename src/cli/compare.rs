@@ -12,16 +12,11 @@ use serde_json::json;
 use cellbih::bih::{BihConfig, Tracer};
 use cellbih::build::{BuildReport, BuilderKind};
 use cellbih::cell::CellConfig;
-use cellbih::quality::rays::{RayCost, incoherent_rays, measure};
-use cellbih::render::Camera;
+use cellbih::quality::rays::{RayCost, RaySets};
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
 
 use super::Format;
-
-/// Incoherent rays traced per tree (random origins in the scene box, random
-/// directions; seed 1).
-const INCOHERENT_RAYS: usize = 16_384;
 
 /// One builder's row.
 pub struct Row {
@@ -38,13 +33,11 @@ pub struct Row {
 }
 
 /// Builds `s` with every builder on a Cell of `cell`, checks each tree and
-/// casts the camera's rays (`width` x `height`) through it; returns the rows
+/// casts the standard ray sets ([`RaySets`]) through it; returns the rows
 /// and the last build. Progress on stderr when it is a terminal.
 pub fn rows(
     s: &Scene,
     cell: &CellConfig,
-    width: u32,
-    height: u32,
 ) -> Result<(Vec<Row>, BuildReport), Box<dyn std::error::Error>> {
     let bar = if std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(BuilderKind::ALL.len() as u64);
@@ -53,9 +46,7 @@ pub fn rows(
     } else {
         ProgressBar::hidden()
     };
-    let cam = Camera::framing(&s.bounds(), width, height);
-    let rays = cam.rays();
-    let random = incoherent_rays(&s.bounds(), INCOHERENT_RAYS, 1);
+    let rays = RaySets::standard(&s.bounds());
     let mut out = Vec::new();
     let mut last = None;
     for &b in BuilderKind::ALL {
@@ -65,6 +56,7 @@ pub fn rows(
         r.bih.validate(s)?;
         let q = r.bih.quality();
         let tracer = Tracer::new(&r.bih, s);
+        let (primary, incoherent) = rays.measure(&tracer);
         out.push(Row {
             builder: b,
             host_ms: r.host_time.as_secs_f64() * 1e3,
@@ -72,8 +64,8 @@ pub fn rows(
             nodes: q.nodes,
             depth: q.max_depth,
             sah: q.sah_cost,
-            primary: measure(&tracer, &rays),
-            incoherent: measure(&tracer, &random),
+            primary,
+            incoherent,
             tree_bytes: q.memory_bytes,
         });
         last = Some(r);

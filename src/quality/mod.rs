@@ -91,3 +91,59 @@ impl Bih {
         q
     }
 }
+
+/// The Pareto front of `points` (x, y), both to be minimised: the indices
+/// of the points no other point beats or equals on both with one strictly
+/// better, in order of increasing x (ties of x: the lower y only). A point
+/// with a NaN coordinate is never on it.
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..points.len())
+        .filter(|&i| !points[i].0.is_nan() && !points[i].1.is_nan())
+        .collect();
+    order.sort_by(|&a, &b| {
+        (points[a].0.total_cmp(&points[b].0)).then(points[a].1.total_cmp(&points[b].1))
+    });
+    let mut front = Vec::new();
+    let mut best_y = f64::INFINITY;
+    for i in order {
+        if points[i].1 < best_y {
+            best_y = points[i].1;
+            front.push(i);
+        }
+    }
+    front
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_front_keeps_exactly_the_points_nothing_beats() {
+        // (build, ray cost): 0 and 2 and 4 are the trade; 1 is beaten by 0,
+        // 3 by 2, 5 ties 4's x with a worse y; 6 is NaN.
+        let p = [
+            (1.0, 10.0),
+            (2.0, 11.0),
+            (3.0, 5.0),
+            (4.0, 5.0),
+            (9.0, 1.0),
+            (9.0, 2.0),
+            (f64::NAN, 0.0),
+        ];
+        assert_eq!(pareto_front(&p), vec![0, 2, 4]);
+        // Brute force: a point is on the front iff no other dominates it.
+        let dominated = |i: usize| {
+            (0..6).any(|j| {
+                j != i
+                    && p[j].0 <= p[i].0
+                    && p[j].1 <= p[i].1
+                    && (p[j].0 < p[i].0 || p[j].1 < p[i].1)
+            })
+        };
+        for i in 0..6 {
+            assert_eq!(pareto_front(&p).contains(&i), !dominated(i), "point {i}");
+        }
+        assert_eq!(pareto_front(&[]), Vec::<usize>::new());
+    }
+}

@@ -29,6 +29,37 @@ impl RayCost {
     }
 }
 
+/// The testbed's two ray sets for a scene: primary rays of the render
+/// camera ([`crate::render::Camera::framing`], 640 x 480) and 16,384
+/// incoherent rays (seed 1). `compare`, `build` and the experiments measure
+/// every tree on these.
+pub struct RaySets {
+    pub primary: Vec<Ray>,
+    pub incoherent: Vec<Ray>,
+}
+
+impl RaySets {
+    pub const WIDTH: u32 = 640;
+    pub const HEIGHT: u32 = 480;
+    pub const INCOHERENT: usize = 16_384;
+
+    pub fn standard(bounds: &Aabb) -> Self {
+        let cam = crate::render::Camera::framing(bounds, Self::WIDTH, Self::HEIGHT);
+        RaySets {
+            primary: cam.rays(),
+            incoherent: incoherent_rays(bounds, Self::INCOHERENT, 1),
+        }
+    }
+
+    /// The cost of both sets through `tracer`: (primary, incoherent).
+    pub fn measure(&self, tracer: &Tracer) -> (RayCost, RayCost) {
+        (
+            measure(tracer, &self.primary),
+            measure(tracer, &self.incoherent),
+        )
+    }
+}
+
 /// `n` rays from uniform random points inside `bounds` in uniform random
 /// directions (seeded: the same rays on every run and host).
 pub fn incoherent_rays(bounds: &Aabb, n: usize, seed: u64) -> Vec<Ray> {

@@ -219,3 +219,70 @@ fn draw_lines(
     root.present()?;
     Ok(())
 }
+
+/// Draws `points` as dots (one colour per series) and `fronts` as step
+/// lines through their points on a 900×600 SVG, x on a log₁₀ axis: the
+/// scatter of a speed/quality trade with its Pareto fronts.
+pub fn scatter_plot(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    points: &[Series],
+    fronts: &[Series],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let mut svg = String::new();
+    {
+        let all = points.iter().chain(fronts).flat_map(|s| s.points.iter());
+        let (mut x0, mut x1, mut y1) = (f64::INFINITY, 0.0f64, 0.0f64);
+        for &(x, y) in all.filter(|p| p.0 > 0.0 && p.0.is_finite() && p.1.is_finite()) {
+            (x0, x1, y1) = (x0.min(x), x1.max(x), y1.max(y));
+        }
+        if !x0.is_finite() {
+            (x0, x1) = (1.0, 10.0);
+        }
+        let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 20))
+            .margin(16)
+            .x_label_area_size(48)
+            .y_label_area_size(64)
+            .build_cartesian_2d((x0 / 1.5..x1 * 1.5).log_scale(), 0.0..(y1 * 1.08).max(1e-9))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .draw()?;
+        for s in fronts {
+            let color = Palette99::pick(s.color).to_rgba();
+            let mut steps = Vec::new();
+            for w in s.points.windows(2) {
+                steps.extend([w[0], (w[1].0, w[0].1)]);
+            }
+            steps.extend(s.points.last());
+            chart
+                .draw_series(DashedLineSeries::new(steps, 6, 4, color.stroke_width(2)))?
+                .label(&s.name)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                });
+        }
+        for s in points {
+            let color = Palette99::pick(s.color).to_rgba();
+            chart
+                .draw_series(s.points.iter().map(|&p| Circle::new(p, 4, color.filled())))?
+                .label(&s.name)
+                .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()?;
+        root.present()?;
+    }
+    write_bytes(path, svg.as_bytes())?;
+    Ok(())
+}

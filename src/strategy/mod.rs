@@ -110,6 +110,12 @@ pub struct Knobs {
     /// to the least-loaded SPE) instead of taken largest first from an
     /// atomic counter. Buys: no atomics. Costs: balance.
     pub static_regions: bool,
+    /// `ppe_approx`: at most this many cells of the presort's grid per axis
+    /// (1 to 1024; the default 1024 is the grid of Table 1). Buys (fewer):
+    /// a smaller count table and fewer buckets for the upper levels.
+    /// Costs: fuller buckets, so more of the tree is left to the naive
+    /// finish. The tree is the paper's either way.
+    pub approx_max_cells: usize,
 }
 
 impl Knobs {
@@ -128,6 +134,7 @@ impl Knobs {
         digit_bits: 8,
         region_size: 2048,
         static_regions: false,
+        approx_max_cells: crate::build::approx::MAX_RESOLUTION,
     };
 }
 

@@ -35,9 +35,10 @@ fn spawn(
     out: Rc<RefCell<Output>>,
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    let max_cells = setup.knobs.approx_max_cells;
     cell.spawn_ppe(move |ppe| async move {
         let items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
-        let (sorted, bih, a) = build_approx(&items, region, &cfg);
+        let (sorted, bih, a) = build_approx(&items, region, &cfg, max_cells);
         let k = ppe.cost().kernels;
         let touched = a.items_sorted + a.buckets_partitioned + a.naive.items_partitioned;
         ppe.compute_items(k.ppe_partition_item, touched);
@@ -55,6 +56,7 @@ fn spawn(
             items_partitioned: touched,
             nodes: a.nodes,
             partitions: a.naive.partitions,
+            ..BuildStats::default()
         };
         Ok::<(), CellError>(())
     });

@@ -5,7 +5,9 @@
 //! of the host builder on it (the same split choice and partition), and
 //! writes the sorted array and the nodes back. Memory traffic is charged at
 //! the PPE's bandwidth by the machine; the compute is charged per item
-//! partitioned and per node, at the PPE kernel rates of the cost model.
+//! partitioned (and binned, with binned SAH) and per node, at the PPE
+//! kernel rates of the cost model. It builds every quality knob of
+//! [`BihConfig`] (the split choice, the empty-space cut-off).
 
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -21,7 +23,8 @@ pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
     "ppe_naive",
     "the paper's naive recursive build on the emulated PPE (Table 1, column 1)",
     spawn,
-);
+)
+.with_quality_knobs();
 
 fn spawn(
     cell: &mut Cell,
@@ -36,10 +39,16 @@ fn spawn(
         let k = ppe.cost().kernels;
         let BuildStats {
             items_partitioned,
+            items_binned,
             nodes,
             ..
         } = stats;
-        ppe.compute_items(k.ppe_partition_item, items_partitioned);
+        // Binning (binned SAH) reads each record and updates one bin per
+        // axis: charged as one more partition pass over those items, a
+        // derivation by analogy (both read the record's box, compute the
+        // center and a comparison or bin index per item), not a
+        // calibration.
+        ppe.compute_items(k.ppe_partition_item, items_partitioned + items_binned);
         ppe.compute_items(k.ppe_node, nodes);
         ppe.write_pod(tris, &items).await?;
         let node_array = super::write_nodes(&ppe, &bih.nodes).await?;

@@ -1,0 +1,219 @@
+//! The build options every command that builds a tree shares (`build`,
+//! `raycast`, `render`, `update`): the builder, the tree's limits and
+//! quality knobs ([`BihConfig`]), the emulated Cell and its mode, and the
+//! strategies' knobs ([`Knobs`]). Each flag's help says what it buys.
+
+use clap::ValueEnum;
+
+use cellbih::bih::{BihConfig, SplitChoice};
+use cellbih::build::sah::{DEFAULT_BINS, MAX_BINS};
+use cellbih::build::{BuildReport, BuilderKind};
+use cellbih::cell::CellConfig;
+use cellbih::scene::Scene;
+use cellbih::strategy::{KeyOrder, Knobs};
+
+use super::Res;
+
+#[derive(clap::Args)]
+pub struct BuildArgs {
+    /// Which builder makes the tree (see `cellbih builders`).
+    #[arg(long, default_value = "host")]
+    pub builder: String,
+    /// Largest leaf, in triangles (at least 1).
+    #[arg(long, default_value_t = BihConfig::default().leaf_size,
+          value_parser = clap::value_parser!(u32).range(1..))]
+    pub leaf_size: u32,
+    /// How inner nodes choose their plane: gh (the paper's global
+    /// heuristic: halve the candidate box) or sah (binned surface-area
+    /// heuristic: fewer nodes and triangles per ray, one more pass over
+    /// each node's triangles). sah: builders host and ppe_naive.
+    #[arg(long, value_enum, default_value = "gh")]
+    pub split: SplitArg,
+    /// --split sah: bins per axis (2 to 256).
+    #[arg(long, default_value_t = DEFAULT_BINS,
+          value_parser = clap::value_parser!(u32).range(2..=MAX_BINS as i64))]
+    pub sah_bins: u32,
+    /// Empty-space cut-off: a gap of more than this percentage of a node's
+    /// extent beside its triangles is cut off by a clip node (1 to 99;
+    /// off by default). Builders host and ppe_naive.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=99))]
+    pub empty_cut: Option<u32>,
+    /// ppe_approx: at most this many cells of the presort grid per axis
+    /// (1 to 1024).
+    #[arg(long, default_value_t = Knobs::default().approx_max_cells as u64,
+          value_parser = clap::value_parser!(u64).range(1..=1024))]
+    pub approx_cells: u64,
+    /// Deepest leaf (root = 0), at most 126 (the traversal stack's depth).
+    #[arg(long, default_value_t = BihConfig::default().max_depth,
+          value_parser = clap::value_parser!(u32).range(0..=BihConfig::MAX_SUPPORTED_DEPTH as i64))]
+    pub max_depth: u32,
+    /// SPEs of the emulated Cell, 1 to 8 (a PS3 program gets 6; 8 is a
+    /// whole Cell). Builders that use fewer leave the others idle.
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
+    pub spes: u64,
+    /// How the Cell is emulated: checked (timed, every DMA rule and race
+    /// checked: the reference), timed (the same cycles, no race checks),
+    /// or functional (no timing: fastest, for correctness runs).
+    #[arg(long, value_enum, default_value = "checked")]
+    pub mode: Mode,
+    /// Multi-SPE builders: the SPEs do not help partition the top levels
+    /// (they wait for the deal instead).
+    #[arg(long)]
+    pub no_coop_top: bool,
+    /// Multi-SPE builders: the top levels end at the first level with this
+    /// many jobs per SPE (1 to 16).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(1..=16))]
+    pub deal_per_spe: u64,
+    /// Multi-SPE builders: the dealt jobs stay in per-SPE lists and an SPE
+    /// whose list is empty steals from another's (the atomic unit).
+    #[arg(long)]
+    pub steal: bool,
+    /// spe_bfs_shared: jobs taken from the shared queue per atomic
+    /// operation (1 to 256).
+    #[arg(long, default_value_t = Knobs::default().agglomerate as u64,
+          value_parser = clap::value_parser!(u64).range(1..=256))]
+    pub agglomerate: u64,
+    /// spe_bfs_shared: every take is --agglomerate jobs, not an SPE's
+    /// share of the jobs left (guided self-scheduling, the default).
+    #[arg(long)]
+    pub fixed_takes: bool,
+    /// Multi-SPE builders: double-buffered WorkA/WorkB (no synchronous
+    /// job-queue DMA; section 5).
+    #[arg(long)]
+    pub double_buffer: bool,
+    /// Multi-SPE builders: DMA lists for agglomerated jobs (section 5).
+    #[arg(long)]
+    pub dma_lists: bool,
+    /// Multi-SPE builders: the next batch's get overlaps this batch's
+    /// partition.
+    #[arg(long)]
+    pub prefetch: bool,
+    /// spe_morton: the keys' bit order: the global heuristic's halvings
+    /// (gh: the baseline's tree) or round robin x, y, z (xyz: LBVH).
+    #[arg(long, value_enum, default_value = "gh")]
+    pub key_order: KeyOrderArg,
+    /// spe_morton: key bits, 32 or 64.
+    #[arg(long, default_value_t = Knobs::default().key_bits,
+          value_parser = parse_key_bits)]
+    pub key_bits: u32,
+    /// spe_morton: bits per radix-sort pass (4 to 11).
+    #[arg(long, default_value_t = Knobs::default().digit_bits as u64,
+          value_parser = clap::value_parser!(u64).range(4..=11))]
+    pub digit_bits: u64,
+    /// spe_morton: the largest region built by one SPE alone (triangles).
+    #[arg(long, default_value_t = Knobs::default().region_size as u64,
+          value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
+    pub region_size: u64,
+    /// spe_morton: regions dealt before the builds, not taken from an
+    /// atomic counter.
+    #[arg(long)]
+    pub static_regions: bool,
+}
+
+/// `--mode`: the emulator's own speed/accuracy trade.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Mode {
+    Checked,
+    Timed,
+    Functional,
+}
+
+/// `--key-bits`: 32 or 64.
+fn parse_key_bits(s: &str) -> Result<u32, String> {
+    match s {
+        "32" => Ok(32),
+        "64" => Ok(64),
+        _ => Err(format!("{s} bits: keys are 32 or 64 bits wide")),
+    }
+}
+
+/// `--split`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum SplitArg {
+    Gh,
+    Sah,
+}
+
+/// `--key-order`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum KeyOrderArg {
+    Gh,
+    Xyz,
+}
+
+/// What `--builder` and its options ask for.
+pub struct Chosen {
+    pub builder: BuilderKind,
+    pub cfg: BihConfig,
+    pub cell: CellConfig,
+    pub knobs: Knobs,
+}
+
+impl Chosen {
+    pub fn build(&self, s: &Scene) -> Res<BuildReport> {
+        Ok(self
+            .builder
+            .build_with(s, s.bounds(), &self.cfg, &self.cell, &self.knobs)?)
+    }
+
+    /// "builder B" and, for an emulated one, "on N SPEs".
+    pub fn describe(&self) -> String {
+        if self.builder.emulated() {
+            format!("builder {} on {} SPEs", self.builder, self.cell.spes)
+        } else {
+            format!("builder {}", self.builder)
+        }
+    }
+}
+
+pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
+    let builder = BuilderKind::from_name(&args.builder).ok_or_else(|| {
+        let names: Vec<_> = BuilderKind::ALL.iter().map(|b| b.name()).collect();
+        format!(
+            "unknown builder '{}'; the builders are: {}",
+            args.builder,
+            names.join(", ")
+        )
+    })?;
+    let cfg = BihConfig {
+        leaf_size: args.leaf_size,
+        max_depth: args.max_depth,
+        split: match args.split {
+            SplitArg::Gh => SplitChoice::GlobalHeuristic,
+            SplitArg::Sah => SplitChoice::BinnedSah {
+                bins: args.sah_bins,
+            },
+        },
+        empty_cut: args.empty_cut,
+    };
+    let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
+    cell.checked = matches!(args.mode, Mode::Checked);
+    if let Mode::Functional = args.mode {
+        cell.cost = cellbih::cell::CostModel::functional();
+    }
+    let knobs = Knobs {
+        coop_top: !args.no_coop_top,
+        deal_per_spe: args.deal_per_spe as usize,
+        steal: args.steal,
+        agglomerate: args.agglomerate as usize,
+        guided: !args.fixed_takes,
+        double_buffer: args.double_buffer,
+        dma_lists: args.dma_lists,
+        prefetch: args.prefetch,
+        key_order: match args.key_order {
+            KeyOrderArg::Gh => KeyOrder::GlobalHeuristic,
+            KeyOrderArg::Xyz => KeyOrder::RoundRobin,
+        },
+        key_bits: args.key_bits,
+        digit_bits: args.digit_bits as u32,
+        region_size: args.region_size as usize,
+        static_regions: args.static_regions,
+        approx_max_cells: args.approx_cells as usize,
+    };
+    Ok(Chosen {
+        builder,
+        cfg,
+        cell,
+        knobs,
+    })
+}
