@@ -6,7 +6,9 @@
 
 use glam::{Vec3A, Vec4};
 
-use super::kernels::{Boxed, Side, Split, choose_split, clip_planes, partition, side_of};
+use super::kernels::{
+    Boxed, Side, Split, choose_split_counted, clip_planes, partition, side_of,
+};
 use super::sah::sah_split;
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, SplitChoice};
@@ -66,6 +68,10 @@ pub struct BuildStats {
     pub items_binned: u64,
     /// Clip nodes the empty-space cut-off emitted (0 when it is off).
     pub clip_nodes: u64,
+    /// Halvings of the global heuristic that `f32` could not make
+    /// ([`super::kernels::choose_split_counted`]); counted by the host
+    /// recursion.
+    pub f32_stalls: u64,
 }
 
 /// Builds the tree of `scene` in one host thread.
@@ -218,14 +224,18 @@ impl<T: Item> Builder<'_, T> {
     ) -> Option<Split> {
         let centers = side.centers();
         match self.cfg.split {
-            SplitChoice::GlobalHeuristic => choose_split(candidate, &centers),
+            SplitChoice::GlobalHeuristic => {
+                choose_split_counted(candidate, &centers, &mut self.stats.f32_stalls)
+            }
             SplitChoice::BinnedSah { bins } => {
                 if centers.min == centers.max {
                     return None;
                 }
                 self.stats.items_binned += count as u64;
                 sah_split(&self.items[first..first + count], &centers, bins)
-                    .or_else(|| choose_split(candidate, &centers))
+                    .or_else(|| {
+                        choose_split_counted(candidate, &centers, &mut self.stats.f32_stalls)
+                    })
             }
         }
     }

@@ -83,6 +83,18 @@ fn mid(lo: f32, hi: f32) -> f32 {
 /// on that axis (if centers differ there) or the axis is collapsed so another
 /// is chosen.
 pub fn choose_split(candidate: &mut Aabb, centers: &Aabb) -> Option<Split> {
+    choose_split_counted(candidate, centers, &mut 0)
+}
+
+/// [`choose_split`], adding one to `stalls` for each halving `f32` could
+/// not make (the candidate stopped shrinking, so the plane fell back to the
+/// centers or the axis was collapsed): what `experiments/extremes.rs`
+/// reports.
+pub fn choose_split_counted(
+    candidate: &mut Aabb,
+    centers: &Aabb,
+    stalls: &mut u64,
+) -> Option<Split> {
     if centers.min == centers.max {
         return None;
     }
@@ -104,6 +116,7 @@ pub fn choose_split(candidate: &mut Aabb, centers: &Aabb) -> Option<Split> {
         }
         // Halving makes no progress (f32 precision) or the candidate does
         // not hold the centers on this axis.
+        *stalls += 1;
         if cmin < cmax {
             return Some(Split { axis, plane: cmax });
         }

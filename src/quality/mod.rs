@@ -13,6 +13,7 @@
 //! operations and a load), and the convention of many BVH papers. For a
 //! scene whose box has zero area (all triangles on a line) every P is 1.
 
+pub mod agree;
 pub mod rays;
 
 use serde::Serialize;

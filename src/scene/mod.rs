@@ -11,6 +11,7 @@
 //! legal (real meshes have them); rays never hit them.
 
 mod obj;
+pub mod extremes;
 pub mod procedural;
 pub(crate) mod rng;
 

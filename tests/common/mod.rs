@@ -2,15 +2,12 @@
 //! proptest, the brute-force comparison, and the data directory.
 #![allow(dead_code)]
 
-use cellbih::bih::{Bih, Hit, Ray, RayStats, Tracer, brute_force_closest, intersect_triangle};
+use cellbih::bih::Bih;
+#[allow(unused_imports)]
+pub use cellbih::quality::agree::{T_TOLERANCE, check_ray, rays_for};
 use cellbih::scene::{Scene, SplitMix64, Triangle};
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use proptest::prelude::*;
-
-/// How t may differ from brute force, relative. Both sides run the same
-/// triangle test, so in practice t is bitwise equal; the tolerance only
-/// admits a coincident triangle found first.
-pub const T_TOLERANCE: f64 = 1e-9;
 
 /// Runs the `cellbih` binary with `args`.
 pub fn cellbih(args: &[&str]) -> std::process::Output {
@@ -69,86 +66,6 @@ pub fn assert_slices_nest(trace: &serde_json::Value) {
             open.push(b);
         }
     }
-}
-
-/// Checks the tree's answer for `ray` against brute force; an error names
-/// what differs.
-pub fn check_ray(scene: &Scene, tracer: &Tracer, ray: &Ray) -> Result<(), String> {
-    let want = brute_force_closest(scene, ray);
-    let got = tracer.closest(ray, &mut RayStats::default());
-    let any = tracer.any(ray, &mut RayStats::default());
-    if any.is_some() != want.is_some() {
-        return Err(format!(
-            "any-hit {any:?} but brute force {want:?} for {ray:?}"
-        ));
-    }
-    match (got, want) {
-        (None, None) => Ok(()),
-        (Some(g), Some(w)) if g.prim == w.prim && g.t == w.t => Ok(()),
-        (Some(g), Some(w)) if coincident(scene, ray, &g, &w) => Ok(()),
-        (g, w) => Err(format!("tree {g:?} but brute force {w:?} for {ray:?}")),
-    }
-}
-
-/// The tree found another triangle at the same t (within the tolerance).
-fn coincident(scene: &Scene, ray: &Ray, g: &Hit, w: &Hit) -> bool {
-    let alone = intersect_triangle(&scene.triangles[g.prim as usize], ray, ray.tmin, ray.tmax);
-    (g.t - w.t).abs() <= T_TOLERANCE * w.t.abs() && alone.is_some_and(|(t, _, _)| t == g.t)
-}
-
-/// Rays that hit the scene's box from outside and inside, one in eight
-/// with a zero direction component (one in sixteen axis-parallel), some
-/// with a finite tmax.
-pub fn rays_for(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
-    let b = scene.bounds();
-    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
-    let ext = (hi - lo).max(DVec3::splat(
-        lo.abs().max_element().max(hi.abs().max_element()) * 1e-3,
-    ));
-    let mut rng = SplitMix64::new(seed);
-    let mut r01 = || rng.next_f32() as f64;
-    let mut out = Vec::with_capacity(n);
-    for i in 0..n {
-        let origin = lo - ext * 0.5 + DVec3::new(r01(), r01(), r01()) * ext * 2.0;
-        let mut target = lo + DVec3::new(r01(), r01(), r01()) * (hi - lo);
-        // Aim at a vertex now and then: edges and corners are hit exactly.
-        if i % 5 == 0 {
-            let t = &scene.triangles[(r01() * scene.len() as f64) as usize % scene.len()];
-            target = t.v[i % 3].as_dvec3();
-        }
-        let mut dir = target - origin;
-        if i % 8 == 3 {
-            dir[i % 3] = if i % 16 == 3 { 0.0 } else { -0.0 };
-        }
-        if i % 16 == 11 {
-            let keep = i % 3;
-            for a in 0..3 {
-                if a != keep {
-                    dir[a] = 0.0;
-                }
-            }
-            if dir[keep] == 0.0 {
-                dir[keep] = 1.0;
-            }
-            let mut o = target;
-            o[keep] = if dir[keep] >= 0.0 {
-                lo[keep] - ext[keep]
-            } else {
-                hi[keep] + ext[keep]
-            };
-            out.push(Ray::new(o, dir));
-            continue;
-        }
-        if dir == DVec3::ZERO {
-            dir = DVec3::X;
-        }
-        let mut ray = Ray::new(origin, dir);
-        if i % 7 == 2 {
-            ray.tmax = 0.5 + r01();
-        }
-        out.push(ray);
-    }
-    out
 }
 
 /// A scene of `n` triangles at a scale of `10^exp`, offset by `offset`

@@ -1,0 +1,476 @@
+//! The speed/accuracy trade, measured (issue 15): every builder, and each
+//! setting of the knobs it has, on the scenes that matter — build cost
+//! against tree quality, the quality measured on real rays.
+//!
+//! `cargo run --release --bin tradeoff -- --data DIR [--scenes bunny,dragon] [--spes 6] [--out results]`
+//!
+//! Build cost: simulated ms on the PS3 model for the emulated builders
+//! (timed mode: the cycles of the checked mode), host ms (median of three,
+//! one thread) for the host builder. Quality: SAH, and the measured cost of
+//! the standard ray sets ([`RaySets`]: primary rays of the render camera,
+//! incoherent rays), closest hit, one host thread (rays per second: median
+//! of three). Prints each scene's
+//! Pareto fronts (PS3 builds, host builds; build ms against nodes +
+//! triangles per primary ray) and, for a frame of R rays (10^4 to 10^8),
+//! which host setting gives the least build + trace time. Writes
+//! tradeoff.{csv,json} and tradeoff_<scene>.svg (the scatter, the fronts
+//! drawn).
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::{Value, json};
+
+use cellbih::bih::{BihConfig, SplitChoice, Tracer};
+use cellbih::build::BuilderKind;
+use cellbih::cell::CellConfig;
+use cellbih::quality::pareto_front;
+use cellbih::quality::rays::RaySets;
+use cellbih::report::{
+    Format, Series, output, print_rows, scatter_plot, write_json, write_rows_csv,
+};
+use cellbih::scene::{self, Scene};
+use cellbih::strategy::{KeyOrder, Knobs};
+
+#[derive(Parser)]
+struct Args {
+    /// Directory of the real meshes (default: $CELLBIH_DATA).
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// Scenes, comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "bunny,dragon,sponza-dabrovic,sibenik,rtperf:200000"
+    )]
+    scenes: Vec<String>,
+    /// SPEs of the emulated Cell for the multi-SPE builders (1 to 8).
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
+    spes: u64,
+    /// text (tables) or json (the rows).
+    #[arg(long, value_enum, default_value = "text")]
+    format: Format,
+    /// Directory for the CSV, JSON and SVG files.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+}
+
+/// A builder with one setting, named by its CLI options.
+struct Setting {
+    builder: BuilderKind,
+    cfg: BihConfig,
+    knobs: Knobs,
+    flags: String,
+}
+
+/// Every builder with its defaults (the paper's tree); the builders that
+/// build the quality knobs with each of leaf size 4 and 12 × global
+/// heuristic and binned SAH × no cut-off, 10 % and 30 % (and a depth limit
+/// of 16); the others with leaf size 4, and their own knobs (ppe_approx's
+/// grid, spe_morton's key order, key width and region size).
+fn settings() -> Vec<Setting> {
+    let (d, k) = (BihConfig::default(), Knobs::default());
+    let mut v = Vec::new();
+    let mut push = |builder, cfg, knobs, flags: &str| {
+        v.push(Setting {
+            builder,
+            cfg,
+            knobs,
+            flags: flags.to_string(),
+        })
+    };
+    for &b in BuilderKind::ALL {
+        if b.quality_knobs() {
+            for leaf in [12, 4] {
+                for sah in [false, true] {
+                    for cut in [None, Some(10), Some(30)] {
+                        let cfg = BihConfig {
+                            leaf_size: leaf,
+                            split: if sah {
+                                SplitChoice::BinnedSah { bins: 16 }
+                            } else {
+                                SplitChoice::GlobalHeuristic
+                            },
+                            empty_cut: cut,
+                            ..d
+                        };
+                        let mut flags = String::new();
+                        if leaf != d.leaf_size {
+                            flags += &format!(" --leaf-size {leaf}");
+                        }
+                        if sah {
+                            flags += " --split sah";
+                        }
+                        if let Some(c) = cut {
+                            flags += &format!(" --empty-cut {c}");
+                        }
+                        push(b, cfg, k, flags.trim());
+                    }
+                }
+            }
+            let deep = BihConfig { max_depth: 16, ..d };
+            push(b, deep, k, "--max-depth 16");
+            continue;
+        }
+        push(b, d, k, "");
+        let leaf4 = BihConfig { leaf_size: 4, ..d };
+        push(b, leaf4, k, "--leaf-size 4");
+        match b.name() {
+            "ppe_approx" => {
+                let coarse = Knobs {
+                    approx_max_cells: 64,
+                    ..k
+                };
+                push(b, d, coarse, "--approx-cells 64");
+            }
+            "spe_morton" => {
+                let xyz = Knobs {
+                    key_order: KeyOrder::RoundRobin,
+                    ..k
+                };
+                push(b, d, xyz, "--key-order xyz");
+                push(b, d, Knobs { key_bits: 64, ..k }, "--key-bits 64");
+                let small = Knobs {
+                    region_size: 512,
+                    ..k
+                };
+                push(b, d, small, "--region-size 512");
+            }
+            _ => {}
+        }
+    }
+    v
+}
+
+fn main() {
+    let args = Args::parse();
+    cellbih::report::experiment_main("tradeoff", &args.out.clone(), || run(&args));
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let data = scene::data_dir(args.data.as_deref());
+    let settings = settings();
+    let mut scenes: Vec<Scene> = Vec::new();
+    for name in &args.scenes {
+        match scene::load(name, data.as_deref()) {
+            Ok(s) => scenes.push(s),
+            Err(e) if data.is_none() => eprintln!("{name}: skipped ({e})"),
+            Err(e) => return Err(format!("{name}: {e}")),
+        }
+    }
+    let bar = if std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new((scenes.len() * settings.len()) as u64);
+        let style = ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} ({elapsed})");
+        bar.set_style(style.map_err(|e| e.to_string())?);
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
+    cell.checked = false;
+    let mut rows: Vec<Value> = Vec::new();
+    for s in &scenes {
+        let rays = RaySets::standard(&s.bounds());
+        let first = rows.len();
+        for st in &settings {
+            let label = format!("{} {}", st.builder, st.flags);
+            bar.set_message(format!("{}: {}", s.name, label.trim()));
+            rows.push(
+                measure(s, st, &cell, &rays).map_err(|e| format!("{}, {label}: {e}", s.name))?,
+            );
+            bar.inc(1);
+        }
+        mark_fronts(&mut rows[first..]);
+    }
+    bar.finish_and_clear();
+    print_rows(args.format, &rows, print_tables)?;
+    let keys = [
+        "scene",
+        "triangles",
+        "builder",
+        "setting",
+        "simulated_ms",
+        "host_ms",
+        "sah",
+        "nodes",
+        "tree_bytes",
+        "primary_nodes",
+        "primary_triangles",
+        "primary_cost",
+        "primary_mrays_per_s",
+        "incoherent_nodes",
+        "incoherent_triangles",
+        "incoherent_cost",
+        "incoherent_mrays_per_s",
+        "front_ps3",
+        "front_host",
+    ];
+    let io = |e: cellbih::report::OutputError| e.to_string();
+    write_rows_csv(
+        &output(&args.out, "tradeoff.csv").map_err(io)?,
+        &keys,
+        &rows,
+    )
+    .map_err(io)?;
+    let doc = json!({
+        "rows": rows,
+        "frames": frames(&rows),
+        "spes": args.spes,
+        "note": "simulated_ms: PS3 model (timed mode), multi-SPE builders on `spes` SPEs; host_ms: this machine, one thread (median of 3 for the host builder, the emulation's time for the others); *_cost: nodes visited + triangles tested per ray, closest hit; fronts: Pareto fronts of build ms against primary cost",
+    });
+    write_json(&output(&args.out, "tradeoff.json").map_err(io)?, &doc).map_err(io)?;
+    plots(&args.out, &rows).map_err(|e| e.to_string())?;
+    eprintln!(
+        "written: {}/tradeoff.{{csv,json}}, tradeoff_*.svg",
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Builds `s` with one setting, checks the tree, measures its rays.
+fn measure(s: &Scene, st: &Setting, cell: &CellConfig, rays: &RaySets) -> Result<Value, String> {
+    let build = || {
+        (st.builder
+            .build_with(s, s.bounds(), &st.cfg, cell, &st.knobs))
+        .map_err(|e| e.to_string())
+    };
+    let mut r = build()?;
+    let mut host_ms = r.host_time.as_secs_f64() * 1e3;
+    if !st.builder.emulated() {
+        let mut times = vec![host_ms];
+        for _ in 0..2 {
+            r = build()?;
+            times.push(r.host_time.as_secs_f64() * 1e3);
+        }
+        times.sort_by(f64::total_cmp);
+        host_ms = times[1];
+    }
+    r.bih.validate(s).map_err(|v| v.to_string())?;
+    let q = r.bih.quality();
+    // Rays per second: the median of three runs (the node and triangle
+    // counts are the same every run).
+    let tracer = Tracer::new(&r.bih, s);
+    let mut runs: Vec<_> = (0..3).map(|_| rays.measure(&tracer)).collect();
+    runs.sort_by(|a, b| a.0.mrays_per_s.total_cmp(&b.0.mrays_per_s));
+    let p = runs[1].0;
+    runs.sort_by(|a, b| a.1.mrays_per_s.total_cmp(&b.1.mrays_per_s));
+    let i = runs[1].1;
+    Ok(json!({
+        "scene": s.name, "triangles": s.len(), "builder": st.builder.name(), "setting": st.flags,
+        "emulated": st.builder.emulated(),
+        "simulated_ms": r.simulated.as_ref().map(|m| m.run.ms), "host_ms": host_ms,
+        "sah": q.sah_cost, "nodes": q.nodes, "tree_bytes": q.memory_bytes,
+        "primary_nodes": p.nodes, "primary_triangles": p.triangles, "primary_cost": p.per_ray(),
+        "primary_mrays_per_s": p.mrays_per_s,
+        "incoherent_nodes": i.nodes, "incoherent_triangles": i.triangles,
+        "incoherent_cost": i.per_ray(), "incoherent_mrays_per_s": i.mrays_per_s,
+    }))
+}
+
+/// Marks the rows of one scene on its two fronts: PS3 builds (simulated ms)
+/// and host builds (host ms), each against the primary rays' cost.
+fn mark_fronts(rows: &mut [Value]) {
+    for (key, emulated, time) in [
+        ("front_ps3", true, "simulated_ms"),
+        ("front_host", false, "host_ms"),
+    ] {
+        let idx: Vec<usize> = (0..rows.len())
+            .filter(|&i| rows[i]["emulated"] == emulated)
+            .collect();
+        let pts: Vec<(f64, f64)> = (idx.iter())
+            .map(|&i| (num(&rows[i][time]), num(&rows[i]["primary_cost"])))
+            .collect();
+        let front = pareto_front(&pts);
+        for (k, &i) in idx.iter().enumerate() {
+            rows[i][key] = json!(front.contains(&k));
+        }
+    }
+}
+
+fn num(v: &Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
+
+fn label(r: &Value) -> String {
+    format!(
+        "{} {}",
+        r["builder"].as_str().unwrap_or(""),
+        r["setting"].as_str().unwrap_or("")
+    )
+    .trim()
+    .to_string()
+}
+
+/// Rays per frame of the frame reading.
+const FRAME_RAYS: [f64; 5] = [1e4, 1e5, 1e6, 1e7, 1e8];
+
+/// For each scene and each frame of R rays, the host setting with the least
+/// build + trace time (one thread), for primary and for incoherent rays.
+fn frames(rows: &[Value]) -> Vec<Value> {
+    let mut out = Vec::new();
+    for scene in scene_names(rows) {
+        let host: Vec<&Value> = (rows.iter())
+            .filter(|r| r["scene"] == scene && r["emulated"] == false)
+            .collect();
+        for r_rays in FRAME_RAYS {
+            let mut row = json!({ "scene": scene, "rays": r_rays });
+            for set in ["primary", "incoherent"] {
+                let total = |r: &Value| {
+                    num(&r["host_ms"]) + r_rays / (num(&r[format!("{set}_mrays_per_s")]) * 1e3)
+                };
+                if let Some(best) = host.iter().min_by(|a, b| total(a).total_cmp(&total(b))) {
+                    row[set] = json!({ "setting": label(best), "total_ms": total(best), "build_ms": num(&best["host_ms"]) });
+                }
+            }
+            out.push(row);
+        }
+    }
+    out
+}
+
+fn scene_names(rows: &[Value]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for r in rows {
+        let n = r["scene"].as_str().unwrap_or("").to_string();
+        if !names.contains(&n) {
+            names.push(n);
+        }
+    }
+    names
+}
+
+fn print_tables(rows: &[Value]) {
+    for scene in scene_names(rows) {
+        let of: Vec<&Value> = rows
+            .iter()
+            .filter(|r| r["scene"] == scene.as_str())
+            .collect();
+        println!("\n{scene} ({} triangles)", of[0]["triangles"]);
+        println!(
+            "{:<46} {:>9} {:>9} {:>8} {:>8} {:>13} {:>7} {:>13} {:>7} {:>6}",
+            "builder setting",
+            "Cell ms",
+            "host ms",
+            "SAH",
+            "nodes",
+            "primary",
+            "Mray/s",
+            "incoherent",
+            "Mray/s",
+            "front"
+        );
+        for r in &of {
+            let front = match (r["front_ps3"] == true, r["front_host"] == true) {
+                (true, _) => "PS3",
+                (_, true) => "host",
+                _ => "",
+            };
+            let sim = r["simulated_ms"]
+                .as_f64()
+                .map_or("-".into(), |v| format!("{v:.2}"));
+            println!(
+                "{:<46} {:>9} {:>9.2} {:>8.1} {:>8} {:>13} {:>7.2} {:>13} {:>7.2} {:>6}",
+                label(r),
+                sim,
+                num(&r["host_ms"]),
+                num(&r["sah"]),
+                r["nodes"],
+                format!(
+                    "{:.1}+{:.1}",
+                    num(&r["primary_nodes"]),
+                    num(&r["primary_triangles"])
+                ),
+                num(&r["primary_mrays_per_s"]),
+                format!(
+                    "{:.1}+{:.1}",
+                    num(&r["incoherent_nodes"]),
+                    num(&r["incoherent_triangles"])
+                ),
+                num(&r["incoherent_mrays_per_s"]),
+                front
+            );
+        }
+        println!("frame of R rays, host (one thread): the setting with the least build + trace ms");
+        for f in frames(rows).iter().filter(|f| f["scene"] == scene.as_str()) {
+            let cell = |set: &str| {
+                let b = &f[set];
+                format!(
+                    "{} ({:.1} ms)",
+                    b["setting"].as_str().unwrap_or("-"),
+                    num(&b["total_ms"])
+                )
+            };
+            println!(
+                "  R = {:>9.0e}: primary {:<44} incoherent {}",
+                num(&f["rays"]),
+                cell("primary"),
+                cell("incoherent")
+            );
+        }
+    }
+    println!(
+        "\nCell ms: simulated PS3 time (multi-SPE builders on --spes SPEs); host ms: this machine, one \
+         thread (host builder: median of 3; emulated builders: the emulation); primary, incoherent: \
+         nodes visited + triangles tested per ray; front: on the Pareto front of PS3 builds (Cell ms) \
+         or host builds (host ms) against the primary cost"
+    );
+}
+
+/// One SVG per scene: build ms (log) against primary cost; PS3 builds and
+/// host builds as two series of dots, each front as a dashed step line.
+fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error::Error>> {
+    for scene in scene_names(rows) {
+        let of: Vec<&Value> = rows
+            .iter()
+            .filter(|r| r["scene"] == scene.as_str())
+            .collect();
+        let series = |emulated: bool, time: &str, only_front: Option<&str>| -> Vec<(f64, f64)> {
+            let mut pts: Vec<(f64, f64)> = (of.iter())
+                .filter(|r| r["emulated"] == emulated && only_front.is_none_or(|k| r[k] == true))
+                .map(|r| (num(&r[time]), num(&r["primary_cost"])))
+                .collect();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            pts
+        };
+        let points = [
+            Series {
+                name: "PS3 builds (simulated ms)".into(),
+                points: series(true, "simulated_ms", None),
+                color: 0,
+                dashed: false,
+            },
+            Series {
+                name: "host builds (host ms, one thread)".into(),
+                points: series(false, "host_ms", None),
+                color: 1,
+                dashed: false,
+            },
+        ];
+        let fronts = [
+            Series {
+                name: "PS3 front".into(),
+                points: series(true, "simulated_ms", Some("front_ps3")),
+                color: 0,
+                dashed: true,
+            },
+            Series {
+                name: "host front".into(),
+                points: series(false, "host_ms", Some("front_host")),
+                color: 1,
+                dashed: true,
+            },
+        ];
+        let file = format!("tradeoff_{}.svg", scene.replace([':', '/', '.'], "_"));
+        scatter_plot(
+            &output(dir, &file)?,
+            &format!("{scene}: build time against measured ray cost"),
+            "build ms (log)",
+            "nodes + triangles per primary ray",
+            &points,
+            &fronts,
+        )?;
+    }
+    Ok(())
+}
