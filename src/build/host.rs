@@ -6,9 +6,7 @@
 
 use glam::{Vec3A, Vec4};
 
-use super::kernels::{
-    Boxed, Side, Split, choose_split_counted, clip_planes, partition, side_of,
-};
+use super::kernels::{Boxed, Side, Split, choose_split_counted, clip_planes, partition, side_of};
 use super::sah::sah_split;
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, SplitChoice};
@@ -232,10 +230,9 @@ impl<T: Item> Builder<'_, T> {
                     return None;
                 }
                 self.stats.items_binned += count as u64;
-                sah_split(&self.items[first..first + count], &centers, bins)
-                    .or_else(|| {
-                        choose_split_counted(candidate, &centers, &mut self.stats.f32_stalls)
-                    })
+                sah_split(&self.items[first..first + count], &centers, bins).or_else(|| {
+                    choose_split_counted(candidate, &centers, &mut self.stats.f32_stalls)
+                })
             }
         }
     }

@@ -98,6 +98,13 @@ pub fn choose_split_counted(
     if centers.min == centers.max {
         return None;
     }
+    // The halvings assume the candidate holds the centers. The global
+    // heuristic keeps that true of every candidate it makes (a no-op
+    // there); a candidate made another way (approximate sorting's
+    // buckets: a bucket's triangles' centers spill out of the bucket's
+    // half) is grown to them, or the halvings below would stall and peel
+    // off one center per level down to the depth limit.
+    *candidate = candidate.union(*centers);
     loop {
         let axis = candidate.longest_axis();
         let (lo, hi) = (candidate.min[axis], candidate.max[axis]);
@@ -410,5 +417,28 @@ mod tests {
         assert_eq!(clip_planes(0, &l, &r), [42.0, 43.0]);
         let left_max_z = items[..43].iter().map(|b| b.0.z).fold(f32::MIN, f32::max);
         assert_eq!(l.centers().max.z, left_max_z);
+    }
+}
+#[cfg(test)]
+mod stall_tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn a_halving_f32_cannot_make_is_counted_and_still_splits() {
+        // A candidate one f32 step wide at 1e7: its middle rounds to its
+        // low face, so the halving stalls; the split falls back to the
+        // largest center.
+        let (a, b) = (1e7f32, 1e7f32 + 1.0);
+        let mut cand = Aabb::new(Vec3::new(a, 0.0, 0.0), Vec3::new(b, 0.0, 0.0));
+        let centers = cand;
+        let mut stalls = 0;
+        let s = choose_split_counted(&mut cand, &centers, &mut stalls).unwrap();
+        assert_eq!((s.axis, s.plane, stalls), (0, b, 1));
+        // A candidate that halves: no stall.
+        let mut cand = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        let centers = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        choose_split_counted(&mut cand, &centers, &mut stalls).unwrap();
+        assert_eq!(stalls, 1);
     }
 }

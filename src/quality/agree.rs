@@ -95,3 +95,63 @@ pub fn rays_for(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
     out
 }
 
+/// What one builder made of one scene, checked: the tree's validity, how
+/// many rays disagree with brute force, its depth and largest leaf.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Examined {
+    /// `None` when valid, else the first violation (or the build's error).
+    pub invalid: Option<String>,
+    /// Rays whose closest or any hit differs from brute force's, of `rays`.
+    pub disagree: usize,
+    pub rays: usize,
+    pub depth: u32,
+    pub largest_leaf: u32,
+}
+
+impl Examined {
+    /// Valid, and every ray agreed.
+    pub fn ok(&self) -> bool {
+        self.invalid.is_none() && self.disagree == 0
+    }
+}
+
+/// Builds `scene` with `builder` (on a Cell of `cell` if emulated) and
+/// checks the tree and every ray of `rays` against brute force.
+pub fn examine(
+    builder: crate::build::BuilderKind,
+    cfg: &crate::bih::BihConfig,
+    cell: &crate::cell::CellConfig,
+    scene: &Scene,
+    rays: &[Ray],
+) -> Examined {
+    let knobs = crate::strategy::Knobs::default();
+    let r = match builder.build_with(scene, scene.bounds(), cfg, cell, &knobs) {
+        Ok(r) => r,
+        Err(e) => {
+            return Examined {
+                invalid: Some(format!("build failed: {e}")),
+                disagree: rays.len(),
+                rays: rays.len(),
+                depth: 0,
+                largest_leaf: 0,
+            };
+        }
+    };
+    let q = r.bih.quality();
+    let invalid = r.bih.validate(scene).err().map(|v| v.to_string());
+    let disagree = if invalid.is_none() {
+        let tracer = Tracer::new(&r.bih, scene);
+        rays.iter()
+            .filter(|ray| check_ray(scene, &tracer, ray).is_err())
+            .count()
+    } else {
+        rays.len()
+    };
+    Examined {
+        invalid,
+        disagree,
+        rays: rays.len(),
+        depth: q.max_depth,
+        largest_leaf: q.max_leaf_triangles,
+    }
+}

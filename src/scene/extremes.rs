@@ -8,7 +8,8 @@
 //! triangles in a cluster 1e7 from the origin (where an `f32` step is 1);
 //! a dense cluster beside a few triangles 1e6 away; sizes mixed from 1e-6
 //! to 1e3; a flat scene; collinear triangles; point triangles; stacks of
-//! identical triangles; slivers (long and 1e-6 thin).
+//! identical triangles; slivers (long and 1e-6 thin); triangles in planes
+//! one `f32` step apart.
 
 use glam::Vec3;
 
@@ -34,6 +35,7 @@ pub const CASES: &[&str] = &[
     "points",
     "stacks",
     "slivers",
+    "planes one f32 step apart",
 ];
 
 /// The scene of case `name` (one of [`CASES`]), `None` for another name.
@@ -47,17 +49,25 @@ pub fn case(name: &str) -> Option<Scene> {
                 e => e.trim_start_matches("1e").parse().ok()?,
             };
             let s = 10f32.powi(exp);
-            random(N, &mut p, 0.05).map(|t| scaled(t, s, Vec3::ZERO)).collect()
+            random(N, &mut p, 0.05)
+                .map(|t| scaled(t, s, Vec3::ZERO))
+                .collect()
         }
         "tiny cluster at 1e7" => {
-            // 0.01 to 1 wide at 1e7 (an f32 step there is 1): most vertices
-            // round together, many triangles become degenerate.
+            // 2,000 triangles 0.01 to 8 wide within 4 units of (1e7, 1e7,
+            // 1e7), where an f32 step is 1: vertices round together (the
+            // smaller triangles become degenerate), centers coincide, and
+            // the global heuristic's halvings stop shrinking in f32.
             let at = Vec3::splat(1e7);
             (0..N)
                 .map(|i| {
-                    let c = p() * 64.0;
-                    let size = 0.01 + (i % 100) as f32 / 100.0;
-                    Triangle::new(at + c, at + c + (p() - 0.5) * size, at + c + (p() - 0.5) * size)
+                    let c = p() * 4.0;
+                    let size = 0.01 + (i % 100) as f32 * 0.08;
+                    Triangle::new(
+                        at + c,
+                        at + c + (p() - 0.5) * size,
+                        at + c + (p() - 0.5) * size,
+                    )
                 })
                 .collect()
         }
@@ -74,7 +84,13 @@ pub fn case(name: &str) -> Option<Scene> {
             })
             .collect(),
         "flat" => random(N, &mut p, 0.05)
-            .map(|t| Triangle::new(t.v[0] * Vec3::new(1.0, 1.0, 0.0), t.v[1] * Vec3::new(1.0, 1.0, 0.0), t.v[2] * Vec3::new(1.0, 1.0, 0.0)))
+            .map(|t| {
+                Triangle::new(
+                    t.v[0] * Vec3::new(1.0, 1.0, 0.0),
+                    t.v[1] * Vec3::new(1.0, 1.0, 0.0),
+                    t.v[2] * Vec3::new(1.0, 1.0, 0.0),
+                )
+            })
             .collect(),
         "collinear" => (0..N)
             .map(|_| {
@@ -99,6 +115,20 @@ pub fn case(name: &str) -> Option<Scene> {
                 let (c, d) = (p() * 10.0, (p() - 0.5).normalize_or(Vec3::X));
                 let side = d.any_orthonormal_vector() * 1e-6;
                 Triangle::new(c, c + d, c + side)
+            })
+            .collect(),
+        "planes one f32 step apart" => (0..N)
+            .map(|i| {
+                // 50 copies of a right triangle in each plane x = 1 + k
+                // ulp, k < 40: only x separates them, and its halvings
+                // reach boxes one f32 step wide whose middle rounds onto a
+                // face.
+                let x = f32::from_bits(1f32.to_bits() + (i % 40) as u32);
+                Triangle::new(
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x, 1.0, 0.0),
+                    Vec3::new(x, 0.0, 1.0),
+                )
             })
             .collect(),
         _ => return None,

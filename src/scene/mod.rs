@@ -10,8 +10,8 @@
 //! is made, with an error that names the element. Zero-area triangles are
 //! legal (real meshes have them); rays never hit them.
 
-mod obj;
 pub mod extremes;
+mod obj;
 pub mod procedural;
 pub(crate) mod rng;
 

@@ -1,0 +1,186 @@
+//! The numerical extremes (issue 15, item 4): every builder on every case
+//! of [`cellbih::scene::extremes`] — scales 1e-15 to 1e15, a tiny cluster
+//! 1e7 from the origin, a cluster beside geometry 1e6 away, mixed sizes,
+//! flat, collinear, point triangles, stacks, slivers — with the paper's
+//! settings, and the builders that build the quality knobs also with
+//! binned SAH and the empty-space cut-off. For each: valid or the first
+//! violation, rays that disagree with brute force (of N), depth, largest
+//! leaf, and the halvings `f32` could not make (the host recursion's count,
+//! the same tree as every builder of the paper's tree but ppe_approx).
+//!
+//! `cargo run --release --bin extremes -- [--rays 1000] [--out results]`
+//!
+//! Writes extremes.{csv,json}. `tests/extremes.rs` checks each case.
+
+use std::path::PathBuf;
+
+use clap::Parser;
+use serde_json::{Value, json};
+
+use cellbih::bih::{BihConfig, SplitChoice};
+use cellbih::build::BuilderKind;
+use cellbih::build::host::{PrimRef, build_items};
+use cellbih::cell::CellConfig;
+use cellbih::quality::agree::{examine, rays_for};
+use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
+use cellbih::scene::{Scene, extremes};
+
+#[derive(Parser)]
+struct Args {
+    /// Rays per case and builder, each checked against brute force.
+    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    rays: u64,
+    /// text (a table) or json (the rows).
+    #[arg(long, value_enum, default_value = "text")]
+    format: Format,
+    /// Directory for the CSV and JSON files.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+}
+
+/// The quality knobs' high end, run by the builders that build them.
+const KNOBS: BihConfig = BihConfig {
+    leaf_size: 12,
+    max_depth: 64,
+    split: SplitChoice::BinnedSah { bins: 16 },
+    empty_cut: Some(10),
+};
+const KNOBS_FLAGS: &str = "--split sah --empty-cut 10";
+
+fn main() {
+    let args = Args::parse();
+    cellbih::report::experiment_main("extremes", &args.out.clone(), || run(&args));
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let mut cell = CellConfig::ps3();
+    cell.checked = true;
+    let mut rows = Vec::new();
+    for &name in extremes::CASES {
+        let scene = extremes::case(name).ok_or(format!("no case {name}"))?;
+        let rays = rays_for(&scene, args.rays as usize, 11);
+        let runs = (BuilderKind::ALL
+            .iter()
+            .map(|&b| (b, BihConfig::default(), "")))
+        .chain(
+            (BuilderKind::ALL.iter())
+                .filter(|b| b.quality_knobs())
+                .map(|&b| (b, KNOBS, KNOBS_FLAGS)),
+        );
+        for (b, cfg, flags) in runs {
+            let e = examine(b, &cfg, &cell, &scene, &rays);
+            rows.push(json!({
+                "case": name, "triangles": scene.len(), "degenerate": scene.degenerate_count(),
+                "builder": b.name(), "setting": flags,
+                "valid": e.invalid.is_none(), "violation": e.invalid,
+                "disagree": e.disagree, "rays": e.rays, "depth": e.depth,
+                "largest_leaf": e.largest_leaf, "f32_stalls": stalls(&scene, &cfg),
+            }));
+        }
+    }
+    print_rows(args.format, &rows, print_table)?;
+    let keys = [
+        "case",
+        "triangles",
+        "degenerate",
+        "builder",
+        "setting",
+        "valid",
+        "violation",
+        "disagree",
+        "rays",
+        "depth",
+        "largest_leaf",
+        "f32_stalls",
+    ];
+    let io = |e: cellbih::report::OutputError| e.to_string();
+    write_rows_csv(
+        &output(&args.out, "extremes.csv").map_err(io)?,
+        &keys,
+        &rows,
+    )
+    .map_err(io)?;
+    let doc = json!({ "rows": rows, "note": "disagree: rays whose closest or any hit differs from brute force, of `rays`; f32_stalls: halvings of the global heuristic f32 could not make (host recursion)" });
+    write_json(&output(&args.out, "extremes.json").map_err(io)?, &doc).map_err(io)?;
+    let bad = rows
+        .iter()
+        .filter(|r| r["valid"] == false || r["disagree"] != 0)
+        .count();
+    eprintln!("written: {}/extremes.{{csv,json}}", args.out.display());
+    if bad > 0 {
+        return Err(format!(
+            "{bad} rows with an invalid tree or rays that disagree with brute force"
+        ));
+    }
+    Ok(())
+}
+
+/// The halvings `f32` could not make in the host recursion with `cfg`.
+fn stalls(scene: &Scene, cfg: &BihConfig) -> u64 {
+    let mut refs: Vec<PrimRef> = (scene.triangles.iter().enumerate())
+        .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
+        .collect();
+    build_items(&mut refs, scene.bounds(), cfg).1.f32_stalls
+}
+
+/// One line per case: how many of its builder runs were valid and agreed,
+/// the worst disagreement, depth and largest leaf over the builders, and
+/// the stalls of the paper's tree and of the knobs' tree.
+fn print_table(rows: &[Value]) {
+    println!(
+        "{:<26} {:>6} {:>6} {:>9} {:>10} {:>9} {:>9} {:>13}",
+        "case", "tris", "degen", "valid", "disagree", "depth", "leaf max", "f32 stalls"
+    );
+    for &name in extremes::CASES {
+        let of: Vec<&Value> = rows.iter().filter(|r| r["case"] == name).collect();
+        if of.is_empty() {
+            continue;
+        }
+        let n = |r: &Value, k: &str| r[k].as_u64().unwrap_or(0);
+        let valid = of.iter().filter(|r| r["valid"] == true).count();
+        let worst = of.iter().map(|r| n(r, "disagree")).max().unwrap_or(0);
+        let range = |k: &str| {
+            let (lo, hi) = (
+                of.iter().map(|r| n(r, k)).min().unwrap_or(0),
+                of.iter().map(|r| n(r, k)).max().unwrap_or(0),
+            );
+            if lo == hi {
+                format!("{lo}")
+            } else {
+                format!("{lo}-{hi}")
+            }
+        };
+        let st = |flags: &str| {
+            of.iter()
+                .find(|r| r["setting"] == flags)
+                .map_or(0, |r| n(r, "f32_stalls"))
+        };
+        println!(
+            "{:<26} {:>6} {:>6} {:>9} {:>10} {:>9} {:>9} {:>13}",
+            name,
+            n(of[0], "triangles"),
+            n(of[0], "degenerate"),
+            format!("{valid}/{}", of.len()),
+            format!("{worst}/{}", n(of[0], "rays")),
+            range("depth"),
+            range("largest_leaf"),
+            format!("{} / {}", st(""), st(KNOBS_FLAGS)),
+        );
+        for r in of
+            .iter()
+            .filter(|r| r["valid"] == false || n(r, "disagree") > 0)
+        {
+            println!(
+                "    {} {}: {}",
+                r["builder"].as_str().unwrap_or(""),
+                r["setting"].as_str().unwrap_or(""),
+                r["violation"]
+            );
+        }
+    }
+    println!(
+        "valid: builder runs whose tree is valid, of every builder with the paper's settings and host, ppe_naive \
+         with {KNOBS_FLAGS}; disagree: the most rays of one run whose hit differs from brute force; depth, leaf \
+         max: over the runs; f32 stalls: halvings the global heuristic could not make in f32 (paper's tree / knobs' tree)"
+    );
+}
