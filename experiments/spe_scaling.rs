@@ -247,6 +247,9 @@ fn row(
         "jobs_taken": sim.spe_work.iter().map(|w| w.taken).sum::<u64>(),
         "jobs_stolen": sim.spe_work.iter().map(|w| w.stolen).sum::<u64>(),
         "arena_waste": arena_unused as f64 / arena_slots.max(1) as f64,
+        "memory_mib": sim.footprint.total as f64 / (1024.0 * 1024.0),
+        "footprint": sim.footprint.by_purpose.iter()
+            .map(|(p, b)| json!({ "purpose": p.name(), "bytes": b })).collect::<Vec<_>>(),
         "memory_utilisation": bytes as f64 / (cycles * peak),
         "sah_over_baseline": r.bih.quality().sah_cost / base_sah,
         "phases": sim.phase_ms().iter().map(|(p, ms)| json!({ "phase": p, "ms": ms })).collect::<Vec<_>>(),
@@ -324,6 +327,7 @@ fn run(args: &Args) -> Result<(), String> {
         "jobs_taken",
         "jobs_stolen",
         "arena_waste",
+        "memory_mib",
         "memory_utilisation",
         "sah_over_baseline",
         "ray_nodes",
@@ -440,7 +444,7 @@ fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error
 
 fn print_table(rows: &[Value]) {
     println!(
-        "{:<18} {:<58} {:>4} {:>10} {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8}",
+        "{:<18} {:<58} {:>4} {:>10} {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8} {:>7}",
         "scene",
         "builder",
         "SPEs",
@@ -454,12 +458,13 @@ fn print_table(rows: &[Value]) {
         "atomic",
         "lost",
         "mem",
-        "host ms"
+        "host ms",
+        "MiB"
     );
     let pct = |v: &Value| format!("{:.0}%", v.as_f64().unwrap_or(0.0) * 100.0);
     for r in rows {
         println!(
-            "{:<18} {:<58} {:>4} {:>10.2} {:>8.2} {:>6.2} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8.0}",
+            "{:<18} {:<58} {:>4} {:>10.2} {:>8.2} {:>6.2} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8.0} {:>7.1}",
             r["scene"].as_str().unwrap_or(""),
             r["builder"].as_str().unwrap_or(""),
             r["spes"],
@@ -474,11 +479,13 @@ fn print_table(rows: &[Value]) {
             r["reservations_lost"],
             pct(&r["memory_utilisation"]),
             r["host_ms"].as_f64().unwrap_or(0.0),
+            r["memory_mib"].as_f64().unwrap_or(0.0),
         );
     }
     println!(
         "speedup over spe_bfs on one SPE, simulated PS3 time; busy/DMA/sync/idle/atomic: mean share \
          of the run per SPE (sync: mailboxes and signals, a barrier's wait among them); lost: \
-         reservations lost; mem: memory-interface utilisation; host ms: the emulation, one thread"
+         reservations lost; mem: memory-interface utilisation; host ms: the emulation, one thread; \
+         MiB: main memory the build used (by purpose in the JSON's footprint)"
     );
 }

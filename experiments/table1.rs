@@ -125,6 +125,7 @@ fn run(args: &Args) -> Result<(), String> {
                 .simulated
                 .expect("every Table 1 method runs on the emulated Cell");
             let ms = sim.run.ms;
+            let mib = sim.footprint.total as f64 / MIB;
             let naive = *naive_ms.get_or_insert(ms);
             let paper_naive = paper[0].expect("the paper's naive figure");
             rows.push(json!({
@@ -139,6 +140,7 @@ fn run(args: &Args) -> Result<(), String> {
                 "paper_speedup": paper[m].map(|p| paper_naive / p),
                 "host_ms": r.host_time.as_secs_f64() * 1e3,
                 "nodes": r.bih.nodes.len(),
+                "memory_mib": mib,
             }));
         }
         // Section 5's strategies on the PS3's six SPEs, beside the paper's
@@ -149,16 +151,14 @@ fn run(args: &Args) -> Result<(), String> {
             let r = b
                 .build_on(&scene, &cfg, &six)
                 .map_err(|e| format!("{name}, {}: {e}", b.name()))?;
-            let ms = r
-                .simulated
-                .expect("a multi-SPE builder runs on the Cell")
-                .run
-                .ms;
+            let sim = r.simulated.expect("a multi-SPE builder runs on the Cell");
+            let (ms, mib) = (sim.run.ms, sim.footprint.total as f64 / MIB);
             rows.push(json!({
                 "model": name, "triangles": scene.len(), "stand_in": stand_in,
                 "method": format!("{} (6 SPEs)", b.name()), "simulated_ms": ms,
                 "paper_ms": null, "ratio": null, "speedup": naive / ms, "paper_speedup": null,
                 "host_ms": r.host_time.as_secs_f64() * 1e3, "nodes": r.bih.nodes.len(),
+                "memory_mib": mib,
             }));
         }
     }
@@ -180,6 +180,7 @@ fn run(args: &Args) -> Result<(), String> {
             "speedup",
             "paper_speedup",
             "host_ms",
+            "memory_mib",
         ],
         &rows,
     )
@@ -189,10 +190,22 @@ fn run(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
+/// Bytes per MiB, for the footprint column (main memory in use at the
+/// end of the build: every buffer by purpose, see `cellbih build`).
+const MIB: f64 = 1024.0 * 1024.0;
+
 fn print_table(rows: &[serde_json::Value]) {
     println!(
-        "{:<24} {:<24} {:>12} {:>10} {:>11} {:>8} {:>8} {:>9}",
-        "model", "method", "ours (ms)", "paper (ms)", "ours/paper", "speedup", "paper", "host (ms)"
+        "{:<24} {:<24} {:>12} {:>10} {:>11} {:>8} {:>8} {:>9} {:>8}",
+        "model",
+        "method",
+        "ours (ms)",
+        "paper (ms)",
+        "ours/paper",
+        "speedup",
+        "paper",
+        "host (ms)",
+        "MiB"
     );
     let mut last = "";
     for r in rows {
@@ -213,7 +226,7 @@ fn print_table(rows: &[serde_json::Value]) {
             None => format!("{:>w$}", "—"),
         };
         println!(
-            "{:<24} {:<24} {:>12.1} {} {} {:>8.2} {} {:>9.0}",
+            "{:<24} {:<24} {:>12.1} {} {} {:>8.2} {} {:>9.0} {:>8.1}",
             label,
             r["method"].as_str().unwrap_or(""),
             r["simulated_ms"].as_f64().unwrap_or(0.0),
@@ -222,6 +235,7 @@ fn print_table(rows: &[serde_json::Value]) {
             r["speedup"].as_f64().unwrap_or(0.0),
             opt("paper_speedup", 8, 2),
             r["host_ms"].as_f64().unwrap_or(0.0),
+            r["memory_mib"].as_f64().unwrap_or(0.0),
         );
     }
     let mut models: Vec<&str> = rows.iter().filter_map(|r| r["model"].as_str()).collect();
@@ -253,6 +267,6 @@ fn print_table(rows: &[serde_json::Value]) {
         );
     }
     println!(
-        "OOM: the paper's build ran out of memory; —: not in the paper (section 5's strategies, on 6 SPEs). Simulated ms are deterministic; host ms is the emulation's wall time, one thread."
+        "OOM: the paper's build ran out of memory; —: not in the paper (section 5's strategies, on 6 SPEs). Simulated ms are deterministic; host ms is the emulation's wall time, one thread; MiB: the build's main memory (every buffer; by purpose: cellbih build)."
     );
 }

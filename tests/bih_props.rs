@@ -8,6 +8,7 @@ mod common;
 use cellbih::bih::{BihConfig, Ray, RayStats, SplitChoice, Tracer};
 use cellbih::build::BuilderKind;
 use cellbih::scene::{Scene, Triangle};
+use cellbih::strategy::footprint::{widest_level, work_ppe_jobs};
 use common::{check_ray, make_scene, rays_for, scene_strategy};
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;
@@ -23,6 +24,14 @@ fn check_scene(scene: &Scene, cfg: &BihConfig, rays: usize) -> Result<(), TestCa
             continue;
         }
         let r = built.map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
+        // The widest level within the bound WorkAPPE is sized by.
+        let widest = widest_level(&r.bih);
+        prop_assert!(
+            widest <= work_ppe_jobs(scene.len(), cfg.leaf_size) as u64,
+            "{}: {}",
+            b,
+            widest
+        );
         r.bih
             .validate(scene)
             .map_err(|v| TestCaseError::fail(format!("{b}: {v}")))?;

@@ -216,9 +216,11 @@ impl BuilderKind {
             Run::Host(build) => (build(scene, region, cfg), None),
             Run::Cell(spawn) => {
                 let b = strategy::run_in(spawn, scene, region, cfg, cell, knobs)?;
+                let footprint = strategy::footprint::Footprint::of(&b.run, &b.bih);
                 (
                     b.bih,
                     Some(Simulated {
+                        footprint,
                         run: b.run,
                         stats: b.stats,
                         spe_work: b.spe_work,
@@ -255,6 +257,8 @@ pub struct Simulated {
     pub phases: Vec<(&'static str, u64)>,
     /// The timeline, if the Cell's config asked for it.
     pub trace: Option<crate::cell::Trace>,
+    /// Main memory by purpose, local-store high-water marks.
+    pub footprint: strategy::footprint::Footprint,
 }
 
 impl Simulated {

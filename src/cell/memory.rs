@@ -68,6 +68,18 @@ pub struct MainMemory {
     bytes: Vec<u8>,
     capacity: u64,
     high_water: u64,
+    /// Every allocation in order: its name and size (what a footprint by
+    /// purpose is made of).
+    log: Vec<Allocation>,
+}
+
+/// One allocation of main memory: the name its program gave it, its size,
+/// and the alignment padding before it.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Allocation {
+    pub what: String,
+    pub bytes: u64,
+    pub padding: u64,
 }
 
 impl MainMemory {
@@ -76,6 +88,7 @@ impl MainMemory {
             bytes: Vec::new(),
             capacity,
             high_water: 0,
+            log: Vec::new(),
         }
     }
 
@@ -89,16 +102,37 @@ impl MainMemory {
         let start = (BASE + self.bytes.len() as u64).next_multiple_of(align);
         let end = start + size;
         if end - BASE > self.capacity {
+            let mut by_size: Vec<&Allocation> = self.log.iter().collect();
+            by_size.sort_by_key(|a| std::cmp::Reverse(a.bytes));
+            let largest: Vec<String> = (by_size.iter().take(3))
+                .map(|a| format!("{} {} bytes", a.what, a.bytes))
+                .collect();
             return Err(CellError::OutOfMemory {
                 what: what.to_string(),
                 asked: size,
                 in_use: self.bytes.len() as u64,
                 capacity: self.capacity,
+                largest: if largest.is_empty() {
+                    "nothing yet".into()
+                } else {
+                    largest.join(", ")
+                },
             });
         }
+        let padding = start - (BASE + self.bytes.len() as u64);
         self.bytes.resize((end - BASE) as usize, 0);
         self.high_water = self.high_water.max(end - BASE);
+        self.log.push(Allocation {
+            what: what.to_string(),
+            bytes: size,
+            padding,
+        });
         Ok(Ea(start))
+    }
+
+    /// Every allocation so far, in order.
+    pub fn allocations(&self) -> &[Allocation] {
+        &self.log
     }
 
     /// Bytes allocated so far.

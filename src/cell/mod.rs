@@ -74,7 +74,7 @@ use thiserror::Error;
 pub use clock::Cycles;
 pub use cost::{Bandwidth, CostModel, KernelRates};
 pub use local_store::LsAddr;
-pub use memory::{Ea, MainMemory};
+pub use memory::{Allocation, Ea, MainMemory};
 pub use mfc::{ListElement, MAX_LIST_ELEMENTS, MAX_TRANSFER, Order, WaitMode};
 pub use ppe::Ppe;
 pub use spe::{Reservation, Spe};
@@ -174,13 +174,17 @@ pub enum CellError {
         "main memory: {len} bytes at {ea} are outside what was allocated (up to {allocated_end})"
     )]
     BadAddress { ea: Ea, len: u64, allocated_end: Ea },
-    #[error("main memory full: {what} asked {asked} bytes, {in_use} of {capacity} in use")]
+    #[error(
+        "main memory full: {what} asked {asked} bytes, {in_use} of {capacity} in use (largest so far: {largest})"
+    )]
     OutOfMemory {
         /// The buffer that asked.
         what: String,
         asked: u64,
         in_use: u64,
         capacity: u64,
+        /// The largest allocations so far, by name and size.
+        largest: String,
     },
     #[error("deadlock at cycle {}: every core is blocked: {}", at.0, waits.join("; "))]
     Deadlock { at: Cycles, waits: Vec<String> },
@@ -198,6 +202,10 @@ pub struct RunReport {
     pub ms: f64,
     /// PPE first, then SPE 0, 1, ….
     pub cores: Vec<(String, CoreCounters)>,
+    /// Every allocation of main memory, in order.
+    pub memory: Vec<Allocation>,
+    /// Main memory in use at the end (allocations and their padding).
+    pub memory_bytes: u64,
 }
 
 /// The machine: memory, cores, and the programs spawned on them.
@@ -293,6 +301,8 @@ impl Cell {
                 .enumerate()
                 .map(|(i, c)| (machine::core_name(i), c.counters.clone()))
                 .collect(),
+            memory: m.mem.allocations().to_vec(),
+            memory_bytes: m.mem.in_use(),
         })
     }
 

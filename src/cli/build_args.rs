@@ -51,6 +51,10 @@ pub struct BuildArgs {
     /// whole Cell). Builders that use fewer leave the others idle.
     #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
     pub spes: u64,
+    /// Main memory of the emulated Cell, MiB (a PS3 has 256). A build
+    /// that does not fit fails, naming the buffer.
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u64).range(1..=4096))]
+    pub memory_mib: u64,
     /// How the Cell is emulated: checked (timed, every DMA rule and race
     /// checked: the reference), timed (the same cycles, no race checks),
     /// or functional (no timing: fastest, for correctness runs).
@@ -187,6 +191,7 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
         empty_cut: args.empty_cut,
     };
     let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
+    cell.main_memory_bytes = args.memory_mib * 1024 * 1024;
     cell.checked = matches!(args.mode, Mode::Checked);
     if let Mode::Functional = args.mode {
         cell.cost = cellbih::cell::CostModel::functional();

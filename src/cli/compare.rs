@@ -30,6 +30,8 @@ pub struct Row {
     pub primary: RayCost,
     pub incoherent: RayCost,
     pub tree_bytes: usize,
+    /// Emulated builders: main memory the build used (every buffer).
+    pub main_memory: Option<u64>,
 }
 
 /// Builds `s` with every builder on a Cell of `cell`, checks each tree and
@@ -67,6 +69,7 @@ pub fn rows(
             primary,
             incoherent,
             tree_bytes: q.memory_bytes,
+            main_memory: r.simulated.as_ref().map(|m| m.footprint.total),
         });
         last = Some(r);
         bar.inc(1);
@@ -94,7 +97,7 @@ pub fn print(s: &Scene, spes: usize, rows: &[Row], format: Format) {
                     "nodes": r.nodes, "depth": r.depth, "sah_cost": r.sah,
                     "ray_nodes": r.primary.nodes, "ray_triangles": r.primary.triangles,
                     "mrays_per_s": r.primary.mrays_per_s, "incoherent": r.incoherent,
-                    "tree_bytes": r.tree_bytes,
+                    "tree_bytes": r.tree_bytes, "main_memory_bytes": r.main_memory,
                 })
             })
             .collect();
@@ -108,7 +111,7 @@ pub fn print(s: &Scene, spes: usize, rows: &[Row], format: Format) {
         .max()
         .unwrap_or(0);
     println!(
-        "{:<w$} {:>9} {:>8} {:>8} {:>8} {:>6} {:>9} {:>11} {:>8} {:>11} {:>8} {:>9}",
+        "{:<w$} {:>9} {:>8} {:>8} {:>8} {:>6} {:>9} {:>11} {:>8} {:>11} {:>8} {:>9} {:>9}",
         "builder",
         "Cell ms",
         "speedup",
@@ -120,12 +123,13 @@ pub fn print(s: &Scene, spes: usize, rows: &[Row], format: Format) {
         "Mrays/s",
         "incoherent",
         "Mrays/s",
-        "tree KiB"
+        "tree KiB",
+        "Cell MiB"
     );
     for r in rows {
         let opt = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |v| format!("{v:.d$}"));
         println!(
-            "{:<w$} {:>9} {:>8} {:>8.2} {:>8} {:>6} {:>9.2} {:>11} {:>8.2} {:>11} {:>8.2} {:>9.1}",
+            "{:<w$} {:>9} {:>8} {:>8.2} {:>8} {:>6} {:>9.2} {:>11} {:>8.2} {:>11} {:>8.2} {:>9.1} {:>9}",
             r.builder.name(),
             opt(r.simulated_ms, 2),
             opt(speedup(r), 2),
@@ -137,13 +141,15 @@ pub fn print(s: &Scene, spes: usize, rows: &[Row], format: Format) {
             r.primary.mrays_per_s,
             format!("{:.1}+{:.1}", r.incoherent.nodes, r.incoherent.triangles),
             r.incoherent.mrays_per_s,
-            r.tree_bytes as f64 / 1024.0
+            r.tree_bytes as f64 / 1024.0,
+            opt(r.main_memory.map(|b| b as f64 / (1024.0 * 1024.0)), 2),
         );
     }
     println!(
         "\ntrees valid; \"Cell ms\": simulated time on the PS3 model (multi-SPE builders on {spes} SPEs); \
          speedup over spe_bfs (one SPE, the paper's baseline); primary, incoherent: nodes visited + \
          triangles tested per ray (primary rays of the render camera; 16,384 rays from random points \
-         in the scene box in random directions), closest hit; host figures: this machine, one thread"
+         in the scene box in random directions), closest hit; host figures: this machine, one thread; \
+         tree KiB: nodes and triangle ids; Cell MiB: main memory the emulated build used (every buffer)"
     );
 }

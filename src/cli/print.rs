@@ -7,6 +7,7 @@ use cellbih::bih::Tracer;
 use cellbih::build::BuildReport;
 use cellbih::quality::rays::RaySets;
 use cellbih::scene::Scene;
+use cellbih::strategy::footprint::{Footprint, Purpose, work_ppe_jobs};
 
 use super::{Format, Res};
 
@@ -47,6 +48,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
             json!({
                 "scene": s.name, "triangles": s.len(), "builder": r.builder.name(),
                 "host_ms": ms, "quality": q,
+                "footprint": sim.map(|m| &m.footprint),
                 "rays": { "primary": primary, "incoherent": incoherent },
                 "simulated_ms": sim.map(|m| m.run.ms),
                 "spes": sim.map(|m| m.run.cores.len() - 1),
@@ -105,8 +107,12 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                     c.nodes, c.triangles, c.mrays_per_s
                 );
             }
-            println!("memory      {} bytes", q.memory_bytes);
+            println!(
+                "tree        {} bytes (nodes and triangle ids)",
+                q.memory_bytes
+            );
             if let Some(m) = sim {
+                print_footprint(&m.footprint, s.len(), r.bih.config.leaf_size);
                 print_cores(m);
                 let phases = m.phase_ms();
                 if !phases.is_empty() {
@@ -118,6 +124,34 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                 }
             }
         }
+    }
+}
+
+/// Main memory by purpose, the widest level against the paper's sizing of
+/// WorkAPPE, the local stores' high-water marks.
+fn print_footprint(f: &Footprint, n: usize, leaf: u32) {
+    let mb = |b: u64| b as f64 / (1024.0 * 1024.0);
+    let parts: Vec<String> = (f.by_purpose.iter())
+        .filter(|(_, b)| *b > 0)
+        .map(|(p, b)| format!("{} {:.2}", p.name(), mb(*b)))
+        .collect();
+    println!(
+        "main memory {:.2} MiB: {} MiB; {:.2} MiB of node slots unused",
+        mb(f.total),
+        parts.join(", "),
+        mb(f.unused_node_bytes)
+    );
+    let hw = f.ls_high_water.iter().max().copied().unwrap_or(0);
+    println!(
+        "            local store high-water {} KiB (most of the SPEs)",
+        hw / 1024
+    );
+    if f.bytes(Purpose::WorkPpe) > 0 {
+        println!(
+            "            widest level {} jobs; WorkAPPE/WorkBPPE sized for {} (the paper's sizing: {n})",
+            f.work_ppe_needed,
+            work_ppe_jobs(n, leaf),
+        );
     }
 }
 

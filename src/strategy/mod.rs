@@ -9,6 +9,7 @@
 pub mod arena;
 pub mod coop;
 pub mod fig1;
+pub mod footprint;
 pub mod layout;
 pub mod ppe_approx;
 pub mod ppe_naive;

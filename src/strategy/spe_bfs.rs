@@ -97,9 +97,10 @@ fn spawn(
     out: Rc<RefCell<Output>>,
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
-    // WorkAPPE and WorkBPPE: room for as many jobs as triangles, the upper
-    // bound of the jobs of one level.
-    let work_ppe_bytes = WorkQueue::<Job>::spill_bytes(n);
+    // WorkAPPE and WorkBPPE: room for the widest level the tree can have
+    // (the paper sized them for as many jobs as triangles, 6.5 times more
+    // with leaves of 12; see strategy/footprint.rs).
+    let work_ppe_bytes = WorkQueue::<Job>::spill_bytes_for(n, cfg.leaf_size);
     let work_a_ppe = cell.memory_mut().alloc("WorkAPPE", work_ppe_bytes, 128)?;
     let work_b_ppe = cell.memory_mut().alloc("WorkBPPE", work_ppe_bytes, 128)?;
     let work_ppe = [work_a_ppe, work_b_ppe];
@@ -108,7 +109,14 @@ fn spawn(
 
     cell.spawn_spe(0, move |spe| async move {
         let paper = Knobs::PAPER;
-        let mut b = SpeBuilder::new(&spe, tris, work_ppe, cfg, BlockSource::Mailbox, &paper)?;
+        let mut b = SpeBuilder::new(
+            &spe,
+            tris,
+            (work_ppe, work_ppe_bytes),
+            cfg,
+            BlockSource::Mailbox,
+            &paper,
+        )?;
         let all = b.bounds_of_all(n).await?;
         b.run(Job::new(0, n, 0, 0, region, &all)).await?;
         *spe_stats.borrow_mut() = b.stats;
@@ -166,7 +174,7 @@ enum Step {
 pub(super) struct SpeBuilder<'a> {
     spe: &'a Spe,
     tris: Ea,
-    cfg: BihConfig,
+    pub(super) cfg: BihConfig,
     pub(super) fig1: Fig1Buffers,
     /// `WorkA`/`WorkB` and their spill areas.
     pub(super) queue: WorkQueue<'a, Job>,
@@ -204,7 +212,7 @@ impl<'a> SpeBuilder<'a> {
     pub(super) fn new(
         spe: &'a Spe,
         tris: Ea,
-        work_ppe: [Ea; 2],
+        (work_ppe, work_ppe_bytes): ([Ea; 2], u64),
         cfg: BihConfig,
         blocks: BlockSource,
         knobs: &Knobs,
@@ -214,7 +222,7 @@ impl<'a> SpeBuilder<'a> {
             tris,
             cfg,
             fig1: Fig1Buffers::alloc(spe)?,
-            queue: WorkQueue::new(spe, work_ppe, knobs.double_buffer)?,
+            queue: WorkQueue::new(spe, work_ppe, work_ppe_bytes, knobs.double_buffer)?,
             arena: ObjectArena::new(spe, blocks)?,
             foreign_depth: None,
             dealt_starts: Vec::new(),

@@ -66,8 +66,11 @@ fn spawn(
     } else {
         spes
     };
-    let per_part_slack = 2 * WORK_BYTES as u64;
-    let work_bytes = 2 * (WorkQueue::<Job>::spill_bytes(n) + parts as u64 * per_part_slack);
+    // Each part's area rounds up to whole buffers and adds one; its bound
+    // adds two jobs.
+    let per_part_slack = 3 * WORK_BYTES as u64;
+    let work_bytes =
+        2 * (WorkQueue::<Job>::spill_bytes_for(n, cfg.leaf_size) + parts as u64 * per_part_slack);
     let work = mem().alloc("WorkAPPE/WorkBPPE of every SPE", work_bytes, 128)?;
     let records = mem().alloc("deal records", spes as u64 * RECORD_BYTES, 128)?;
     let dealt_jobs = mem().alloc("dealt jobs", WORK_BYTES as u64, 128)?;
@@ -75,7 +78,7 @@ fn spawn(
     for id in 0..spes {
         let out = out.clone();
         cell.spawn_spe(id, move |spe| async move {
-            let mut b = SpeBuilder::new(&spe, tris, [work, work], cfg, blocks, &knobs)?;
+            let mut b = SpeBuilder::new(&spe, tris, ([work, work], 0), cfg, blocks, &knobs)?;
             let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
             let tag = spe.tag("deal")?;
             let mut helper = Coop::new(&spe, common.coop, knobs.prefetch)?;
@@ -104,7 +107,7 @@ fn spawn(
                 };
                 if let Some((jobs, depth, areas)) = own {
                     b.arena.renew(blocks);
-                    b.queue.set_spill(areas);
+                    b.queue.set_spill(areas, areas[1].0 - areas[0].0);
                     b.foreign_depth = Some(depth);
                     let level = b.queue.restart_local(&jobs)?;
                     b.levels(level, None).await?;
@@ -130,7 +133,7 @@ fn spawn(
                         take_and_steal(&spe, &mut b, spes, work, record, records, tag).await?;
                     out.borrow_mut().spe_work[id].stolen = stolen;
                 } else if count > 0 {
-                    b.queue.set_spill([Ea(a), Ea(bb)]);
+                    b.queue.set_spill([Ea(a), Ea(bb)], bb - a);
                     b.foreign_depth = Some(depth as u32);
                     b.levels(Level::InMemory(count as usize), None).await?;
                     let count = b.arena.allocated();
@@ -178,7 +181,8 @@ async fn deal(
     let mut at = work;
     for (to, hand) in hands.into_iter().enumerate() {
         let triangles: usize = hand.iter().map(|j| j.count as usize).sum();
-        let area = WorkQueue::<Job>::spill_bytes(triangles.max(1)) + WORK_BYTES as u64;
+        let area = WorkQueue::<Job>::spill_bytes_for(triangles.max(1), b.cfg.leaf_size)
+            + WORK_BYTES as u64;
         let areas = [at, at.offset(area)];
         at = at.offset(2 * area);
         if to == 0 {
@@ -295,12 +299,13 @@ async fn take_and_steal(
         unreachable!("four words")
     };
     let (count, lists) = (count as usize, Ea(lists));
-    b.queue.set_spill([Ea(jobs_ea), Ea(jobs_ea)]);
+    b.queue.set_spill([Ea(jobs_ea), Ea(jobs_ea)], 0);
     let jobs = b.queue.load(Level::InMemory(count), 0).await?;
     let mut areas = Vec::with_capacity(count);
     let mut at = work;
     for j in &jobs {
-        let area = WorkQueue::<Job>::spill_bytes(j.count as usize) + WORK_BYTES as u64;
+        let area = WorkQueue::<Job>::spill_bytes_for(j.count as usize, b.cfg.leaf_size)
+            + WORK_BYTES as u64;
         areas.push([at, at.offset(area)]);
         at = at.offset(2 * area);
     }
@@ -313,7 +318,7 @@ async fn take_and_steal(
             break;
         };
         stolen += from_other as u64;
-        b.queue.set_spill(areas[k]);
+        b.queue.set_spill(areas[k], areas[k][1].0 - areas[k][0].0);
         let level = b.queue.restart_local(&jobs[k..k + 1])?;
         b.levels(level, None).await?;
     }

@@ -55,6 +55,8 @@ pub const BUILDER: Builder = Builder::multi_spe(
 struct Queue {
     /// The two level arrays (the shared `WorkAPPE`/`WorkBPPE`).
     levels: [Ea; 2],
+    /// Bytes of each level's array.
+    level_bytes: u64,
     /// Jobs each level array holds.
     capacity: u32,
     /// Words 0 and 1: the next job to take, and the level's job count.
@@ -84,9 +86,10 @@ fn spawn(
     let common = Common::alloc(cell, BUILDER.name, tris, n, &knobs, &out)?;
     let spes = cell.config().spes;
     // A level's jobs: two per job of the level before with more than a
-    // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1);
-    // the level handed over from the top is under 32 jobs per SPE.
-    let jobs = (2 * (n / (cfg.leaf_size as usize + 1))).max(32 * spes);
+    // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1)
+    // (footprint::work_ppe_jobs); the level handed over from the top is
+    // under 32 jobs per SPE.
+    let jobs = super::footprint::work_ppe_jobs(n, cfg.leaf_size).max(32 * spes);
     let capacity = u32::try_from(jobs).map_err(|_| {
         CellError::Config(format!(
             "spe_bfs_shared: {n} triangles are too many for one queue"
@@ -101,6 +104,7 @@ fn spawn(
     let arrivals = mem().alloc("shared job queue: arrivals line", 128, 128)?;
     let queue = Queue {
         levels: [level_a, level_b],
+        level_bytes,
         capacity,
         take,
         push,
@@ -110,7 +114,14 @@ fn spawn(
     for id in 0..spes {
         let out = out.clone();
         cell.spawn_spe(id, move |spe| async move {
-            let mut b = SpeBuilder::new(&spe, tris, queue.levels, cfg, common.blocks, &knobs)?;
+            let mut b = SpeBuilder::new(
+                &spe,
+                tris,
+                (queue.levels, queue.level_bytes),
+                cfg,
+                common.blocks,
+                &knobs,
+            )?;
             let mut helper = Coop::new(&spe, common.coop, knobs.prefetch)?;
             let line = spe.ls_alloc(128, 128)?;
             let mut work = SpeWork::default();

@@ -61,6 +61,9 @@ pub struct WorkQueue<'a, J> {
     prefetched: Option<usize>,
     /// `WorkAPPE` is `work_ppe[a_ppe]`, `WorkBPPE` the other.
     work_ppe: [Ea; 2],
+    /// Bytes each of `WorkAPPE` and `WorkBPPE` holds: a level that would
+    /// spill past it is an error, not a write over the next buffer.
+    work_ppe_bytes: u64,
     a_ppe: usize,
     /// Jobs in `WorkB` now, and blocks of it written to `WorkBPPE` this level.
     b_len: usize,
@@ -82,10 +85,23 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         (jobs.div_ceil(Self::PER_BUFFER) * WORK_BYTES as usize) as u64
     }
 
+    /// Bytes `WorkAPPE` (and `WorkBPPE`) need for a subtree of `triangles`
+    /// with leaves of `leaf_size`: room for the widest level it can have
+    /// ([`super::footprint::work_ppe_jobs`]), not for one job per triangle
+    /// as the paper sizes them.
+    pub fn spill_bytes_for(triangles: usize, leaf_size: u32) -> u64 {
+        Self::spill_bytes(super::footprint::work_ppe_jobs(triangles, leaf_size))
+    }
+
     /// Allocates `WorkA` and `WorkB` in `spe`'s local store (and their
     /// second buffers if `double`); `work_ppe` are `WorkAPPE` and
-    /// `WorkBPPE` in main memory.
-    pub fn new(spe: &'a Spe, work_ppe: [Ea; 2], double: bool) -> Result<Self, CellError> {
+    /// `WorkBPPE` in main memory, `bytes` each.
+    pub fn new(
+        spe: &'a Spe,
+        work_ppe: [Ea; 2],
+        bytes: u64,
+        double: bool,
+    ) -> Result<Self, CellError> {
         let buffers = if double { 4 } else { 2 };
         let work = (0..buffers)
             .map(|_| spe.ls_alloc(WORK_BYTES, 128))
@@ -103,6 +119,7 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
             a_next: if double { 3 } else { 0 },
             prefetched: None,
             work_ppe,
+            work_ppe_bytes: bytes,
             a_ppe: 0,
             b_len: 0,
             b_spilled: 0,
@@ -128,9 +145,11 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         Ok(Level::Local(1))
     }
 
-    /// Points `WorkAPPE`/`WorkBPPE` at other areas (between levels).
-    pub fn set_spill(&mut self, work_ppe: [Ea; 2]) {
+    /// Points `WorkAPPE`/`WorkBPPE` at other areas of `bytes` each
+    /// (between levels).
+    pub fn set_spill(&mut self, work_ppe: [Ea; 2], bytes: u64) {
         self.work_ppe = work_ppe;
+        self.work_ppe_bytes = bytes;
         self.a_ppe = 0;
     }
 
@@ -303,7 +322,17 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
                 s.to.offset(place as u64 * size_of::<J>() as u64)
             }
             None => {
-                self.work_ppe[1 - self.a_ppe].offset((self.b_spilled * WORK_BYTES as usize) as u64)
+                let at = (self.b_spilled * WORK_BYTES as usize) as u64;
+                if at + bytes as u64 > self.work_ppe_bytes {
+                    return Err(CellError::Program {
+                        core: format!("SPE {}", self.spe.id()),
+                        msg: format!(
+                            "WorkBPPE holds {} bytes; the level being built needs more",
+                            self.work_ppe_bytes
+                        ),
+                    });
+                }
+                self.work_ppe[1 - self.a_ppe].offset(at)
             }
         };
         let (b, tag) = (self.work[self.b[0]], self.tag(self.b[0]));

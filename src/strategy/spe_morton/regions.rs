@@ -122,7 +122,8 @@ impl Program<'_> {
         let cap = self.ls_capacity();
         let largest = sorted.first().map_or(0, |j| j.count as usize);
         self.spill_per_spe = match largest > cap {
-            true => (2 * WorkQueue::<Job>::spill_bytes(largest)).next_multiple_of(SPILL_UNIT),
+            true => (2 * WorkQueue::<Job>::spill_bytes_for(largest, self.cfg.leaf_size))
+                .next_multiple_of(SPILL_UNIT),
             false => 0,
         };
         self.spe.write_out_mbox(sorted.len() as u32).await;
@@ -276,7 +277,8 @@ impl Program<'_> {
         // Too large for the local store: the baseline's breadth-first loop,
         // its WorkAPPE/WorkBPPE in this SPE's part of the spill area.
         let mine = self.tables[3].offset(self.spe.id() as u64 * self.spill_per_spe);
-        let work_ppe = [mine, mine.offset(self.spill_per_spe / 2)];
+        let half = self.spill_per_spe / 2;
+        let work_ppe = ([mine, mine.offset(half)], half);
         let mark = self.spe.ls_mark();
         let mut b = SpeBuilder::new(
             self.spe,

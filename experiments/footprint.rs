@@ -1,0 +1,196 @@
+//! Memory modelled to the scene (issue 15, item 5): each emulated builder's
+//! main-memory footprint by purpose, in bytes per triangle, and the largest
+//! `rtperf:N` it can build in a PS3's 256 MiB — predicted from two builds,
+//! then verified: a build just under the prediction fits, one just over it
+//! fails with the emulator's out-of-memory error naming the buffer.
+//!
+//! `cargo run --release --bin footprint -- [--out results]`
+//!
+//! Builds run in functional mode (no timing: memory does not depend on it)
+//! on the PS3's six SPEs. Writes footprint.{csv,json}.
+
+use std::path::PathBuf;
+
+use clap::Parser;
+use serde_json::{Value, json};
+
+use cellbih::bih::BihConfig;
+use cellbih::build::BuilderKind;
+use cellbih::cell::{CellConfig, CellError, CostModel};
+use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
+use cellbih::scene::procedural::rtperf;
+use cellbih::strategy::footprint::{Footprint, Purpose};
+
+#[derive(Parser)]
+struct Args {
+    /// Main memory of the emulated Cell, MiB (the PS3 model has 256).
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u64).range(1..=4096))]
+    memory_mib: u64,
+    /// text (a table) or json (the rows).
+    #[arg(long, value_enum, default_value = "text")]
+    format: Format,
+    /// Directory for the CSV and JSON files.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+}
+
+/// The two sizes the prediction is fitted on.
+const SMALL: usize = 50_000;
+const LARGE: usize = 100_000;
+
+fn main() {
+    let args = Args::parse();
+    cellbih::report::experiment_main("footprint", &args.out.clone(), || run(&args));
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let mut cell = CellConfig::ps3();
+    cell.cost = CostModel::functional();
+    cell.main_memory_bytes = args.memory_mib * 1024 * 1024;
+    let mut rows = Vec::new();
+    for &b in BuilderKind::ALL.iter().filter(|b| b.emulated()) {
+        progress(&format!("{b} ..."));
+        let small = footprint(b, SMALL, &cell).map_err(|e| format!("{b}: {e}"))?;
+        let large = footprint(b, LARGE, &cell).map_err(|e| format!("{b}: {e}"))?;
+        let per_tri = (large.total - small.total) as f64 / (LARGE - SMALL) as f64;
+        let fixed = large.total as f64 - per_tri * LARGE as f64;
+        let predicted = ((cell.main_memory_bytes as f64 - fixed) / per_tri) as usize;
+        let (fits, fails, named) = verify(b, predicted, &cell)?;
+        let mut row = json!({
+            "builder": b.name(), "bytes_per_triangle": per_tri, "fixed_bytes": fixed,
+            "predicted_n": predicted, "fits_n": fits, "fails_n": fails, "oom_buffer": named,
+            "memory_mib": args.memory_mib,
+        });
+        for p in Purpose::ALL {
+            let slope = (large.bytes(p) as f64 - small.bytes(p) as f64) / (LARGE - SMALL) as f64;
+            row[format!("per_triangle_{}", key(p))] = json!(slope);
+        }
+        row["unused_node_bytes_per_triangle"] =
+            json!(large.unused_node_bytes as f64 / LARGE as f64);
+        rows.push(row);
+    }
+    progress("");
+    print_rows(args.format, &rows, |r| print_table(r, args.memory_mib))?;
+    let mut keys = vec![
+        "builder",
+        "bytes_per_triangle",
+        "fixed_bytes",
+        "predicted_n",
+        "fits_n",
+        "fails_n",
+        "oom_buffer",
+    ];
+    let purposes: Vec<String> = Purpose::ALL
+        .iter()
+        .map(|&p| format!("per_triangle_{}", key(p)))
+        .collect();
+    keys.extend(purposes.iter().map(String::as_str));
+    keys.push("unused_node_bytes_per_triangle");
+    let io = |e: cellbih::report::OutputError| e.to_string();
+    write_rows_csv(
+        &output(&args.out, "footprint.csv").map_err(io)?,
+        &keys,
+        &rows,
+    )
+    .map_err(io)?;
+    let doc = json!({ "rows": rows, "note": "bytes of emulated main memory per triangle of rtperf, by purpose (fitted on rtperf:50000 and rtperf:100000); fits_n builds, fails_n runs out of memory naming oom_buffer" });
+    write_json(&output(&args.out, "footprint.json").map_err(io)?, &doc).map_err(io)?;
+    Ok(())
+}
+
+fn key(p: Purpose) -> &'static str {
+    match p {
+        Purpose::TriangleRecords => "records",
+        Purpose::WorkPpe => "work_ppe",
+        Purpose::JobQueues => "job_queues",
+        Purpose::Nodes => "nodes",
+        Purpose::KeysAndSort => "keys",
+    }
+}
+
+/// The footprint of building `rtperf:n` with `b`.
+fn footprint(b: BuilderKind, n: usize, cell: &CellConfig) -> Result<Footprint, CellError> {
+    let r = b.build_on(&rtperf(n, 1), &BihConfig::default(), cell)?;
+    Ok(r.simulated.expect("an emulated builder").footprint)
+}
+
+/// Brackets the largest `rtperf:N` that fits around `predicted`: the
+/// largest size tried that built, the smallest that ran out of memory, and
+/// the buffer the error named. Sizes are rounded to whole rtPerf spheres.
+fn verify(
+    b: BuilderKind,
+    predicted: usize,
+    cell: &CellConfig,
+) -> Result<(usize, usize, String), String> {
+    let sphere = |n: f64| ((n / 200.0).round() as usize).max(1) * 200;
+    let try_n = |n: usize| -> Result<Option<String>, String> {
+        progress(&format!("{b} rtperf:{n} ..."));
+        match footprint(b, n, cell) {
+            Ok(_) => Ok(None),
+            Err(CellError::OutOfMemory { what, .. }) => Ok(Some(what)),
+            Err(e) => Err(format!("{b}, rtperf:{n}: {e}")),
+        }
+    };
+    let (mut lo, mut hi) = (
+        sphere(predicted as f64 * 0.98),
+        sphere(predicted as f64 * 1.02),
+    );
+    while try_n(lo)?.is_some() {
+        (hi, lo) = (lo, sphere(lo as f64 * 0.9));
+    }
+    let named = loop {
+        match try_n(hi)? {
+            Some(what) => break what,
+            None => (lo, hi) = (hi, sphere(hi as f64 * 1.1)),
+        }
+    };
+    Ok((lo, hi, named))
+}
+
+/// One line of progress on stderr, when it is a terminal.
+fn progress(what: &str) {
+    use std::io::IsTerminal;
+    if std::io::stderr().is_terminal() {
+        eprint!("{:60}\r{what}", "");
+    }
+}
+
+fn print_table(rows: &[Value], mib: u64) {
+    println!(
+        "{:<16} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>11} {:>11} {:>11}  buffer named",
+        "builder",
+        "B/tri",
+        "records",
+        "WorkPPE",
+        "queues",
+        "nodes",
+        "unused",
+        "keys",
+        "predicted",
+        "builds",
+        "OOM at",
+    );
+    let f = |r: &Value, k: &str| r[k].as_f64().unwrap_or(0.0);
+    for r in rows {
+        println!(
+            "{:<16} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>11} {:>11} {:>11}  {}",
+            r["builder"].as_str().unwrap_or(""),
+            f(r, "bytes_per_triangle"),
+            f(r, "per_triangle_records"),
+            f(r, "per_triangle_work_ppe"),
+            f(r, "per_triangle_job_queues"),
+            f(r, "per_triangle_nodes"),
+            f(r, "unused_node_bytes_per_triangle"),
+            f(r, "per_triangle_keys"),
+            r["predicted_n"],
+            r["fits_n"],
+            r["fails_n"],
+            r["oom_buffer"].as_str().unwrap_or(""),
+        );
+    }
+    println!(
+        "bytes of main memory per triangle of rtperf by purpose (fitted on rtperf:{SMALL} and rtperf:{LARGE}; \
+         unused: node slots never written, within nodes); the largest rtperf:N in {mib} MiB: predicted, \
+         the largest size that built, the smallest that ran out of memory and the buffer it named (6 SPEs, functional mode)"
+    );
+}

@@ -1,0 +1,142 @@
+//! Memory modelled to the scene: every emulated build reports its main
+//! memory by purpose (every buffer named, none unknown), its local stores'
+//! high-water marks, and a level-by-level build never needs more
+//! WorkAPPE than the bound it is sized by; a build that does not fit fails
+//! naming the buffer and the sizes.
+
+mod common;
+
+use cellbih::bih::BihConfig;
+use cellbih::build::BuilderKind;
+use cellbih::cell::CellConfig;
+use cellbih::scene;
+use cellbih::strategy::footprint::{Purpose, widest_level, work_ppe_jobs};
+use common::{assert_ok, cellbih};
+
+#[test]
+fn every_buffer_has_a_purpose_and_the_sums_add_up() {
+    for name in ["default", "car", "rtperf:20000"] {
+        let s = scene::load(name, None).unwrap();
+        for leaf in [1, 12] {
+            let cfg = BihConfig {
+                leaf_size: leaf,
+                ..BihConfig::default()
+            };
+            for &b in BuilderKind::ALL.iter().filter(|b| b.emulated()) {
+                let r = b.build_on(&s, &cfg, &CellConfig::ps3()).unwrap();
+                let f = r.simulated.unwrap().footprint;
+                assert!(
+                    f.unknown.is_empty(),
+                    "{b}: buffers without a purpose: {:?}",
+                    f.unknown
+                );
+                let sum: u64 = f.by_purpose.iter().map(|(_, b)| b).sum();
+                assert!(
+                    sum <= f.total && f.total - sum < 128 * 64,
+                    "{b}: {sum} of {}",
+                    f.total
+                );
+                // At least the records, 48 bytes each, and the tree's nodes.
+                assert!(
+                    f.bytes(Purpose::TriangleRecords) >= 48 * s.len() as u64,
+                    "{b}"
+                );
+                let tree = 12 * r.bih.nodes.len() as u64;
+                assert!(f.bytes(Purpose::Nodes) >= tree, "{b}");
+                assert_eq!(f.unused_node_bytes, f.bytes(Purpose::Nodes) - tree, "{b}");
+                assert_eq!(f.ls_high_water.len(), 6);
+                assert!(f.ls_high_water.iter().all(|&h| h <= 256 * 1024), "{b}");
+                if b.name().starts_with("spe_") {
+                    assert!(f.ls_high_water[0] > 16 * 1024, "{b}: {:?}", f.ls_high_water);
+                }
+                // The widest level within the bound WorkAPPE is sized by.
+                assert!(
+                    f.work_ppe_needed <= work_ppe_jobs(s.len(), leaf) as u64,
+                    "{b}"
+                );
+                assert_eq!(f.work_ppe_needed, widest_level(&r.bih));
+            }
+        }
+    }
+}
+
+#[test]
+fn a_build_that_does_not_fit_names_the_buffer_and_the_sizes() {
+    let out = cellbih(&[
+        "build",
+        "--scene",
+        "rtperf:200000",
+        "--builder",
+        "spe_morton",
+        "--memory-mib",
+        "16",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains("main memory full: ")
+            && err.contains(" asked ")
+            && err.contains("of 16777216 in use"),
+        "{err}"
+    );
+    assert!(
+        err.contains("largest so far: triangle records 9600000 bytes"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    // The same scene in 64 MiB fits and reports what it used.
+    let out = cellbih(&[
+        "build",
+        "--scene",
+        "rtperf:200000",
+        "--builder",
+        "spe_morton",
+        "--memory-mib",
+        "64",
+        "--mode",
+        "functional",
+    ]);
+    assert_ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("main memory "));
+}
+
+/// `footprint`: each emulated builder's bytes per triangle, and a bracket
+/// around the largest rtperf:N it builds: the lower end built, the upper
+/// ran out of memory naming a buffer (here in 24 MiB, to stay quick).
+#[test]
+fn footprint_brackets_the_largest_scene_each_builder_fits() {
+    let dir = common::tmp("footprint");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_footprint"))
+        .args([
+            "--memory-mib",
+            "24",
+            "--format",
+            "json",
+            "--out",
+            dir.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(
+        rows.len(),
+        BuilderKind::ALL.iter().filter(|b| b.emulated()).count()
+    );
+    for r in rows {
+        let (fits, fails) = (
+            r["fits_n"].as_u64().unwrap(),
+            r["fails_n"].as_u64().unwrap(),
+        );
+        assert!(fits < fails && fails as f64 <= fits as f64 * 1.25, "{r}");
+        let bpt = r["bytes_per_triangle"].as_f64().unwrap();
+        // The records alone are 48 bytes a triangle.
+        assert!(
+            bpt >= 48.0 && (fits as f64) * bpt < 24.0 * 1048576.0 * 1.05,
+            "{r}"
+        );
+        assert!(!r["oom_buffer"].as_str().unwrap().is_empty());
+    }
+    assert!(dir.join("footprint.csv").exists());
+}
