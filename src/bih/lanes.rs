@@ -15,18 +15,16 @@ pub(super) struct Group {
     v: [[[f32; 4]; 3]; 3],
 }
 
-/// The triangles (already collapsed if degenerate) in groups of four; the
-/// last group is padded with zero triangles, which are never hit.
-pub(super) fn groups(tris: impl ExactSizeIterator<Item = [Vec3; 3]>) -> Vec<Group> {
-    let mut out = vec![Group::default(); tris.len().div_ceil(4)];
-    for (k, t) in tris.enumerate() {
-        for (i, p) in t.iter().enumerate() {
+impl Group {
+    /// Puts triangle `v` (already collapsed if degenerate) in lane `lane`;
+    /// lanes never set hold zero triangles, which are never hit.
+    pub(super) fn set(&mut self, lane: usize, v: [Vec3; 3]) {
+        for (i, p) in v.iter().enumerate() {
             for a in 0..3 {
-                out[k / 4].v[i][a][k % 4] = p[a];
+                self.v[i][a][lane] = p[a];
             }
         }
     }
-    out
 }
 
 /// What the four tests found: a bit per lane that hits in `[tmin, tmax]`,
