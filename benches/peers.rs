@@ -28,7 +28,7 @@ use cellbih::quality::rays::RaySets;
 use cellbih::scene::{self, Scene};
 
 fn main() {
-    let mut scenes: Vec<String> = vec!["bunny", "dragon", "sponza-dabrovic", "sibenik"]
+    let mut scenes: Vec<String> = ["bunny", "dragon", "sponza-dabrovic", "sibenik"]
         .iter()
         .map(|s| s.to_string())
         .collect();
@@ -74,6 +74,9 @@ const BEST: BihConfig = BihConfig {
     empty_cut: Some(10),
 };
 
+/// Each ray's closest hit (triangle, t), or a miss.
+type Answers = Vec<Option<(u32, f64)>>;
+
 /// One contender's row.
 struct Row {
     name: String,
@@ -98,7 +101,7 @@ fn compare(s: &Scene, runs: usize) {
         })
         .collect();
     let mut rows = Vec::new();
-    let mut answers: Vec<Vec<Vec<Option<(u32, f64)>>>> = Vec::new();
+    let mut answers: Vec<Vec<Answers>> = Vec::new();
     for (label, cfg) in [
         ("cellbih host", BihConfig::default()),
         ("cellbih host --split sah --empty-cut 10", BEST),
@@ -109,7 +112,7 @@ fn compare(s: &Scene, runs: usize) {
         let bih = BuilderKind::HOST.build(s, &cfg).unwrap().bih;
         let prep = median(runs, || time(|| Tracer::new(&bih, s)).0);
         let tracer = Tracer::new(&bih, s);
-        let trace = |set: &[Ray]| -> Vec<Option<(u32, f64)>> {
+        let trace = |set: &[Ray]| -> Answers {
             let mut st = RayStats::default();
             set.iter()
                 .map(|r| tracer.closest(r, &mut st).map(|h| (h.prim, h.t)))
@@ -141,7 +144,7 @@ fn compare(s: &Scene, runs: usize) {
             .iter()
             .map(|&i| tris[i as usize])
             .collect();
-        let trace = |set: &[Ray]| -> Vec<Option<(u32, f64)>> {
+        let trace = |set: &[Ray]| -> Answers {
             set.iter()
                 .map(|r| {
                     let ray = ORay::new(
