@@ -1,7 +1,8 @@
 //! cellbih beside a peer (issue 15, item 8): obvhs's CWBVH, built with its
 //! fastest and medium presets on one thread (no `parallel` feature), and
 //! cellbih's host builder and tracer — the paper's tree and the best
-//! quality knobs — on the same triangles and the same rays.
+//! quality knobs (the cut-off alone, and binned SAH with it) — on the same
+//! triangles and the same rays.
 //!
 //! `CELLBIH_DATA=../shared/data cargo bench --bench peers [-- --scenes bunny,dragon] [--runs 5]`
 //!
@@ -22,7 +23,7 @@ use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::ray::{Ray as ORay, RayHit};
 use obvhs::triangle::Triangle as OTri;
 
-use cellbih::bih::{BihConfig, Ray, RayStats, SplitChoice, Tracer};
+use cellbih::bih::{BihConfig, Ray, RayStats, Tracer};
 use cellbih::build::BuilderKind;
 use cellbih::quality::rays::RaySets;
 use cellbih::scene::{self, Scene};
@@ -66,12 +67,11 @@ fn main() {
     }
 }
 
-/// The best quality knobs of the tradeoff experiment for tracing.
-const BEST: BihConfig = BihConfig {
-    leaf_size: 12,
-    max_depth: 64,
-    split: SplitChoice::BinnedSah { bins: 16 },
-    empty_cut: Some(10),
+/// The cheap knob of the tradeoff experiment: the empty-space cut-off
+/// alone.
+const CUT: BihConfig = BihConfig {
+    empty_cut: Some(30),
+    ..BihConfig::DEFAULT
 };
 
 /// Each ray's closest hit (triangle, t), or a miss.
@@ -104,7 +104,11 @@ fn compare(s: &Scene, runs: usize) {
     let mut answers: Vec<Vec<Answers>> = Vec::new();
     for (label, cfg) in [
         ("cellbih host", BihConfig::default()),
-        ("cellbih host --split sah --empty-cut 10", BEST),
+        ("cellbih host --empty-cut 30", CUT),
+        (
+            "cellbih host --split sah --empty-cut 10",
+            BihConfig::SAH_CUT,
+        ),
     ] {
         let build = median(runs, || {
             time(|| BuilderKind::HOST.build(s, &cfg).unwrap()).0

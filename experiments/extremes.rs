@@ -17,7 +17,7 @@ use std::path::PathBuf;
 use clap::Parser;
 use serde_json::{Value, json};
 
-use cellbih::bih::{BihConfig, SplitChoice};
+use cellbih::bih::BihConfig;
 use cellbih::build::BuilderKind;
 use cellbih::build::host::{PrimRef, build_items};
 use cellbih::cell::CellConfig;
@@ -38,13 +38,7 @@ struct Args {
     out: PathBuf,
 }
 
-/// The quality knobs' high end, run by the builders that build them.
-const KNOBS: BihConfig = BihConfig {
-    leaf_size: 12,
-    max_depth: 64,
-    split: SplitChoice::BinnedSah { bins: 16 },
-    empty_cut: Some(10),
-};
+/// How the rows name `BihConfig::SAH_CUT`.
 const KNOBS_FLAGS: &str = "--split sah --empty-cut 10";
 
 fn main() {
@@ -59,15 +53,9 @@ fn run(args: &Args) -> Result<(), String> {
     for &name in extremes::CASES {
         let scene = extremes::case(name).ok_or(format!("no case {name}"))?;
         let rays = rays_for(&scene, args.rays as usize, 11);
-        let runs = (BuilderKind::ALL
-            .iter()
-            .map(|&b| (b, BihConfig::default(), "")))
-        .chain(
-            (BuilderKind::ALL.iter())
-                .filter(|b| b.quality_knobs())
-                .map(|&b| (b, KNOBS, KNOBS_FLAGS)),
-        );
-        for (b, cfg, flags) in runs {
+        let runs = BuilderKind::every_run(BihConfig::SAH_CUT);
+        for (b, cfg) in runs {
+            let flags = if cfg.paper_quality() { "" } else { KNOBS_FLAGS };
             let e = examine(b, &cfg, &cell, &scene, &rays);
             rows.push(json!({
                 "case": name, "triangles": scene.len(), "degenerate": scene.degenerate_count(),

@@ -65,8 +65,8 @@ fn run(args: &Args) -> Result<(), String> {
             let slope = (large.bytes(p) as f64 - small.bytes(p) as f64) / (LARGE - SMALL) as f64;
             row[format!("per_triangle_{}", key(p))] = json!(slope);
         }
-        row["unused_node_bytes_per_triangle"] =
-            json!(large.unused_node_bytes as f64 / LARGE as f64);
+        let unused = large.unused_node_bytes as f64 - small.unused_node_bytes as f64;
+        row["unused_node_bytes_per_triangle"] = json!(unused / (LARGE - SMALL) as f64);
         rows.push(row);
     }
     progress("");

@@ -96,11 +96,7 @@ fn large_random_scenes_at_every_scale() {
     ] {
         let scene = make_scene(3000, exp, 1, kind, 7);
         check_scene(&scene, &BihConfig::default(), 400).unwrap();
-        let best = BihConfig {
-            split: SplitChoice::BinnedSah { bins: 16 },
-            empty_cut: Some(10),
-            ..BihConfig::default()
-        };
+        let best = BihConfig::SAH_CUT;
         check_scene(&scene, &best, 400).unwrap();
     }
 }

@@ -170,7 +170,8 @@ fn main_memory_runs_out_like_a_ps3() {
     assert!(matches!(e, CellError::OutOfMemory { .. }), "{e}");
     assert_eq!(
         e.to_string(),
-        "main memory full: job spill asked 104857600 bytes, 209715200 of 268435456 in use"
+        "main memory full: job spill asked 104857600 bytes, 209715200 of 268435456 in use \
+         (largest so far: test buffer 209715200 bytes)"
     );
 }
 

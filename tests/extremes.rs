@@ -4,7 +4,7 @@
 //! and the empty-space cut-off, give a valid tree whose every ray agrees
 //! with brute force.
 
-use cellbih::bih::{BihConfig, SplitChoice};
+use cellbih::bih::BihConfig;
 use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
 use cellbih::quality::agree::{examine, rays_for};
@@ -13,16 +13,7 @@ use cellbih::scene::extremes;
 fn check_case(name: &str) {
     let scene = extremes::case(name).unwrap();
     let rays = rays_for(&scene, 300, 5);
-    let knobs = BihConfig {
-        split: SplitChoice::BinnedSah { bins: 16 },
-        empty_cut: Some(10),
-        ..BihConfig::default()
-    };
-    let runs = (BuilderKind::ALL.iter().map(|&b| (b, BihConfig::default()))).chain(
-        (BuilderKind::ALL.iter())
-            .filter(|b| b.quality_knobs())
-            .map(|&b| (b, knobs)),
-    );
+    let runs = BuilderKind::every_run(BihConfig::SAH_CUT);
     for (b, cfg) in runs {
         let e = examine(b, &cfg, &CellConfig::ps3(), &scene, &rays);
         assert!(e.ok(), "{name}, {b} {cfg:?}: {e:?}");

@@ -6,7 +6,7 @@
 
 mod common;
 
-use cellbih::bih::{BihConfig, SplitChoice, Tracer, brute_force_closest};
+use cellbih::bih::{BihConfig, Tracer, brute_force_closest};
 use cellbih::build::BuilderKind;
 use cellbih::render::{Camera, trace};
 use cellbih::scene::{Scene, SplitMix64, Triangle};
@@ -41,16 +41,7 @@ fn check_every_builder(scene: &Scene) -> Result<(), TestCaseError> {
     prop_assume!(b.extent().max_element().is_infinite() || scene.len() < 3);
     // The paper's tree from every builder, and the quality knobs from the
     // builders that build them.
-    let knobs = BihConfig {
-        split: SplitChoice::BinnedSah { bins: 16 },
-        empty_cut: Some(10),
-        ..BihConfig::default()
-    };
-    let runs = (BuilderKind::ALL.iter().map(|&b| (b, BihConfig::default()))).chain(
-        (BuilderKind::ALL.iter())
-            .filter(|b| b.quality_knobs())
-            .map(|&b| (b, knobs)),
-    );
+    let runs = BuilderKind::every_run(BihConfig::SAH_CUT);
     for (builder, cfg) in runs {
         let fail = |e: String| TestCaseError::fail(format!("{builder}: {e}"));
         let r = builder

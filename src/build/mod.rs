@@ -136,6 +136,15 @@ impl BuilderKind {
         self.0.name
     }
 
+    /// Every builder with the paper's settings, then every builder that
+    /// builds the quality knobs with `knobs`: the runs the extremes, the
+    /// `f32` tests and the peers' checks make.
+    pub fn every_run(knobs: BihConfig) -> Vec<(BuilderKind, BihConfig)> {
+        let paper = Self::ALL.iter().map(|&b| (b, BihConfig::default()));
+        let quality = (Self::ALL.iter().filter(|b| b.quality_knobs())).map(|&b| (b, knobs));
+        paper.chain(quality).collect()
+    }
+
     pub fn describe(self) -> &'static str {
         self.0.describe
     }
