@@ -1,0 +1,113 @@
+//! The issue-15 experiments through their binaries: `tradeoff` (its
+//! fronts are Pareto fronts of its rows, its frame reading, its files) and
+//! `extremes` (every case and builder valid and agreeing). `footprint` is
+//! in `tests/footprint.rs`, `spe_scaling` in `tests/cli.rs`.
+
+mod common;
+
+use common::{assert_ok, tmp};
+
+/// `tradeoff`: every builder setting on a scene, each row with its build
+/// cost and measured ray cost; the fronts are Pareto fronts of the rows
+/// (no row on a front is beaten on both build ms and ray cost by another of
+/// its kind); the frame reading names a host setting; the files are written.
+#[test]
+fn tradeoff_writes_every_setting_with_its_fronts() {
+    let exe = env!("CARGO_BIN_EXE_tradeoff");
+    let dir = tmp("tradeoff");
+    let out = std::process::Command::new(exe)
+        .args([
+            "--scenes",
+            "default",
+            "--format",
+            "json",
+            "--out",
+            dir.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    for b in cellbih::build::BuilderKind::ALL {
+        assert!(
+            rows.iter()
+                .any(|r| r["builder"] == b.name() && r["setting"] == ""),
+            "{b}"
+        );
+    }
+    assert!(
+        rows.iter()
+            .any(|r| r["setting"] == "--split sah --empty-cut 10")
+    );
+    for (front, time) in [("front_ps3", "simulated_ms"), ("front_host", "host_ms")] {
+        let kind: Vec<&serde_json::Value> = rows
+            .iter()
+            .filter(|r| r["emulated"] == (front == "front_ps3"))
+            .collect();
+        let on: Vec<&&serde_json::Value> = kind.iter().filter(|r| r[front] == true).collect();
+        assert!(!on.is_empty(), "{front}");
+        let xy = |r: &serde_json::Value| {
+            (
+                r[time].as_f64().unwrap(),
+                r["primary_cost"].as_f64().unwrap(),
+            )
+        };
+        for r in &on {
+            let (x, y) = xy(r);
+            let beaten = kind.iter().any(|o| {
+                let (ox, oy) = xy(o);
+                ox <= x && oy <= y && (ox < x || oy < y)
+            });
+            assert!(!beaten, "{front}: {r}");
+        }
+    }
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("tradeoff.json")).unwrap()).unwrap();
+    assert_eq!(doc["frames"].as_array().unwrap().len(), 5);
+    assert!(
+        doc["frames"][0]["primary"]["setting"]
+            .as_str()
+            .unwrap()
+            .starts_with("host")
+    );
+    let csv = std::fs::read_to_string(dir.join("tradeoff.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + rows.len());
+    assert!(dir.join("tradeoff_default.svg").exists());
+}
+
+/// `extremes`: a row per case and builder run, all valid and agreeing
+/// with brute force (it fails otherwise).
+#[test]
+fn extremes_checks_every_case_and_builder() {
+    let exe = env!("CARGO_BIN_EXE_extremes");
+    let dir = tmp("extremes");
+    let out = std::process::Command::new(exe)
+        .args([
+            "--rays",
+            "20",
+            "--format",
+            "json",
+            "--out",
+            dir.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    let runs = cellbih::build::BuilderKind::ALL.len()
+        + (cellbih::build::BuilderKind::ALL.iter())
+            .filter(|b| b.quality_knobs())
+            .count();
+    assert_eq!(rows.len(), cellbih::scene::extremes::CASES.len() * runs);
+    assert!(
+        rows.iter()
+            .all(|r| r["valid"] == true && r["disagree"] == 0 && r["rays"] == 20)
+    );
+    assert!(
+        rows.iter().any(|r| r["f32_stalls"].as_u64().unwrap() > 0),
+        "some case stalls f32"
+    );
+    assert!(dir.join("extremes.csv").exists());
+}
