@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{assert_ok, tmp};
+use common::run_experiment;
 
 /// `tradeoff`: every builder setting on a scene, each row with its build
 /// cost and measured ray cost; the fronts are Pareto fronts of the rows
@@ -13,22 +13,11 @@ use common::{assert_ok, tmp};
 /// its kind); the frame reading names a host setting; the files are written.
 #[test]
 fn tradeoff_writes_every_setting_with_its_fronts() {
-    let exe = env!("CARGO_BIN_EXE_tradeoff");
-    let dir = tmp("tradeoff");
-    let out = std::process::Command::new(exe)
-        .args([
-            "--scenes",
-            "default",
-            "--format",
-            "json",
-            "--out",
-            dir.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert_ok(&out);
-    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let rows = rows.as_array().unwrap();
+    let (rows, dir) = run_experiment(
+        env!("CARGO_BIN_EXE_tradeoff"),
+        "tradeoff",
+        &["--scenes", "default"],
+    );
     for b in cellbih::build::BuilderKind::ALL {
         assert!(
             rows.iter()
@@ -80,22 +69,11 @@ fn tradeoff_writes_every_setting_with_its_fronts() {
 /// with brute force (it fails otherwise).
 #[test]
 fn extremes_checks_every_case_and_builder() {
-    let exe = env!("CARGO_BIN_EXE_extremes");
-    let dir = tmp("extremes");
-    let out = std::process::Command::new(exe)
-        .args([
-            "--rays",
-            "20",
-            "--format",
-            "json",
-            "--out",
-            dir.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert_ok(&out);
-    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let rows = rows.as_array().unwrap();
+    let (rows, dir) = run_experiment(
+        env!("CARGO_BIN_EXE_extremes"),
+        "extremes",
+        &["--rays", "20"],
+    );
     let runs = cellbih::build::BuilderKind::ALL.len()
         + (cellbih::build::BuilderKind::ALL.iter())
             .filter(|b| b.quality_knobs())

@@ -11,7 +11,7 @@ use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
 use cellbih::scene;
 use cellbih::strategy::footprint::{Purpose, widest_level, work_ppe_jobs};
-use common::{assert_ok, cellbih};
+use common::{assert_ok, cellbih, run_experiment};
 
 #[test]
 fn every_buffer_has_a_purpose_and_the_sums_add_up() {
@@ -105,21 +105,11 @@ fn a_build_that_does_not_fit_names_the_buffer_and_the_sizes() {
 /// ran out of memory naming a buffer (here in 24 MiB, to stay quick).
 #[test]
 fn footprint_brackets_the_largest_scene_each_builder_fits() {
-    let dir = common::tmp("footprint");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_footprint"))
-        .args([
-            "--memory-mib",
-            "24",
-            "--format",
-            "json",
-            "--out",
-            dir.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert_ok(&out);
-    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let rows = rows.as_array().unwrap();
+    let (rows, dir) = run_experiment(
+        env!("CARGO_BIN_EXE_footprint"),
+        "footprint",
+        &["--memory-mib", "24"],
+    );
     assert_eq!(
         rows.len(),
         BuilderKind::ALL.iter().filter(|b| b.emulated()).count()

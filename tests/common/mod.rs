@@ -26,6 +26,24 @@ pub fn assert_ok(out: &std::process::Output) {
     );
 }
 
+/// Runs experiment binary `exe` with `args`, `--format json` and `--out`
+/// a fresh directory named `name`; returns its rows and the directory.
+pub fn run_experiment(
+    exe: &str,
+    name: &str,
+    args: &[&str],
+) -> (Vec<serde_json::Value>, std::path::PathBuf) {
+    let dir = tmp(name);
+    let out = std::process::Command::new(exe)
+        .args(args)
+        .args(["--format", "json", "--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    (rows.as_array().unwrap().clone(), dir)
+}
+
 /// A path in this test process's own temporary directory.
 pub fn tmp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("cellbih-test-{}", std::process::id()));
