@@ -122,17 +122,9 @@ fn compare(s: &Scene, runs: usize) {
                 .map(|r| tracer.closest(r, &mut st).map(|h| (h.prim, h.t)))
                 .collect()
         };
-        let speed = |set: &[Ray]| median_rate(runs, set.len(), || trace(set));
-        let got: Vec<_> = sets.iter().map(|set| trace(set)).collect();
-        rows.push(Row {
-            name: label.into(),
-            build,
-            ready: build + prep,
-            primary: speed(sets[0]),
-            incoherent: speed(sets[1]),
-            hits: [0, 1].map(|k| got[k].iter().filter(|h| h.is_some()).count()),
-            bytes: bih.memory_bytes() + tracer.memory_bytes(),
-        });
+        let bytes = bih.memory_bytes() + tracer.memory_bytes();
+        let (row, got) = measured(label, build, build + prep, bytes, sets, runs, trace);
+        rows.push(row);
         answers.push(got);
     }
     for (label, params) in [
@@ -168,19 +160,11 @@ fn compare(s: &Scene, runs: usize) {
                 })
                 .collect()
         };
-        let speed = |set: &[Ray]| median_rate(runs, set.len(), || trace(set));
-        let got: Vec<_> = sets.iter().map(|set| trace(set)).collect();
-        rows.push(Row {
-            name: label.into(),
-            build,
-            ready: build,
-            primary: speed(sets[0]),
-            incoherent: speed(sets[1]),
-            hits: [0, 1].map(|k| got[k].iter().filter(|h| h.is_some()).count()),
-            bytes: size_of_val(bvh.nodes.as_slice())
-                + size_of_val(bvh.primitive_indices.as_slice())
-                + size_of_val(ordered.as_slice()),
-        });
+        let bytes = size_of_val(bvh.nodes.as_slice())
+            + size_of_val(bvh.primitive_indices.as_slice())
+            + size_of_val(ordered.as_slice());
+        let (row, got) = measured(label, build, build, bytes, sets, runs, trace);
+        rows.push(row);
         answers.push(got);
     }
     println!(
@@ -227,6 +211,31 @@ fn compare(s: &Scene, runs: usize) {
     println!(
         "(agree: rays whose answer matches cellbih's paper tree — same triangle, or the same t within 1e-4, or both miss)"
     );
+}
+
+/// One contender's row: `trace` answers both ray sets (kept for the
+/// agreement check) and is timed on each.
+fn measured(
+    name: &str,
+    build: Duration,
+    ready: Duration,
+    bytes: usize,
+    sets: [&Vec<Ray>; 2],
+    runs: usize,
+    trace: impl Fn(&[Ray]) -> Answers,
+) -> (Row, Vec<Answers>) {
+    let speed = |set: &[Ray]| median_rate(runs, set.len(), || trace(set));
+    let got: Vec<Answers> = sets.iter().map(|set| trace(set)).collect();
+    let row = Row {
+        name: name.into(),
+        build,
+        ready,
+        primary: speed(sets[0]),
+        incoherent: speed(sets[1]),
+        hits: [0, 1].map(|k| got[k].iter().filter(|h| h.is_some()).count()),
+        bytes,
+    };
+    (row, got)
 }
 
 /// Rays on which `a` and `b` agree.
