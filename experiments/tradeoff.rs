@@ -24,7 +24,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 
 use cellbih::bih::{BihConfig, SplitChoice, Tracer};
-use cellbih::build::BuilderKind;
+use cellbih::build::{BuilderKind, Quality};
 use cellbih::cell::CellConfig;
 use cellbih::quality::pareto_front;
 use cellbih::quality::rays::RaySets;
@@ -65,11 +65,11 @@ struct Setting {
     flags: String,
 }
 
-/// Every builder with its defaults (the paper's tree); the builders that
-/// build the quality knobs with each of leaf size 4 and 12 × global
-/// heuristic and binned SAH × no cut-off, 10 % and 30 % (and a depth limit
-/// of 16); the others with leaf size 4, and their own knobs (ppe_approx's
-/// grid, spe_morton's key order, key width and region size).
+/// Every builder with leaf size 12 and 4 × the quality knobs it builds
+/// (global heuristic and binned SAH × no cut-off, 10 % and 30 %), a depth
+/// limit of 16 for the builders that run the host recursion, and each
+/// builder's own knobs (ppe_approx's grid, spe_morton's key order, key
+/// width and region size).
 fn settings() -> Vec<Setting> {
     let (d, k) = (BihConfig::default(), Knobs::default());
     let mut v = Vec::new();
@@ -82,41 +82,48 @@ fn settings() -> Vec<Setting> {
         })
     };
     for &b in BuilderKind::ALL {
-        if b.quality_knobs() {
-            for leaf in [12, 4] {
-                for sah in [false, true] {
-                    for cut in [None, Some(10), Some(30)] {
-                        let cfg = BihConfig {
-                            leaf_size: leaf,
-                            split: if sah {
-                                SplitChoice::BinnedSah { bins: 16 }
-                            } else {
-                                SplitChoice::GlobalHeuristic
-                            },
-                            empty_cut: cut,
-                            ..d
-                        };
-                        let mut flags = String::new();
-                        if leaf != d.leaf_size {
-                            flags += &format!(" --leaf-size {leaf}");
-                        }
-                        if sah {
-                            flags += " --split sah";
-                        }
-                        if let Some(c) = cut {
-                            flags += &format!(" --empty-cut {c}");
-                        }
-                        push(b, cfg, k, flags.trim());
+        let q = b.quality();
+        let splits: &[bool] = if q.binned_sah {
+            &[false, true]
+        } else {
+            &[false]
+        };
+        let cuts: &[Option<u32>] = if q.empty_cut {
+            &[None, Some(10), Some(30)]
+        } else {
+            &[None]
+        };
+        for leaf in [12, 4] {
+            for &sah in splits {
+                for &cut in cuts {
+                    let cfg = BihConfig {
+                        leaf_size: leaf,
+                        split: if sah {
+                            SplitChoice::BinnedSah { bins: 16 }
+                        } else {
+                            SplitChoice::GlobalHeuristic
+                        },
+                        empty_cut: cut,
+                        ..d
+                    };
+                    let mut flags = String::new();
+                    if leaf != d.leaf_size {
+                        flags += &format!(" --leaf-size {leaf}");
                     }
+                    if sah {
+                        flags += " --split sah";
+                    }
+                    if let Some(c) = cut {
+                        flags += &format!(" --empty-cut {c}");
+                    }
+                    push(b, cfg, k, flags.trim());
                 }
             }
+        }
+        if q == Quality::ALL {
             let deep = BihConfig { max_depth: 16, ..d };
             push(b, deep, k, "--max-depth 16");
-            continue;
         }
-        push(b, d, k, "");
-        let leaf4 = BihConfig { leaf_size: 4, ..d };
-        push(b, leaf4, k, "--leaf-size 4");
         match b.name() {
             "ppe_approx" => {
                 let coarse = Knobs {

@@ -16,9 +16,8 @@ use proptest::prelude::*;
 fn check_scene(scene: &Scene, cfg: &BihConfig, rays: usize) -> Result<(), TestCaseError> {
     for &b in BuilderKind::ALL {
         let built = b.build(scene, cfg);
-        if !cfg.paper_quality() && !b.quality_knobs() {
-            // A builder that builds only the paper's quality refuses the
-            // other knobs, by name.
+        if !b.builds(cfg) {
+            // A builder refuses the knobs it does not build, by name.
             let e = built.err().map(|e| e.to_string()).unwrap_or_default();
             prop_assert!(e.contains("global heuristic"), "{b}: {e}");
             continue;

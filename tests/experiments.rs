@@ -74,10 +74,7 @@ fn extremes_checks_every_case_and_builder() {
         "extremes",
         &["--rays", "20"],
     );
-    let runs = cellbih::build::BuilderKind::ALL.len()
-        + (cellbih::build::BuilderKind::ALL.iter())
-            .filter(|b| b.quality_knobs())
-            .count();
+    let runs = cellbih::build::BuilderKind::every_run(cellbih::bih::BihConfig::SAH_CUT).len();
     assert_eq!(rows.len(), cellbih::scene::extremes::CASES.len() * runs);
     assert!(
         rows.iter()

@@ -62,26 +62,50 @@ fn same_tree_up_to_leaf_order(a: &cellbih::bih::Bih, b: &cellbih::bih::Bih) -> R
     Ok(())
 }
 
+/// The paper's tree, and the empty-space cut-off at two thresholds: the
+/// settings the builders that build the cut-off are compared on.
+const CUT_SETTINGS: [BihConfig; 3] = [
+    BihConfig::DEFAULT,
+    BihConfig {
+        empty_cut: Some(10),
+        ..BihConfig::DEFAULT
+    },
+    BihConfig {
+        empty_cut: Some(30),
+        leaf_size: 4,
+        ..BihConfig::DEFAULT
+    },
+];
+
 /// spe_dfs runs the same recursion with the partitions on SPE 0 (Fig. 1):
 /// the same nodes as the host tree and the same triangles in every leaf
 /// (Fig. 1 orders a side differently from the host's two-pointer pass), and
-/// the work shows on the SPE.
+/// the work shows on the SPE; with the empty-space cut-off too (the PPE
+/// makes the clip nodes).
 #[test]
 fn spe_dfs_builds_the_host_tree_with_the_partitions_on_an_spe() {
-    for s in [
+    for (s, cfg) in [
         scene::load("default", None).unwrap(),
         scene::load("cup", None).unwrap(),
         scene::load("rtperf:30000:2", None).unwrap(),
         common::make_scene(3000, 15, 1, 1, 3),
         common::make_scene(3000, -15, 0, 2, 4),
-    ] {
-        let host = BuilderKind::HOST.build(&s, &BihConfig::default()).unwrap();
-        let dfs = BuilderKind::SPE_DFS
-            .build(&s, &BihConfig::default())
-            .unwrap();
+    ]
+    .iter()
+    .flat_map(|s| CUT_SETTINGS.map(|c| (s, c)))
+    {
+        let host = BuilderKind::HOST.build(s, &cfg).unwrap();
+        let dfs = BuilderKind::SPE_DFS.build(s, &cfg).unwrap();
         same_tree_up_to_leaf_order(&dfs.bih, &host.bih)
-            .unwrap_or_else(|e| panic!("{}: {e}", s.name));
-        let run = dfs.simulated.unwrap().run;
+            .unwrap_or_else(|e| panic!("{} {cfg:?}: {e}", s.name));
+        let sim = dfs.simulated.as_ref().unwrap();
+        assert_eq!(
+            sim.stats.clip_nodes > 0,
+            cfg.empty_cut.is_some(),
+            "{}",
+            s.name
+        );
+        let run = &sim.run;
         let spe = &run.cores[1].1;
         assert!(
             spe.bytes_get >= 48 * s.len() as u64,

@@ -6,6 +6,7 @@
 
 use glam::{Vec3A, Vec4};
 
+use super::cutoff::{Cut, child_regions, empty_gap};
 use super::kernels::{Boxed, Side, Split, choose_split_counted, clip_planes, partition, side_of};
 use super::sah::sah_split;
 use crate::aabb::Aabb;
@@ -179,7 +180,8 @@ impl<T: Item> Builder<'_, T> {
             self.nodes[id] = leaf;
             return;
         }
-        if let Some(cut) = self.cfg.empty_cut.and_then(|p| empty_gap(&region, side, p)) {
+        let gap = (self.cfg.empty_cut).and_then(|p| empty_gap(&region, &side.bounds(), p));
+        if let Some(cut) = gap {
             return self.clip_node(id, first, count, candidate, side, depth, region, cut);
         }
         let Some(split) = self.choose(first, count, &mut candidate, side) else {
@@ -196,9 +198,7 @@ impl<T: Item> Builder<'_, T> {
         let [cl, cr] = clip_planes(split.axis, &l, &r);
         self.nodes[id] = BihNode::inner(children as u32, split.axis, cl, cr);
         let [lc, rc] = split.candidates(candidate);
-        let (mut lr, mut rr) = (region, region);
-        lr.max[split.axis] = lr.max[split.axis].min(cl);
-        rr.min[split.axis] = rr.min[split.axis].max(cr);
+        let [lr, rr] = child_regions(region, split.axis, [cl, cr]);
         self.node(children, first, l.count, lc, &l, depth + 1, lr);
         self.node(
             children + 1,
@@ -237,13 +237,9 @@ impl<T: Item> Builder<'_, T> {
         }
     }
 
-    /// The empty-space cut-off: node `id` becomes a clip node on
-    /// `cut.axis` whose empty child is a leaf of no triangles behind a
-    /// plane at ∓∞ (so traversal never enters it: the ray leaves that child
-    /// before it enters, see `traverse.rs`), and whose other child is the
-    /// node again, its region cut to its triangles on that side. The
-    /// candidate box is left as it is, so the planes below are the ones the
-    /// node would have had.
+    /// The empty-space cut-off ([`super::cutoff`]): node `id` becomes a
+    /// clip node whose empty child is a leaf of no triangles and whose
+    /// other child is the node again, in its cut region.
     #[allow(clippy::too_many_arguments)]
     fn clip_node(
         &mut self,
@@ -253,91 +249,18 @@ impl<T: Item> Builder<'_, T> {
         candidate: Aabb,
         side: &Side,
         depth: u32,
-        mut region: Aabb,
+        region: Aabb,
         cut: Cut,
     ) {
-        let a = cut.axis;
+        let clip = cut.clip(region, &side.bounds(), first, count);
         let children = self.nodes.len();
         self.nodes.push(BihNode::default());
         self.nodes.push(BihNode::default());
         self.stats.clip_nodes += 1;
-        let (empty, full, cl, cr) = if cut.low {
-            region.min[a] = side.lo[a];
-            (children, children + 1, f32::NEG_INFINITY, side.lo[a])
-        } else {
-            region.max[a] = side.hi[a];
-            (children + 1, children, side.hi[a], f32::INFINITY)
-        };
-        // The empty leaf sits where its slots would be (before the node's
-        // triangles, or after them): leaf ranges stay in tree order.
-        let at = if cut.low { first } else { first + count };
-        self.nodes[empty] = BihNode::leaf(at as u32, 0);
-        self.nodes[id] = BihNode::inner(children as u32, a, cl, cr);
-        self.node(full, first, count, candidate, side, depth + 1, region);
-    }
-}
-
-/// A gap to cut off: on `axis`, below the triangles (`low`) or above.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Cut {
-    axis: usize,
-    low: bool,
-}
-
-/// The widest gap between `region` and the triangles' box `side` that is
-/// more than `percent` of the region's extent on its axis, if any (ties: the
-/// lower axis, the low side). In `f64`: extents may pass `f32::MAX`.
-fn empty_gap(region: &Aabb, side: &Side, percent: u32) -> Option<Cut> {
-    let threshold = percent as f64 / 100.0;
-    let mut best: Option<(f64, Cut)> = None;
-    for axis in 0..3 {
-        let ext = region.max[axis] as f64 - region.min[axis] as f64;
-        if !(ext > 0.0 && ext.is_finite()) {
-            continue;
-        }
-        let gaps = [
-            (side.lo[axis] as f64 - region.min[axis] as f64, true),
-            (region.max[axis] as f64 - side.hi[axis] as f64, false),
-        ];
-        for (gap, low) in gaps {
-            let f = gap / ext;
-            if f > threshold && best.is_none_or(|(b, _)| f > b) {
-                best = Some((f, Cut { axis, low }));
-            }
-        }
-    }
-    best.map(|(_, c)| c)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::Vec3;
-
-    #[test]
-    fn a_gap_over_the_threshold_is_cut_on_its_side_and_none_under_it() {
-        let region = Aabb::new(Vec3::ZERO, Vec3::splat(10.0));
-        let mut side = Side::EMPTY;
-        side.lo = Vec3A::new(0.0, 0.0, 6.0);
-        side.hi = Vec3A::new(10.0, 9.0, 10.0);
-        // z: 60 % empty below; y: 10 % above.
-        assert_eq!(
-            empty_gap(&region, &side, 50),
-            Some(Cut { axis: 2, low: true })
-        );
-        assert_eq!(
-            empty_gap(&region, &side, 5),
-            Some(Cut { axis: 2, low: true })
-        );
-        assert_eq!(empty_gap(&region, &side, 60), None);
-        side.lo.z = 0.0;
-        assert_eq!(
-            empty_gap(&region, &side, 5),
-            Some(Cut {
-                axis: 1,
-                low: false
-            })
-        );
-        assert_eq!(empty_gap(&region, &side, 10), None);
+        self.nodes[children + clip.empty] = BihNode::leaf(clip.leaf_at as u32, 0);
+        let [cl, cr] = clip.planes;
+        self.nodes[id] = BihNode::inner(children as u32, clip.axis, cl, cr);
+        let full = children + 1 - clip.empty;
+        self.node(full, first, count, candidate, side, depth + 1, clip.region);
     }
 }

@@ -3,6 +3,7 @@
 //! listed here too, so that every `--builder` name works everywhere.
 
 pub mod approx;
+pub mod cutoff;
 pub mod host;
 pub mod kernels;
 pub mod morton;
@@ -12,7 +13,7 @@ pub mod sah;
 use std::time::{Duration, Instant};
 
 use crate::aabb::Aabb;
-use crate::bih::{Bih, BihConfig};
+use crate::bih::{Bih, BihConfig, SplitChoice};
 use crate::cell::{CellConfig, CellError, RunReport};
 use crate::scene::Scene;
 use crate::strategy;
@@ -28,11 +29,58 @@ pub struct Builder {
     pub describe: &'static str,
     /// It puts every SPE of the machine to work (`--spes` changes its time).
     pub multi_spe: bool,
-    /// It runs the shared recursion of [`host`], and so builds every split
-    /// choice and the empty-space cut-off of [`BihConfig`]; the others
-    /// build the paper's quality only (and refuse the rest).
-    pub quality_knobs: bool,
+    /// The quality knobs of [`BihConfig`] it builds beyond the paper's
+    /// tree; it refuses the others, by name.
+    pub quality: Quality,
     run: Run,
+}
+
+/// Which of [`BihConfig`]'s quality knobs a builder builds (the leaf size
+/// and depth limit every builder builds).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Quality {
+    /// `SplitChoice::BinnedSah`: the builder bins its nodes' triangles.
+    pub binned_sah: bool,
+    /// `BihConfig::empty_cut`: the builder knows each node's region.
+    pub empty_cut: bool,
+}
+
+impl Quality {
+    /// The paper's tree only.
+    pub const PAPER: Quality = Quality {
+        binned_sah: false,
+        empty_cut: false,
+    };
+    /// The shared recursion of [`host`]: every knob.
+    pub const ALL: Quality = Quality {
+        binned_sah: true,
+        empty_cut: true,
+    };
+    /// The empty-space cut-off, the global heuristic's planes.
+    pub const CUT: Quality = Quality {
+        binned_sah: false,
+        empty_cut: true,
+    };
+
+    /// Whether a builder with these knobs builds `cfg`.
+    pub fn builds(self, cfg: &BihConfig) -> bool {
+        (self.binned_sah || cfg.split == SplitChoice::GlobalHeuristic)
+            && (self.empty_cut || cfg.empty_cut.is_none())
+    }
+
+    /// `cfg` without the knobs a builder with these does not build (the
+    /// paper's setting in their place).
+    pub fn reach(self, cfg: &BihConfig) -> BihConfig {
+        BihConfig {
+            split: if self.binned_sah {
+                cfg.split
+            } else {
+                SplitChoice::GlobalHeuristic
+            },
+            empty_cut: cfg.empty_cut.filter(|_| self.empty_cut),
+            ..*cfg
+        }
+    }
 }
 
 /// How a builder runs: on the host, or as a program of the emulated Cell.
@@ -52,7 +100,7 @@ impl Builder {
             name,
             describe,
             multi_spe: false,
-            quality_knobs: true,
+            quality: Quality::ALL,
             run: Run::Host(build),
         }
     }
@@ -64,18 +112,14 @@ impl Builder {
             name,
             describe,
             multi_spe: false,
-            quality_knobs: false,
+            quality: Quality::PAPER,
             run: Run::Cell(spawn),
         }
     }
 
-    /// This builder runs the shared recursion and builds every quality
-    /// knob of [`BihConfig`].
-    pub const fn with_quality_knobs(self) -> Self {
-        Builder {
-            quality_knobs: true,
-            ..self
-        }
+    /// This builder builds the quality knobs `quality`.
+    pub const fn with_quality(self, quality: Quality) -> Self {
+        Builder { quality, ..self }
     }
 
     /// A builder that runs on every SPE of the emulated Cell.
@@ -137,11 +181,13 @@ impl BuilderKind {
     }
 
     /// Every builder with the paper's settings, then every builder that
-    /// builds the quality knobs with `knobs`: the runs the extremes, the
-    /// `f32` tests and the peers' checks make.
+    /// builds some of the quality knobs of `knobs` with those it builds:
+    /// the runs the extremes, the `f32` tests and the peers' checks make.
     pub fn every_run(knobs: BihConfig) -> Vec<(BuilderKind, BihConfig)> {
         let paper = Self::ALL.iter().map(|&b| (b, BihConfig::default()));
-        let quality = (Self::ALL.iter().filter(|b| b.quality_knobs())).map(|&b| (b, knobs));
+        let quality = (Self::ALL.iter())
+            .map(|&b| (b, b.quality().reach(&knobs)))
+            .filter(|(_, cfg)| !cfg.paper_quality());
         paper.chain(quality).collect()
     }
 
@@ -159,10 +205,14 @@ impl BuilderKind {
         self.0.multi_spe
     }
 
-    /// Whether the builder builds every split choice and the empty-space
-    /// cut-off (not only the paper's tree).
-    pub fn quality_knobs(self) -> bool {
-        self.0.quality_knobs
+    /// The quality knobs the builder builds beyond the paper's tree.
+    pub fn quality(self) -> Quality {
+        self.0.quality
+    }
+
+    /// Whether the builder builds `cfg`'s split choice and cut-off.
+    pub fn builds(self, cfg: &BihConfig) -> bool {
+        self.0.quality.builds(cfg)
     }
 
     /// Whether the builder runs on the emulated Cell (and so reports
@@ -210,14 +260,20 @@ impl BuilderKind {
         cell: &CellConfig,
         knobs: &strategy::Knobs,
     ) -> Result<BuildReport, CellError> {
-        if !cfg.paper_quality() && !self.quality_knobs() {
+        if !self.builds(cfg) {
             let with: Vec<&str> = (Self::ALL.iter())
-                .filter(|b| b.quality_knobs())
+                .filter(|b| b.builds(cfg))
                 .map(|b| b.name())
                 .collect();
+            let builds = match self.quality() {
+                q if q.empty_cut => {
+                    "the global heuristic's split choice (with or without the empty-space cut-off)"
+                }
+                _ => "the paper's split choice (global heuristic) without empty-space cut-off",
+            };
             return Err(CellError::Config(format!(
-                "builder {self} builds the paper's split choice (global heuristic) without empty-space cut-off only; {} build the others",
-                with.join(" and ")
+                "builder {self} builds {builds} only; {} build these settings",
+                with.join(", ")
             )));
         }
         let start = Instant::now();

@@ -24,7 +24,7 @@ pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
     "the paper's naive recursive build on the emulated PPE (Table 1, column 1)",
     spawn,
 )
-.with_quality_knobs();
+.with_quality(crate::build::Quality::ALL);
 
 fn spawn(
     cell: &mut Cell,

@@ -12,7 +12,10 @@
 //! recurses. A first job streams the whole array once for the root's bounds.
 //!
 //! The recursion is the host builder's, in the same depth-first order, so
-//! the tree equals the host tree node for node.
+//! the tree equals the host tree node for node. With the empty-space
+//! cut-off ([`crate::build::cutoff`]) the PPE makes the clip nodes: it
+//! knows each node's region and its triangles' box, and a clip node moves
+//! no triangle.
 
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -24,6 +27,7 @@ use super::layout::TriRecord;
 use super::{Output, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode};
+use crate::build::cutoff::{child_regions, empty_gap};
 use crate::build::host::BuildStats;
 use crate::build::kernels::{Side, Split, choose_split, clip_planes};
 use crate::cell::{Cell, CellError};
@@ -86,7 +90,8 @@ pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
     "spe_dfs",
     "depth first: PPE recursion, one SPE partitions each interval with Fig. 1's five buffers (Table 1, column 3)",
     spawn,
-);
+)
+.with_quality(crate::build::Quality::CUT);
 
 fn spawn(
     cell: &mut Cell,
@@ -179,14 +184,30 @@ fn spawn(
         .await?;
         let mut nodes = vec![BihNode::default()];
         let mut stats = BuildStats::default();
-        // (node, first, count, candidate, side, depth), depth first, left first.
-        let mut stack: Vec<(usize, usize, usize, Aabb, Side, u32)> =
-            vec![(0, 0, n, region, all, 0)];
-        while let Some((id, first, count, mut candidate, side, depth)) = stack.pop() {
+        // (node, first, count, candidate, side, depth, region), depth
+        // first, left first.
+        let mut stack: Vec<(usize, usize, usize, Aabb, Side, u32, Aabb)> =
+            vec![(0, 0, n, region, all, 0, region)];
+        while let Some((id, first, count, mut candidate, side, depth, region)) = stack.pop() {
             ppe.compute(k.ppe_node);
             let leaf = BihNode::leaf(first as u32, count as u32);
             if cfg.ends_in_leaf(count, depth) {
                 nodes[id] = leaf;
+                continue;
+            }
+            let gap = (cfg.empty_cut).and_then(|p| empty_gap(&region, &side.bounds(), p));
+            if let Some(cut) = gap {
+                // A clip node (the empty-space cut-off): no SPE work.
+                let clip = cut.clip(region, &side.bounds(), first, count);
+                let children = nodes.len();
+                nodes.push(BihNode::default());
+                nodes.push(BihNode::default());
+                nodes[children + clip.empty] = BihNode::leaf(clip.leaf_at as u32, 0);
+                let [cl, cr] = clip.planes;
+                nodes[id] = BihNode::inner(children as u32, clip.axis, cl, cr);
+                stats.clip_nodes += 1;
+                let full = children + 1 - clip.empty;
+                stack.push((full, first, count, candidate, side, depth + 1, clip.region));
                 continue;
             }
             let Some(split) = choose_split(&mut candidate, &side.centers()) else {
@@ -210,8 +231,10 @@ fn spawn(
             let [cl, cr] = clip_planes(split.axis, &l, &r);
             nodes[id] = BihNode::inner(children as u32, split.axis, cl, cr);
             let [lc, rc] = split.candidates(candidate);
-            stack.push((children + 1, first + l.count, r.count, rc, r, depth + 1));
-            stack.push((children, first, l.count, lc, l, depth + 1));
+            let [lr, rr] = child_regions(region, split.axis, [cl, cr]);
+            let d = depth + 1;
+            stack.push((children + 1, first + l.count, r.count, rc, r, d, rr));
+            stack.push((children, first, l.count, lc, l, d, lr));
         }
         // The SPE ends on STOP without an answer.
         ppe.write_pod(
