@@ -87,13 +87,18 @@ fn settings(name: &str) -> Vec<(&'static str, Knobs, Vec<usize>)> {
 
 /// Builds `s` with `b` and checks the run against the baseline's tree and
 /// a second run; returns the simulated cycles.
-fn check_build(b: BuilderKind, s: &Scene, spes: usize, knobs: &Knobs, what: &str) -> u64 {
-    let cfg = BihConfig::default();
+fn check_build(
+    b: BuilderKind,
+    s: &Scene,
+    spes: usize,
+    (knobs, cfg): (&Knobs, &BihConfig),
+    what: &str,
+) -> u64 {
     let cell = CellConfig::ps3().with_spes(spes);
-    let build = || b.build_with(s, s.bounds(), &cfg, &cell, knobs).unwrap();
+    let build = || b.build_with(s, s.bounds(), cfg, &cell, knobs).unwrap();
     let r = build();
     r.bih.validate(s).unwrap_or_else(|v| panic!("{what}: {v}"));
-    let base = BuilderKind::SPE_BFS.build(s, &cfg).unwrap();
+    let base = BuilderKind::SPE_BFS.build(s, cfg).unwrap();
     same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{what}: {e}"));
     common::check_multi_spe_runs(&r, &build(), what);
     let a = r.simulated.unwrap();
@@ -122,9 +127,19 @@ fn every_setting_gives_the_baseline_tree(name: &str) {
         for (label, knobs, counts) in settings(name) {
             for spes in counts {
                 let what = format!("{name}, {spec} on {spes} SPEs, {label}");
-                let cycles = check_build(b, &s, spes, &knobs, &what);
+                let cycles = check_build(b, &s, spes, (&knobs, &BihConfig::default()), &what);
                 by_setting.insert((label, spes), cycles);
             }
+        }
+        // The empty-space cut-off: the jobs carry their regions through
+        // the deal, the shared queue and the spills.
+        let cut = BihConfig {
+            empty_cut: Some(10),
+            ..BihConfig::default()
+        };
+        for spes in [1, 3, 8] {
+            let what = format!("{name}, {spec} on {spes} SPEs, --empty-cut 10");
+            check_build(b, &s, spes, (&Knobs::default(), &cut), &what);
         }
         if s.len() > 10_000 {
             for spes in 2..=8 {
@@ -313,8 +328,9 @@ proptest! {
 
     /// Both builders on the property scenes (scales 1e-15 to 1e15, flat,
     /// degenerate, stacks, grids) with 1 to 8 SPEs, any knobs and small
-    /// leaves (so that the top levels hand over): valid, equal to brute
-    /// force, the baseline's tree.
+    /// leaves (so that the top levels hand over), with or without the
+    /// empty-space cut-off: valid, equal to brute force, the baseline's
+    /// tree.
     #[test]
     fn multi_spe_builders_on_any_scene_spe_count_and_knobs(
         scene in common::scene_strategy(),
@@ -322,9 +338,10 @@ proptest! {
         spes in 1usize..=8,
         leaf in 1u32..4,
         knobs in knobs_strategy(),
+        empty_cut in proptest::option::of(1u32..=99),
     ) {
         let name = if shared { "spe_bfs_shared" } else { "spe_bfs_private" };
-        let cfg = BihConfig { leaf_size: leaf, ..BihConfig::default() };
+        let cfg = BihConfig { leaf_size: leaf, empty_cut, ..BihConfig::default() };
         let cell = CellConfig::ps3().with_spes(spes);
         let fail = |e: String| TestCaseError::fail(format!("{name} on {spes} SPEs, {knobs:?}: {e}"));
         let r = builder(name)

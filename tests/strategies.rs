@@ -122,23 +122,25 @@ fn spe_dfs_builds_the_host_tree_with_the_partitions_on_an_spe() {
 /// same tree with its nodes numbered breadth first. The scenes are large
 /// enough for every path of the program: levels wider than WorkB (spilled
 /// to WorkBPPE), intervals over 16 KiB (Fig. 1) and under (agglomerated),
-/// several ObjectArena blocks. The PPE only allocates.
+/// several ObjectArena blocks. The PPE only allocates. With the empty-space
+/// cut-off too: its jobs carry their regions.
 #[test]
 fn spe_bfs_builds_the_host_tree_breadth_first() {
-    for s in [
+    for (s, cfg) in [
         scene::load("default", None).unwrap(),
         scene::load("car", None).unwrap(),
         scene::load("rtperf:40000:2", None).unwrap(),
         common::make_scene(3000, 15, 1, 1, 3),
         common::make_scene(3000, -15, 0, 2, 4),
         common::make_scene(500, 0, 0, 0, 9),
-    ] {
-        let host = BuilderKind::HOST.build(&s, &BihConfig::default()).unwrap();
-        let bfs = BuilderKind::SPE_BFS
-            .build(&s, &BihConfig::default())
-            .unwrap();
+    ]
+    .iter()
+    .flat_map(|s| CUT_SETTINGS.map(|c| (s, c)))
+    {
+        let host = BuilderKind::HOST.build(s, &cfg).unwrap();
+        let bfs = BuilderKind::SPE_BFS.build(s, &cfg).unwrap();
         common::same_tree_structure(&bfs.bih, &host.bih)
-            .unwrap_or_else(|e| panic!("{}: {e}", s.name));
+            .unwrap_or_else(|e| panic!("{} {cfg:?}: {e}", s.name));
         // Breadth first: a node's children come after every node of its level.
         let depth_of = node_depths(&bfs.bih);
         assert!(

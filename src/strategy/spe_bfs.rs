@@ -30,11 +30,15 @@ use super::work_queue::{Level, WorkQueue};
 use super::{Knobs, Output, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode};
+use crate::build::cutoff::{Clip, child_regions, empty_gap};
 use crate::build::host::BuildStats;
 use crate::build::kernels::{Side, Split, choose_split, clip_planes, partition};
 use crate::cell::{CellError, Ea, ListElement, Spe, WaitMode};
 
-/// One job: a node to make and its interval of the triangle array. 64 bytes.
+/// One job: a node to make and its interval of the triangle array. Its
+/// first 64 bytes are the paper's job and all that travels, unless the
+/// empty-space cut-off is on: then the node's region and its triangles' box
+/// travel too, 128 bytes a job ([`Job::bytes`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Job {
@@ -47,10 +51,26 @@ pub struct Job {
     pub candidate: [[f32; 3]; 2],
     /// Bounds of the interval's box centers.
     pub centers: [[f32; 3]; 2],
+    /// The empty-space cut-off only: the node's region (the box its
+    /// ancestors' planes leave it) ...
+    region: [[f32; 3]; 2],
+    /// ... and the union of its triangles' boxes.
+    bounds: [[f32; 3]; 2],
+    pad: [u32; 4],
 }
-const _: () = assert!(size_of::<Job>() == 64);
+const _: () = assert!(size_of::<Job>() == 128);
+
+/// An `Aabb` as two arrays, and back.
+fn pack(b: Aabb) -> [[f32; 3]; 2] {
+    [b.min.to_array(), b.max.to_array()]
+}
+fn unpack(b: [[f32; 3]; 2]) -> Aabb {
+    Aabb::new(Vec3::from_array(b[0]), Vec3::from_array(b[1]))
+}
 
 impl Job {
+    /// A job whose region is its candidate box (the root's; others get
+    /// theirs with [`Job::in_region`]).
     pub(super) fn new(
         first: usize,
         count: usize,
@@ -59,27 +79,50 @@ impl Job {
         cand: Aabb,
         side: &Side,
     ) -> Self {
-        let c = side.centers();
         Job {
             first: first as u32,
             count: count as u32,
             node: node as u32,
             depth,
-            candidate: [cand.min.to_array(), cand.max.to_array()],
-            centers: [c.min.to_array(), c.max.to_array()],
+            candidate: pack(cand),
+            centers: pack(side.centers()),
+            region: pack(cand),
+            bounds: pack(side.bounds()),
+            pad: [0; 4],
         }
     }
+
+    /// This job with the region `region`.
+    fn in_region(self, region: Aabb) -> Self {
+        Job {
+            region: pack(region),
+            ..self
+        }
+    }
+
+    /// Bytes one job takes in `WorkA`/`WorkB` and main memory with `cfg`:
+    /// the paper's 64, or 128 with the empty-space cut-off.
+    pub(super) fn bytes(cfg: &BihConfig) -> usize {
+        if cfg.empty_cut.is_some() { 128 } else { 64 }
+    }
+
+    /// Bytes `WorkAPPE` (and `WorkBPPE`) need for a subtree of
+    /// `triangles` with `cfg` ([`WorkQueue::spill_bytes_for`]).
+    pub(super) fn spill_bytes_for(triangles: usize, cfg: &BihConfig) -> u64 {
+        WorkQueue::<Job>::spill_bytes_for(triangles, cfg.leaf_size, Job::bytes(cfg))
+    }
+
     pub(super) fn candidate(&self) -> Aabb {
-        Aabb::new(
-            Vec3::from_array(self.candidate[0]),
-            Vec3::from_array(self.candidate[1]),
-        )
+        unpack(self.candidate)
     }
     fn centers(&self) -> Aabb {
-        Aabb::new(
-            Vec3::from_array(self.centers[0]),
-            Vec3::from_array(self.centers[1]),
-        )
+        unpack(self.centers)
+    }
+    fn region(&self) -> Aabb {
+        unpack(self.region)
+    }
+    fn bounds(&self) -> Aabb {
+        unpack(self.bounds)
     }
 }
 
@@ -88,7 +131,8 @@ pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
     "spe_bfs",
     "breadth first, the baseline: one SPE builds level by level (WorkA/WorkB, Fig. 2), small jobs agglomerated, nodes in an ObjectArena (Table 1, column 4)",
     spawn,
-);
+)
+.with_quality(crate::build::Quality::CUT);
 
 fn spawn(
     cell: &mut crate::cell::Cell,
@@ -100,7 +144,7 @@ fn spawn(
     // WorkAPPE and WorkBPPE: room for the widest level the tree can have
     // (the paper sized them for as many jobs as triangles, 6.5 times more
     // with leaves of 12; see strategy/footprint.rs).
-    let work_ppe_bytes = WorkQueue::<Job>::spill_bytes_for(n, cfg.leaf_size);
+    let work_ppe_bytes = Job::spill_bytes_for(n, &cfg);
     let work_a_ppe = cell.memory_mut().alloc("WorkAPPE", work_ppe_bytes, 128)?;
     let work_b_ppe = cell.memory_mut().alloc("WorkBPPE", work_ppe_bytes, 128)?;
     let work_ppe = [work_a_ppe, work_b_ppe];
@@ -134,10 +178,19 @@ fn spawn(
     Ok(())
 }
 
-/// A job of the current agglomerated batch and the split it will get.
+/// What a job makes: a leaf, a clip node (the empty-space cut-off: no
+/// triangle moves), or an inner node that splits its interval (with the
+/// candidate box the split was chosen in).
+enum Make {
+    Leaf,
+    Clip(Clip),
+    Split(Split, Aabb),
+}
+
+/// A job of the current agglomerated batch and what it will make.
 struct Pending {
     job: Job,
-    split: Option<(Split, Aabb)>,
+    make: Make,
 }
 
 /// An agglomerated batch: its jobs, and the runs of the triangle array it
@@ -222,7 +275,13 @@ impl<'a> SpeBuilder<'a> {
             tris,
             cfg,
             fig1: Fig1Buffers::alloc(spe)?,
-            queue: WorkQueue::new(spe, work_ppe, work_ppe_bytes, knobs.double_buffer)?,
+            queue: WorkQueue::new(
+                spe,
+                work_ppe,
+                work_ppe_bytes,
+                knobs.double_buffer,
+                Job::bytes(&cfg),
+            )?,
             arena: ObjectArena::new(spe, blocks)?,
             foreign_depth: None,
             dealt_starts: Vec::new(),
@@ -269,7 +328,7 @@ impl<'a> SpeBuilder<'a> {
     ) -> Result<Option<Level>, CellError> {
         debug_assert!(stop_at.is_none_or(|s| s <= 128));
         loop {
-            for k in 0..WorkQueue::<Job>::blocks(level) {
+            for k in 0..self.queue.blocks(level) {
                 let jobs = self.queue.load(level, k).await?;
                 self.process(&jobs).await?;
             }
@@ -313,13 +372,22 @@ impl<'a> SpeBuilder<'a> {
             self.jobs += 1;
             self.spe.compute(k.spe_job);
             let mut candidate = job.candidate();
-            let split = if self.cfg.ends_in_leaf(job.count as usize, job.depth) {
-                None
+            let (region, bounds) = (job.region(), job.bounds());
+            let make = if self.cfg.ends_in_leaf(job.count as usize, job.depth) {
+                Make::Leaf
+            } else if let Some(cut) =
+                (self.cfg.empty_cut).and_then(|p| empty_gap(&region, &bounds, p))
+            {
+                let (first, count) = (job.first as usize, job.count as usize);
+                Make::Clip(cut.clip(region, &bounds, first, count))
             } else {
-                choose_split(&mut candidate, &job.centers()).map(|s| (s, candidate))
+                match choose_split(&mut candidate, &job.centers()) {
+                    Some(s) => Make::Split(s, candidate),
+                    None => Make::Leaf,
+                }
             };
-            let Some((s, cand)) = split else {
-                batch.jobs.push(Pending { job, split: None });
+            let Make::Split(s, cand) = make else {
+                batch.jobs.push(Pending { job, make });
                 continue;
             };
             if job.count > per_block {
@@ -363,7 +431,7 @@ impl<'a> SpeBuilder<'a> {
             }
             batch.jobs.push(Pending {
                 job,
-                split: Some((s, cand)),
+                make: Make::Split(s, cand),
             });
         }
         self.step(Step::Batch(batch), &mut steps).await?;
@@ -522,7 +590,7 @@ impl<'a> SpeBuilder<'a> {
             let mut run = 0;
             let mut run_at = 0u32;
             for p in batch.jobs.iter() {
-                if let Some((s, _)) = p.split {
+                if let Make::Split(s, _) = p.make {
                     while !(batch.runs[run].0..batch.runs[run].1).contains(&p.job.first) {
                         run_at += (batch.runs[run].1 - batch.runs[run].0) * size;
                         run += 1;
@@ -545,18 +613,51 @@ impl<'a> SpeBuilder<'a> {
         }
         let mut sides = sides.into_iter();
         for p in batch.jobs.drain(..) {
-            match p.split {
-                None => {
+            match p.make {
+                Make::Leaf => {
                     let leaf = BihNode::leaf(p.job.first, p.job.count);
                     self.emit(&p.job, leaf).await?;
                 }
-                Some((s, cand)) => {
+                Make::Clip(clip) => self.clip_node(&p.job, clip).await?,
+                Make::Split(s, cand) => {
                     let (l, r) = sides.next().expect("one partition per split job");
                     self.split_node(&p.job, s, cand, &l, &r).await?;
                 }
             }
         }
         Ok(())
+    }
+
+    /// Makes the clip node of `job` (the empty-space cut-off) and pushes
+    /// its children's jobs: a leaf of no triangles, and the job again in
+    /// its cut region, one level down.
+    async fn clip_node(&mut self, job: &Job, clip: Clip) -> Result<(), CellError> {
+        self.stats.clip_nodes += 1;
+        let children = self.arena.alloc(2).await? as usize;
+        let [cl, cr] = clip.planes;
+        self.emit(job, BihNode::inner(children as u32, clip.axis, cl, cr))
+            .await?;
+        let depth = job.depth + 1;
+        let full = Job {
+            node: (children + 1 - clip.empty) as u32,
+            depth,
+            ..*job
+        }
+        .in_region(clip.region);
+        let empty = Job {
+            first: clip.leaf_at as u32,
+            count: 0,
+            node: (children + clip.empty) as u32,
+            depth,
+            ..*job
+        };
+        let [a, b] = if clip.empty == 0 {
+            [empty, full]
+        } else {
+            [full, empty]
+        };
+        self.queue.push(a).await?;
+        self.queue.push(b).await
     }
 
     /// Makes the inner node of `job` and pushes its children's jobs.
@@ -575,14 +676,13 @@ impl<'a> SpeBuilder<'a> {
         self.emit(job, BihNode::inner(children as u32, s.axis, cl, cr))
             .await?;
         let [lc, rc] = s.candidates(cand);
+        let [lr, rr] = child_regions(job.region(), s.axis, [cl, cr]);
         let first = job.first as usize;
         let d = job.depth + 1;
-        self.queue
-            .push(Job::new(first, l.count, children, d, lc, l))
-            .await?;
-        self.queue
-            .push(Job::new(first + l.count, r.count, children + 1, d, rc, r))
-            .await
+        let left = Job::new(first, l.count, children, d, lc, l).in_region(lr);
+        self.queue.push(left).await?;
+        let right = Job::new(first + l.count, r.count, children + 1, d, rc, r).in_region(rr);
+        self.queue.push(right).await
     }
 
     fn interval(&self, first: u32) -> Ea {

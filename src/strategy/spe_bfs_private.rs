@@ -29,7 +29,7 @@ use std::rc::Rc;
 use super::coop::Coop;
 use super::spe_bfs::{Job, SpeBuilder};
 use super::top::{Common, build_top, help_top};
-use super::work_queue::{Level, WORK_BYTES, WorkQueue};
+use super::work_queue::{Level, WORK_BYTES};
 use super::{Output, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::build::Builder;
@@ -40,7 +40,8 @@ pub const BUILDER: Builder = Builder::multi_spe(
     "spe_bfs_private",
     "section 5: SPE 0 builds the top levels, deals the jobs largest first, then every SPE builds its own jobs breadth first with its own ObjectArena list (--spes)",
     spawn,
-);
+)
+.with_quality(crate::build::Quality::CUT);
 
 /// A deal record in main memory, one 128-byte line per SPE: jobs dealt,
 /// the depth of their level, and the SPE's `WorkAPPE` and `WorkBPPE`.
@@ -69,8 +70,7 @@ fn spawn(
     // Each part's area rounds up to whole buffers and adds one; its bound
     // adds two jobs.
     let per_part_slack = 3 * WORK_BYTES as u64;
-    let work_bytes =
-        2 * (WorkQueue::<Job>::spill_bytes_for(n, cfg.leaf_size) + parts as u64 * per_part_slack);
+    let work_bytes = 2 * (Job::spill_bytes_for(n, &cfg) + parts as u64 * per_part_slack);
     let work = mem().alloc("WorkAPPE/WorkBPPE of every SPE", work_bytes, 128)?;
     let records = mem().alloc("deal records", spes as u64 * RECORD_BYTES, 128)?;
     let dealt_jobs = mem().alloc("dealt jobs", WORK_BYTES as u64, 128)?;
@@ -181,8 +181,7 @@ async fn deal(
     let mut at = work;
     for (to, hand) in hands.into_iter().enumerate() {
         let triangles: usize = hand.iter().map(|j| j.count as usize).sum();
-        let area = WorkQueue::<Job>::spill_bytes_for(triangles.max(1), b.cfg.leaf_size)
-            + WORK_BYTES as u64;
+        let area = Job::spill_bytes_for(triangles.max(1), &b.cfg) + WORK_BYTES as u64;
         let areas = [at, at.offset(area)];
         at = at.offset(2 * area);
         if to == 0 {
@@ -304,8 +303,7 @@ async fn take_and_steal(
     let mut areas = Vec::with_capacity(count);
     let mut at = work;
     for j in &jobs {
-        let area = WorkQueue::<Job>::spill_bytes_for(j.count as usize, b.cfg.leaf_size)
-            + WORK_BYTES as u64;
+        let area = Job::spill_bytes_for(j.count as usize, &b.cfg) + WORK_BYTES as u64;
         areas.push([at, at.offset(area)]);
         at = at.offset(2 * area);
     }

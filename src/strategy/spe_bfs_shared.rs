@@ -48,7 +48,8 @@ pub const BUILDER: Builder = Builder::multi_spe(
     "spe_bfs_shared",
     "section 5: every SPE takes jobs from one shared job queue (lock-line atomics, --agglomerate jobs per take), a barrier per level, each SPE's nodes in its own ObjectArena list (--spes)",
     spawn,
-);
+)
+.with_quality(crate::build::Quality::CUT);
 
 /// The queue's lock lines in main memory.
 #[derive(Clone, Copy)]
@@ -76,11 +77,12 @@ fn spawn(
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let knobs = setup.knobs;
-    if !(1..=WorkQueue::<Job>::PER_BUFFER).contains(&knobs.agglomerate) {
+    let job_bytes = Job::bytes(&cfg);
+    let per_buffer = WorkQueue::<Job>::per_buffer(job_bytes);
+    if !(1..=per_buffer).contains(&knobs.agglomerate) {
         return Err(CellError::Config(format!(
-            "spe_bfs_shared: {} jobs per take; 1 to {}",
+            "spe_bfs_shared: {} jobs per take; 1 to {per_buffer}",
             knobs.agglomerate,
-            WorkQueue::<Job>::PER_BUFFER
         )));
     }
     let common = Common::alloc(cell, BUILDER.name, tris, n, &knobs, &out)?;
@@ -95,7 +97,7 @@ fn spawn(
             "spe_bfs_shared: {n} triangles are too many for one queue"
         ))
     })?;
-    let level_bytes = jobs as u64 * size_of::<Job>() as u64;
+    let level_bytes = (jobs * job_bytes) as u64;
     let mem = || cell.memory_mut();
     let level_a = mem().alloc("shared job queue: level A", level_bytes, 128)?;
     let level_b = mem().alloc("shared job queue: level B", level_bytes, 128)?;
@@ -130,9 +132,9 @@ fn spawn(
                 let count = match top {
                     Some(level) => {
                         let mut count = 0;
-                        for k in 0..WorkQueue::<Job>::blocks(level) {
+                        for k in 0..b.queue.blocks(level) {
                             let jobs = b.queue.load(level, k).await?;
-                            let at = queue.levels[0].offset(count * size_of::<Job>() as u64);
+                            let at = queue.levels[0].offset(count * job_bytes as u64);
                             b.queue.write_jobs(&jobs, at).await?;
                             count += jobs.len() as u64;
                         }
@@ -181,7 +183,7 @@ async fn shared_levels(
     guided: bool,
     line: LsAddr,
 ) -> Result<u64, CellError> {
-    let job_bytes = size_of::<Job>() as u64;
+    let job_bytes = b.queue.stride() as u64;
     let mut taken = 0u64;
     let mut level = 0usize;
     loop {

@@ -45,10 +45,34 @@ pub struct SharedSpill {
     pub line: LsAddr,
 }
 
+/// `jobs` as they travel: the first `stride` bytes of each (a job type may
+/// hold fields that travel only with some settings).
+pub fn to_wire<J: Pod>(jobs: &[J], stride: usize) -> Vec<u8> {
+    debug_assert!(stride <= size_of::<J>() && stride % 16 == 0);
+    let mut v = Vec::with_capacity(jobs.len() * stride);
+    for j in jobs {
+        v.extend_from_slice(&bytemuck::bytes_of(j)[..stride]);
+    }
+    v
+}
+
+/// Jobs from their first `stride` bytes each (the rest zero).
+pub fn from_wire<J: Pod>(bytes: &[u8], stride: usize) -> Vec<J> {
+    (bytes.chunks_exact(stride))
+        .map(|c| {
+            let mut j = J::zeroed();
+            bytemuck::bytes_of_mut(&mut j)[..stride].copy_from_slice(c);
+            j
+        })
+        .collect()
+}
+
 /// One SPE's `WorkA`/`WorkB` with their spill areas `WorkAPPE`/`WorkBPPE`,
-/// for jobs of type `J`.
+/// for jobs of type `J`, each `stride` bytes in the local store and in main
+/// memory.
 pub struct WorkQueue<'a, J> {
     spe: &'a Spe,
+    stride: usize,
     /// The local-store buffers: two, or four when double-buffered.
     work: Vec<LsAddr>,
     /// `WorkA` is `work[a]`; `WorkB` is `work[b[0]]` (and `work[b[1]]`,
@@ -76,31 +100,35 @@ pub struct WorkQueue<'a, J> {
 }
 
 impl<'a, J: Pod> WorkQueue<'a, J> {
-    /// Jobs per buffer.
-    pub const PER_BUFFER: usize = WORK_BYTES as usize / size_of::<J>();
+    /// Jobs per buffer, each `stride` bytes.
+    pub fn per_buffer(stride: usize) -> usize {
+        WORK_BYTES as usize / stride
+    }
 
     /// Bytes of main memory `WorkAPPE` (and `WorkBPPE`) need for levels of
-    /// up to `jobs` jobs.
-    pub fn spill_bytes(jobs: usize) -> u64 {
-        (jobs.div_ceil(Self::PER_BUFFER) * WORK_BYTES as usize) as u64
+    /// up to `jobs` jobs of `stride` bytes.
+    pub fn spill_bytes(jobs: usize, stride: usize) -> u64 {
+        (jobs.div_ceil(Self::per_buffer(stride)) * WORK_BYTES as usize) as u64
     }
 
     /// Bytes `WorkAPPE` (and `WorkBPPE`) need for a subtree of `triangles`
-    /// with leaves of `leaf_size`: room for the widest level it can have
-    /// ([`super::footprint::work_ppe_jobs`]), not for one job per triangle
-    /// as the paper sizes them.
-    pub fn spill_bytes_for(triangles: usize, leaf_size: u32) -> u64 {
-        Self::spill_bytes(super::footprint::work_ppe_jobs(triangles, leaf_size))
+    /// with leaves of `leaf_size`, jobs of `stride` bytes: room for the
+    /// widest level it can have ([`super::footprint::work_ppe_jobs`]), not
+    /// for one job per triangle as the paper sizes them.
+    pub fn spill_bytes_for(triangles: usize, leaf_size: u32, stride: usize) -> u64 {
+        let jobs = super::footprint::work_ppe_jobs(triangles, leaf_size);
+        Self::spill_bytes(jobs, stride)
     }
 
     /// Allocates `WorkA` and `WorkB` in `spe`'s local store (and their
-    /// second buffers if `double`); `work_ppe` are `WorkAPPE` and
-    /// `WorkBPPE` in main memory, `bytes` each.
+    /// second buffers if `double`) for jobs of `stride` bytes; `work_ppe`
+    /// are `WorkAPPE` and `WorkBPPE` in main memory, `bytes` each.
     pub fn new(
         spe: &'a Spe,
         work_ppe: [Ea; 2],
         bytes: u64,
         double: bool,
+        stride: usize,
     ) -> Result<Self, CellError> {
         let buffers = if double { 4 } else { 2 };
         let work = (0..buffers)
@@ -113,6 +141,7 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         };
         Ok(WorkQueue {
             spe,
+            stride,
             work,
             a: 0,
             b: if double { [1, 2] } else { [1, 1] },
@@ -139,9 +168,30 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         }
     }
 
+    /// Jobs per buffer.
+    pub fn per(&self) -> usize {
+        Self::per_buffer(self.stride)
+    }
+
+    /// Bytes of one job.
+    pub fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// Writes `jobs` into the local store at `at`.
+    fn write_ls(&self, at: LsAddr, jobs: &[J]) -> Result<(), CellError> {
+        self.spe.ls_write(at, &to_wire(jobs, self.stride))
+    }
+
+    /// Reads `count` jobs from the local store at `at`.
+    fn read_ls(&self, at: LsAddr, count: usize) -> Result<Vec<J>, CellError> {
+        let bytes = self.spe.ls_read::<u8>(at, count * self.stride)?;
+        Ok(from_wire(&bytes, self.stride))
+    }
+
     /// The first level: `root` alone, in `WorkA`.
     pub fn start(&mut self, root: J) -> Result<Level, CellError> {
-        self.spe.ls_write(self.work[self.a], &[root])?;
+        self.write_ls(self.work[self.a], &[root])?;
         Ok(Level::Local(1))
     }
 
@@ -160,42 +210,42 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         self.shared = to;
     }
 
-    /// A level of `jobs` (at most [`Self::PER_BUFFER`]) in `WorkA`, in place
+    /// A level of `jobs` (at most [`Self::per`]) in `WorkA`, in place
     /// of the one there (between levels).
     pub fn restart_local(&mut self, jobs: &[J]) -> Result<Level, CellError> {
-        debug_assert!(jobs.len() <= Self::PER_BUFFER && self.b_len == 0);
-        self.spe.ls_write(self.work[self.a], jobs)?;
+        debug_assert!(jobs.len() <= self.per() && self.b_len == 0);
+        self.write_ls(self.work[self.a], jobs)?;
         Ok(Level::Local(jobs.len()))
     }
 
-    /// Writes `jobs` (at most [`Self::PER_BUFFER`]) to main memory at `ea`
+    /// Writes `jobs` (at most [`Self::per`]) to main memory at `ea`
     /// through `WorkB` (between levels, when `WorkB` is empty) and waits.
     pub async fn write_jobs(&mut self, jobs: &[J], ea: Ea) -> Result<(), CellError> {
-        debug_assert!(jobs.len() <= Self::PER_BUFFER && self.b_len == 0);
+        debug_assert!(jobs.len() <= self.per() && self.b_len == 0);
         let (b, tag) = (self.work[self.b[0]], self.tag(self.b[0]));
-        self.spe.ls_write(b, jobs)?;
-        let bytes = size_of_val(jobs) as u32;
+        self.write_ls(b, jobs)?;
+        let bytes = (jobs.len() * self.stride) as u32;
         self.spe.put(b, ea, bytes, tag).await?;
         self.spe.wait_tag(tag).await
     }
 
-    /// `count` jobs (at most [`Self::PER_BUFFER`]) read from main memory at
+    /// `count` jobs (at most [`Self::per`]) read from main memory at
     /// `ea` into `WorkA` (a shared queue's take).
     pub async fn read_jobs(&mut self, ea: Ea, count: usize) -> Result<Vec<J>, CellError> {
-        debug_assert!(count <= Self::PER_BUFFER);
+        debug_assert!(count <= self.per());
         let (a, tag) = (self.work[self.a], self.tag(self.a));
         self.spe
-            .get(a, ea, (count * size_of::<J>()) as u32, tag)
+            .get(a, ea, (count * self.stride) as u32, tag)
             .await?;
         self.spe.wait_tag(tag).await?;
-        self.spe.ls_read(a, count)
+        self.read_ls(a, count)
     }
 
-    /// Blocks of at most [`Self::PER_BUFFER`] jobs the level is read in.
-    pub fn blocks(level: Level) -> usize {
+    /// Blocks of at most [`Self::per`] jobs the level is read in.
+    pub fn blocks(&self, level: Level) -> usize {
         match level {
             Level::Local(_) => 1,
-            Level::InMemory(total) => total.div_ceil(Self::PER_BUFFER),
+            Level::InMemory(total) => total.div_ceil(self.per()),
         }
     }
 
@@ -213,22 +263,22 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
                     self.get_block(total, k, self.a).await?;
                     self.spe.wait_tag(self.tag(self.a)).await?;
                 }
-                if self.double && k + 1 < Self::blocks(level) {
+                if self.double && k + 1 < self.blocks(level) {
                     self.get_block(total, k + 1, self.a_next).await?;
                     self.prefetched = Some(k + 1);
                 }
-                Self::PER_BUFFER.min(total - k * Self::PER_BUFFER)
+                self.per().min(total - k * self.per())
             }
         };
-        self.spe.ls_read(self.work[self.a], len)
+        self.read_ls(self.work[self.a], len)
     }
 
     /// Issues the get of block `k` of a level of `total` jobs in
     /// `WorkAPPE` into buffer `buf`.
     async fn get_block(&mut self, total: usize, k: usize, buf: usize) -> Result<(), CellError> {
-        let len = Self::PER_BUFFER.min(total - k * Self::PER_BUFFER);
+        let len = self.per().min(total - k * self.per());
         let from = self.work_ppe[self.a_ppe].offset((k * WORK_BYTES as usize) as u64);
-        let bytes = (len * size_of::<J>()) as u32;
+        let bytes = (len * self.stride) as u32;
         self.spe
             .get(self.work[buf], from, bytes, self.tag(buf))
             .await
@@ -237,10 +287,10 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
     /// Appends a job of the next level to `WorkB`, writing `WorkB` to
     /// `WorkBPPE` when full.
     pub async fn push(&mut self, job: J) -> Result<(), CellError> {
-        let at = self.work[self.b[0]].offset((self.b_len * size_of::<J>()) as u32);
-        self.spe.ls_write(at, &[job])?;
+        let at = self.work[self.b[0]].offset((self.b_len * self.stride) as u32);
+        self.write_ls(at, &[job])?;
         self.b_len += 1;
-        if self.b_len == Self::PER_BUFFER {
+        if self.b_len == self.per() {
             self.spill().await?;
         }
         Ok(())
@@ -249,7 +299,7 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
     /// The level is done: the next one is what `WorkB` collected (`None`
     /// when it is empty). Buffers swap roles.
     pub async fn end_level(&mut self) -> Result<Option<Level>, CellError> {
-        let next = self.b_spilled * Self::PER_BUFFER + self.b_len;
+        let next = self.b_spilled * self.per() + self.b_len;
         if next == 0 {
             return Ok(None);
         }
@@ -302,7 +352,7 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
     /// place in a shared array): synchronously, as in the paper, or,
     /// double-buffered, while the other `WorkB` fills.
     async fn spill(&mut self) -> Result<(), CellError> {
-        let bytes = (self.b_len * size_of::<J>()) as u32;
+        let bytes = (self.b_len * self.stride) as u32;
         let to = match self.shared {
             Some(s) => {
                 let place = self
@@ -319,7 +369,7 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
                         ),
                     });
                 }
-                s.to.offset(place as u64 * size_of::<J>() as u64)
+                s.to.offset(place as u64 * self.stride as u64)
             }
             None => {
                 let at = (self.b_spilled * WORK_BYTES as usize) as u64;

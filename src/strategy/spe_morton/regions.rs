@@ -16,7 +16,10 @@ use crate::cell::{CellError, Ea};
 use crate::strategy::fig1::stream_bounds;
 use crate::strategy::layout::TriRecord;
 use crate::strategy::spe_bfs::{Job, SpeBuilder};
-use crate::strategy::work_queue::WorkQueue;
+use crate::strategy::work_queue::{from_wire, to_wire};
+
+/// Bytes of a region job in main memory: the paper's job.
+const JOB: usize = 64;
 
 impl Program<'_> {
     /// The key at sorted position `i` (one small get from main memory).
@@ -122,8 +125,7 @@ impl Program<'_> {
         let cap = self.ls_capacity();
         let largest = sorted.first().map_or(0, |j| j.count as usize);
         self.spill_per_spe = match largest > cap {
-            true => (2 * WorkQueue::<Job>::spill_bytes_for(largest, self.cfg.leaf_size))
-                .next_multiple_of(SPILL_UNIT),
+            true => (2 * Job::spill_bytes_for(largest, &self.cfg)).next_multiple_of(SPILL_UNIT),
             false => 0,
         };
         self.spe.write_out_mbox(sorted.len() as u32).await;
@@ -133,7 +135,10 @@ impl Program<'_> {
         for t in &mut self.tables {
             *t = Ea(self.spe.read_in_mbox().await as u64);
         }
-        self.write_array(self.tables[0], &sorted).await?;
+        // The region jobs as the paper's 64-byte jobs (spe_morton builds
+        // no empty-space cut-off).
+        self.write_array(self.tables[0], &to_wire(&sorted, JOB))
+            .await?;
         if self.knobs.static_regions {
             self.deal(&sorted).await?;
         }
@@ -241,11 +246,10 @@ impl Program<'_> {
                 }
             };
             next += 1;
-            self.spe
-                .get(line, self.tables[0].offset(pos as u64 * 64), 64, tag)
-                .await?;
+            let at = self.tables[0].offset(pos as u64 * JOB as u64);
+            self.spe.get(line, at, JOB as u32, tag).await?;
             self.spe.wait_tag(tag).await?;
-            let job = self.spe.ls_read::<Job>(line, 1)?[0];
+            let job: Job = from_wire(&self.spe.ls_read::<u8>(line, JOB)?, JOB)[0];
             let side = self.region(&job).await?;
             let bounds: [f32; 8] = [
                 side.lo.x, side.lo.y, side.lo.z, 0.0, side.hi.x, side.hi.y, side.hi.z, 0.0,
