@@ -48,7 +48,7 @@ pub struct SharedSpill {
 /// `jobs` as they travel: the first `stride` bytes of each (a job type may
 /// hold fields that travel only with some settings).
 pub fn to_wire<J: Pod>(jobs: &[J], stride: usize) -> Vec<u8> {
-    debug_assert!(stride <= size_of::<J>() && stride % 16 == 0);
+    debug_assert!(stride <= size_of::<J>() && stride.is_multiple_of(16));
     let mut v = Vec::with_capacity(jobs.len() * stride);
     for j in jobs {
         v.extend_from_slice(&bytemuck::bytes_of(j)[..stride]);
