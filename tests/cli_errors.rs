@@ -471,16 +471,20 @@ fn a_closed_pipe_ends_the_command_quietly() {
 #[test]
 fn quality_knobs_a_builder_does_not_build_are_refused_by_name() {
     for knob in [&["--split", "sah"][..], &["--empty-cut", "10"]] {
-        let mut args = vec!["build", "--builder", "spe_bfs"];
+        let mut args = vec!["build", "--builder", "spe_morton"];
         args.extend_from_slice(knob);
         let out = cellbih(&args);
-        assert_fails_with(&out, "builder spe_bfs builds the paper's split choice");
+        assert_fails_with(&out, "builder spe_morton builds the paper's split choice");
         assert!(
-            stderr(&out).contains("host and ppe_naive"),
+            stderr(&out).contains("host, ppe_naive,"),
             "{}",
             stderr(&out)
         );
     }
+    // spe_dfs builds the cut-off, not binned SAH.
+    let out = cellbih(&["build", "--builder", "spe_dfs", "--split", "sah"]);
+    assert_fails_with(&out, "builds the global heuristic's split choice");
+    assert!(!stderr(&out).contains("spe_dfs,"), "{}", stderr(&out));
     for bad in [
         &["--empty-cut", "100"][..],
         &["--empty-cut", "0"],

@@ -6,7 +6,7 @@
 
 mod common;
 
-use cellbih::bih::{BihConfig, Tracer};
+use cellbih::bih::{BihConfig, SplitChoice, Tracer};
 use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
 use cellbih::scene::{self, Scene};
@@ -131,15 +131,21 @@ fn every_setting_gives_the_baseline_tree(name: &str) {
                 by_setting.insert((label, spes), cycles);
             }
         }
-        // The empty-space cut-off: the jobs carry their regions through
-        // the deal, the shared queue and the spills.
+        // The quality knobs: the jobs carry their regions through the
+        // deal, the shared queue and the spills; split jobs bin their
+        // triangles.
         let cut = BihConfig {
             empty_cut: Some(10),
             ..BihConfig::default()
         };
-        for spes in [1, 3, 8] {
-            let what = format!("{name}, {spec} on {spes} SPEs, --empty-cut 10");
-            check_build(b, &s, spes, (&Knobs::default(), &cut), &what);
+        for (cfg, flags) in [
+            (cut, "--empty-cut 10"),
+            (BihConfig::SAH_CUT, "--split sah --empty-cut 10"),
+        ] {
+            for spes in [1, 3, 8] {
+                let what = format!("{name}, {spec} on {spes} SPEs, {flags}");
+                check_build(b, &s, spes, (&Knobs::default(), &cfg), &what);
+            }
         }
         if s.len() > 10_000 {
             for spes in 2..=8 {
@@ -329,8 +335,8 @@ proptest! {
     /// Both builders on the property scenes (scales 1e-15 to 1e15, flat,
     /// degenerate, stacks, grids) with 1 to 8 SPEs, any knobs and small
     /// leaves (so that the top levels hand over), with or without the
-    /// empty-space cut-off: valid, equal to brute force, the baseline's
-    /// tree.
+    /// empty-space cut-off and binned SAH: valid, equal to brute force,
+    /// the baseline's tree.
     #[test]
     fn multi_spe_builders_on_any_scene_spe_count_and_knobs(
         scene in common::scene_strategy(),
@@ -339,9 +345,11 @@ proptest! {
         leaf in 1u32..4,
         knobs in knobs_strategy(),
         empty_cut in proptest::option::of(1u32..=99),
+        sah_bins in proptest::option::of(2u32..=32),
     ) {
         let name = if shared { "spe_bfs_shared" } else { "spe_bfs_private" };
-        let cfg = BihConfig { leaf_size: leaf, empty_cut, ..BihConfig::default() };
+        let split = sah_bins.map_or(SplitChoice::GlobalHeuristic, |bins| SplitChoice::BinnedSah { bins });
+        let cfg = BihConfig { leaf_size: leaf, split, empty_cut, ..BihConfig::default() };
         let cell = CellConfig::ps3().with_spes(spes);
         let fail = |e: String| TestCaseError::fail(format!("{name} on {spes} SPEs, {knobs:?}: {e}"));
         let r = builder(name)

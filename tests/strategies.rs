@@ -7,7 +7,7 @@
 
 mod common;
 
-use cellbih::bih::{Bih, BihConfig};
+use cellbih::bih::{Bih, BihConfig, SplitChoice};
 use cellbih::build::BuilderKind;
 use cellbih::scene;
 
@@ -77,6 +77,16 @@ const CUT_SETTINGS: [BihConfig; 3] = [
     },
 ];
 
+/// Binned SAH, alone (8 bins) and with the cut-off (16): the settings the
+/// builders that bin on the SPEs are compared on.
+const SAH_SETTINGS: [BihConfig; 2] = [
+    BihConfig {
+        split: SplitChoice::BinnedSah { bins: 8 },
+        ..BihConfig::DEFAULT
+    },
+    BihConfig::SAH_CUT,
+];
+
 /// spe_dfs runs the same recursion with the partitions on SPE 0 (Fig. 1):
 /// the same nodes as the host tree and the same triangles in every leaf
 /// (Fig. 1 orders a side differently from the host's two-pointer pass), and
@@ -123,7 +133,9 @@ fn spe_dfs_builds_the_host_tree_with_the_partitions_on_an_spe() {
 /// enough for every path of the program: levels wider than WorkB (spilled
 /// to WorkBPPE), intervals over 16 KiB (Fig. 1) and under (agglomerated),
 /// several ObjectArena blocks. The PPE only allocates. With the empty-space
-/// cut-off too: its jobs carry their regions.
+/// cut-off too (its jobs carry their regions), and with binned SAH (each
+/// split job bins its triangles in the local store, or in one more stream
+/// through Fig. 1's buffers when they do not fit).
 #[test]
 fn spe_bfs_builds_the_host_tree_breadth_first() {
     for (s, cfg) in [
@@ -135,8 +147,12 @@ fn spe_bfs_builds_the_host_tree_breadth_first() {
         common::make_scene(500, 0, 0, 0, 9),
     ]
     .iter()
-    .flat_map(|s| CUT_SETTINGS.map(|c| (s, c)))
-    {
+    .flat_map(|s| {
+        CUT_SETTINGS
+            .into_iter()
+            .chain(SAH_SETTINGS)
+            .map(move |c| (s, c))
+    }) {
         let host = BuilderKind::HOST.build(s, &cfg).unwrap();
         let bfs = BuilderKind::SPE_BFS.build(s, &cfg).unwrap();
         common::same_tree_structure(&bfs.bih, &host.bih)

@@ -148,8 +148,17 @@ mod tests {
         assert_eq!(high.planes, [9.0, f32::INFINITY]);
         assert_eq!((high.empty, high.leaf_at), (1, 8));
         assert_eq!(high.region.max.y, 9.0);
-        // The gap is gone: no second cut on that side.
-        assert_eq!(empty_gap(&low.region, &bounds, 5), None);
+        // The z gap is gone; the next cut is the 10 % on y, then none.
+        let next = empty_gap(&low.region, &bounds, 5);
+        assert_eq!(
+            next,
+            Some(Cut {
+                axis: 1,
+                low: false
+            })
+        );
+        let done = next.unwrap().clip(low.region, &bounds, 5, 3).region;
+        assert_eq!(empty_gap(&done, &bounds, 5), None);
     }
 
     #[test]

@@ -34,46 +34,94 @@ pub const MAX_BINS: u32 = 256;
 /// The cheapest plane by binned SAH for `items`, whose box centers `centers`
 /// bounds, or `None` when no candidate plane separates them in `f32`.
 pub fn sah_split<T: Boxed>(items: &[T], centers: &Aabb, bins: u32) -> Option<Split> {
-    let bins = bins.clamp(2, MAX_BINS) as usize;
-    let lo = centers.min.as_dvec3();
-    let ext = centers.extent_f64();
-    // Bins per unit of length, by axis; 0 on an axis where centers coincide.
-    let scale = DVec3::select(ext.cmpgt(DVec3::ZERO), bins as f64 / ext, DVec3::ZERO);
-    let mut bin = vec![[Bin::EMPTY; 3]; bins];
-    for it in items {
-        let c = it.center().as_dvec3();
-        let k = ((c - lo) * scale).as_uvec3();
-        for a in 0..3 {
-            bin[(k[a] as usize).min(bins - 1)][a].add(it.lo(), it.hi());
+    let mut b = Bins::new(centers, bins);
+    b.add(items);
+    b.choose()
+}
+
+/// The bins of one node: filled by one pass over its triangles (in as many
+/// pieces as it comes in: an SPE bins a local-store block at a time), then
+/// swept for the cheapest plane.
+pub struct Bins {
+    centers: Aabb,
+    lo: DVec3,
+    ext: DVec3,
+    /// Bins per unit of length, by axis; 0 on an axis where centers
+    /// coincide.
+    scale: DVec3,
+    bin: Vec<[Bin; 3]>,
+}
+
+impl Bins {
+    /// Empty bins (`bins`, clamped to 2..=[`MAX_BINS`], on each axis) over
+    /// `centers`, the bounds of the node's box centers.
+    pub fn new(centers: &Aabb, bins: u32) -> Self {
+        let bins = bins.clamp(2, MAX_BINS) as usize;
+        let ext = centers.extent_f64();
+        Bins {
+            centers: *centers,
+            lo: centers.min.as_dvec3(),
+            ext,
+            scale: DVec3::select(ext.cmpgt(DVec3::ZERO), bins as f64 / ext, DVec3::ZERO),
+            bin: vec![[Bin::EMPTY; 3]; bins],
         }
     }
-    let mut best: Option<(f64, Split)> = None;
-    for a in (0..3).filter(|&a| scale[a] > 0.0) {
-        // right[i]: bins i.. together.
-        let mut right = vec![Bin::EMPTY; bins];
-        let mut acc = Bin::EMPTY;
-        for i in (0..bins).rev() {
-            acc.merge(&bin[i][a]);
-            right[i] = acc;
-        }
-        let mut left = Bin::EMPTY;
-        for i in 0..bins - 1 {
-            left.merge(&bin[i][a]);
-            let r = &right[i + 1];
-            if left.count == 0 || r.count == 0 {
-                continue;
-            }
-            let plane = (lo[a] + ext[a] * (i + 1) as f64 / bins as f64) as f32;
-            if !(centers.min[a] < plane && plane <= centers.max[a]) {
-                continue;
-            }
-            let cost = left.area() * left.count as f64 + r.area() * r.count as f64;
-            if best.is_none_or(|(c, _)| cost < c) {
-                best = Some((cost, Split { axis: a, plane }));
+
+    /// Bins `items` (their centers must lie in the bins' centers box).
+    pub fn add<T: Boxed>(&mut self, items: &[T]) {
+        let last = self.bin.len() - 1;
+        for it in items {
+            let c = it.center().as_dvec3();
+            let k = ((c - self.lo) * self.scale).as_uvec3();
+            for a in 0..3 {
+                self.bin[(k[a] as usize).min(last)][a].add(it.lo(), it.hi());
             }
         }
     }
-    best.map(|(_, s)| s)
+
+    /// The cheapest plane between two bins that separates the centers in
+    /// `f32` (ties: the lower axis, then the lower plane), or `None`.
+    pub fn choose(&self) -> Option<Split> {
+        let (bins, lo, ext) = (self.bin.len(), self.lo, self.ext);
+        let mut best: Option<(f64, Split)> = None;
+        for a in (0..3).filter(|&a| self.scale[a] > 0.0) {
+            // right[i]: bins i.. together.
+            let mut right = vec![Bin::EMPTY; bins];
+            let mut acc = Bin::EMPTY;
+            for i in (0..bins).rev() {
+                acc.merge(&self.bin[i][a]);
+                right[i] = acc;
+            }
+            let mut left = Bin::EMPTY;
+            for i in 0..bins - 1 {
+                left.merge(&self.bin[i][a]);
+                let r = &right[i + 1];
+                if left.count == 0 || r.count == 0 {
+                    continue;
+                }
+                let plane = (lo[a] + ext[a] * (i + 1) as f64 / bins as f64) as f32;
+                if !(self.centers.min[a] < plane && plane <= self.centers.max[a]) {
+                    continue;
+                }
+                let cost = left.area() * left.count as f64 + r.area() * r.count as f64;
+                if best.is_none_or(|(c, _)| cost < c) {
+                    best = Some((cost, Split { axis: a, plane }));
+                }
+            }
+        }
+        best.map(|(_, s)| s)
+    }
+
+    /// Bins per axis.
+    pub fn per_axis(&self) -> usize {
+        self.bin.len()
+    }
+
+    /// Bytes the bins take in a local store: per bin and axis a count and a
+    /// box, two quadwords.
+    pub fn ls_bytes(bins: u32) -> u32 {
+        bins.clamp(2, MAX_BINS) * 3 * 32
+    }
 }
 
 /// One bin on one axis: how many centers fell in it and the union of their
@@ -158,6 +206,19 @@ mod tests {
         let s = sah_split(&items, &centers, 16).unwrap();
         let left = items.iter().filter(|it| it.center().x < s.plane).count();
         assert_eq!(left, 99, "{s:?}");
+    }
+
+    #[test]
+    fn binning_in_pieces_gives_the_plane_of_one_pass() {
+        let xs: Vec<f32> = (0..100).map(|i| ((i * 37) % 101) as f32).collect();
+        let items = unit_boxes(&xs);
+        let centers = side_of(&items).centers();
+        let mut b = Bins::new(&centers, 8);
+        for piece in items.chunks(7) {
+            b.add(piece);
+        }
+        assert_eq!(b.choose(), sah_split(&items, &centers, 8));
+        assert!(b.choose().is_some());
     }
 
     #[test]

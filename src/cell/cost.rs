@@ -74,6 +74,14 @@ pub struct KernelRates {
     /// DMA-list element where a run ends), and per record of the
     /// permutation's gather list. Derived and scaled the same way.
     pub spe_radix_scatter: Cycles,
+    /// SPE cycles per item binned by the binned SAH split choice (the
+    /// record's box and center, a bin index per axis, three bins' counts
+    /// and boxes updated). Derived and scaled the same way.
+    pub spe_bin_item: Cycles,
+    /// SPE cycles per bin and axis of the binned SAH sweep (the two
+    /// running unions, both sides' areas and the cost in double precision,
+    /// the best kept). Derived and scaled the same way.
+    pub spe_sah_bin: Cycles,
 }
 
 impl KernelRates {
@@ -89,6 +97,9 @@ impl KernelRates {
             spe_morton_bit: Cycles(30),
             spe_radix_count: Cycles(12),
             spe_radix_scatter: Cycles(22),
+            // Derived: 40 and 75 SPU cycles; x4 the same way.
+            spe_bin_item: Cycles(160),
+            spe_sah_bin: Cycles(300),
         }
     }
 
@@ -102,6 +113,8 @@ impl KernelRates {
             spe_morton_bit: Cycles::ZERO,
             spe_radix_count: Cycles::ZERO,
             spe_radix_scatter: Cycles::ZERO,
+            spe_bin_item: Cycles::ZERO,
+            spe_sah_bin: Cycles::ZERO,
         }
     }
 }

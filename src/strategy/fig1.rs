@@ -21,7 +21,7 @@
 
 use bytemuck::Pod;
 
-use crate::build::kernels::{Boxed, Side, Split, partition};
+use crate::build::kernels::{Boxed, Side, Split, partition, side_of};
 use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe};
 
 /// Bytes of one streaming block: the largest single DMA.
@@ -233,13 +233,29 @@ pub async fn stream_bounds<T: Boxed + Pod>(
     n: u64,
     cycles_per_element: Cycles,
 ) -> Result<Side, CellError> {
+    let merge = |side: &mut Side, items: &[T]| *side = side.merge(side_of(items));
+    stream_fold(spe, bufs, ea, n, cycles_per_element, Side::EMPTY, merge).await
+}
+
+/// Streams the `n` records at `ea` through two of Fig. 1's buffers (the
+/// next block's get issued before this one is looked at), folding each
+/// block into `acc` with `fold` at `cycles_per_element`: the one read-only
+/// pass [`stream_bounds`] and the binned SAH's binning make.
+pub async fn stream_fold<T: Pod, A>(
+    spe: &Spe,
+    bufs: &Fig1Buffers,
+    ea: Ea,
+    n: u64,
+    cycles_per_element: Cycles,
+    mut acc: A,
+    mut fold: impl FnMut(&mut A, &[T]),
+) -> Result<A, CellError> {
     let size = size_of::<T>() as u64;
     let per_block = BLOCK_BYTES as u64 / size;
     let blocks = n.div_ceil(per_block);
     let len = |k: u64| per_block.min(n - k * per_block);
-    let mut side = Side::EMPTY;
     if blocks == 0 {
-        return Ok(side);
+        return Ok(acc);
     }
     spe.get(bufs.bufs[0], ea, (len(0) * size) as u32, bufs.tag(0))
         .await?;
@@ -256,10 +272,10 @@ pub async fn stream_bounds<T: Boxed + Pod>(
             .await?;
         }
         spe.wait_tag(bufs.tag(b)).await?;
-        side = side.merge(spe.with_ls(bufs.bufs[b], len(k) as usize, |items: &[T]| {
-            crate::build::kernels::side_of(items)
-        })?);
+        spe.with_ls(bufs.bufs[b], len(k) as usize, |items: &[T]| {
+            fold(&mut acc, items)
+        })?;
         spe.compute_items(cycles_per_element, len(k));
     }
-    Ok(side)
+    Ok(acc)
 }

@@ -24,16 +24,17 @@ use std::rc::Rc;
 use glam::Vec3;
 
 use super::arena::{BlockSource, NodeWrites, ObjectArena, pieces, serve_blocks};
-use super::fig1::{Fig1Buffers, partition_in_place, stream_bounds};
+use super::fig1::{Fig1Buffers, partition_in_place, stream_bounds, stream_fold};
 use super::layout::TriRecord;
 use super::work_queue::{Level, WorkQueue};
 use super::{Knobs, Output, Setup};
 use crate::aabb::Aabb;
-use crate::bih::{BihConfig, BihNode};
+use crate::bih::{BihConfig, BihNode, SplitChoice};
 use crate::build::cutoff::{Clip, child_regions, empty_gap};
 use crate::build::host::BuildStats;
 use crate::build::kernels::{Side, Split, choose_split, clip_planes, partition};
-use crate::cell::{CellError, Ea, ListElement, Spe, WaitMode};
+use crate::build::sah::Bins;
+use crate::cell::{CellError, Ea, ListElement, LsAddr, Spe, WaitMode};
 
 /// One job: a node to make and its interval of the triangle array. Its
 /// first 64 bytes are the paper's job and all that travels, unless the
@@ -132,7 +133,7 @@ pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
     "breadth first, the baseline: one SPE builds level by level (WorkA/WorkB, Fig. 2), small jobs agglomerated, nodes in an ObjectArena (Table 1, column 4)",
     spawn,
 )
-.with_quality(crate::build::Quality::CUT);
+.with_quality(crate::build::Quality::ALL);
 
 fn spawn(
     cell: &mut crate::cell::Cell,
@@ -180,11 +181,25 @@ fn spawn(
 
 /// What a job makes: a leaf, a clip node (the empty-space cut-off: no
 /// triangle moves), or an inner node that splits its interval (with the
-/// candidate box the split was chosen in).
+/// candidate box the split was chosen in), its plane chosen by the global
+/// heuristic from the job alone, or by binned SAH once its triangles are
+/// in the local store (`Sah`).
 enum Make {
     Leaf,
     Clip(Clip),
     Split(Split, Aabb),
+    Sah(Aabb),
+}
+
+impl Make {
+    /// A split's plane (`None`: binned SAH, not chosen yet) and candidate.
+    fn split(&self) -> Option<(Option<Split>, Aabb)> {
+        match *self {
+            Make::Split(s, cand) => Some((Some(s), cand)),
+            Make::Sah(cand) => Some((None, cand)),
+            Make::Leaf | Make::Clip(_) => None,
+        }
+    }
 }
 
 /// A job of the current agglomerated batch and what it will make.
@@ -219,7 +234,7 @@ impl Batch {
 /// through Fig. 1, in job order.
 enum Step {
     Batch(Batch),
-    Large(Job, Split, Aabb),
+    Large(Job, Option<Split>, Aabb),
 }
 
 /// The SPE program's state: its local-store buffers and counters. The
@@ -245,6 +260,9 @@ pub(super) struct SpeBuilder<'a> {
     pub(super) node_writes: Option<NodeWrites<'a>>,
     /// Batches gather non-adjacent intervals with DMA lists.
     dma_lists: bool,
+    /// Binned SAH: the bins' place in the local store (filled there, then
+    /// swept).
+    bins: Option<LsAddr>,
     /// The next batch's get is issued before this one is partitioned.
     prefetch: bool,
     /// The other SPEs help partition intervals of at least this many
@@ -288,6 +306,10 @@ impl<'a> SpeBuilder<'a> {
             strict_spans: false,
             node_writes: None,
             dma_lists: knobs.dma_lists,
+            bins: match cfg.split {
+                SplitChoice::BinnedSah { bins } => Some(spe.ls_alloc(Bins::ls_bytes(bins), 128)?),
+                SplitChoice::GlobalHeuristic => None,
+            },
             prefetch: knobs.prefetch,
             coop: None,
             jobs: 0,
@@ -380,13 +402,20 @@ impl<'a> SpeBuilder<'a> {
             {
                 let (first, count) = (job.first as usize, job.count as usize);
                 Make::Clip(cut.clip(region, &bounds, first, count))
+            } else if let SplitChoice::BinnedSah { .. } = self.cfg.split {
+                let c = job.centers();
+                if c.min == c.max {
+                    Make::Leaf
+                } else {
+                    Make::Sah(candidate)
+                }
             } else {
                 match choose_split(&mut candidate, &job.centers()) {
                     Some(s) => Make::Split(s, candidate),
                     None => Make::Leaf,
                 }
             };
-            let Make::Split(s, cand) = make else {
+            let Some((s, cand)) = make.split() else {
                 batch.jobs.push(Pending { job, make });
                 continue;
             };
@@ -429,10 +458,7 @@ impl<'a> SpeBuilder<'a> {
                     batch.runs = vec![grown];
                 }
             }
-            batch.jobs.push(Pending {
-                job,
-                make: Make::Split(s, cand),
-            });
+            batch.jobs.push(Pending { job, make });
         }
         self.step(Step::Batch(batch), &mut steps).await?;
         self.run_prefetching(steps).await?;
@@ -483,11 +509,25 @@ impl<'a> SpeBuilder<'a> {
 
     /// Partitions a large interval: streamed through Fig. 1's buffers, or
     /// cooperatively by every SPE.
-    async fn large(&mut self, job: &Job, s: Split, cand: Aabb) -> Result<(), CellError> {
+    async fn large(&mut self, job: &Job, s: Option<Split>, cand: Aabb) -> Result<(), CellError> {
         let k = self.spe.cost().kernels;
         // Fig. 1 reuses the batches' buffers: their puts finish first.
         let batches = (0..self.batch_buffers()).fold(0, |m, b| m | 1 << self.fig1.tag(b));
         self.spe.wait_tags(batches, WaitMode::All).await?;
+        let (s, cand) = match s {
+            Some(s) => (s, cand),
+            None => {
+                // Binned SAH: one more pass, through two of Fig. 1's
+                // buffers, to bin the interval.
+                let bins = self.new_bins(job)?;
+                let at = self.interval(job.first);
+                let (spe, fig1) = (self.spe, &self.fig1);
+                let add = |b: &mut Bins, items: &[TriRecord]| b.add(items);
+                let n = job.count as u64;
+                let bins = stream_fold(spe, fig1, at, n, k.spe_bin_item, bins, add).await?;
+                self.sah_choose(job, &bins, cand)
+            }
+        };
         if let Some((coop, min)) = self.coop.as_mut()
             && job.count >= *min
         {
@@ -590,19 +630,30 @@ impl<'a> SpeBuilder<'a> {
             let mut run = 0;
             let mut run_at = 0u32;
             for p in batch.jobs.iter() {
-                if let Make::Split(s, _) = p.make {
+                if let Some((s, cand)) = p.make.split() {
                     while !(batch.runs[run].0..batch.runs[run].1).contains(&p.job.first) {
                         run_at += (batch.runs[run].1 - batch.runs[run].0) * size;
                         run += 1;
                     }
                     let at = ls.offset(run_at + (p.job.first - batch.runs[run].0) * size);
-                    let lr = self.spe.with_ls_mut(
-                        at,
-                        p.job.count as usize,
-                        |items: &mut [TriRecord]| partition(items, s),
-                    )?;
-                    self.spe.compute_items(rate, p.job.count as u64);
-                    sides.push(lr);
+                    let count = p.job.count as usize;
+                    let (s, cand) = match s {
+                        Some(s) => (s, cand),
+                        None => {
+                            // Binned SAH on the records in the local store.
+                            let mut bins = self.new_bins(&p.job)?;
+                            self.spe
+                                .with_ls(at, count, |items: &[TriRecord]| bins.add(items))?;
+                            let k = self.spe.cost().kernels;
+                            self.spe.compute_items(k.spe_bin_item, count as u64);
+                            self.sah_choose(&p.job, &bins, cand)
+                        }
+                    };
+                    let (l, r) = self
+                        .spe
+                        .with_ls_mut(at, count, |items: &mut [TriRecord]| partition(items, s))?;
+                    self.spe.compute_items(rate, count as u64);
+                    sides.push((l, r, s, cand));
                 }
             }
             match &self.run_list(batch)[..] {
@@ -619,13 +670,39 @@ impl<'a> SpeBuilder<'a> {
                     self.emit(&p.job, leaf).await?;
                 }
                 Make::Clip(clip) => self.clip_node(&p.job, clip).await?,
-                Make::Split(s, cand) => {
-                    let (l, r) = sides.next().expect("one partition per split job");
+                Make::Split(..) | Make::Sah(_) => {
+                    let (l, r, s, cand) = sides.next().expect("one partition per split job");
                     self.split_node(&p.job, s, cand, &l, &r).await?;
                 }
             }
         }
         Ok(())
+    }
+
+    /// Empty bins for `job`'s binned SAH choice (they live in the local
+    /// store at `self.bins`).
+    fn new_bins(&self, job: &Job) -> Result<Bins, CellError> {
+        let SplitChoice::BinnedSah { bins } = self.cfg.split else {
+            unreachable!("binned SAH jobs only");
+        };
+        debug_assert!(self.bins.is_some());
+        Ok(Bins::new(&job.centers(), bins))
+    }
+
+    /// Sweeps `job`'s filled bins for the cheapest plane (charged per bin
+    /// and axis); the global heuristic in `cand` where no binned plane
+    /// separates in `f32`, as the host builder does.
+    fn sah_choose(&mut self, job: &Job, bins: &Bins, cand: Aabb) -> (Split, Aabb) {
+        let k = self.spe.cost().kernels;
+        self.spe
+            .compute_items(k.spe_sah_bin, 3 * bins.per_axis() as u64);
+        self.stats.items_binned += job.count as u64;
+        if let Some(s) = bins.choose() {
+            return (s, cand);
+        }
+        let mut cand = cand;
+        let s = choose_split(&mut cand, &job.centers()).expect("the job's centers differ");
+        (s, cand)
     }
 
     /// Makes the clip node of `job` (the empty-space cut-off) and pushes

@@ -41,7 +41,7 @@ pub const BUILDER: Builder = Builder::multi_spe(
     "section 5: SPE 0 builds the top levels, deals the jobs largest first, then every SPE builds its own jobs breadth first with its own ObjectArena list (--spes)",
     spawn,
 )
-.with_quality(crate::build::Quality::CUT);
+.with_quality(crate::build::Quality::ALL);
 
 /// A deal record in main memory, one 128-byte line per SPE: jobs dealt,
 /// the depth of their level, and the SPE's `WorkAPPE` and `WorkBPPE`.

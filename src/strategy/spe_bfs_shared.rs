@@ -49,7 +49,7 @@ pub const BUILDER: Builder = Builder::multi_spe(
     "section 5: every SPE takes jobs from one shared job queue (lock-line atomics, --agglomerate jobs per take), a barrier per level, each SPE's nodes in its own ObjectArena list (--spes)",
     spawn,
 )
-.with_quality(crate::build::Quality::CUT);
+.with_quality(crate::build::Quality::ALL);
 
 /// The queue's lock lines in main memory.
 #[derive(Clone, Copy)]
