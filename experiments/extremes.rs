@@ -38,9 +38,6 @@ struct Args {
     out: PathBuf,
 }
 
-/// How the rows name `BihConfig::SAH_CUT`.
-const KNOBS_FLAGS: &str = "--split sah --empty-cut 10";
-
 fn main() {
     let args = Args::parse();
     cellbih::report::experiment_main("extremes", &args.out.clone(), || run(&args));
@@ -55,7 +52,7 @@ fn run(args: &Args) -> Result<(), String> {
         let rays = rays_for(&scene, args.rays as usize, 11);
         let runs = BuilderKind::every_run(BihConfig::SAH_CUT);
         for (b, cfg) in runs {
-            let flags = if cfg.paper_quality() { "" } else { KNOBS_FLAGS };
+            let flags = cfg.flags();
             let e = examine(b, &cfg, &cell, &scene, &rays);
             rows.push(json!({
                 "case": name, "triangles": scene.len(), "degenerate": scene.degenerate_count(),
@@ -152,7 +149,7 @@ fn print_table(rows: &[Value]) {
             format!("{worst}/{}", n(of[0], "rays")),
             range("depth"),
             range("largest_leaf"),
-            format!("{} / {}", st(""), st(KNOBS_FLAGS)),
+            format!("{} / {}", st(""), st(&BihConfig::SAH_CUT.flags())),
         );
         for r in of
             .iter()
@@ -166,9 +163,15 @@ fn print_table(rows: &[Value]) {
             );
         }
     }
+    let knobs: Vec<String> = (BuilderKind::every_run(BihConfig::SAH_CUT).iter())
+        .filter(|(_, cfg)| !cfg.paper_quality())
+        .map(|(b, cfg)| format!("{b} {}", cfg.flags()))
+        .collect();
     println!(
-        "valid: builder runs whose tree is valid, of every builder with the paper's settings and host, ppe_naive \
-         with {KNOBS_FLAGS}; disagree: the most rays of one run whose hit differs from brute force; depth, leaf \
-         max: over the runs; f32 stalls: halvings the global heuristic could not make in f32 (paper's tree / knobs' tree)"
+        "valid: builder runs whose tree is valid, of every builder with the paper's settings and {}; disagree: the \
+         most rays of one run whose hit differs from brute force; depth, leaf max: over the runs; f32 stalls: \
+         halvings the global heuristic could not make in f32 (paper's tree / {})",
+        knobs.join(", "),
+        BihConfig::SAH_CUT.flags()
     );
 }

@@ -106,23 +106,13 @@ fn settings() -> Vec<Setting> {
                         empty_cut: cut,
                         ..d
                     };
-                    let mut flags = String::new();
-                    if leaf != d.leaf_size {
-                        flags += &format!(" --leaf-size {leaf}");
-                    }
-                    if sah {
-                        flags += " --split sah";
-                    }
-                    if let Some(c) = cut {
-                        flags += &format!(" --empty-cut {c}");
-                    }
-                    push(b, cfg, k, flags.trim());
+                    push(b, cfg, k, &cfg.flags());
                 }
             }
         }
         if q == Quality::ALL {
             let deep = BihConfig { max_depth: 16, ..d };
-            push(b, deep, k, "--max-depth 16");
+            push(b, deep, k, &deep.flags());
         }
         match b.name() {
             "ppe_approx" => {

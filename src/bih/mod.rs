@@ -89,6 +89,29 @@ impl BihConfig {
         count <= self.leaf_size as usize || depth >= self.max_depth
     }
 
+    /// The `cellbih build` options that give this configuration (empty for
+    /// the default), as reports name settings.
+    pub fn flags(&self) -> String {
+        let d = BihConfig::DEFAULT;
+        let mut f = Vec::new();
+        if self.leaf_size != d.leaf_size {
+            f.push(format!("--leaf-size {}", self.leaf_size));
+        }
+        if self.max_depth != d.max_depth {
+            f.push(format!("--max-depth {}", self.max_depth));
+        }
+        if let SplitChoice::BinnedSah { bins } = self.split {
+            f.push("--split sah".to_string());
+            if bins != crate::build::sah::DEFAULT_BINS {
+                f.push(format!("--sah-bins {bins}"));
+            }
+        }
+        if let Some(p) = self.empty_cut {
+            f.push(format!("--empty-cut {p}"));
+        }
+        f.join(" ")
+    }
+
     /// Whether the split choice and empty-space cut-off are the paper's
     /// (the global heuristic, no cut-off): what every builder supports.
     /// The other settings are built by the builders that run the shared
