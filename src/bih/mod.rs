@@ -14,10 +14,9 @@ pub use validate::Violation;
 
 use crate::aabb::Aabb;
 
-/// The limits every builder honours, and the quality knobs of the builders
-/// that run the shared recursion (`host`, `ppe_naive`; see
-/// [`BihConfig::paper_quality`]). Each knob is off by default: the default
-/// is the paper's tree, and Table 1 does not move.
+/// The limits every builder honours, and the quality knobs (which builder
+/// builds which: `crate::build::Quality`). Each knob is off by default: the
+/// default is the paper's tree, and Table 1 does not move.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct BihConfig {
     /// A node with at most this many triangles becomes a leaf. The paper's
@@ -114,8 +113,6 @@ impl BihConfig {
 
     /// Whether the split choice and empty-space cut-off are the paper's
     /// (the global heuristic, no cut-off): what every builder supports.
-    /// The other settings are built by the builders that run the shared
-    /// recursion of [`crate::build::host`].
     pub fn paper_quality(&self) -> bool {
         self.split == SplitChoice::GlobalHeuristic && self.empty_cut.is_none()
     }

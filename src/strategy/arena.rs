@@ -269,7 +269,11 @@ impl<'a> ObjectArena<'a> {
         if k >= blocks {
             return Err(CellError::Program {
                 core: format!("SPE {}", self.spe.id()),
-                msg: format!("the ObjectArena pool of {blocks} blocks is used up"),
+                msg: format!(
+                    "the ObjectArena pool of {blocks} blocks is used up (it holds 2n + 1 nodes, \
+                     every node a tree of the paper's settings can have; the empty-space cut-off \
+                     adds two per clip node: use larger leaves or a larger --empty-cut)"
+                ),
             });
         }
         self.stats.blocks += 1;

@@ -1,183 +1,18 @@
-//! `spe_bfs` — the paper's breadth-first construction (section 2, Fig. 2,
-//! Table 1), the **baseline** of this project: one SPE builds the tree
-//! level by level "almost entirely independent from the PPE", which only
-//! allocates memory.
-//!
-//! - **Jobs** (the intervals of the next tree level, 64 bytes each, [`Job`])
-//!   live in `WorkA` (the current level) and `WorkB` (the next), spilled to
-//!   `WorkAPPE`/`WorkBPPE`: the two-phase queue of Fig. 2
-//!   ([`super::work_queue`]).
-//! - **Partitions**: an interval over 16 KiB streams through the five
-//!   buffers of Fig. 1; smaller ones are **agglomerated**: consecutive jobs
-//!   whose intervals span at most 16 KiB of the triangle array travel in one
-//!   get and one put.
-//! - **Nodes** go into an **ObjectArena** ([`super::arena`]) whose blocks
-//!   the PPE allocates on request. Every job is one node, made in the order
-//!   of node ids, so the SPE computes each node's address itself.
-//!
-//! The splits are the host builder's (same heuristic, same sets on each
-//! side), so the tree is the host tree with its nodes numbered breadth first.
+//! `spe_bfs`'s jobs made in blocks (section 2, Fig. 2): each job's node
+//! chosen (leaf, clip node, split), small intervals **agglomerated** into
+//! batches that travel in one get and one put (or DMA lists), large ones
+//! streamed through Fig. 1's five buffers, binned SAH's binning where the
+//! records are.
 
-use std::cell::RefCell;
-use std::rc::Rc;
-
-use glam::Vec3;
-
-use super::arena::{BlockSource, NodeWrites, ObjectArena, pieces, serve_blocks};
-use super::fig1::{Fig1Buffers, partition_in_place, stream_bounds, stream_fold};
-use super::layout::TriRecord;
-use super::work_queue::{Level, WorkQueue};
-use super::{Knobs, Output, Setup};
+use super::{Job, SpeBuilder};
 use crate::aabb::Aabb;
-use crate::bih::{BihConfig, BihNode, SplitChoice};
-use crate::build::cutoff::{Clip, child_regions, empty_gap};
-use crate::build::host::BuildStats;
-use crate::build::kernels::{Side, Split, choose_split, clip_planes, partition};
+use crate::bih::{BihNode, SplitChoice};
+use crate::build::cutoff::{Clip, empty_gap};
+use crate::build::kernels::{Split, choose_split, partition};
 use crate::build::sah::Bins;
-use crate::cell::{CellError, Ea, ListElement, LsAddr, Spe, WaitMode};
-
-/// One job: a node to make and its interval of the triangle array. Its
-/// first 64 bytes are the paper's job and all that travels, unless the
-/// empty-space cut-off is on: then the node's region and its triangles' box
-/// travel too, 128 bytes a job ([`Job::bytes`]).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct Job {
-    pub first: u32,
-    pub count: u32,
-    /// The node id this job fills.
-    pub node: u32,
-    pub depth: u32,
-    /// The candidate box of the global heuristic.
-    pub candidate: [[f32; 3]; 2],
-    /// Bounds of the interval's box centers.
-    pub centers: [[f32; 3]; 2],
-    /// The empty-space cut-off only: the node's region (the box its
-    /// ancestors' planes leave it) ...
-    region: [[f32; 3]; 2],
-    /// ... and the union of its triangles' boxes.
-    bounds: [[f32; 3]; 2],
-    pad: [u32; 4],
-}
-const _: () = assert!(size_of::<Job>() == 128);
-
-/// An `Aabb` as two arrays, and back.
-fn pack(b: Aabb) -> [[f32; 3]; 2] {
-    [b.min.to_array(), b.max.to_array()]
-}
-fn unpack(b: [[f32; 3]; 2]) -> Aabb {
-    Aabb::new(Vec3::from_array(b[0]), Vec3::from_array(b[1]))
-}
-
-impl Job {
-    /// A job whose region is its candidate box (the root's; others get
-    /// theirs with [`Job::in_region`]).
-    pub(super) fn new(
-        first: usize,
-        count: usize,
-        node: usize,
-        depth: u32,
-        cand: Aabb,
-        side: &Side,
-    ) -> Self {
-        Job {
-            first: first as u32,
-            count: count as u32,
-            node: node as u32,
-            depth,
-            candidate: pack(cand),
-            centers: pack(side.centers()),
-            region: pack(cand),
-            bounds: pack(side.bounds()),
-            pad: [0; 4],
-        }
-    }
-
-    /// This job with the region `region`.
-    fn in_region(self, region: Aabb) -> Self {
-        Job {
-            region: pack(region),
-            ..self
-        }
-    }
-
-    /// Bytes one job takes in `WorkA`/`WorkB` and main memory with `cfg`:
-    /// the paper's 64, or 128 with the empty-space cut-off.
-    pub(super) fn bytes(cfg: &BihConfig) -> usize {
-        if cfg.empty_cut.is_some() { 128 } else { 64 }
-    }
-
-    /// Bytes `WorkAPPE` (and `WorkBPPE`) need for a subtree of
-    /// `triangles` with `cfg` ([`WorkQueue::spill_bytes_for`]).
-    pub(super) fn spill_bytes_for(triangles: usize, cfg: &BihConfig) -> u64 {
-        WorkQueue::<Job>::spill_bytes_for(triangles, cfg.leaf_size, Job::bytes(cfg))
-    }
-
-    pub(super) fn candidate(&self) -> Aabb {
-        unpack(self.candidate)
-    }
-    fn centers(&self) -> Aabb {
-        unpack(self.centers)
-    }
-    fn region(&self) -> Aabb {
-        unpack(self.region)
-    }
-    fn bounds(&self) -> Aabb {
-        unpack(self.bounds)
-    }
-}
-
-/// `spe_bfs`, the baseline, in the registry of builders.
-pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
-    "spe_bfs",
-    "breadth first, the baseline: one SPE builds level by level (WorkA/WorkB, Fig. 2), small jobs agglomerated, nodes in an ObjectArena (Table 1, column 4)",
-    spawn,
-)
-.with_quality(crate::build::Quality::ALL);
-
-fn spawn(
-    cell: &mut crate::cell::Cell,
-    setup: &Setup,
-    cfg: &BihConfig,
-    out: Rc<RefCell<Output>>,
-) -> Result<(), CellError> {
-    let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
-    // WorkAPPE and WorkBPPE: room for the widest level the tree can have
-    // (the paper sized them for as many jobs as triangles, 6.5 times more
-    // with leaves of 12; see strategy/footprint.rs).
-    let work_ppe_bytes = Job::spill_bytes_for(n, &cfg);
-    let work_a_ppe = cell.memory_mut().alloc("WorkAPPE", work_ppe_bytes, 128)?;
-    let work_b_ppe = cell.memory_mut().alloc("WorkBPPE", work_ppe_bytes, 128)?;
-    let work_ppe = [work_a_ppe, work_b_ppe];
-    let stats = Rc::new(RefCell::new(BuildStats::default()));
-    let spe_stats = stats.clone();
-
-    cell.spawn_spe(0, move |spe| async move {
-        let paper = Knobs::PAPER;
-        let mut b = SpeBuilder::new(
-            &spe,
-            tris,
-            (work_ppe, work_ppe_bytes),
-            cfg,
-            BlockSource::Mailbox,
-            &paper,
-        )?;
-        let all = b.bounds_of_all(n).await?;
-        b.run(Job::new(0, n, 0, 0, region, &all)).await?;
-        *spe_stats.borrow_mut() = b.stats;
-        Ok(())
-    });
-
-    cell.spawn_ppe(move |ppe| async move {
-        // The PPE only allocates the arena's blocks.
-        let (blocks, count) = serve_blocks(&ppe, 0).await?;
-        let mut o = out.borrow_mut();
-        o.nodes = pieces(&blocks, count);
-        o.stats = *stats.borrow();
-        Ok::<(), CellError>(())
-    });
-    Ok(())
-}
+use crate::cell::{CellError, ListElement, WaitMode};
+use crate::strategy::fig1::{partition_in_place, stream_fold};
+use crate::strategy::layout::TriRecord;
 
 /// What a job makes: a leaf, a clip node (the empty-space cut-off: no
 /// triangle moves), or an inner node that splits its interval (with the
@@ -237,157 +72,18 @@ enum Step {
     Large(Job, Option<Split>, Aabb),
 }
 
-/// The SPE program's state: its local-store buffers and counters. The
-/// multi-SPE strategies run the same loop on every SPE.
-pub(super) struct SpeBuilder<'a> {
-    spe: &'a Spe,
-    tris: Ea,
-    pub(super) cfg: BihConfig,
-    pub(super) fig1: Fig1Buffers,
-    /// `WorkA`/`WorkB` and their spill areas.
-    pub(super) queue: WorkQueue<'a, Job>,
-    pub(super) arena: ObjectArena<'a>,
-    /// Jobs of this depth were dealt to this SPE: their nodes' slots belong
-    /// to another arena (multi-SPE strategies).
-    pub(super) foreign_depth: Option<u32>,
-    /// Where the intervals of the jobs dealt to this SPE start: a batch of
-    /// agglomerated jobs never spans two of them.
-    pub(super) dealt_starts: Vec<u32>,
-    /// A shared queue: records between two jobs this SPE took may be
-    /// another SPE's, so a batch's span never crosses a gap.
-    pub(super) strict_spans: bool,
-    /// A shared queue: every node goes straight into its slot.
-    pub(super) node_writes: Option<NodeWrites<'a>>,
-    /// Batches gather non-adjacent intervals with DMA lists.
-    dma_lists: bool,
-    /// Binned SAH: the bins' place in the local store (filled there, then
-    /// swept).
-    bins: Option<LsAddr>,
-    /// The next batch's get is issued before this one is partitioned.
-    prefetch: bool,
-    /// The other SPEs help partition intervals of at least this many
-    /// triangles (multi-SPE strategies, before the deal).
-    pub(super) coop: Option<(super::coop::Coop, u32)>,
-    /// Which Fig. 1 buffer the next agglomerated batch uses (0 or 1; 0 to
-    /// 2 when prefetching).
-    batch_buf: usize,
-    /// The interval each batch buffer last put back (its put may still be
-    /// under way).
-    batch_put: [Option<(u32, u32)>; 3],
-    pub(super) stats: BuildStats,
-    /// Jobs this SPE made nodes for.
-    pub(super) jobs: u64,
-}
-
-impl<'a> SpeBuilder<'a> {
-    pub(super) fn new(
-        spe: &'a Spe,
-        tris: Ea,
-        (work_ppe, work_ppe_bytes): ([Ea; 2], u64),
-        cfg: BihConfig,
-        blocks: BlockSource,
-        knobs: &Knobs,
-    ) -> Result<Self, CellError> {
-        Ok(SpeBuilder {
-            spe,
-            tris,
-            cfg,
-            fig1: Fig1Buffers::alloc(spe)?,
-            queue: WorkQueue::new(
-                spe,
-                work_ppe,
-                work_ppe_bytes,
-                knobs.double_buffer,
-                Job::bytes(&cfg),
-            )?,
-            arena: ObjectArena::new(spe, blocks)?,
-            foreign_depth: None,
-            dealt_starts: Vec::new(),
-            strict_spans: false,
-            node_writes: None,
-            dma_lists: knobs.dma_lists,
-            bins: match cfg.split {
-                SplitChoice::BinnedSah { bins } => Some(spe.ls_alloc(Bins::ls_bytes(bins), 128)?),
-                SplitChoice::GlobalHeuristic => None,
-            },
-            prefetch: knobs.prefetch,
-            coop: None,
-            jobs: 0,
-            batch_buf: 0,
-            batch_put: [None; 3],
-            stats: BuildStats::default(),
-        })
-    }
-
-    /// The bounds of all `n` triangle records (one streaming pass), for
-    /// the root job.
-    pub(super) async fn bounds_of_all(&self, n: usize) -> Result<Side, CellError> {
-        let rate = self.spe.cost().kernels.spe_bounds_item;
-        stream_bounds::<TriRecord>(self.spe, &self.fig1, self.tris, n as u64, rate).await
-    }
-
-    /// Builds the tree below `root`, level by level (Fig. 2).
-    async fn run(&mut self, root: Job) -> Result<(), CellError> {
-        // Ask for the first arena block before anything else.
-        self.arena.open().await;
-        let root_id = self.arena.alloc(1).await?;
-        debug_assert_eq!(root_id, root.node);
-        let level = self.queue.start(root)?;
-        self.levels(level, None).await?;
-        let count = self.arena.allocated();
-        self.arena.close(count).await?;
-        self.stats.nodes = count as u64;
-        Ok(())
-    }
-
-    /// Builds level by level from `level`. With `stop_at`, stops before the
-    /// first level of at least that many jobs (at most 128, so that it is
-    /// still in `WorkA`) and returns it; otherwise runs to the end.
-    pub(super) async fn levels(
-        &mut self,
-        mut level: Level,
-        stop_at: Option<usize>,
-    ) -> Result<Option<Level>, CellError> {
-        debug_assert!(stop_at.is_none_or(|s| s <= 128));
-        loop {
-            for k in 0..self.queue.blocks(level) {
-                let jobs = self.queue.load(level, k).await?;
-                self.process(&jobs).await?;
-            }
-            match self.queue.end_level().await? {
-                Some(Level::Local(len)) if stop_at.is_some_and(|s| len >= s) => {
-                    return Ok(Some(Level::Local(len)));
-                }
-                Some(next) => level = next,
-                None => return Ok(None),
-            }
-        }
-    }
-
-    /// Writes `job`'s node: into this SPE's arena, or, for a job dealt to
-    /// it, into the slot its parent's SPE handed out.
-    async fn emit(&mut self, job: &Job, node: BihNode) -> Result<(), CellError> {
-        if let Some(w) = self.node_writes.as_mut() {
-            w.push(job.node, node);
-            return Ok(());
-        }
-        if self.foreign_depth == Some(job.depth) {
-            self.arena.emit_foreign(job.node, node).await
-        } else {
-            self.arena.emit(job.node, node).await
-        }
-    }
-
+impl SpeBuilder<'_> {
     /// Makes the nodes of `jobs` (consecutive jobs of one level, in node-id
     /// order), agglomerating small intervals. Each batch runs as soon as
     /// it is complete, or, prefetching, once the block is planned.
-    pub(super) async fn process(&mut self, jobs: &[Job]) -> Result<(), CellError> {
+    pub(in crate::strategy) async fn process(&mut self, jobs: &[Job]) -> Result<(), CellError> {
         if self.foreign_depth.is_some() && self.foreign_depth == jobs.first().map(|j| j.depth) {
             // The jobs dealt to this SPE (one block: at most 128).
             self.dealt_starts = jobs.iter().map(|j| j.first).collect();
         }
         let k = self.spe.cost().kernels;
-        let per_block = (super::fig1::BLOCK_BYTES as usize / size_of::<TriRecord>()) as u32;
+        let per_block =
+            (crate::strategy::fig1::BLOCK_BYTES as usize / size_of::<TriRecord>()) as u32;
         let mut steps = Vec::new();
         let mut batch = Batch::default();
         for &job in jobs {
@@ -556,13 +252,6 @@ impl<'a> SpeBuilder<'a> {
         self.split_node(job, s, cand, &p.left, &p.right).await
     }
 
-    /// Waits until every partitioned record this SPE put back is in main
-    /// memory (Fig. 1's buffers, which the batches use too).
-    pub(super) async fn drain(&self) -> Result<(), CellError> {
-        let all = (0..5).fold(0, |m, b| m | 1 << self.fig1.tag(b));
-        self.spe.wait_tags(all, WaitMode::All).await.map(|_| ())
-    }
-
     /// Fig. 1 buffers the batches take turns in: two, three when
     /// prefetching (the next batch's get must not wait for the put of the
     /// batch before).
@@ -703,67 +392,5 @@ impl<'a> SpeBuilder<'a> {
         let mut cand = cand;
         let s = choose_split(&mut cand, &job.centers()).expect("the job's centers differ");
         (s, cand)
-    }
-
-    /// Makes the clip node of `job` (the empty-space cut-off) and pushes
-    /// its children's jobs: a leaf of no triangles, and the job again in
-    /// its cut region, one level down.
-    async fn clip_node(&mut self, job: &Job, clip: Clip) -> Result<(), CellError> {
-        self.stats.clip_nodes += 1;
-        let children = self.arena.alloc(2).await? as usize;
-        let [cl, cr] = clip.planes;
-        self.emit(job, BihNode::inner(children as u32, clip.axis, cl, cr))
-            .await?;
-        let depth = job.depth + 1;
-        let full = Job {
-            node: (children + 1 - clip.empty) as u32,
-            depth,
-            ..*job
-        }
-        .in_region(clip.region);
-        let empty = Job {
-            first: clip.leaf_at as u32,
-            count: 0,
-            node: (children + clip.empty) as u32,
-            depth,
-            ..*job
-        };
-        let [a, b] = if clip.empty == 0 {
-            [empty, full]
-        } else {
-            [full, empty]
-        };
-        self.queue.push(a).await?;
-        self.queue.push(b).await
-    }
-
-    /// Makes the inner node of `job` and pushes its children's jobs.
-    async fn split_node(
-        &mut self,
-        job: &Job,
-        s: Split,
-        cand: Aabb,
-        l: &Side,
-        r: &Side,
-    ) -> Result<(), CellError> {
-        self.stats.items_partitioned += job.count as u64;
-        self.stats.partitions += 1;
-        let children = self.arena.alloc(2).await? as usize;
-        let [cl, cr] = clip_planes(s.axis, l, r);
-        self.emit(job, BihNode::inner(children as u32, s.axis, cl, cr))
-            .await?;
-        let [lc, rc] = s.candidates(cand);
-        let [lr, rr] = child_regions(job.region(), s.axis, [cl, cr]);
-        let first = job.first as usize;
-        let d = job.depth + 1;
-        let left = Job::new(first, l.count, children, d, lc, l).in_region(lr);
-        self.queue.push(left).await?;
-        let right = Job::new(first + l.count, r.count, children + 1, d, rc, r).in_region(rr);
-        self.queue.push(right).await
-    }
-
-    fn interval(&self, first: u32) -> Ea {
-        self.tris
-            .offset(first as u64 * size_of::<TriRecord>() as u64)
     }
 }
