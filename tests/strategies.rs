@@ -91,7 +91,7 @@ const SAH_SETTINGS: [BihConfig; 2] = [
 /// the same nodes as the host tree and the same triangles in every leaf
 /// (Fig. 1 orders a side differently from the host's two-pointer pass), and
 /// the work shows on the SPE; with the empty-space cut-off too (the PPE
-/// makes the clip nodes).
+/// makes the clip nodes) and binned SAH (the SPE bins, the PPE sweeps).
 #[test]
 fn spe_dfs_builds_the_host_tree_with_the_partitions_on_an_spe() {
     for (s, cfg) in [
@@ -102,8 +102,12 @@ fn spe_dfs_builds_the_host_tree_with_the_partitions_on_an_spe() {
         common::make_scene(3000, -15, 0, 2, 4),
     ]
     .iter()
-    .flat_map(|s| CUT_SETTINGS.map(|c| (s, c)))
-    {
+    .flat_map(|s| {
+        CUT_SETTINGS
+            .into_iter()
+            .chain(SAH_SETTINGS)
+            .map(move |c| (s, c))
+    }) {
         let host = BuilderKind::HOST.build(s, &cfg).unwrap();
         let dfs = BuilderKind::SPE_DFS.build(s, &cfg).unwrap();
         same_tree_up_to_leaf_order(&dfs.bih, &host.bih)

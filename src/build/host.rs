@@ -65,6 +65,9 @@ pub struct BuildStats {
     /// Items binned by the binned SAH split choice, summed over every node
     /// that chose a plane that way (0 with the global heuristic).
     pub items_binned: u64,
+    /// Bin sweeps of the binned SAH split choice (one per node that
+    /// binned), each over `3 × bins` bins.
+    pub sah_sweeps: u64,
     /// Clip nodes the empty-space cut-off emitted (0 when it is off).
     pub clip_nodes: u64,
     /// Halvings of the global heuristic that `f32` could not make
@@ -230,6 +233,7 @@ impl<T: Item> Builder<'_, T> {
                     return None;
                 }
                 self.stats.items_binned += count as u64;
+                self.stats.sah_sweeps += 1;
                 sah_split(&self.items[first..first + count], &centers, bins).or_else(|| {
                     choose_split_counted(candidate, &centers, &mut self.stats.f32_stalls)
                 })

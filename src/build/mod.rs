@@ -56,12 +56,6 @@ impl Quality {
         binned_sah: true,
         empty_cut: true,
     };
-    /// The empty-space cut-off, the global heuristic's planes.
-    pub const CUT: Quality = Quality {
-        binned_sah: false,
-        empty_cut: true,
-    };
-
     /// Whether a builder with these knobs builds `cfg`.
     pub fn builds(self, cfg: &BihConfig) -> bool {
         (self.binned_sah || cfg.split == SplitChoice::GlobalHeuristic)
@@ -265,11 +259,14 @@ impl BuilderKind {
                 .filter(|b| b.builds(cfg))
                 .map(|b| b.name())
                 .collect();
-            let builds = match self.quality() {
-                q if q.empty_cut => {
-                    "the global heuristic's split choice (with or without the empty-space cut-off)"
+            let builds = match (self.quality().binned_sah, self.quality().empty_cut) {
+                (false, false) => {
+                    "the paper's split choice (global heuristic) without empty-space cut-off"
                 }
-                _ => "the paper's split choice (global heuristic) without empty-space cut-off",
+                (false, true) => {
+                    "the global heuristic's split choice (with or without the cut-off)"
+                }
+                _ => "no empty-space cut-off",
             };
             return Err(CellError::Config(format!(
                 "builder {self} builds {builds} only; {} build these settings",

@@ -31,6 +31,11 @@ pub const DEFAULT_BINS: u32 = 16;
 /// Most bins per axis the builder accepts.
 pub const MAX_BINS: u32 = 256;
 
+/// Bins per axis for a requested count: clamped to `2..=MAX_BINS`.
+pub fn bins_per_axis(bins: u32) -> u32 {
+    bins.clamp(2, MAX_BINS)
+}
+
 /// The cheapest plane by binned SAH for `items`, whose box centers `centers`
 /// bounds, or `None` when no candidate plane separates them in `f32`.
 pub fn sah_split<T: Boxed>(items: &[T], centers: &Aabb, bins: u32) -> Option<Split> {
@@ -56,7 +61,7 @@ impl Bins {
     /// Empty bins (`bins`, clamped to 2..=[`MAX_BINS`], on each axis) over
     /// `centers`, the bounds of the node's box centers.
     pub fn new(centers: &Aabb, bins: u32) -> Self {
-        let bins = bins.clamp(2, MAX_BINS) as usize;
+        let bins = bins_per_axis(bins) as usize;
         let ext = centers.extent_f64();
         Bins {
             centers: *centers,
@@ -117,11 +122,39 @@ impl Bins {
         self.bin.len()
     }
 
+    /// The bins as they travel between cores: axis-major, each a count
+    /// and a box in 32 bytes.
+    pub fn records(&self) -> Vec<BinRecord> {
+        (0..3)
+            .flat_map(|a| self.bin.iter().map(move |b| b[a].record()))
+            .collect()
+    }
+
+    /// Adds bins another core filled over the same centers box
+    /// ([`Bins::records`]).
+    pub fn add_records(&mut self, records: &[BinRecord]) {
+        let n = self.bin.len();
+        assert_eq!(records.len(), 3 * n, "three axes of {n} bins");
+        for (i, r) in records.iter().enumerate() {
+            self.bin[i % n][i / n].merge(&Bin::of_record(r));
+        }
+    }
+
     /// Bytes the bins take in a local store: per bin and axis a count and a
     /// box, two quadwords.
     pub fn ls_bytes(bins: u32) -> u32 {
-        bins.clamp(2, MAX_BINS) * 3 * 32
+        bins_per_axis(bins) * 3 * 32
     }
+}
+
+/// A bin as it travels (DMA, main memory): 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct BinRecord {
+    lo: [f32; 3],
+    count: u32,
+    hi: [f32; 3],
+    pad: u32,
 }
 
 /// One bin on one axis: how many centers fell in it and the union of their
@@ -150,6 +183,23 @@ impl Bin {
         self.count += o.count;
         self.lo = self.lo.min(o.lo);
         self.hi = self.hi.max(o.hi);
+    }
+
+    fn record(&self) -> BinRecord {
+        BinRecord {
+            lo: self.lo.to_array(),
+            count: self.count as u32,
+            hi: self.hi.to_array(),
+            pad: 0,
+        }
+    }
+
+    fn of_record(r: &BinRecord) -> Bin {
+        Bin {
+            count: r.count as u64,
+            lo: Vec3A::from_array(r.lo),
+            hi: Vec3A::from_array(r.hi),
+        }
     }
 
     /// Surface area of the box, in `f64`; 0 for an empty bin.
@@ -219,6 +269,10 @@ mod tests {
         }
         assert_eq!(b.choose(), sah_split(&items, &centers, 8));
         assert!(b.choose().is_some());
+        // Through their records (another core's bins), the same plane.
+        let mut c = Bins::new(&centers, 8);
+        c.add_records(&b.records());
+        assert_eq!(c.choose(), b.choose());
     }
 
     #[test]

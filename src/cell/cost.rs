@@ -82,6 +82,11 @@ pub struct KernelRates {
     /// running unions, both sides' areas and the cost in double precision,
     /// the best kept). Derived and scaled the same way.
     pub spe_sah_bin: Cycles,
+    /// PPE cycles per bin and axis of the binned SAH sweep
+    /// (`ppe_naive`, `spe_dfs`): by analogy with `spe_sah_bin`, the same
+    /// sweep, whose dependent double-precision operations the PPE's scalar
+    /// FPU issues at a latency close to the SPU's.
+    pub ppe_sah_bin: Cycles,
 }
 
 impl KernelRates {
@@ -100,6 +105,8 @@ impl KernelRates {
             // Derived: 40 and 75 SPU cycles; x4 the same way.
             spe_bin_item: Cycles(160),
             spe_sah_bin: Cycles(300),
+            // By analogy: spe_sah_bin's count and scale.
+            ppe_sah_bin: Cycles(300),
         }
     }
 
@@ -115,6 +122,7 @@ impl KernelRates {
             spe_radix_scatter: Cycles::ZERO,
             spe_bin_item: Cycles::ZERO,
             spe_sah_bin: Cycles::ZERO,
+            ppe_sah_bin: Cycles::ZERO,
         }
     }
 }

@@ -14,7 +14,7 @@ use std::rc::Rc;
 
 use super::layout::TriRecord;
 use super::{Output, Setup};
-use crate::bih::BihConfig;
+use crate::bih::{BihConfig, SplitChoice};
 use crate::build::host::{BuildStats, build_items};
 use crate::cell::{Cell, CellError};
 
@@ -40,6 +40,7 @@ fn spawn(
         let BuildStats {
             items_partitioned,
             items_binned,
+            sah_sweeps,
             nodes,
             ..
         } = stats;
@@ -49,6 +50,10 @@ fn spawn(
         // center and a comparison or bin index per item), not a
         // calibration.
         ppe.compute_items(k.ppe_partition_item, items_partitioned + items_binned);
+        if let SplitChoice::BinnedSah { bins } = cfg.split {
+            let per_sweep = 3 * crate::build::sah::bins_per_axis(bins) as u64;
+            ppe.compute_items(k.ppe_sah_bin, sah_sweeps * per_sweep);
+        }
         ppe.compute_items(k.ppe_node, nodes);
         ppe.write_pod(tris, &items).await?;
         let node_array = super::write_nodes(&ppe, &bih.nodes).await?;

@@ -15,28 +15,38 @@
 //! the tree equals the host tree node for node. With the empty-space
 //! cut-off ([`crate::build::cutoff`]) the PPE makes the clip nodes: it
 //! knows each node's region and its triangles' box, and a clip node moves
-//! no triangle.
+//! no triangle. With binned SAH ([`crate::build::sah`]) each split takes
+//! one more job: the SPE streams the interval through two of Fig. 1's
+//! buffers, bins it and puts the bins back; the PPE sweeps them (a job is
+//! then 64 bytes: the interval's bounds of centers travel with it).
 
 use std::cell::RefCell;
 use std::rc::Rc;
 
 use glam::Vec3A;
 
-use super::fig1::{Fig1Buffers, partition_in_place, stream_bounds};
+use super::fig1::{Fig1Buffers, partition_in_place, stream_bounds, stream_fold};
 use super::layout::TriRecord;
+use super::work_queue::{from_wire, to_wire};
 use super::{Output, Setup};
 use crate::aabb::Aabb;
-use crate::bih::{BihConfig, BihNode};
+use crate::bih::{BihConfig, BihNode, SplitChoice};
 use crate::build::cutoff::{child_regions, empty_gap};
 use crate::build::host::BuildStats;
 use crate::build::kernels::{Side, Split, choose_split, clip_planes};
-use crate::cell::{Cell, CellError};
+use crate::build::sah::Bins;
+use crate::cell::{Cell, CellError, Ea};
 
 const STOP: u32 = 0;
 const PARTITION: u32 = 1;
 const BOUNDS: u32 = 2;
+/// Binned SAH: bin the interval, put the bins back.
+const BINS: u32 = 3;
+/// The largest DMA transfer.
+const MAX_PUT: u32 = 16 * 1024;
 
-/// A job in main memory: 32 bytes.
+/// A job in main memory: the paper's 32 bytes, 64 with binned SAH (the
+/// interval's bounds of centers and the bin count travel too).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct DfsJob {
@@ -46,6 +56,19 @@ struct DfsJob {
     axis: u32,
     plane: f32,
     pad: [u32; 3],
+    centers: [[f32; 3]; 2],
+    bins: u32,
+    pad2: u32,
+}
+
+impl DfsJob {
+    /// Bytes of a job that travel with `cfg`.
+    fn bytes(cfg: &BihConfig) -> usize {
+        match cfg.split {
+            SplitChoice::BinnedSah { .. } => 64,
+            SplitChoice::GlobalHeuristic => 32,
+        }
+    }
 }
 
 /// One side of a partition as the SPE reports it: 80 bytes.
@@ -91,7 +114,7 @@ pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
     "depth first: PPE recursion, one SPE partitions each interval with Fig. 1's five buffers (Table 1, column 3)",
     spawn,
 )
-.with_quality(crate::build::Quality::CUT);
+.with_quality(crate::build::Quality::ALL);
 
 fn spawn(
     cell: &mut Cell,
@@ -100,28 +123,63 @@ fn spawn(
     out: Rc<RefCell<Output>>,
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    let job_bytes = DfsJob::bytes(&cfg);
     let job_ea = cell
         .memory_mut()
-        .alloc("depth-first job", size_of::<DfsJob>() as u64, 128)?;
+        .alloc("depth-first job", job_bytes as u64, 128)?;
     let result_ea =
         cell.memory_mut()
             .alloc("side records", 2 * size_of::<SideRecord>() as u64, 128)?;
+    // Binned SAH: where the SPE puts the bins it filled.
+    let bins = match cfg.split {
+        SplitChoice::BinnedSah { bins } => Some(bins),
+        SplitChoice::GlobalHeuristic => None,
+    };
+    let bins_bytes = bins.map_or(0, Bins::ls_bytes);
+    let bins_ea = match bins {
+        Some(_) => cell
+            .memory_mut()
+            .alloc("SAH bins", bins_bytes as u64, 128)?,
+        None => Ea(0),
+    };
 
     cell.spawn_spe(0, move |spe| async move {
         let bufs = Fig1Buffers::alloc(&spe)?;
-        let job_ls = spe.ls_alloc(size_of::<DfsJob>() as u32, 128)?;
+        let job_ls = spe.ls_alloc(job_bytes as u32, 128)?;
         let result_ls = spe.ls_alloc(2 * size_of::<SideRecord>() as u32, 128)?;
+        let bins_ls = match bins {
+            Some(_) => Some(spe.ls_alloc(bins_bytes, 128)?),
+            None => None,
+        };
         let job_tag = spe.tag("depth-first job and result")?;
         let k = spe.cost().kernels;
         loop {
             spe.read_signal(1).await?;
-            spe.get(job_ls, job_ea, size_of::<DfsJob>() as u32, job_tag)
-                .await?;
+            spe.get(job_ls, job_ea, job_bytes as u32, job_tag).await?;
             spe.wait_tag(job_tag).await?;
-            let job: DfsJob = spe.ls_read(job_ls, 1)?[0];
+            let job: DfsJob = from_wire(&spe.ls_read::<u8>(job_ls, job_bytes)?, job_bytes)[0];
             let at = tris.offset(job.first as u64 * size_of::<TriRecord>() as u64);
             let (left, right) = match job.kind {
                 STOP => return Ok(()),
+                BINS => {
+                    let centers = Aabb::new(job.centers[0].into(), job.centers[1].into());
+                    let empty = Bins::new(&centers, job.bins);
+                    let add = |b: &mut Bins, items: &[TriRecord]| b.add(items);
+                    let n = job.count as u64;
+                    let filled =
+                        stream_fold(&spe, &bufs, at, n, k.spe_bin_item, empty, add).await?;
+                    let ls = bins_ls.expect("binned SAH has its bins' place");
+                    spe.ls_write(ls, &filled.records())?;
+                    // In puts of at most 16 KiB (256 bins take 24 KiB).
+                    for at in (0..bins_bytes).step_by(MAX_PUT as usize) {
+                        let size = MAX_PUT.min(bins_bytes - at);
+                        spe.put(ls.offset(at), bins_ea.offset(at as u64), size, job_tag)
+                            .await?;
+                    }
+                    spe.wait_tag(job_tag).await?;
+                    spe.write_out_mbox(1).await;
+                    continue;
+                }
                 BOUNDS => (
                     stream_bounds::<TriRecord>(
                         &spe,
@@ -169,12 +227,32 @@ fn spawn(
     cell.spawn_ppe(move |ppe| async move {
         let k = ppe.cost().kernels;
         // One job on SPE 0, and its two sides.
-        let ask = async |job: DfsJob| -> Result<(Side, Side), CellError> {
-            ppe.write_pod(job_ea, &[job]).await?;
+        let send = async |job: DfsJob| -> Result<(), CellError> {
+            ppe.write_pod(job_ea, &to_wire(&[job], job_bytes)).await?;
             ppe.send_signal(0, 1, 1).await?;
             ppe.read_out_mbox(0).await?;
+            Ok(())
+        };
+        let ask = async |job: DfsJob| -> Result<(Side, Side), CellError> {
+            send(job).await?;
             let r: Vec<SideRecord> = ppe.read_pod(result_ea, 2).await?;
             Ok((r[0].to_side(), r[1].to_side()))
+        };
+        // Binned SAH: SPE 0 bins the interval; the PPE sweeps the bins.
+        let choose_sah = async |first: usize, count: usize, centers: Aabb, bins: u32| {
+            send(DfsJob {
+                kind: BINS,
+                first: first as u32,
+                count: count as u32,
+                centers: [centers.min.to_array(), centers.max.to_array()],
+                bins,
+                ..Default::default()
+            })
+            .await?;
+            let mut b = Bins::new(&centers, bins);
+            let records = ppe.read_pod(bins_ea, 3 * b.per_axis()).await?;
+            b.add_records(&records);
+            Ok::<_, CellError>(b.choose())
         };
         let (all, _) = ask(DfsJob {
             kind: BOUNDS,
@@ -210,7 +288,21 @@ fn spawn(
                 stack.push((full, first, count, candidate, side, depth + 1, clip.region));
                 continue;
             }
-            let Some(split) = choose_split(&mut candidate, &side.centers()) else {
+            let centers = side.centers();
+            let split = match cfg.split {
+                SplitChoice::BinnedSah { bins } if centers.min != centers.max => {
+                    stats.items_binned += count as u64;
+                    stats.sah_sweeps += 1;
+                    let per_axis = crate::build::sah::bins_per_axis(bins) as u64;
+                    ppe.compute_items(k.ppe_sah_bin, 3 * per_axis);
+                    match choose_sah(first, count, centers, bins).await? {
+                        Some(s) => Some(s),
+                        None => choose_split(&mut candidate, &centers),
+                    }
+                }
+                _ => choose_split(&mut candidate, &centers),
+            };
+            let Some(split) = split else {
                 nodes[id] = leaf;
                 continue;
             };
@@ -220,7 +312,7 @@ fn spawn(
                 count: count as u32,
                 axis: split.axis as u32,
                 plane: split.plane,
-                pad: [0; 3],
+                ..Default::default()
             };
             let (l, r) = ask(job).await?;
             stats.items_partitioned += count as u64;
@@ -237,14 +329,11 @@ fn spawn(
             stack.push((children, first, l.count, lc, l, d, lr));
         }
         // The SPE ends on STOP without an answer.
-        ppe.write_pod(
-            job_ea,
-            &[DfsJob {
-                kind: STOP,
-                ..Default::default()
-            }],
-        )
-        .await?;
+        let stop = DfsJob {
+            kind: STOP,
+            ..Default::default()
+        };
+        ppe.write_pod(job_ea, &to_wire(&[stop], job_bytes)).await?;
         ppe.send_signal(0, 1, 1).await?;
         let node_array = super::write_nodes(&ppe, &nodes).await?;
         stats.nodes = nodes.len() as u64;

@@ -386,6 +386,7 @@ impl SpeBuilder<'_> {
         self.spe
             .compute_items(k.spe_sah_bin, 3 * bins.per_axis() as u64);
         self.stats.items_binned += job.count as u64;
+        self.stats.sah_sweeps += 1;
         if let Some(s) = bins.choose() {
             return (s, cand);
         }
