@@ -62,9 +62,10 @@ fn same_tree_up_to_leaf_order(a: &cellbih::bih::Bih, b: &cellbih::bih::Bih) -> R
     Ok(())
 }
 
-/// The paper's tree, and the empty-space cut-off at two thresholds: the
-/// settings the builders that build the cut-off are compared on.
-const CUT_SETTINGS: [BihConfig; 3] = [
+/// The settings the builders that build the quality knobs are compared
+/// with the host on: the paper's tree, the empty-space cut-off at two
+/// thresholds, binned SAH alone (8 bins) and with the cut-off (16).
+const SETTINGS: [BihConfig; 5] = [
     BihConfig::DEFAULT,
     BihConfig {
         empty_cut: Some(10),
@@ -75,11 +76,6 @@ const CUT_SETTINGS: [BihConfig; 3] = [
         leaf_size: 4,
         ..BihConfig::DEFAULT
     },
-];
-
-/// Binned SAH, alone (8 bins) and with the cut-off (16): the settings the
-/// builders that bin on the SPEs are compared on.
-const SAH_SETTINGS: [BihConfig; 2] = [
     BihConfig {
         split: SplitChoice::BinnedSah { bins: 8 },
         ..BihConfig::DEFAULT
@@ -102,12 +98,8 @@ fn spe_dfs_builds_the_host_tree_with_the_partitions_on_an_spe() {
         common::make_scene(3000, -15, 0, 2, 4),
     ]
     .iter()
-    .flat_map(|s| {
-        CUT_SETTINGS
-            .into_iter()
-            .chain(SAH_SETTINGS)
-            .map(move |c| (s, c))
-    }) {
+    .flat_map(|s| SETTINGS.map(|c| (s, c)))
+    {
         let host = BuilderKind::HOST.build(s, &cfg).unwrap();
         let dfs = BuilderKind::SPE_DFS.build(s, &cfg).unwrap();
         same_tree_up_to_leaf_order(&dfs.bih, &host.bih)
@@ -151,12 +143,8 @@ fn spe_bfs_builds_the_host_tree_breadth_first() {
         common::make_scene(500, 0, 0, 0, 9),
     ]
     .iter()
-    .flat_map(|s| {
-        CUT_SETTINGS
-            .into_iter()
-            .chain(SAH_SETTINGS)
-            .map(move |c| (s, c))
-    }) {
+    .flat_map(|s| SETTINGS.map(|c| (s, c)))
+    {
         let host = BuilderKind::HOST.build(s, &cfg).unwrap();
         let bfs = BuilderKind::SPE_BFS.build(s, &cfg).unwrap();
         common::same_tree_structure(&bfs.bih, &host.bih)
