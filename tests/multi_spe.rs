@@ -259,6 +259,38 @@ fn host_threads_change_nothing() {
     }
 }
 
+/// The ObjectArena pool holds 2n + 1 nodes, every node a tree of the
+/// paper's settings can have; the empty-space cut-off at a tiny threshold
+/// with leaves of one triangle makes more (rtperf:20000: 77,929 nodes). Such
+/// a build is a clear error saying why and what to change, not a panic and
+/// not a wrong tree; the same scene with a usable threshold builds.
+#[test]
+fn a_cut_off_that_outgrows_the_arena_pool_is_a_clear_error() {
+    let s = scene::load("rtperf:20000:1", None).unwrap();
+    let cell = CellConfig::ps3();
+    for name in ["spe_bfs_private", "spe_bfs_shared"] {
+        let tiny = BihConfig {
+            leaf_size: 1,
+            empty_cut: Some(1),
+            ..BihConfig::default()
+        };
+        let e = builder(name)
+            .build_with(&s, s.bounds(), &tiny, &cell, &Knobs::default())
+            .err()
+            .unwrap_or_else(|| panic!("{name} fitted {tiny:?} in the pool"))
+            .to_string();
+        assert!(e.contains("ObjectArena pool") && e.contains("--empty-cut"), "{e}");
+        let usable = BihConfig {
+            empty_cut: Some(10),
+            ..tiny
+        };
+        let r = builder(name)
+            .build_with(&s, s.bounds(), &usable, &cell, &Knobs::default())
+            .unwrap();
+        r.bih.validate(&s).unwrap();
+    }
+}
+
 /// Knobs out of range are errors that name the builder, not panics.
 #[test]
 fn knobs_out_of_range_are_errors() {
