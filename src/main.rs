@@ -27,7 +27,7 @@ mod compare;
 #[path = "cli/print.rs"]
 mod print;
 
-use build_args::{BuildArgs, parse_build};
+use build_args::{BuildArgs, TreeArgs, parse_build};
 
 use print::{info, print_build};
 
@@ -86,6 +86,10 @@ enum Command {
     Compare {
         #[command(flatten)]
         scene: SceneArg,
+        /// The tree every builder makes (builders that do not build these
+        /// knobs are left out, and named).
+        #[command(flatten)]
+        tree: TreeArgs,
         /// SPEs of the emulated Cell for the multi-SPE builders, 1 to 8.
         #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
         spes: u64,
@@ -201,13 +205,15 @@ fn run(cli: Cli) -> Res<()> {
         Some(Command::Info { scene, format }) => info(&scene.load()?, format),
         Some(Command::Compare {
             scene,
+            tree,
             spes,
             format,
         }) => {
             let s = scene.load()?;
             let cell = CellConfig::ps3().with_spes(spes as usize);
-            let (rows, _) = compare::rows(&s, &cell)?;
-            compare::print(&s, spes as usize, &rows, format);
+            let cfg = tree.config();
+            let (rows, _) = compare::rows(&s, &cell, &cfg)?;
+            compare::print(&s, spes as usize, &cfg, &rows, format);
             Ok(())
         }
         Some(Command::Update {
@@ -461,8 +467,9 @@ fn demo() -> Res<()> {
         s.geometry_names.len()
     );
     let cell = CellConfig::ps3();
-    let (rows, r) = compare::rows(&s, &cell)?;
-    compare::print(&s, cell.spes, &rows, Format::Text);
+    let cfg = cellbih::bih::BihConfig::default();
+    let (rows, r) = compare::rows(&s, &cell, &cfg)?;
+    compare::print(&s, cell.spes, &cfg, &rows, Format::Text);
     let cam = Camera::framing(&s.bounds(), 640, 480);
     let tracer = Tracer::new(&r.bih, &s);
     let frame = render::trace(&tracer, &s.triangles, &cam);

@@ -567,39 +567,3 @@ fn the_emulator_modes_agree_on_the_tree() {
     let out = cellbih(&["build", "--mode", "fast"]);
     assert!(!out.status.success());
 }
-
-/// `cellbih compare`: a row per builder, the baseline's speedup 1, the
-/// baseline's tree where the builder makes it, ray costs measured.
-#[test]
-fn compare_puts_every_builder_side_by_side() {
-    let out = cellbih(&[
-        "compare", "--scene", "car", "--spes", "2", "--format", "json",
-    ]);
-    assert_ok(&out);
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(doc["spes"], 2);
-    let rows = doc["rows"].as_array().unwrap();
-    assert_eq!(rows.len(), cellbih::build::BuilderKind::ALL.len());
-    let row = |name: &str| rows.iter().find(|r| r["builder"] == name).unwrap();
-    assert_eq!(row("spe_bfs")["speedup_over_spe_bfs"], 1.0);
-    assert!(row("host")["simulated_ms"].is_null());
-    for name in ["spe_bfs_shared", "spe_bfs_private", "spe_morton"] {
-        assert_eq!(row(name)["sah_cost"], row("spe_bfs")["sah_cost"], "{name}");
-        assert!(
-            row(name)["speedup_over_spe_bfs"].as_f64().unwrap() > 1.0,
-            "{name}"
-        );
-    }
-    for r in rows {
-        assert!(r["ray_nodes"].as_f64().unwrap() > 0.0, "{r}");
-        assert!(r["incoherent"]["nodes"].as_f64().unwrap() > 0.0, "{r}");
-        assert!(r["tree_bytes"].as_u64().unwrap() > 0, "{r}");
-    }
-    let text = cellbih(&["compare", "--scene", "car"]);
-    assert_ok(&text);
-    let text = String::from_utf8_lossy(&text.stdout);
-    assert!(
-        text.contains("speedup") && text.contains("spe_morton"),
-        "{text}"
-    );
-}

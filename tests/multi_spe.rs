@@ -279,7 +279,10 @@ fn a_cut_off_that_outgrows_the_arena_pool_is_a_clear_error() {
             .err()
             .unwrap_or_else(|| panic!("{name} fitted {tiny:?} in the pool"))
             .to_string();
-        assert!(e.contains("ObjectArena pool") && e.contains("--empty-cut"), "{e}");
+        assert!(
+            e.contains("ObjectArena pool") && e.contains("--empty-cut"),
+            "{e}"
+        );
         let usable = BihConfig {
             empty_cut: Some(10),
             ..tiny

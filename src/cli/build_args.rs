@@ -14,11 +14,10 @@ use cellbih::strategy::{KeyOrder, Knobs};
 
 use super::Res;
 
+/// The tree's limits and quality knobs ([`BihConfig`]): the options of
+/// every command that builds, `compare` among them.
 #[derive(clap::Args)]
-pub struct BuildArgs {
-    /// Which builder makes the tree (see `cellbih builders`).
-    #[arg(long, default_value = "host")]
-    pub builder: String,
+pub struct TreeArgs {
     /// Largest leaf, in triangles (at least 1).
     #[arg(long, default_value_t = BihConfig::default().leaf_size,
           value_parser = clap::value_parser!(u32).range(1..))]
@@ -26,7 +25,7 @@ pub struct BuildArgs {
     /// How inner nodes choose their plane: gh (the paper's global
     /// heuristic: halve the candidate box) or sah (binned surface-area
     /// heuristic: fewer nodes and triangles per ray, one more pass over
-    /// each node's triangles). sah: builders host and ppe_naive.
+    /// each node's triangles). Every builder but ppe_approx and spe_morton.
     #[arg(long, value_enum, default_value = "gh")]
     pub split: SplitArg,
     /// --split sah: bins per axis (2 to 256).
@@ -35,18 +34,44 @@ pub struct BuildArgs {
     pub sah_bins: u32,
     /// Empty-space cut-off: a gap of more than this percentage of a node's
     /// extent beside its triangles is cut off by a clip node (1 to 99;
-    /// off by default). Builders host and ppe_naive.
+    /// off by default). Every builder but ppe_approx and spe_morton.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=99))]
     pub empty_cut: Option<u32>,
+    /// Deepest leaf (root = 0), at most 126 (the traversal stack's depth).
+    #[arg(long, default_value_t = BihConfig::default().max_depth,
+          value_parser = clap::value_parser!(u32).range(0..=BihConfig::MAX_SUPPORTED_DEPTH as i64))]
+    pub max_depth: u32,
+}
+
+impl TreeArgs {
+    /// The tree configuration asked for.
+    pub fn config(&self) -> BihConfig {
+        BihConfig {
+            leaf_size: self.leaf_size,
+            max_depth: self.max_depth,
+            split: match self.split {
+                SplitArg::Gh => SplitChoice::GlobalHeuristic,
+                SplitArg::Sah => SplitChoice::BinnedSah {
+                    bins: self.sah_bins,
+                },
+            },
+            empty_cut: self.empty_cut,
+        }
+    }
+}
+
+#[derive(clap::Args)]
+pub struct BuildArgs {
+    /// Which builder makes the tree (see `cellbih builders`).
+    #[arg(long, default_value = "host")]
+    pub builder: String,
+    #[command(flatten)]
+    pub tree: TreeArgs,
     /// ppe_approx: at most this many cells of the presort grid per axis
     /// (1 to 1024).
     #[arg(long, default_value_t = Knobs::default().approx_max_cells as u64,
           value_parser = clap::value_parser!(u64).range(1..=1024))]
     pub approx_cells: u64,
-    /// Deepest leaf (root = 0), at most 126 (the traversal stack's depth).
-    #[arg(long, default_value_t = BihConfig::default().max_depth,
-          value_parser = clap::value_parser!(u32).range(0..=BihConfig::MAX_SUPPORTED_DEPTH as i64))]
-    pub max_depth: u32,
     /// SPEs of the emulated Cell, 1 to 8 (a PS3 program gets 6; 8 is a
     /// whole Cell). Builders that use fewer leave the others idle.
     #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
@@ -179,17 +204,7 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
             names.join(", ")
         )
     })?;
-    let cfg = BihConfig {
-        leaf_size: args.leaf_size,
-        max_depth: args.max_depth,
-        split: match args.split {
-            SplitArg::Gh => SplitChoice::GlobalHeuristic,
-            SplitArg::Sah => SplitChoice::BinnedSah {
-                bins: args.sah_bins,
-            },
-        },
-        empty_cut: args.empty_cut,
-    };
+    let cfg = args.tree.config();
     let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
     cell.main_memory_bytes = args.memory_mib * 1024 * 1024;
     cell.checked = matches!(args.mode, Mode::Checked);

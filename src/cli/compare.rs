@@ -34,15 +34,20 @@ pub struct Row {
     pub main_memory: Option<u64>,
 }
 
-/// Builds `s` with every builder on a Cell of `cell`, checks each tree and
-/// casts the standard ray sets ([`RaySets`]) through it; returns the rows
-/// and the last build. Progress on stderr when it is a terminal.
+/// Builds `s` with `cfg` by every builder that builds it on a Cell of
+/// `cell`, checks each tree and casts the standard ray sets ([`RaySets`])
+/// through it; returns the rows and the last build. Progress on stderr
+/// when it is a terminal.
 pub fn rows(
     s: &Scene,
     cell: &CellConfig,
+    cfg: &BihConfig,
 ) -> Result<(Vec<Row>, BuildReport), Box<dyn std::error::Error>> {
+    let builders: Vec<BuilderKind> = (BuilderKind::ALL.iter().copied())
+        .filter(|b| b.builds(cfg))
+        .collect();
     let bar = if std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(BuilderKind::ALL.len() as u64);
+        let bar = ProgressBar::new(builders.len() as u64);
         bar.set_style(ProgressStyle::with_template("{bar:30} {pos}/{len} {msg}")?);
         bar
     } else {
@@ -51,10 +56,9 @@ pub fn rows(
     let rays = RaySets::standard(&s.bounds());
     let mut out = Vec::new();
     let mut last = None;
-    for &b in BuilderKind::ALL {
+    for b in builders {
         bar.set_message(b.name());
-        let cfg = BihConfig::default();
-        let r = b.build_with(s, s.bounds(), &cfg, cell, &Knobs::default())?;
+        let r = b.build_with(s, s.bounds(), cfg, cell, &Knobs::default())?;
         r.bih.validate(s)?;
         let q = r.bih.quality();
         let tracer = Tracer::new(&r.bih, s);
@@ -78,14 +82,18 @@ pub fn rows(
     Ok((out, last.expect("at least one builder")))
 }
 
-/// The baseline's simulated ms, for speedups.
+/// The baseline's simulated ms (with the same knobs), for speedups.
 fn baseline_ms(rows: &[Row]) -> Option<f64> {
     let base = rows.iter().find(|r| r.builder == BuilderKind::SPE_BFS)?;
     base.simulated_ms
 }
 
 /// Prints the rows as a table or as JSON.
-pub fn print(s: &Scene, spes: usize, rows: &[Row], format: Format) {
+pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, rows: &[Row], format: Format) {
+    let left_out: Vec<&str> = (BuilderKind::ALL.iter())
+        .filter(|b| !b.builds(cfg))
+        .map(|b| b.name())
+        .collect();
     let base = baseline_ms(rows);
     let speedup = |r: &Row| Some(base? / r.simulated_ms?);
     if let Format::Json = format {
@@ -101,7 +109,10 @@ pub fn print(s: &Scene, spes: usize, rows: &[Row], format: Format) {
                 })
             })
             .collect();
-        let doc = json!({ "scene": s.name, "triangles": s.len(), "spes": spes, "rows": rows });
+        let doc = json!({
+            "scene": s.name, "triangles": s.len(), "spes": spes, "settings": cfg.flags(),
+            "rows": rows, "not_built_by": left_out,
+        });
         println!("{doc}");
         return;
     }
@@ -145,8 +156,20 @@ pub fn print(s: &Scene, spes: usize, rows: &[Row], format: Format) {
             opt(r.main_memory.map(|b| b as f64 / (1024.0 * 1024.0)), 2),
         );
     }
+    if !left_out.is_empty() {
+        println!(
+            "\nnot built: {} (they do not build {})",
+            left_out.join(", "),
+            cfg.flags()
+        );
+    }
+    let with = if cfg.flags().is_empty() {
+        String::new()
+    } else {
+        format!(" with {}", cfg.flags())
+    };
     println!(
-        "\ntrees valid; \"Cell ms\": simulated time on the PS3 model (multi-SPE builders on {spes} SPEs); \
+        "\ntrees{with} valid; \"Cell ms\": simulated time on the PS3 model (multi-SPE builders on {spes} SPEs); \
          speedup over spe_bfs (one SPE, the paper's baseline); primary, incoherent: nodes visited + \
          triangles tested per ray (primary rays of the render camera; 16,384 rays from random points \
          in the scene box in random directions), closest hit; host figures: this machine, one thread; \

@@ -193,7 +193,9 @@ pub async fn partition_in_place<T: Boxed + Pod>(
         let next_buf = out.buf;
         out = d;
         (d, c, b) = (c, b, a);
-        let from_end = (write_r - read_r) < (read_l - write_l);
+        // (Once everything is read the write pointers pass the read ones
+        // and nothing more is loaded: the choice no longer matters.)
+        let from_end = write_r.saturating_sub(read_r) < read_l.saturating_sub(write_l);
         a = load(next_buf, from_end, &mut read_l, &mut read_r).await?;
         // Blocks that loaded nothing move to the back of the queue.
         if d.len == 0 && (c.len > 0 || b.len > 0 || a.len > 0) {

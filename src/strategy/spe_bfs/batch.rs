@@ -146,7 +146,10 @@ impl SpeBuilder<'_> {
                     (self.strict_spans && job.first != e)
                         || self.dealt_starts.iter().any(|&r| f < r && r <= job.first)
                 });
-                if grown.1 - grown.0 > per_block || foreign {
+                // (A job before the span, as a shared queue may hand out,
+                // does not grow it: a new batch.)
+                let too_wide = grown.1.checked_sub(grown.0).is_none_or(|w| w > per_block);
+                if too_wide || foreign {
                     self.step(Step::Batch(std::mem::take(&mut batch)), &mut steps)
                         .await?;
                     batch.runs = vec![(job.first, end)];

@@ -1,0 +1,89 @@
+//! `cellbih compare`: every builder side by side, with the paper's tree
+//! and with quality knobs.
+
+mod common;
+
+use cellbih::build::BuilderKind;
+use common::{assert_ok, cellbih};
+
+/// `cellbih compare`: a row per builder, the baseline's speedup 1, the
+/// baseline's tree where the builder makes it, ray costs measured.
+#[test]
+fn compare_puts_every_builder_side_by_side() {
+    let out = cellbih(&[
+        "compare", "--scene", "car", "--spes", "2", "--format", "json",
+    ]);
+    assert_ok(&out);
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(doc["spes"], 2);
+    let rows = doc["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), BuilderKind::ALL.len());
+    let row = |name: &str| rows.iter().find(|r| r["builder"] == name).unwrap();
+    assert_eq!(row("spe_bfs")["speedup_over_spe_bfs"], 1.0);
+    assert!(row("host")["simulated_ms"].is_null());
+    for name in ["spe_bfs_shared", "spe_bfs_private", "spe_morton"] {
+        assert_eq!(row(name)["sah_cost"], row("spe_bfs")["sah_cost"], "{name}");
+        assert!(
+            row(name)["speedup_over_spe_bfs"].as_f64().unwrap() > 1.0,
+            "{name}"
+        );
+    }
+    for r in rows {
+        assert!(r["ray_nodes"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["incoherent"]["nodes"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["tree_bytes"].as_u64().unwrap() > 0, "{r}");
+    }
+    let text = cellbih(&["compare", "--scene", "car"]);
+    assert_ok(&text);
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.contains("speedup") && text.contains("spe_morton"),
+        "{text}"
+    );
+}
+
+/// With quality knobs, every builder that builds them does (the speedup
+/// over `spe_bfs` with the same knobs), and the others are named.
+#[test]
+fn compare_with_knobs_builds_them_where_they_are_built() {
+    let out = cellbih(&[
+        "compare",
+        "--scene",
+        "car",
+        "--empty-cut",
+        "30",
+        "--split",
+        "sah",
+        "--format",
+        "json",
+    ]);
+    assert_ok(&out);
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(doc["settings"], "--split sah --empty-cut 30");
+    let cfg = cellbih::bih::BihConfig {
+        split: cellbih::bih::SplitChoice::BinnedSah { bins: 16 },
+        empty_cut: Some(30),
+        ..Default::default()
+    };
+    let (built, not): (Vec<BuilderKind>, Vec<BuilderKind>) = BuilderKind::ALL
+        .iter()
+        .copied()
+        .partition(|b| b.builds(&cfg));
+    let rows = doc["rows"].as_array().unwrap();
+    let names: Vec<&str> = rows
+        .iter()
+        .map(|r| r["builder"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, built.iter().map(|b| b.name()).collect::<Vec<_>>());
+    assert_eq!(
+        doc["not_built_by"],
+        serde_json::json!(not.iter().map(|b| b.name()).collect::<Vec<_>>())
+    );
+    assert!(not.len() == 2 && built.len() == 6, "{names:?}");
+    // The same tree from every builder of the knobs: the host's.
+    for r in rows {
+        assert_eq!(r["sah_cost"], rows[0]["sah_cost"], "{r}");
+    }
+    let base = rows.iter().find(|r| r["builder"] == "spe_bfs").unwrap();
+    assert_eq!(base["speedup_over_spe_bfs"], 1.0);
+}
