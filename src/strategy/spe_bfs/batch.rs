@@ -73,6 +73,30 @@ enum Step {
 }
 
 impl SpeBuilder<'_> {
+    /// What `job` makes, decided from the job alone, in the host builder's
+    /// order: a leaf by the size and depth rule, a clip node where the
+    /// cut-off finds a gap, else a split (binned SAH: chosen later, where
+    /// the records are).
+    fn make(&self, job: &Job) -> Make {
+        if self.cfg.ends_in_leaf(job.count as usize, job.depth) {
+            return Make::Leaf;
+        }
+        let (region, bounds) = (job.region(), job.bounds());
+        if let Some(cut) = (self.cfg.empty_cut).and_then(|p| empty_gap(&region, &bounds, p)) {
+            let (first, count) = (job.first as usize, job.count as usize);
+            return Make::Clip(cut.clip(region, &bounds, first, count));
+        }
+        let (mut candidate, centers) = (job.candidate(), job.centers());
+        match self.cfg.split {
+            SplitChoice::BinnedSah { .. } if centers.min == centers.max => Make::Leaf,
+            SplitChoice::BinnedSah { .. } => Make::Sah(candidate),
+            SplitChoice::GlobalHeuristic => match choose_split(&mut candidate, &centers) {
+                Some(s) => Make::Split(s, candidate),
+                None => Make::Leaf,
+            },
+        }
+    }
+
     /// Makes the nodes of `jobs` (consecutive jobs of one level, in node-id
     /// order), agglomerating small intervals. Each batch runs as soon as
     /// it is complete, or, prefetching, once the block is planned.
@@ -89,28 +113,7 @@ impl SpeBuilder<'_> {
         for &job in jobs {
             self.jobs += 1;
             self.spe.compute(k.spe_job);
-            let mut candidate = job.candidate();
-            let (region, bounds) = (job.region(), job.bounds());
-            let make = if self.cfg.ends_in_leaf(job.count as usize, job.depth) {
-                Make::Leaf
-            } else if let Some(cut) =
-                (self.cfg.empty_cut).and_then(|p| empty_gap(&region, &bounds, p))
-            {
-                let (first, count) = (job.first as usize, job.count as usize);
-                Make::Clip(cut.clip(region, &bounds, first, count))
-            } else if let SplitChoice::BinnedSah { .. } = self.cfg.split {
-                let c = job.centers();
-                if c.min == c.max {
-                    Make::Leaf
-                } else {
-                    Make::Sah(candidate)
-                }
-            } else {
-                match choose_split(&mut candidate, &job.centers()) {
-                    Some(s) => Make::Split(s, candidate),
-                    None => Make::Leaf,
-                }
-            };
+            let make = self.make(&job);
             let Some((s, cand)) = make.split() else {
                 batch.jobs.push(Pending { job, make });
                 continue;
