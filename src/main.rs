@@ -198,7 +198,15 @@ fn run(cli: Cli) -> Res<()> {
         Some(Command::Builders) => {
             for b in BuilderKind::ALL {
                 let width = BuilderKind::ALL.iter().map(|b| b.name().len()).max();
-                println!("{:<w$} {}", b.name(), b.describe(), w = width.unwrap_or(0));
+                let q = b.quality();
+                let knobs = match (q.binned_sah, q.empty_cut) {
+                    (true, true) => "; builds --split sah and --empty-cut",
+                    (false, true) => "; builds --empty-cut",
+                    (true, false) => "; builds --split sah",
+                    (false, false) => "",
+                };
+                let w = width.unwrap_or(0);
+                println!("{:<w$} {}{knobs}", b.name(), b.describe());
             }
             Ok(())
         }

@@ -333,10 +333,13 @@ fn ci_runs_the_readme_test_command_verbatim() {
 fn the_registry_and_spes_reach_every_command() {
     let listed = String::from_utf8_lossy(&cellbih(&["builders"]).stdout).into_owned();
     for b in cellbih::build::BuilderKind::ALL {
-        assert!(
-            listed.lines().any(|l| l.starts_with(b.name())),
-            "{b} in {listed}"
-        );
+        let line = listed.lines().find(|l| l.starts_with(b.name()));
+        assert!(line.is_some(), "{b} in {listed}");
+        // Each line says whether the builder builds the quality knobs.
+        let says = line
+            .unwrap()
+            .ends_with("builds --split sah and --empty-cut");
+        assert_eq!(says, b.quality().binned_sah && b.quality().empty_cut, "{b}");
         let json = |spes: &str| -> serde_json::Value {
             let out = cellbih(&[
                 "build",
