@@ -189,8 +189,11 @@ fn node_depths(b: &Bih) -> Vec<u32> {
 #[test]
 fn an_emulated_build_gives_the_same_cycles_and_tree_every_run() {
     let s = scene::load("rtperf:10000:1", None).unwrap();
-    for &b in BuilderKind::ALL.iter().filter(|b| **b != BuilderKind::HOST) {
-        let run = || b.build(&s, &BihConfig::default()).unwrap();
+    // Every emulated builder with the paper's settings and with the quality
+    // knobs it builds.
+    let runs = BuilderKind::every_run(BihConfig::SAH_CUT);
+    for (b, cfg) in runs.into_iter().filter(|(b, _)| b.emulated()) {
+        let run = || b.build(&s, &cfg).unwrap();
         let (x, y) = (run(), run());
         assert_eq!(x.bih, y.bih, "{}", b.name());
         let (x, y) = (x.simulated.unwrap(), y.simulated.unwrap());

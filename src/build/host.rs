@@ -8,7 +8,7 @@ use glam::{Vec3A, Vec4};
 
 use super::cutoff::{Cut, child_regions, empty_gap};
 use super::kernels::{Boxed, Side, Split, choose_split_counted, clip_planes, partition, side_of};
-use super::sah::sah_split;
+use super::sah::Bins;
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, SplitChoice};
 use crate::scene::Scene;
@@ -234,9 +234,9 @@ impl<T: Item> Builder<'_, T> {
                 }
                 self.stats.items_binned += count as u64;
                 self.stats.sah_sweeps += 1;
-                sah_split(&self.items[first..first + count], &centers, bins).or_else(|| {
-                    choose_split_counted(candidate, &centers, &mut self.stats.f32_stalls)
-                })
+                let mut b = Bins::new(&centers, bins);
+                b.add(&self.items[first..first + count]);
+                b.choose_or_halve(candidate, &mut self.stats.f32_stalls)
             }
         }
     }

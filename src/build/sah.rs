@@ -22,7 +22,7 @@
 
 use glam::{DVec3, Vec3A};
 
-use super::kernels::{Boxed, Split};
+use super::kernels::{Boxed, Split, choose_split_counted};
 use crate::aabb::Aabb;
 
 /// Bins per axis when none is asked for: 16, a common choice (Wald 2007
@@ -115,6 +115,14 @@ impl Bins {
             }
         }
         best.map(|(_, s)| s)
+    }
+
+    /// The split of every builder's binned SAH: the cheapest binned plane,
+    /// or, where none separates in `f32`, the global heuristic's in
+    /// `candidate` (halved in place; `stalls` counts the halvings `f32`
+    /// could not make). `None` only when the centers coincide.
+    pub fn choose_or_halve(&self, candidate: &mut Aabb, stalls: &mut u64) -> Option<Split> {
+        (self.choose()).or_else(|| choose_split_counted(candidate, &self.centers, stalls))
     }
 
     /// Bins per axis.

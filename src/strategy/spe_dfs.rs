@@ -239,7 +239,7 @@ fn spawn(
             Ok((r[0].to_side(), r[1].to_side()))
         };
         // Binned SAH: SPE 0 bins the interval; the PPE sweeps the bins.
-        let choose_sah = async |first: usize, count: usize, centers: Aabb, bins: u32| {
+        let bins_of = async |first: usize, count: usize, centers: Aabb, bins: u32| {
             send(DfsJob {
                 kind: BINS,
                 first: first as u32,
@@ -252,7 +252,7 @@ fn spawn(
             let mut b = Bins::new(&centers, bins);
             let records = ppe.read_pod(bins_ea, 3 * b.per_axis()).await?;
             b.add_records(&records);
-            Ok::<_, CellError>(b.choose())
+            Ok::<_, CellError>(b)
         };
         let (all, _) = ask(DfsJob {
             kind: BOUNDS,
@@ -295,10 +295,8 @@ fn spawn(
                     stats.sah_sweeps += 1;
                     let per_axis = crate::build::sah::bins_per_axis(bins) as u64;
                     ppe.compute_items(k.ppe_sah_bin, 3 * per_axis);
-                    match choose_sah(first, count, centers, bins).await? {
-                        Some(s) => Some(s),
-                        None => choose_split(&mut candidate, &centers),
-                    }
+                    let b = bins_of(first, count, centers, bins).await?;
+                    b.choose_or_halve(&mut candidate, &mut 0)
                 }
                 _ => choose_split(&mut candidate, &centers),
             };

@@ -393,11 +393,8 @@ impl SpeBuilder<'_> {
             .compute_items(k.spe_sah_bin, 3 * bins.per_axis() as u64);
         self.stats.items_binned += job.count as u64;
         self.stats.sah_sweeps += 1;
-        if let Some(s) = bins.choose() {
-            return (s, cand);
-        }
         let mut cand = cand;
-        let s = choose_split(&mut cand, &job.centers()).expect("the job's centers differ");
+        let s = (bins.choose_or_halve(&mut cand, &mut 0)).expect("the job's centers differ");
         (s, cand)
     }
 }
