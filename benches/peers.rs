@@ -23,7 +23,7 @@ use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::ray::{Ray as ORay, RayHit};
 use obvhs::triangle::Triangle as OTri;
 
-use cellbih::bih::{BihConfig, Ray, RayStats, Tracer};
+use cellbih::bih::{Bih, BihConfig, Ray, RayStats, SplitChoice, Tracer};
 use cellbih::build::BuilderKind;
 use cellbih::quality::rays::RaySets;
 use cellbih::scene::{self, Scene};
@@ -74,6 +74,15 @@ const CUT: BihConfig = BihConfig {
     ..BihConfig::DEFAULT
 };
 
+/// Binned SAH on the nodes of more than 64 triangles, the cut-off at 10 %.
+const SAH_ABOVE_CUT: BihConfig = BihConfig {
+    split: SplitChoice::BinnedSah {
+        bins: 16,
+        above: 64,
+    },
+    ..BihConfig::SAH_CUT
+};
+
 /// Each ray's closest hit (triangle, t), or a miss.
 type Answers = Vec<Option<(u32, f64)>>;
 
@@ -100,73 +109,88 @@ fn compare(s: &Scene, runs: usize) {
             v2: t.v[2].into(),
         })
         .collect();
-    let mut rows = Vec::new();
-    let mut answers: Vec<Vec<Answers>> = Vec::new();
-    for (label, cfg) in [
+    // Each contender: its label, a timed build (build, and build plus the
+    // tracer's preparation), its tracer, and its bytes.
+    let settings = [
         ("cellbih host", BihConfig::default()),
         ("cellbih host --empty-cut 30", CUT),
         (
             "cellbih host --split sah --empty-cut 10",
             BihConfig::SAH_CUT,
         ),
-    ] {
-        let build = median(runs, || {
-            time(|| BuilderKind::HOST.build(s, &cfg).unwrap()).0
-        });
-        let bih = BuilderKind::HOST.build(s, &cfg).unwrap().bih;
-        let prep = median(runs, || time(|| Tracer::new(&bih, s)).0);
-        let tracer = Tracer::new(&bih, s);
-        let trace = |set: &[Ray]| -> Answers {
-            let mut st = RayStats::default();
-            set.iter()
-                .map(|r| tracer.closest(r, &mut st).map(|h| (h.prim, h.t)))
-                .collect()
-        };
+        (
+            "cellbih host --split sah --sah-above 64 --empty-cut 10",
+            SAH_ABOVE_CUT,
+        ),
+    ];
+    let trees: Vec<Bih> = (settings.iter())
+        .map(|(_, cfg)| BuilderKind::HOST.build(s, cfg).unwrap().bih)
+        .collect();
+    let mut contenders: Vec<Contender> = Vec::new();
+    for ((label, cfg), bih) in settings.into_iter().zip(&trees) {
+        let tracer = Tracer::new(bih, s);
         let bytes = bih.memory_bytes() + tracer.memory_bytes();
-        let (row, got) = measured(label, build, build + prep, bytes, sets, runs, trace);
-        rows.push(row);
-        answers.push(got);
+        contenders.push(Contender {
+            name: label.into(),
+            build: Box::new(move || {
+                let (built, bih) = time(|| BuilderKind::HOST.build(s, &cfg).unwrap().bih);
+                let (prep, _) = time(|| Tracer::new(&bih, s));
+                (built, built + prep)
+            }),
+            trace: Box::new(move |set: &[Ray]| -> Answers {
+                let mut st = RayStats::default();
+                set.iter()
+                    .map(|r| tracer.closest(r, &mut st).map(|h| (h.prim, h.t)))
+                    .collect()
+            }),
+            bytes,
+        });
     }
     for (label, params) in [
         ("obvhs fastest", BvhBuildParams::fastest_build()),
         ("obvhs medium", BvhBuildParams::medium_build()),
     ] {
-        let build = median(runs, || {
-            time(|| build_cwbvh_from_tris(&tris, params, &mut Duration::default())).0
-        });
         let bvh = build_cwbvh_from_tris(&tris, params, &mut Duration::default());
         let ordered: Vec<OTri> = bvh
             .primitive_indices
             .iter()
             .map(|&i| tris[i as usize])
             .collect();
-        let trace = |set: &[Ray]| -> Answers {
-            set.iter()
-                .map(|r| {
-                    let ray = ORay::new(
-                        Vec3A::from(r.origin.as_vec3()),
-                        Vec3A::from(r.dir.as_vec3()),
-                        0.0,
-                        f32::INFINITY,
-                    );
-                    let mut hit = RayHit::none();
-                    bvh.ray_traverse(ray, &mut hit, |ray, id| ordered[id].intersect(ray))
-                        .then(|| {
-                            (
-                                bvh.primitive_indices[hit.primitive_id as usize],
-                                hit.t as f64,
-                            )
-                        })
-                })
-                .collect()
-        };
         let bytes = size_of_val(bvh.nodes.as_slice())
             + size_of_val(bvh.primitive_indices.as_slice())
             + size_of_val(ordered.as_slice());
-        let (row, got) = measured(label, build, build, bytes, sets, runs, trace);
-        rows.push(row);
-        answers.push(got);
+        let tris = &tris;
+        contenders.push(Contender {
+            name: label.into(),
+            build: Box::new(move || {
+                let (built, _) =
+                    time(|| build_cwbvh_from_tris(tris, params, &mut Duration::default()));
+                (built, built)
+            }),
+            trace: Box::new(move |set: &[Ray]| -> Answers {
+                set.iter()
+                    .map(|r| {
+                        let ray = ORay::new(
+                            Vec3A::from(r.origin.as_vec3()),
+                            Vec3A::from(r.dir.as_vec3()),
+                            0.0,
+                            f32::INFINITY,
+                        );
+                        let mut hit = RayHit::none();
+                        bvh.ray_traverse(ray, &mut hit, |ray, id| ordered[id].intersect(ray))
+                            .then(|| {
+                                (
+                                    bvh.primitive_indices[hit.primitive_id as usize],
+                                    hit.t as f64,
+                                )
+                            })
+                    })
+                    .collect()
+            }),
+            bytes,
+        });
     }
+    let (rows, answers) = measured(&contenders, sets, runs);
     println!(
         "\n{} ({} triangles; {} primary, {} incoherent rays)",
         s.name,
@@ -175,7 +199,7 @@ fn compare(s: &Scene, runs: usize) {
         sets[1].len()
     );
     println!(
-        "{:<40} {:>9} {:>11} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9}",
+        "{:<56} {:>9} {:>11} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9}",
         "",
         "build ms",
         "+prep ms",
@@ -195,7 +219,7 @@ fn compare(s: &Scene, runs: usize) {
             .map(|set| agreeing(&answers[k][set], &answers[0][set]))
             .sum();
         println!(
-            "{:<40} {:>9.1} {:>11.1} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>8} {:>7.2}% {:>9.1}",
+            "{:<56} {:>9.1} {:>11.1} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>8} {:>7.2}% {:>9.1}",
             r.name,
             ms(r.build),
             ms(r.ready),
@@ -213,29 +237,60 @@ fn compare(s: &Scene, runs: usize) {
     );
 }
 
-/// One contender's row: `trace` answers both ray sets (kept for the
-/// agreement check) and is timed on each.
-fn measured(
-    name: &str,
-    build: Duration,
-    ready: Duration,
+/// Answers a set of rays (a contender's tracer).
+type Trace<'a> = Box<dyn Fn(&[Ray]) -> Answers + 'a>;
+
+/// One contender: a timed build, its tracer, its bytes.
+struct Contender<'a> {
+    name: String,
+    /// Builds once: (build, build plus the tracer's preparation).
+    build: Box<dyn Fn() -> (Duration, Duration) + 'a>,
+    /// Answers a set of rays.
+    trace: Trace<'a>,
     bytes: usize,
+}
+
+/// Every contender's row and answers. Builds and ray sets are timed in
+/// rounds, one of each contender a round, and the medians taken: this
+/// host's speed changes by up to 1.4x for seconds at a time (measured:
+/// the same binary and input in one of two speeds, process after
+/// process), and rounds give every contender the same mix of speeds, so
+/// the ratios hold where absolute times drift.
+fn measured(
+    contenders: &[Contender],
     sets: [&Vec<Ray>; 2],
     runs: usize,
-    trace: impl Fn(&[Ray]) -> Answers,
-) -> (Row, Vec<Answers>) {
-    let speed = |set: &[Ray]| median_rate(runs, set.len(), || trace(set));
-    let got: Vec<Answers> = sets.iter().map(|set| trace(set)).collect();
-    let row = Row {
-        name: name.into(),
-        build,
-        ready,
-        primary: speed(sets[0]),
-        incoherent: speed(sets[1]),
-        hits: [0, 1].map(|k| got[k].iter().filter(|h| h.is_some()).count()),
-        bytes,
-    };
-    (row, got)
+) -> (Vec<Row>, Vec<Vec<Answers>>) {
+    let answers: Vec<Vec<Answers>> = (contenders.iter())
+        .map(|c| sets.iter().map(|set| (c.trace)(set)).collect())
+        .collect();
+    let n = contenders.len();
+    let (mut build, mut ready) = (vec![Vec::new(); n], vec![Vec::new(); n]);
+    let mut trace = vec![[Vec::new(), Vec::new()]; n];
+    for _ in 0..runs.max(1) {
+        for (k, c) in contenders.iter().enumerate() {
+            let (b, r) = (c.build)();
+            build[k].push(b);
+            ready[k].push(r);
+        }
+        for (k, c) in contenders.iter().enumerate() {
+            for (set, t) in sets.iter().zip(&mut trace[k]) {
+                t.push(time(|| (c.trace)(set)).0);
+            }
+        }
+    }
+    let rows = (contenders.iter().enumerate())
+        .map(|(k, c)| Row {
+            name: c.name.clone(),
+            build: median(&mut build[k]),
+            ready: median(&mut ready[k]),
+            primary: sets[0].len() as f64 / median(&mut trace[k][0]).as_secs_f64() / 1e6,
+            incoherent: sets[1].len() as f64 / median(&mut trace[k][1]).as_secs_f64() / 1e6,
+            hits: [0, 1].map(|set| answers[k][set].iter().filter(|h| h.is_some()).count()),
+            bytes: c.bytes,
+        })
+        .collect();
+    (rows, answers)
 }
 
 /// Rays on which `a` and `b` agree.
@@ -260,14 +315,7 @@ fn time<T>(f: impl FnOnce() -> T) -> (Duration, T) {
     (start.elapsed(), v)
 }
 
-fn median(runs: usize, mut f: impl FnMut() -> Duration) -> Duration {
-    let mut t: Vec<Duration> = (0..runs.max(1)).map(|_| f()).collect();
+fn median(t: &mut [Duration]) -> Duration {
     t.sort();
     t[t.len() / 2]
-}
-
-/// Median million rays per second of `runs` passes over `n` rays.
-fn median_rate<T>(runs: usize, n: usize, mut f: impl FnMut() -> T) -> f64 {
-    let d = median(runs, || time(&mut f).0);
-    n as f64 / d.as_secs_f64() / 1e6
 }

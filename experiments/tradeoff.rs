@@ -24,6 +24,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 
 use cellbih::bih::{BihConfig, SplitChoice, Tracer};
+
+/// The `--sah-above` setting the grid tries beside binning every node.
+const SAH_ABOVE: u32 = 64;
 use cellbih::build::{BuilderKind, Quality};
 use cellbih::cell::CellConfig;
 use cellbih::quality::pareto_front;
@@ -83,10 +86,12 @@ fn settings() -> Vec<Setting> {
     };
     for &b in BuilderKind::ALL {
         let q = b.quality();
-        let splits: &[bool] = if q.binned_sah {
-            &[false, true]
+        let gh = SplitChoice::GlobalHeuristic;
+        let sah = |above| SplitChoice::BinnedSah { bins: 16, above };
+        let splits: &[SplitChoice] = if q.binned_sah {
+            &[gh, sah(0), sah(SAH_ABOVE)]
         } else {
-            &[false]
+            &[gh]
         };
         let cuts: &[Option<u32>] = if q.empty_cut {
             &[None, Some(10), Some(30)]
@@ -94,15 +99,11 @@ fn settings() -> Vec<Setting> {
             &[None]
         };
         for leaf in [12, 4] {
-            for &sah in splits {
+            for &split in splits {
                 for &cut in cuts {
                     let cfg = BihConfig {
                         leaf_size: leaf,
-                        split: if sah {
-                            SplitChoice::BinnedSah { bins: 16 }
-                        } else {
-                            SplitChoice::GlobalHeuristic
-                        },
+                        split,
                         empty_cut: cut,
                         ..d
                     };

@@ -219,7 +219,7 @@ fn run(cli: Cli) -> Res<()> {
         }) => {
             let s = scene.load()?;
             let cell = CellConfig::ps3().with_spes(spes as usize);
-            let cfg = tree.config();
+            let cfg = tree.config()?;
             let (rows, _) = compare::rows(&s, &cell, &cfg)?;
             compare::print(&s, spes as usize, &cfg, &rows, format);
             Ok(())

@@ -65,11 +65,11 @@ proptest! {
         scene in scene_strategy(),
         leaf in 1u32..=16,
         max_depth in prop_oneof![Just(64u32), 0u32..8],
-        sah in proptest::option::of(2u32..=32),
+        sah in proptest::option::of((2u32..=32, prop_oneof![Just(0u32), 1u32..64])),
         empty_cut in proptest::option::of(1u32..=99),
     ) {
         let split = match sah {
-            Some(bins) => SplitChoice::BinnedSah { bins },
+            Some((bins, above)) => SplitChoice::BinnedSah { bins, above },
             None => SplitChoice::GlobalHeuristic,
         };
         check_scene(&scene, &BihConfig { leaf_size: leaf, max_depth, split, empty_cut }, 48)?;

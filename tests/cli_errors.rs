@@ -506,3 +506,16 @@ fn quality_knobs_a_builder_does_not_build_are_refused_by_name() {
     assert_ok(&out);
     assert!(stdout(&out).contains("simulated"), "{}", stdout(&out));
 }
+
+/// Binned SAH's options without `--split sah` are refused, not ignored;
+/// with it, `--sah-above` builds (and the report names the setting).
+#[test]
+fn binned_sah_options_need_split_sah() {
+    for knob in [&["--sah-above", "64"][..], &["--sah-bins", "8"]] {
+        let mut args = vec!["build"];
+        args.extend_from_slice(knob);
+        assert_fails_with(&cellbih(&args), "apply to --split sah only");
+    }
+    let out = cellbih(&["build", "--split", "sah", "--sah-above", "64"]);
+    assert_ok(&out);
+}

@@ -61,7 +61,7 @@ fn compare_with_knobs_builds_them_where_they_are_built() {
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(doc["settings"], "--split sah --empty-cut 30");
     let cfg = cellbih::bih::BihConfig {
-        split: cellbih::bih::SplitChoice::BinnedSah { bins: 16 },
+        split: cellbih::bih::SplitChoice::BinnedSah { bins: 16, above: 0 },
         empty_cut: Some(30),
         ..Default::default()
     };

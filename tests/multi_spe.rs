@@ -138,9 +138,17 @@ fn every_setting_gives_the_baseline_tree(name: &str) {
             empty_cut: Some(10),
             ..BihConfig::default()
         };
+        let sah_above = BihConfig {
+            split: SplitChoice::BinnedSah {
+                bins: 16,
+                above: 40,
+            },
+            ..BihConfig::SAH_CUT
+        };
         for (cfg, flags) in [
             (cut, "--empty-cut 10"),
             (BihConfig::SAH_CUT, "--split sah --empty-cut 10"),
+            (sah_above, "--split sah --sah-above 40 --empty-cut 10"),
         ] {
             for spes in [1, 3, 8] {
                 let what = format!("{name}, {spec} on {spes} SPEs, {flags}");
@@ -380,10 +388,10 @@ proptest! {
         leaf in 1u32..4,
         knobs in knobs_strategy(),
         empty_cut in proptest::option::of(1u32..=99),
-        sah_bins in proptest::option::of(2u32..=32),
+        sah in proptest::option::of((2u32..=32, prop_oneof![Just(0u32), 1u32..64])),
     ) {
         let name = if shared { "spe_bfs_shared" } else { "spe_bfs_private" };
-        let split = sah_bins.map_or(SplitChoice::GlobalHeuristic, |bins| SplitChoice::BinnedSah { bins });
+        let split = sah.map_or(SplitChoice::GlobalHeuristic, |(bins, above)| SplitChoice::BinnedSah { bins, above });
         let cfg = BihConfig { leaf_size: leaf, split, empty_cut, ..BihConfig::default() };
         let cell = CellConfig::ps3().with_spes(spes);
         let fail = |e: String| TestCaseError::fail(format!("{name} on {spes} SPEs, {knobs:?}: {e}"));

@@ -65,7 +65,7 @@ fn same_tree_up_to_leaf_order(a: &cellbih::bih::Bih, b: &cellbih::bih::Bih) -> R
 /// The settings the builders that build the quality knobs are compared
 /// with the host on: the paper's tree, the empty-space cut-off at two
 /// thresholds, binned SAH alone (8 bins) and with the cut-off (16).
-const SETTINGS: [BihConfig; 5] = [
+const SETTINGS: [BihConfig; 6] = [
     BihConfig::DEFAULT,
     BihConfig {
         empty_cut: Some(10),
@@ -77,10 +77,18 @@ const SETTINGS: [BihConfig; 5] = [
         ..BihConfig::DEFAULT
     },
     BihConfig {
-        split: SplitChoice::BinnedSah { bins: 8 },
+        split: SplitChoice::BinnedSah { bins: 8, above: 0 },
         ..BihConfig::DEFAULT
     },
     BihConfig::SAH_CUT,
+    // Binned SAH above 40 triangles, the global heuristic below.
+    BihConfig {
+        split: SplitChoice::BinnedSah {
+            bins: 16,
+            above: 40,
+        },
+        ..BihConfig::SAH_CUT
+    },
 ];
 
 /// spe_dfs runs the same recursion with the partitions on SPE 0 (Fig. 1):

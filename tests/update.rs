@@ -196,7 +196,7 @@ proptest! {
     ) {
         let scene = cluster_scene(objects, exp, seed);
         // The quality knobs too: an update rebuilds with the tree's own.
-        let split = if sah { SplitChoice::BinnedSah { bins: 8 } } else { SplitChoice::GlobalHeuristic };
+        let split = if sah { SplitChoice::BinnedSah { bins: 8, above: 0 } } else { SplitChoice::GlobalHeuristic };
         let cfg = BihConfig { leaf_size: leaf, split, empty_cut, ..BihConfig::default() };
         let scale = 10f32.powi(exp);
         for &method in Method::ALL {

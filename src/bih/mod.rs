@@ -51,7 +51,14 @@ pub enum SplitChoice {
     /// ([`crate::build::sah`]). Buys: fewer nodes visited and triangles
     /// tested per ray (the high-quality end of the trade). Costs: one more
     /// pass over every node's triangles to bin them.
-    BinnedSah { bins: u32 },
+    ///
+    /// Nodes of at most `above` triangles take the global heuristic's
+    /// halving instead (0: every node bins). Buys: the build skips the
+    /// binning pass and the bin sweep where they cost the most per
+    /// triangle — the many small nodes of the lower levels, where most of
+    /// the sweeps are. Costs: the lower levels' planes are blind again;
+    /// measured in `docs/tradeoff.md`.
+    BinnedSah { bins: u32, above: u32 },
 }
 
 impl Default for BihConfig {
@@ -73,7 +80,7 @@ impl BihConfig {
     /// The quality knobs' high end as the tests and experiments run it:
     /// binned SAH (16 bins) with the empty-space cut-off at 10 %.
     pub const SAH_CUT: BihConfig = BihConfig {
-        split: SplitChoice::BinnedSah { bins: 16 },
+        split: SplitChoice::BinnedSah { bins: 16, above: 0 },
         empty_cut: Some(10),
         ..BihConfig::DEFAULT
     };
@@ -99,16 +106,29 @@ impl BihConfig {
         if self.max_depth != d.max_depth {
             f.push(format!("--max-depth {}", self.max_depth));
         }
-        if let SplitChoice::BinnedSah { bins } = self.split {
+        if let SplitChoice::BinnedSah { bins, above } = self.split {
             f.push("--split sah".to_string());
             if bins != crate::build::sah::DEFAULT_BINS {
                 f.push(format!("--sah-bins {bins}"));
+            }
+            if above != 0 {
+                f.push(format!("--sah-above {above}"));
             }
         }
         if let Some(p) = self.empty_cut {
             f.push(format!("--empty-cut {p}"));
         }
         f.join(" ")
+    }
+
+    /// The bins per axis that a node of `count` triangles chooses its plane
+    /// with, or `None` where it takes the global heuristic's halving: the
+    /// one rule every builder applies.
+    pub fn sah_bins(&self, count: usize) -> Option<u32> {
+        match self.split {
+            SplitChoice::BinnedSah { bins, above } if count > above as usize => Some(bins),
+            _ => None,
+        }
     }
 
     /// Whether the split choice and empty-space cut-off are the paper's

@@ -10,7 +10,7 @@ use super::cutoff::{Cut, child_regions, empty_gap};
 use super::kernels::{Boxed, Side, Split, choose_split_counted, clip_planes, partition, side_of};
 use super::sah::Bins;
 use crate::aabb::Aabb;
-use crate::bih::{Bih, BihConfig, BihNode, SplitChoice};
+use crate::bih::{Bih, BihConfig, BihNode};
 use crate::scene::Scene;
 
 /// Something a builder sorts: a box, and the id of the triangle it stands for.
@@ -224,11 +224,9 @@ impl<T: Item> Builder<'_, T> {
         side: &Side,
     ) -> Option<Split> {
         let centers = side.centers();
-        match self.cfg.split {
-            SplitChoice::GlobalHeuristic => {
-                choose_split_counted(candidate, &centers, &mut self.stats.f32_stalls)
-            }
-            SplitChoice::BinnedSah { bins } => {
+        match self.cfg.sah_bins(count) {
+            None => choose_split_counted(candidate, &centers, &mut self.stats.f32_stalls),
+            Some(bins) => {
                 if centers.min == centers.max {
                     return None;
                 }

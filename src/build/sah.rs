@@ -301,4 +301,36 @@ mod tests {
         let same = [items[0], items[0]];
         assert_eq!(sah_split(&same, &side_of(&same).centers(), 16), None);
     }
+
+    /// `--sah-above N`: nodes of at most N triangles take the global
+    /// heuristic. Above every node's count the tree is the global
+    /// heuristic's (with the same cut-off); at 0 it is binned SAH's; in
+    /// between it is neither, and no worse a tree than the paper's.
+    #[test]
+    fn sah_above_bins_only_the_nodes_above_it() {
+        use crate::bih::{BihConfig, SplitChoice};
+        use crate::build::host::build;
+        let cfg = |above| BihConfig {
+            split: SplitChoice::BinnedSah { bins: 16, above },
+            ..BihConfig::SAH_CUT
+        };
+        assert_eq!(cfg(40).sah_bins(40), None);
+        assert_eq!(cfg(40).sah_bins(41), Some(16));
+        assert_eq!(BihConfig::DEFAULT.sah_bins(1 << 20), None);
+        let s = crate::scene::procedural::rtperf(5_000, 3);
+        let gh = BihConfig {
+            split: SplitChoice::GlobalHeuristic,
+            ..BihConfig::SAH_CUT
+        };
+        let n = s.len() as u32;
+        assert_eq!(build(&s, &cfg(n)).nodes, build(&s, &gh).nodes);
+        assert_eq!(
+            build(&s, &cfg(0)).nodes,
+            build(&s, &BihConfig::SAH_CUT).nodes
+        );
+        let mixed = build(&s, &cfg(64));
+        mixed.validate(&s).unwrap();
+        assert_ne!(mixed.nodes, build(&s, &gh).nodes);
+        assert_ne!(mixed.nodes, build(&s, &cfg(0)).nodes);
+    }
 }

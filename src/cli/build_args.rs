@@ -28,10 +28,16 @@ pub struct TreeArgs {
     /// each node's triangles). Every builder but ppe_approx and spe_morton.
     #[arg(long, value_enum, default_value = "gh")]
     pub split: SplitArg,
-    /// --split sah: bins per axis (2 to 256).
-    #[arg(long, default_value_t = DEFAULT_BINS,
-          value_parser = clap::value_parser!(u32).range(2..=MAX_BINS as i64))]
-    pub sah_bins: u32,
+    /// --split sah: bins per axis (2 to 256) [default: 16].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(2..=MAX_BINS as i64))]
+    pub sah_bins: Option<u32>,
+    /// --split sah: nodes of at most this many triangles take the global
+    /// heuristic's halving instead of binning (0: every node bins). A
+    /// faster build for a little quality: the small nodes are most of the
+    /// bin sweeps.
+    /// [default: 0]
+    #[arg(long)]
+    pub sah_above: Option<u32>,
     /// Empty-space cut-off: a gap of more than this percentage of a node's
     /// extent beside its triangles is cut off by a clip node (1 to 99;
     /// off by default). Every builder but ppe_approx and spe_morton.
@@ -44,19 +50,29 @@ pub struct TreeArgs {
 }
 
 impl TreeArgs {
-    /// The tree configuration asked for.
-    pub fn config(&self) -> BihConfig {
-        BihConfig {
+    /// The tree configuration asked for; binned SAH's options without
+    /// `--split sah` are an error, not ignored.
+    pub fn config(&self) -> Res<BihConfig> {
+        let split = match self.split {
+            SplitArg::Gh => {
+                if self.sah_bins.is_some() || self.sah_above.is_some() {
+                    return Err("--sah-bins and --sah-above apply to --split sah only \
+                                (the global heuristic bins nothing)"
+                        .into());
+                }
+                SplitChoice::GlobalHeuristic
+            }
+            SplitArg::Sah => SplitChoice::BinnedSah {
+                bins: self.sah_bins.unwrap_or(DEFAULT_BINS),
+                above: self.sah_above.unwrap_or(0),
+            },
+        };
+        Ok(BihConfig {
             leaf_size: self.leaf_size,
             max_depth: self.max_depth,
-            split: match self.split {
-                SplitArg::Gh => SplitChoice::GlobalHeuristic,
-                SplitArg::Sah => SplitChoice::BinnedSah {
-                    bins: self.sah_bins,
-                },
-            },
+            split,
             empty_cut: self.empty_cut,
-        }
+        })
     }
 }
 
@@ -204,7 +220,7 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
             names.join(", ")
         )
     })?;
-    let cfg = args.tree.config();
+    let cfg = args.tree.config()?;
     let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
     cell.main_memory_bytes = args.memory_mib * 1024 * 1024;
     cell.checked = matches!(args.mode, Mode::Checked);

@@ -50,7 +50,7 @@ fn spawn(
         // center and a comparison or bin index per item), not a
         // calibration.
         ppe.compute_items(k.ppe_partition_item, items_partitioned + items_binned);
-        if let SplitChoice::BinnedSah { bins } = cfg.split {
+        if let SplitChoice::BinnedSah { bins, .. } = cfg.split {
             let per_sweep = 3 * crate::build::sah::bins_per_axis(bins) as u64;
             ppe.compute_items(k.ppe_sah_bin, sah_sweeps * per_sweep);
         }

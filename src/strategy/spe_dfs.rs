@@ -132,7 +132,7 @@ fn spawn(
             .alloc("side records", 2 * size_of::<SideRecord>() as u64, 128)?;
     // Binned SAH: where the SPE puts the bins it filled.
     let bins = match cfg.split {
-        SplitChoice::BinnedSah { bins } => Some(bins),
+        SplitChoice::BinnedSah { bins, .. } => Some(bins),
         SplitChoice::GlobalHeuristic => None,
     };
     let bins_bytes = bins.map_or(0, Bins::ls_bytes);
@@ -289,8 +289,8 @@ fn spawn(
                 continue;
             }
             let centers = side.centers();
-            let split = match cfg.split {
-                SplitChoice::BinnedSah { bins } if centers.min != centers.max => {
+            let split = match cfg.sah_bins(count) {
+                Some(bins) if centers.min != centers.max => {
                     stats.items_binned += count as u64;
                     stats.sah_sweeps += 1;
                     let per_axis = crate::build::sah::bins_per_axis(bins) as u64;

@@ -6,7 +6,7 @@
 
 use super::{Job, SpeBuilder};
 use crate::aabb::Aabb;
-use crate::bih::{BihNode, SplitChoice};
+use crate::bih::BihNode;
 use crate::build::cutoff::{Clip, empty_gap};
 use crate::build::kernels::{Split, choose_split, partition};
 use crate::build::sah::Bins;
@@ -87,10 +87,10 @@ impl SpeBuilder<'_> {
             return Make::Clip(cut.clip(region, &bounds, first, count));
         }
         let (mut candidate, centers) = (job.candidate(), job.centers());
-        match self.cfg.split {
-            SplitChoice::BinnedSah { .. } if centers.min == centers.max => Make::Leaf,
-            SplitChoice::BinnedSah { .. } => Make::Sah(candidate),
-            SplitChoice::GlobalHeuristic => match choose_split(&mut candidate, &centers) {
+        match self.cfg.sah_bins(job.count as usize) {
+            Some(_) if centers.min == centers.max => Make::Leaf,
+            Some(_) => Make::Sah(candidate),
+            None => match choose_split(&mut candidate, &centers) {
                 Some(s) => Make::Split(s, candidate),
                 None => Make::Leaf,
             },
@@ -377,7 +377,7 @@ impl SpeBuilder<'_> {
     /// Empty bins for `job`'s binned SAH choice (they live in the local
     /// store at `self.bins`).
     fn new_bins(&self, job: &Job) -> Result<Bins, CellError> {
-        let SplitChoice::BinnedSah { bins } = self.cfg.split else {
+        let Some(bins) = self.cfg.sah_bins(job.count as usize) else {
             unreachable!("binned SAH jobs only");
         };
         debug_assert!(self.bins.is_some());

@@ -167,7 +167,9 @@ impl<'a> SpeBuilder<'a> {
             node_writes: None,
             dma_lists: knobs.dma_lists,
             bins: match cfg.split {
-                SplitChoice::BinnedSah { bins } => Some(spe.ls_alloc(Bins::ls_bytes(bins), 128)?),
+                SplitChoice::BinnedSah { bins, .. } => {
+                    Some(spe.ls_alloc(Bins::ls_bytes(bins), 128)?)
+                }
                 SplitChoice::GlobalHeuristic => None,
             },
             prefetch: knobs.prefetch,
