@@ -4,7 +4,7 @@
 //! quality knobs (the cut-off alone, and binned SAH with it) — on the same
 //! triangles and the same rays.
 //!
-//! `CELLBIH_DATA=../shared/data cargo bench --bench peers [-- --scenes bunny,dragon] [--runs 5]`
+//! `CELLBIH_DATA=../shared/data cargo bench --bench peers [-- --scenes bunny,dragon] [--runs 5] [--sah-above 64,1024]`
 //!
 //! For each scene: build ms (median of `--runs`), cellbih's with and
 //! without the tracer's own preparation (`Tracer::new`: the leaf-ordered
@@ -34,6 +34,7 @@ fn main() {
         .map(|s| s.to_string())
         .collect();
     let mut runs = 5usize;
+    let mut above = vec![64u32];
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -47,6 +48,11 @@ fn main() {
                     .collect()
             }
             "--runs" => runs = it.next().and_then(|r| r.parse().ok()).expect("--runs N"),
+            "--sah-above" => {
+                above = (it.next().expect("--sah-above LIST").split(','))
+                    .map(|n| n.parse().expect("--sah-above: triangle counts"))
+                    .collect()
+            }
             _ => {} // cargo bench's own flags (--bench)
         }
     }
@@ -63,7 +69,7 @@ fn main() {
                 continue;
             }
         };
-        compare(&s, runs);
+        compare(&s, runs, &above);
     }
 }
 
@@ -72,15 +78,6 @@ fn main() {
 const CUT: BihConfig = BihConfig {
     empty_cut: Some(30),
     ..BihConfig::DEFAULT
-};
-
-/// Binned SAH on the nodes of more than 64 triangles, the cut-off at 10 %.
-const SAH_ABOVE_CUT: BihConfig = BihConfig {
-    split: SplitChoice::BinnedSah {
-        bins: 16,
-        above: 64,
-    },
-    ..BihConfig::SAH_CUT
 };
 
 /// Each ray's closest hit (triangle, t), or a miss.
@@ -99,7 +96,7 @@ struct Row {
     bytes: usize,
 }
 
-fn compare(s: &Scene, runs: usize) {
+fn compare(s: &Scene, runs: usize, above: &[u32]) {
     let rays = RaySets::standard(&s.bounds());
     let sets = [&rays.primary, &rays.incoherent];
     let tris: Vec<OTri> = (s.triangles.iter())
@@ -111,27 +108,22 @@ fn compare(s: &Scene, runs: usize) {
         .collect();
     // Each contender: its label, a timed build (build, and build plus the
     // tracer's preparation), its tracer, and its bytes.
-    let settings = [
-        ("cellbih host", BihConfig::default()),
-        ("cellbih host --empty-cut 30", CUT),
-        (
-            "cellbih host --split sah --empty-cut 10",
-            BihConfig::SAH_CUT,
-        ),
-        (
-            "cellbih host --split sah --sah-above 64 --empty-cut 10",
-            SAH_ABOVE_CUT,
-        ),
-    ];
+    // The paper's tree, the cut-off alone, binned SAH with the cut-off,
+    // and binned SAH above each `--sah-above` count with the cut-off.
+    let mut settings = vec![BihConfig::default(), CUT, BihConfig::SAH_CUT];
+    settings.extend(above.iter().map(|&above| BihConfig {
+        split: SplitChoice::BinnedSah { bins: 16, above },
+        ..BihConfig::SAH_CUT
+    }));
     let trees: Vec<Bih> = (settings.iter())
-        .map(|(_, cfg)| BuilderKind::HOST.build(s, cfg).unwrap().bih)
+        .map(|cfg| BuilderKind::HOST.build(s, cfg).unwrap().bih)
         .collect();
     let mut contenders: Vec<Contender> = Vec::new();
-    for ((label, cfg), bih) in settings.into_iter().zip(&trees) {
+    for (cfg, bih) in settings.into_iter().zip(&trees) {
         let tracer = Tracer::new(bih, s);
         let bytes = bih.memory_bytes() + tracer.memory_bytes();
         contenders.push(Contender {
-            name: label.into(),
+            name: format!("cellbih host {}", cfg.flags()).trim_end().into(),
             build: Box::new(move || {
                 let (built, bih) = time(|| BuilderKind::HOST.build(s, &cfg).unwrap().bih);
                 let (prep, _) = time(|| Tracer::new(&bih, s));

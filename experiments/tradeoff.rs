@@ -26,7 +26,7 @@ use serde_json::{Value, json};
 use cellbih::bih::{BihConfig, SplitChoice, Tracer};
 
 /// The `--sah-above` setting the grid tries beside binning every node.
-const SAH_ABOVE: u32 = 64;
+const SAH_ABOVE: u32 = 4096;
 use cellbih::build::{BuilderKind, Quality};
 use cellbih::cell::CellConfig;
 use cellbih::quality::pareto_front;
