@@ -25,10 +25,12 @@ fn tradeoff_writes_every_setting_with_its_fronts() {
             "{b}"
         );
     }
-    assert!(
-        rows.iter()
-            .any(|r| r["setting"] == "--split sah --empty-cut 10")
-    );
+    for setting in [
+        "--split sah --empty-cut 10",
+        "--split sah --sah-above 4096 --empty-cut 10",
+    ] {
+        assert!(rows.iter().any(|r| r["setting"] == setting), "{setting}");
+    }
     for (front, time) in [("front_ps3", "simulated_ms"), ("front_host", "host_ms")] {
         let kind: Vec<&serde_json::Value> = rows
             .iter()
