@@ -243,11 +243,10 @@ struct Contender<'a> {
 }
 
 /// Every contender's row and answers. Builds and ray sets are timed in
-/// rounds, one of each contender a round, and the medians taken: this
-/// host's speed changes by up to 1.4x for seconds at a time (measured:
-/// the same binary and input in one of two speeds, process after
-/// process), and rounds give every contender the same mix of speeds, so
-/// the ratios hold where absolute times drift.
+/// rounds, one of each contender a round, and the medians taken, so that
+/// every contender meets the same conditions. This host runs one binary
+/// on one input at one of two speeds, process after process (up to 1.4x
+/// apart, cellbih's binning hit hardest): run the bench more than once.
 fn measured(
     contenders: &[Contender],
     sets: [&Vec<Ray>; 2],
