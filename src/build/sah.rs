@@ -305,7 +305,7 @@ mod tests {
     /// `--sah-above N`: nodes of at most N triangles take the global
     /// heuristic. Above every node's count the tree is the global
     /// heuristic's (with the same cut-off); at 0 it is binned SAH's; in
-    /// between it is neither, and no worse a tree than the paper's.
+    /// between it is neither, and valid.
     #[test]
     fn sah_above_bins_only_the_nodes_above_it() {
         use crate::bih::{BihConfig, SplitChoice};
