@@ -198,8 +198,22 @@ fn node_depths(b: &Bih) -> Vec<u32> {
 fn an_emulated_build_gives_the_same_cycles_and_tree_every_run() {
     let s = scene::load("rtperf:10000:1", None).unwrap();
     // Every emulated builder with the paper's settings and with the quality
-    // knobs it builds.
-    let runs = BuilderKind::every_run(BihConfig::SAH_CUT);
+    // knobs it builds, binned SAH on every node and only above 40
+    // triangles (--sah-above 40).
+    let above = BihConfig {
+        split: SplitChoice::BinnedSah {
+            bins: 16,
+            above: 40,
+        },
+        ..BihConfig::SAH_CUT
+    };
+    let mut runs = BuilderKind::every_run(BihConfig::SAH_CUT);
+    runs.extend(
+        BuilderKind::every_run(above)
+            .into_iter()
+            .filter(|(_, c)| *c == above),
+    );
+    assert!(runs.iter().any(|(b, c)| b.emulated() && *c == above));
     for (b, cfg) in runs.into_iter().filter(|(b, _)| b.emulated()) {
         let run = || b.build(&s, &cfg).unwrap();
         let (x, y) = (run(), run());
