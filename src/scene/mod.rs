@@ -47,8 +47,16 @@ impl Triangle {
 
     /// Zero area: the cross product of two edges is exactly zero in double
     /// precision (the vertices coincide or are collinear).
+    /// (Written without `array::map`, which is not always inlined: its
+    /// out-of-line copy cost `Tracer::new` a store-forwarding stall a
+    /// triangle.)
+    #[inline]
     pub fn is_degenerate(&self) -> bool {
-        let [a, b, c] = self.v.map(|p| p.as_dvec3());
+        let [a, b, c] = [
+            self.v[0].as_dvec3(),
+            self.v[1].as_dvec3(),
+            self.v[2].as_dvec3(),
+        ];
         (b - a).cross(c - a) == DVec3::ZERO
     }
 }
