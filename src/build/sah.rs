@@ -173,9 +173,9 @@ impl Bins {
 /// clamped to `0..=last` — what `as` casts and `min(last)` give.
 ///
 /// On x86_64 the same `f64` arithmetic runs two lanes at a time (SSE2,
-/// which every x86_64 has) and truncates with packed instructions: scalar
-/// float-to-integer conversions, three a center, made the index cost more
-/// than the bins' updates on our host (docs/tradeoff.md). Both ways give
+/// which every x86_64 has) and truncates with packed instructions: the
+/// three scalar float-to-integer conversions a center cost most of the
+/// binning when our host runs on its slow side (docs/tradeoff.md). Both ways give
 /// the same bins (a test compares them), so the tree does not depend on
 /// the host.
 struct BinIndex {
