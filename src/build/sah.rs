@@ -175,9 +175,9 @@ impl Bins {
 /// On x86_64 the same `f64` arithmetic runs two lanes at a time (SSE2,
 /// which every x86_64 has) and truncates with packed instructions: the
 /// three scalar float-to-integer conversions a center cost most of the
-/// binning when our host runs on its slow side (docs/tradeoff.md). Both ways give
-/// the same bins (a test compares them), so the tree does not depend on
-/// the host.
+/// binning when our host runs on its slow side (docs/tradeoff.md). Both
+/// ways give the same bins (a test compares them), so the tree does not
+/// depend on the host.
 struct BinIndex {
     lo: DVec3,
     scale: DVec3,
