@@ -1,0 +1,210 @@
+//! The refactorings of the layout keep every simulated cycle and every
+//! tree: each run below (every builder of the registry, with the paper's
+//! settings, the quality knobs it builds and each of its strategy knobs
+//! moved once, on the default scene; every builder on the bunny) is
+//! compared with `tests/golden/runs.txt`, recorded before the move.
+//!
+//! When the machine model changes on purpose, re-record the file with
+//! `CELLBIH_RECORD=1 CELLBIH_DATA=../shared/data cargo test --release
+//! --test unchanged` and say in the commit which figures moved and why.
+
+use std::collections::BTreeMap;
+
+use cellbih::bih::{Bih, BihConfig, SplitChoice};
+use cellbih::build::{BuildReport, BuilderKind};
+use cellbih::cell::CellConfig;
+use cellbih::scene::{self, Scene};
+use cellbih::strategy::{KeyOrder, Knobs};
+
+/// FNV-1a over the node array's bytes and the triangle ids: two trees with
+/// the same digest are the same tree (nodes and leaf order).
+fn digest(bih: &Bih) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let nodes: &[u8] = bytemuck::cast_slice(&bih.nodes);
+    let ids: &[u8] = bytemuck::cast_slice(&bih.prim_ids);
+    for &b in nodes.iter().chain(ids) {
+        h = (h ^ b as u64).wrapping_mul(0x100_0000_01b3);
+    }
+    h
+}
+
+fn line(r: &BuildReport) -> String {
+    let cycles = r.simulated.as_ref().map_or(0, |s| s.run.cycles.0);
+    format!("{cycles} {:016x}", digest(&r.bih))
+}
+
+/// Each run's label (the `cellbih build` options it stands for) and its
+/// cycles and tree digest.
+fn runs() -> BTreeMap<String, String> {
+    let mut out = BTreeMap::new();
+    let mut record = |label: String, r: BuildReport| {
+        assert!(out.insert(label.clone(), line(&r)).is_none(), "{label} twice");
+    };
+    let default = scene::load("default", None).unwrap();
+    let build = |s: &Scene, b: BuilderKind, cfg: &BihConfig, spes: usize, k: &Knobs| {
+        let cell = CellConfig::ps3().with_spes(spes);
+        b.build_with(s, s.bounds(), cfg, &cell, k)
+            .unwrap_or_else(|e| panic!("{b}: {e}"))
+    };
+    let d = Knobs::default();
+    let quality = BihConfig {
+        split: SplitChoice::BinnedSah { bins: 16, above: 40 },
+        empty_cut: Some(10),
+        ..BihConfig::DEFAULT
+    };
+    for &b in BuilderKind::ALL {
+        let paper = BihConfig::DEFAULT;
+        record(format!("default {b}"), build(&default, b, &paper, 6, &d));
+        if b.multi_spe() {
+            for spes in [1, 8] {
+                let label = format!("default {b} --spes {spes}");
+                record(label, build(&default, b, &paper, spes, &d));
+            }
+        }
+        if b.builds(&quality) {
+            let label = format!("default {b} --split sah --sah-above 40 --empty-cut 10");
+            record(label, build(&default, b, &quality, 6, &d));
+        }
+        let knobs: Vec<(&str, Knobs)> = match b.name() {
+            "ppe_approx" => vec![(
+                "--approx-cells 16",
+                Knobs {
+                    approx_max_cells: 16,
+                    ..d
+                },
+            )],
+            "spe_bfs_shared" | "spe_bfs_private" | "spe_morton" => {
+                let mut v = vec![
+                    (
+                        "--double-buffer",
+                        Knobs {
+                            double_buffer: true,
+                            ..d
+                        },
+                    ),
+                    (
+                        "--dma-lists",
+                        Knobs {
+                            dma_lists: true,
+                            ..d
+                        },
+                    ),
+                    (
+                        "--prefetch",
+                        Knobs {
+                            prefetch: true,
+                            ..d
+                        },
+                    ),
+                ];
+                if b.name() != "spe_morton" {
+                    v.push((
+                        "--no-coop-top",
+                        Knobs {
+                            coop_top: false,
+                            ..d
+                        },
+                    ));
+                    v.push((
+                        "--deal-per-spe 1",
+                        Knobs {
+                            deal_per_spe: 1,
+                            ..d
+                        },
+                    ));
+                }
+                match b.name() {
+                    "spe_bfs_shared" => {
+                        v.push((
+                            "--agglomerate 1",
+                            Knobs {
+                                agglomerate: 1,
+                                ..d
+                            },
+                        ));
+                        v.push(("--fixed-takes", Knobs { guided: false, ..d }));
+                    }
+                    "spe_bfs_private" => v.push(("--steal", Knobs { steal: true, ..d })),
+                    _ => {
+                        v.push((
+                            "--key-order xyz",
+                            Knobs {
+                                key_order: KeyOrder::RoundRobin,
+                                ..d
+                            },
+                        ));
+                        v.push(("--key-bits 64", Knobs { key_bits: 64, ..d }));
+                        v.push(("--digit-bits 4", Knobs { digit_bits: 4, ..d }));
+                        v.push((
+                            "--region-size 256",
+                            Knobs {
+                                region_size: 256,
+                                ..d
+                            },
+                        ));
+                        v.push((
+                            "--static-regions",
+                            Knobs {
+                                static_regions: true,
+                                ..d
+                            },
+                        ));
+                    }
+                }
+                v
+            }
+            _ => vec![],
+        };
+        for (flag, k) in knobs {
+            let label = format!("default {b} {flag}");
+            record(label, build(&default, b, &BihConfig::DEFAULT, 6, &k));
+        }
+    }
+    if let Some(dir) = scene::data_dir(None) {
+        let bunny = scene::load("bunny", Some(&dir)).unwrap();
+        for &b in BuilderKind::ALL {
+            record(
+                format!("bunny {b}"),
+                build(&bunny, b, &BihConfig::DEFAULT, 6, &d),
+            );
+        }
+    }
+    out
+}
+
+#[test]
+fn every_builder_keeps_its_cycles_and_its_tree() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/runs.txt");
+    let now = runs();
+    if std::env::var_os("CELLBIH_RECORD").is_some() {
+        let text: String = (now.iter()).map(|(k, v)| format!("{k}: {v}\n")).collect();
+        std::fs::write(path, text).unwrap();
+        return;
+    }
+    let text = std::fs::read_to_string(path).unwrap();
+    let golden: BTreeMap<&str, &str> = (text.lines())
+        .filter_map(|l| l.split_once(": "))
+        .collect();
+    let mut differ = Vec::new();
+    for (label, got) in &now {
+        match golden.get(label.as_str()) {
+            Some(want) if want == got => {}
+            Some(want) => differ.push(format!("{label}: recorded {want}, now {got}")),
+            None => differ.push(format!("{label}: not recorded")),
+        }
+    }
+    let bunny = now.keys().any(|k| k.starts_with("bunny"));
+    for label in golden.keys() {
+        if !now.contains_key(*label) && (bunny || !label.starts_with("bunny")) {
+            differ.push(format!("{label}: recorded, no longer run"));
+        }
+    }
+    assert!(
+        differ.is_empty(),
+        "cycles or trees changed (cycles, tree digest):\n{}",
+        differ.join("\n")
+    );
+    if !bunny {
+        eprintln!("unchanged: CELLBIH_DATA is not set: the bunny runs did NOT run");
+    }
+}
