@@ -6,7 +6,7 @@
 use std::hint::black_box;
 
 use cellbih::bih::{BihConfig, RayStats, Tracer};
-use cellbih::build::BuilderKind;
+use cellbih::registry::BuilderKind;
 use cellbih::render::Camera;
 use cellbih::scene::{self, Scene};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};

@@ -15,8 +15,8 @@
 #[path = "common/simulated.rs"]
 mod simulated;
 
-use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
+use cellbih::registry::BuilderKind;
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
 use criterion::measurement::Measurement;

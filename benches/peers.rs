@@ -26,8 +26,8 @@ use obvhs::ray::{Ray as ORay, RayHit};
 use obvhs::triangle::Triangle as OTri;
 
 use cellbih::bih::{Bih, BihConfig, Ray, RayStats, SplitChoice, Tracer};
-use cellbih::build::BuilderKind;
 use cellbih::quality::rays::RaySets;
+use cellbih::registry::BuilderKind;
 use cellbih::scene::{self, Scene};
 
 fn main() {

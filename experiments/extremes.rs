@@ -18,10 +18,10 @@ use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
-use cellbih::build::BuilderKind;
-use cellbih::build::host::{PrimRef, build_items};
 use cellbih::cell::CellConfig;
+use cellbih::kernels::recursion::{PrimRef, build_items};
 use cellbih::quality::agree::{examine, rays_for};
+use cellbih::registry::BuilderKind;
 use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::{Scene, extremes};
 

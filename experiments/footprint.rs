@@ -15,11 +15,11 @@ use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
-use cellbih::build::BuilderKind;
 use cellbih::cell::{CellConfig, CellError, CostModel};
+use cellbih::registry::BuilderKind;
 use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::procedural::rtperf;
-use cellbih::strategy::footprint::{Footprint, Purpose};
+use cellbih::strategy::machinery::footprint::{Footprint, Purpose};
 
 #[derive(Parser)]
 struct Args {

@@ -21,7 +21,8 @@ use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
-use cellbih::build::{BuilderKind, host};
+use cellbih::host;
+use cellbih::registry::BuilderKind;
 use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::procedural::rtperf;
 use cellbih::update::{

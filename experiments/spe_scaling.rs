@@ -18,8 +18,8 @@ use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
-use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
+use cellbih::registry::BuilderKind;
 use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
@@ -232,7 +232,7 @@ fn row(
     let peak = cell.cost.memory_bandwidth.bytes_per_kcycle as f64 / 1000.0;
     let (base_ms, base_sah) = base;
     let arena_slots: u64 = sim.spe_work.iter().map(|w| w.arena_blocks).sum::<u64>()
-        * cellbih::strategy::arena::BLOCK_NODES as u64;
+        * cellbih::strategy::machinery::arena::BLOCK_NODES as u64;
     let arena_unused: u64 = sim.spe_work.iter().map(|w| w.arena_unused).sum();
     let ms = sim.run.ms;
     let row = json!({

@@ -18,8 +18,8 @@ use clap::Parser;
 use serde_json::json;
 
 use cellbih::bih::BihConfig;
-use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
+use cellbih::registry::BuilderKind;
 use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::{self, Scene};
 

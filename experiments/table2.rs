@@ -18,7 +18,7 @@ use std::path::PathBuf;
 use clap::Parser;
 use serde_json::{Value, json};
 
-use cellbih::build::BuilderKind;
+use cellbih::registry::BuilderKind;
 use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene;
 use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play};

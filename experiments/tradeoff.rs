@@ -27,10 +27,10 @@ use cellbih::bih::{BihConfig, SplitChoice, Tracer};
 
 /// The `--sah-above` setting the grid tries beside binning every node.
 const SAH_ABOVE: u32 = 4096;
-use cellbih::build::{BuilderKind, Quality};
 use cellbih::cell::CellConfig;
 use cellbih::quality::pareto_front;
 use cellbih::quality::rays::RaySets;
+use cellbih::registry::{BuilderKind, Quality};
 use cellbih::report::{
     Format, Series, output, print_rows, scatter_plot, write_json, write_rows_csv,
 };

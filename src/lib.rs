@@ -4,11 +4,13 @@
 
 pub mod aabb;
 pub mod bih;
-pub mod build;
 pub mod cell;
+pub mod host;
+pub mod kernels;
 pub mod output;
 pub mod quality;
 pub mod rays_csv;
+pub mod registry;
 pub mod render;
 pub mod report;
 pub mod scene;

@@ -12,9 +12,9 @@ use rayon::prelude::*;
 use serde_json::json;
 
 use cellbih::bih::{RayStats, Tracer};
-use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
+use cellbih::registry::BuilderKind;
 use cellbih::render::{Camera, trace};
 use cellbih::scene::{self, Scene};
 use cellbih::update::{Animation, MAX_FRAMES, Method, Summary, Updater};

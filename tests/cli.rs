@@ -66,7 +66,7 @@ fn every_builder_name_works_with_build_and_raycast() {
     let rays_path = tmp("builders.rays.csv");
     write_rays(std::fs::File::create(&rays_path).unwrap(), &rays).unwrap();
     let mut outputs = Vec::new();
-    for b in cellbih::build::BuilderKind::ALL {
+    for b in cellbih::registry::BuilderKind::ALL {
         let out = cellbih(&[
             "build",
             "--scene",
@@ -332,7 +332,7 @@ fn ci_runs_the_readme_test_command_verbatim() {
 #[test]
 fn the_registry_and_spes_reach_every_command() {
     let listed = String::from_utf8_lossy(&cellbih(&["builders"]).stdout).into_owned();
-    for b in cellbih::build::BuilderKind::ALL {
+    for b in cellbih::registry::BuilderKind::ALL {
         let line = listed.lines().find(|l| l.starts_with(b.name()));
         assert!(line.is_some(), "{b} in {listed}");
         // Each line says whether the builder builds the quality knobs.
@@ -470,7 +470,7 @@ fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
         v.push(r["spes"].as_u64().unwrap());
     }
     assert!(by_variant.values().all(|s| s == &[1, 2]), "{by_variant:?}");
-    for b in cellbih::build::BuilderKind::ALL
+    for b in cellbih::registry::BuilderKind::ALL
         .iter()
         .filter(|b| b.multi_spe())
     {

@@ -3,7 +3,7 @@
 
 mod common;
 
-use cellbih::build::BuilderKind;
+use cellbih::registry::BuilderKind;
 use common::{assert_ok, cellbih};
 
 /// `cellbih compare`: a row per builder, the baseline's speedup 1, the

@@ -18,7 +18,7 @@ fn tradeoff_writes_every_setting_with_its_fronts() {
         "tradeoff",
         &["--scenes", "default"],
     );
-    for b in cellbih::build::BuilderKind::ALL {
+    for b in cellbih::registry::BuilderKind::ALL {
         assert!(
             rows.iter()
                 .any(|r| r["builder"] == b.name() && r["setting"] == ""),
@@ -76,7 +76,7 @@ fn extremes_checks_every_case_and_builder() {
         "extremes",
         &["--rays", "20"],
     );
-    let runs = cellbih::build::BuilderKind::every_run(cellbih::bih::BihConfig::SAH_CUT).len();
+    let runs = cellbih::registry::BuilderKind::every_run(cellbih::bih::BihConfig::SAH_CUT).len();
     assert_eq!(rows.len(), cellbih::scene::extremes::CASES.len() * runs);
     assert!(
         rows.iter()

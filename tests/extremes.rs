@@ -5,9 +5,9 @@
 //! with brute force.
 
 use cellbih::bih::BihConfig;
-use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
 use cellbih::quality::agree::{examine, rays_for};
+use cellbih::registry::BuilderKind;
 use cellbih::scene::extremes;
 
 fn check_case(name: &str) {

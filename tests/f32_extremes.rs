@@ -7,7 +7,7 @@
 mod common;
 
 use cellbih::bih::{BihConfig, Tracer, brute_force_closest};
-use cellbih::build::BuilderKind;
+use cellbih::registry::BuilderKind;
 use cellbih::render::{Camera, trace};
 use cellbih::scene::{Scene, SplitMix64, Triangle};
 use cellbih::update::{Method, Move, Updater};

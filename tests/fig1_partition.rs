@@ -3,9 +3,9 @@
 //! kept, left side first; no DMA rule or race broken (checked mode); the
 //! same cycles every run; the streaming cost near what bandwidth allows.
 
-use cellbih::build::kernels::{Boxed, Split, side_of};
 use cellbih::cell::{Cell, CellConfig, Cycles, Ea};
-use cellbih::strategy::fig1::{Fig1Buffers, partition_in_place};
+use cellbih::kernels::split::{Boxed, Split, side_of};
+use cellbih::strategy::machinery::fig1::{Fig1Buffers, partition_in_place};
 use glam::Vec3A;
 use proptest::prelude::*;
 
@@ -69,8 +69,8 @@ fn run(
 ) -> (
     Vec<Item>,
     usize,
-    cellbih::build::kernels::Side,
-    cellbih::build::kernels::Side,
+    cellbih::kernels::split::Side,
+    cellbih::kernels::split::Side,
     Cycles,
 ) {
     let mut cell = Cell::new(CellConfig::ps3().with_spes(1)).unwrap();

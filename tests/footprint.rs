@@ -7,10 +7,10 @@
 mod common;
 
 use cellbih::bih::BihConfig;
-use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
+use cellbih::registry::BuilderKind;
 use cellbih::scene;
-use cellbih::strategy::footprint::{Purpose, widest_level, work_ppe_jobs};
+use cellbih::strategy::machinery::footprint::{Purpose, widest_level, work_ppe_jobs};
 use common::{assert_ok, cellbih, run_experiment};
 
 #[test]

@@ -1,4 +1,4 @@
-//! The Morton route's shared kernels (issue 12, `src/build/morton.rs`):
+//! The Morton route's shared kernels (issue 12, `src/kernels/morton.rs`):
 //! keys in the global heuristic's order give the baseline's tree from the
 //! sorted keys alone, at every width and at the numerical extremes; the
 //! round-robin order gives another valid tree that answers every ray as
@@ -7,8 +7,8 @@
 mod common;
 
 use cellbih::bih::{BihConfig, Tracer};
-use cellbih::build::BuilderKind;
-use cellbih::build::morton::{KeyOrder, build_scene};
+use cellbih::kernels::morton::{KeyOrder, build_scene};
+use cellbih::registry::BuilderKind;
 use cellbih::scene;
 use common::same_tree_structure;
 use proptest::prelude::*;
@@ -73,7 +73,7 @@ fn morton_build(
     knobs: &Knobs,
     cfg: &BihConfig,
     what: &str,
-) -> cellbih::build::BuildReport {
+) -> cellbih::registry::BuildReport {
     let cell = CellConfig::ps3().with_spes(spes);
     let build = || {
         spe_morton()

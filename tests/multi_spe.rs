@@ -7,8 +7,8 @@
 mod common;
 
 use cellbih::bih::{BihConfig, SplitChoice, Tracer};
-use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
+use cellbih::registry::BuilderKind;
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
 use common::same_tree_structure;

@@ -11,7 +11,7 @@
 mod common;
 
 use cellbih::bih::{BihConfig, Tracer};
-use cellbih::build::BuilderKind;
+use cellbih::registry::BuilderKind;
 use cellbih::scene::{self, DATA_ENV};
 use common::{check_ray, rays_for};
 use libtest_mimic::{Arguments, Failed, Trial};

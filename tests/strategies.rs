@@ -8,7 +8,7 @@
 mod common;
 
 use cellbih::bih::{Bih, BihConfig, SplitChoice};
-use cellbih::build::BuilderKind;
+use cellbih::registry::BuilderKind;
 use cellbih::scene;
 
 #[test]
@@ -288,7 +288,7 @@ fn ppe_approx_sorts_buckets_then_finishes_naively_for_fewer_cycles() {
 fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
     use cellbih::bih::BihNode;
     use cellbih::cell::{Cell, CellConfig, Ea};
-    use cellbih::strategy::arena::{
+    use cellbih::strategy::machinery::arena::{
         BLOCK_BYTES, BLOCK_NODES, BlockSource, ObjectArena, pieces, serve_blocks,
     };
     use std::cell::RefCell;

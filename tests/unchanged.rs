@@ -11,8 +11,8 @@
 use std::collections::BTreeMap;
 
 use cellbih::bih::{Bih, BihConfig, SplitChoice};
-use cellbih::build::{BuildReport, BuilderKind};
 use cellbih::cell::CellConfig;
+use cellbih::registry::{BuildReport, BuilderKind};
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::{KeyOrder, Knobs};
 
@@ -38,7 +38,10 @@ fn line(r: &BuildReport) -> String {
 fn runs() -> BTreeMap<String, String> {
     let mut out = BTreeMap::new();
     let mut record = |label: String, r: BuildReport| {
-        assert!(out.insert(label.clone(), line(&r)).is_none(), "{label} twice");
+        assert!(
+            out.insert(label.clone(), line(&r)).is_none(),
+            "{label} twice"
+        );
     };
     let default = scene::load("default", None).unwrap();
     let build = |s: &Scene, b: BuilderKind, cfg: &BihConfig, spes: usize, k: &Knobs| {
@@ -48,7 +51,10 @@ fn runs() -> BTreeMap<String, String> {
     };
     let d = Knobs::default();
     let quality = BihConfig {
-        split: SplitChoice::BinnedSah { bins: 16, above: 40 },
+        split: SplitChoice::BinnedSah {
+            bins: 16,
+            above: 40,
+        },
         empty_cut: Some(10),
         ..BihConfig::DEFAULT
     };
@@ -182,9 +188,7 @@ fn every_builder_keeps_its_cycles_and_its_tree() {
         return;
     }
     let text = std::fs::read_to_string(path).unwrap();
-    let golden: BTreeMap<&str, &str> = (text.lines())
-        .filter_map(|l| l.split_once(": "))
-        .collect();
+    let golden: BTreeMap<&str, &str> = (text.lines()).filter_map(|l| l.split_once(": ")).collect();
     let mut differ = Vec::new();
     for (label, got) in &now {
         match golden.get(label.as_str()) {

@@ -112,7 +112,7 @@ fn animations_are_deterministic_and_move_like_the_papers() {
 mod common;
 
 use cellbih::bih::{BihConfig, SplitChoice, Tracer};
-use cellbih::build::BuilderKind;
+use cellbih::registry::BuilderKind;
 use cellbih::scene::{Scene, SplitMix64, Triangle};
 use cellbih::update::{Method, Stop, Updater};
 use common::{check_ray, rays_for};

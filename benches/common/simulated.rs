@@ -8,8 +8,8 @@ use std::cell::Cell;
 use std::hint::black_box;
 
 use cellbih::bih::BihConfig;
-use cellbih::build::BuilderKind;
 use cellbih::cell::CellConfig;
+use cellbih::registry::BuilderKind;
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
 use criterion::Throughput;

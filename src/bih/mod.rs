@@ -15,7 +15,7 @@ pub use validate::Violation;
 use crate::aabb::Aabb;
 
 /// The limits every builder honours, and the quality knobs (which builder
-/// builds which: `crate::build::Quality`). Each knob is off by default: the
+/// builds which: `crate::registry::Quality`). Each knob is off by default: the
 /// default is the paper's tree, and Table 1 does not move.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct BihConfig {
@@ -42,13 +42,13 @@ pub struct BihConfig {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum SplitChoice {
     /// The paper's: halve the candidate box at the middle of its longest
-    /// side, the *global heuristic* ([`crate::build::kernels::choose_split`]).
+    /// side, the *global heuristic* ([`crate::kernels::split::choose_split`]).
     /// Buys: no pass over the triangles to choose. Costs: planes blind to
     /// where the triangles are.
     GlobalHeuristic,
     /// The plane of least surface-area cost among `bins - 1` candidates on
     /// each axis, the triangles binned by their box centers
-    /// ([`crate::build::sah`]). Buys: fewer nodes visited and triangles
+    /// ([`crate::kernels::sah`]). Buys: fewer nodes visited and triangles
     /// tested per ray (the high-quality end of the trade). Costs: one more
     /// pass over every node's triangles to bin them.
     ///
@@ -108,7 +108,7 @@ impl BihConfig {
         }
         if let SplitChoice::BinnedSah { bins, above } = self.split {
             f.push("--split sah".to_string());
-            if bins != crate::build::sah::DEFAULT_BINS {
+            if bins != crate::kernels::sah::DEFAULT_BINS {
                 f.push(format!("--sah-bins {bins}"));
             }
             if above != 0 {

@@ -6,9 +6,9 @@
 use clap::ValueEnum;
 
 use cellbih::bih::{BihConfig, SplitChoice};
-use cellbih::build::sah::{DEFAULT_BINS, MAX_BINS};
-use cellbih::build::{BuildReport, BuilderKind};
 use cellbih::cell::CellConfig;
+use cellbih::kernels::sah::{DEFAULT_BINS, MAX_BINS};
+use cellbih::registry::{BuildReport, BuilderKind};
 use cellbih::scene::Scene;
 use cellbih::strategy::{KeyOrder, Knobs};
 

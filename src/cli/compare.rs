@@ -10,9 +10,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use cellbih::bih::{BihConfig, Tracer};
-use cellbih::build::{BuildReport, BuilderKind};
 use cellbih::cell::CellConfig;
 use cellbih::quality::rays::{RayCost, RaySets};
+use cellbih::registry::{BuildReport, BuilderKind};
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
 

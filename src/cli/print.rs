@@ -4,10 +4,10 @@
 use serde_json::json;
 
 use cellbih::bih::Tracer;
-use cellbih::build::BuildReport;
 use cellbih::quality::rays::RaySets;
+use cellbih::registry::BuildReport;
 use cellbih::scene::Scene;
-use cellbih::strategy::footprint::{Footprint, Purpose, work_ppe_jobs};
+use cellbih::strategy::machinery::footprint::{Footprint, Purpose, work_ppe_jobs};
 
 use super::{Format, Res};
 
@@ -157,7 +157,7 @@ fn print_footprint(f: &Footprint, n: usize, leaf: u32) {
 
 /// Every core's counters; for a multi-SPE build also each SPE's jobs and
 /// ObjectArena blocks.
-fn print_cores(m: &cellbih::build::Simulated) {
+fn print_cores(m: &cellbih::registry::Simulated) {
     let work = !m.spe_work.is_empty();
     print!(
         "\n{:<7} {:>11} {:>11} {:>11} {:>11} {:>10} {:>5} {:>11} {:>8} {:>8}",

@@ -118,7 +118,7 @@ impl Examined {
 /// Builds `scene` with `builder` (on a Cell of `cell` if emulated) and
 /// checks the tree and every ray of `rays` against brute force.
 pub fn examine(
-    builder: crate::build::BuilderKind,
+    builder: crate::registry::BuilderKind,
     cfg: &crate::bih::BihConfig,
     cell: &crate::cell::CellConfig,
     scene: &Scene,

@@ -1,16 +1,12 @@
-//! Programs for the emulated Cell, one file per strategy, named as the
-//! paper names them. Each writes its tree into emulated main memory in the
-//! one node format; [`run`] reads it back as a [`Bih`].
-//!
-//! So far: [`ppe_naive`] and [`spe_dfs`] (Table 1's first and third
-//! columns), and the SPE's in-place streaming partition of Fig. 1
-//! ([`fig1`]), the kernel of the SPE builders.
+//! Programs for the emulated Cell, one file (or folder) per strategy, named
+//! as the paper names them: the four builders of section 2 and Table 1
+//! ([`ppe_naive`], [`ppe_approx`], [`spe_dfs`], [`spe_bfs`], the baseline)
+//! and section 5's multi-SPE strategies ([`spe_bfs_shared`],
+//! [`spe_bfs_private`], [`spe_morton`]); what they share is in
+//! [`machinery`]. Each writes its tree into emulated main memory in the one
+//! node format; [`run_in`] reads it back as a [`Bih`].
 
-pub mod arena;
-pub mod coop;
-pub mod fig1;
-pub mod footprint;
-pub mod layout;
+pub mod machinery;
 pub mod ppe_approx;
 pub mod ppe_naive;
 pub mod spe_bfs;
@@ -18,18 +14,17 @@ pub mod spe_bfs_private;
 pub mod spe_bfs_shared;
 pub mod spe_dfs;
 pub mod spe_morton;
-pub mod top;
-pub mod work_queue;
 
 use std::cell::RefCell;
 use std::rc::Rc;
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
-use crate::build::host::BuildStats;
-pub use crate::build::morton::KeyOrder;
 use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport, Trace};
+pub use crate::kernels::morton::KeyOrder;
+use crate::kernels::recursion::BuildStats;
 use crate::scene::Scene;
+use machinery::layout;
 
 /// How a strategy starts: it spawns its programs on the Cell for the
 /// triangles of `Setup`, and they leave the tree's node pieces in `Output`.
@@ -135,7 +130,7 @@ impl Knobs {
         digit_bits: 8,
         region_size: 2048,
         static_regions: false,
-        approx_max_cells: crate::build::approx::MAX_RESOLUTION,
+        approx_max_cells: crate::kernels::approx::MAX_RESOLUTION,
     };
 }
 
@@ -271,26 +266,9 @@ pub struct CellBuild {
 
 /// Builds the tree of `scene` with the strategy `spawn` starts, on a Cell
 /// configured by `cell_cfg`, and reads the tree back from emulated main
-/// memory.
-pub fn run(
-    spawn: Spawn,
-    scene: &Scene,
-    cfg: &BihConfig,
-    cell_cfg: &CellConfig,
-) -> Result<CellBuild, CellError> {
-    run_in(
-        spawn,
-        scene,
-        scene.bounds(),
-        cfg,
-        cell_cfg,
-        &Knobs::default(),
-    )
-}
-
-/// [`run`] with `region` as the scene box of the global heuristic: the
-/// region of one node, when a local update rebuilds that node's interval
-/// (section 3). `region` must contain every triangle of `scene`.
+/// memory. `region` is the scene box of the global heuristic: the scene's
+/// bounds, or the region of one node when a local update rebuilds that
+/// node's interval (section 3); it must contain every triangle of `scene`.
 pub fn run_in(
     spawn: Spawn,
     scene: &Scene,

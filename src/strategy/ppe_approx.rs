@@ -1,7 +1,7 @@
 //! `ppe_approx` — Wächter & Keller's construction by approximate sorting on
 //! the PPE (section 4.1, Table 1, column 2), nodes of more than 12 triangles
 //! finished by the naive method as the paper's system does. The algorithm is
-//! [`crate::build::approx`]; this program runs it on the triangle records in
+//! [`crate::kernels::approx`]; this program runs it on the triangle records in
 //! emulated main memory.
 //!
 //! Memory: the presort scatters into a second triangle array, which the PPE
@@ -14,15 +14,15 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use super::layout::TriRecord;
+use super::machinery::layout::TriRecord;
 use super::{Output, Setup};
 use crate::bih::BihConfig;
-use crate::build::approx::build_approx;
-use crate::build::host::BuildStats;
 use crate::cell::{Cell, CellError, Ea};
+use crate::kernels::approx::build_approx;
+use crate::kernels::recursion::BuildStats;
 
 /// `ppe_approx` in the registry of builders.
-pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
+pub const BUILDER: crate::registry::Builder = crate::registry::Builder::cell(
     "ppe_approx",
     "Wachter & Keller's approximate sorting (bucket presort) on the emulated PPE, nodes over 12 triangles finished naively (Table 1, column 2)",
     spawn,

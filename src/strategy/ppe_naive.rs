@@ -12,19 +12,19 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use super::layout::TriRecord;
+use super::machinery::layout::TriRecord;
 use super::{Output, Setup};
 use crate::bih::{BihConfig, SplitChoice};
-use crate::build::host::{BuildStats, build_items};
 use crate::cell::{Cell, CellError};
+use crate::kernels::recursion::{BuildStats, build_items};
 
 /// `ppe_naive` in the registry of builders.
-pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
+pub const BUILDER: crate::registry::Builder = crate::registry::Builder::cell(
     "ppe_naive",
     "the paper's naive recursive build on the emulated PPE (Table 1, column 1)",
     spawn,
 )
-.with_quality(crate::build::Quality::ALL);
+.with_quality(crate::registry::Quality::ALL);
 
 fn spawn(
     cell: &mut Cell,
@@ -51,7 +51,7 @@ fn spawn(
         // calibration.
         ppe.compute_items(k.ppe_partition_item, items_partitioned + items_binned);
         if let SplitChoice::BinnedSah { bins, .. } = cfg.split {
-            let per_sweep = 3 * crate::build::sah::bins_per_axis(bins) as u64;
+            let per_sweep = 3 * crate::kernels::sah::bins_per_axis(bins) as u64;
             ppe.compute_items(k.ppe_sah_bin, sah_sweeps * per_sweep);
         }
         ppe.compute_items(k.ppe_node, nodes);

@@ -7,7 +7,7 @@
 //!    at least `Knobs::deal_per_spe` jobs per SPE. Alone, the other SPEs
 //!    would wait — the paper's worry that on the upper levels most SPEs sit
 //!    idle; with `Knobs::coop_top` they help partition every large interval
-//!    of those levels ([`super::coop`]).
+//!    of those levels ([`super::machinery::coop`]).
 //! 2. **The deal** (static, largest first): SPE 0 sorts that level's jobs
 //!    by triangle count and gives each, in turn, to the SPE with the fewest
 //!    triangles so far. It writes each SPE's jobs and a deal record (job
@@ -26,14 +26,14 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use super::coop::Coop;
+use super::machinery::coop::Coop;
+use super::machinery::top::{Common, build_top, help_top};
+use super::machinery::work_queue::{Level, WORK_BYTES};
 use super::spe_bfs::{Job, SpeBuilder};
-use super::top::{Common, build_top, help_top};
-use super::work_queue::{Level, WORK_BYTES};
 use super::{Output, Setup, SpeWork};
 use crate::bih::BihConfig;
-use crate::build::Builder;
 use crate::cell::{Cell, CellError, Ea, Spe};
+use crate::registry::Builder;
 
 /// `spe_bfs_private` in the registry of builders.
 pub const BUILDER: Builder = Builder::multi_spe(
@@ -41,7 +41,7 @@ pub const BUILDER: Builder = Builder::multi_spe(
     "section 5: SPE 0 builds the top levels, deals the jobs largest first, then every SPE builds its own jobs breadth first with its own ObjectArena list (--spes)",
     spawn,
 )
-.with_quality(crate::build::Quality::ALL);
+.with_quality(crate::registry::Quality::ALL);
 
 /// A deal record in main memory, one 128-byte line per SPE: jobs dealt,
 /// the depth of their level, and the SPE's `WorkAPPE` and `WorkBPPE`.

@@ -3,7 +3,7 @@
 //! memory, synchronised only by the atomic unit (getllar/putllc on
 //! 128-byte lock lines; the PPE does nothing per job).
 //!
-//! 1. **The top levels** ([`super::top`]): SPE 0 builds until a level holds
+//! 1. **The top levels** ([`super::machinery::top`]): SPE 0 builds until a level holds
 //!    `Knobs::deal_per_spe` jobs per SPE (the others help partition with
 //!    `Knobs::coop_top`), then writes that level into the queue.
 //! 2. **The shared queue**, one tree level at a time: the level's jobs lie
@@ -33,15 +33,15 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use super::arena::NodeWrites;
-use super::coop::Coop;
+use super::machinery::arena::NodeWrites;
+use super::machinery::coop::Coop;
+use super::machinery::top::{Common, build_top, help_top};
+use super::machinery::work_queue::{SharedSpill, WorkQueue};
 use super::spe_bfs::{Job, SpeBuilder};
-use super::top::{Common, build_top, help_top};
-use super::work_queue::{SharedSpill, WorkQueue};
 use super::{Output, Setup, SpeWork};
 use crate::bih::BihConfig;
-use crate::build::Builder;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
+use crate::registry::Builder;
 
 /// `spe_bfs_shared` in the registry of builders.
 pub const BUILDER: Builder = Builder::multi_spe(
@@ -49,7 +49,7 @@ pub const BUILDER: Builder = Builder::multi_spe(
     "section 5: every SPE takes jobs from one shared job queue (lock-line atomics, --agglomerate jobs per take), a barrier per level, each SPE's nodes in its own ObjectArena list (--spes)",
     spawn,
 )
-.with_quality(crate::build::Quality::ALL);
+.with_quality(crate::registry::Quality::ALL);
 
 /// The queue's lock lines in main memory.
 #[derive(Clone, Copy)]
@@ -91,7 +91,7 @@ fn spawn(
     // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1)
     // (footprint::work_ppe_jobs); the level handed over from the top is
     // under 32 jobs per SPE.
-    let jobs = super::footprint::work_ppe_jobs(n, cfg.leaf_size).max(32 * spes);
+    let jobs = super::machinery::footprint::work_ppe_jobs(n, cfg.leaf_size).max(32 * spes);
     let capacity = u32::try_from(jobs).map_err(|_| {
         CellError::Config(format!(
             "spe_bfs_shared: {n} triangles are too many for one queue"

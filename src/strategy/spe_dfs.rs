@@ -5,7 +5,7 @@
 //! The PPE chooses each split by the global heuristic, writes the job (the
 //! interval and the plane) to main memory and signals SPE 0. The SPE fetches
 //! the job by DMA, partitions the interval of the triangle array in place
-//! with the five-buffer stream of Fig. 1 ([`super::fig1`]), puts back the
+//! with the five-buffer stream of Fig. 1 ([`super::machinery::fig1`]), puts back the
 //! split index and the fitted values of both sides (the left's rightmost and
 //! the right's leftmost, with the sides' bounds of centers), and tells the
 //! PPE through its outbound mailbox. With these the PPE makes the node and
@@ -13,9 +13,9 @@
 //!
 //! The recursion is the host builder's, in the same depth-first order, so
 //! the tree equals the host tree node for node. With the empty-space
-//! cut-off ([`crate::build::cutoff`]) the PPE makes the clip nodes: it
+//! cut-off ([`crate::kernels::cutoff`]) the PPE makes the clip nodes: it
 //! knows each node's region and its triangles' box, and a clip node moves
-//! no triangle. With binned SAH ([`crate::build::sah`]) each split takes
+//! no triangle. With binned SAH ([`crate::kernels::sah`]) each split takes
 //! one more job: the SPE streams the interval through two of Fig. 1's
 //! buffers, bins it and puts the bins back; the PPE sweeps them (a job is
 //! then 64 bytes: the interval's bounds of centers travel with it).
@@ -25,17 +25,17 @@ use std::rc::Rc;
 
 use glam::Vec3A;
 
-use super::fig1::{Fig1Buffers, partition_in_place, stream_bounds, stream_fold};
-use super::layout::TriRecord;
-use super::work_queue::{from_wire, to_wire};
+use super::machinery::fig1::{Fig1Buffers, partition_in_place, stream_bounds, stream_fold};
+use super::machinery::layout::TriRecord;
+use super::machinery::work_queue::{from_wire, to_wire};
 use super::{Output, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
-use crate::build::cutoff::{child_regions, empty_gap};
-use crate::build::host::BuildStats;
-use crate::build::kernels::{Side, Split, choose_split, clip_planes};
-use crate::build::sah::Bins;
 use crate::cell::{Cell, CellError, Ea};
+use crate::kernels::cutoff::{child_regions, empty_gap};
+use crate::kernels::recursion::BuildStats;
+use crate::kernels::sah::Bins;
+use crate::kernels::split::{Side, Split, choose_split, clip_planes};
 
 const STOP: u32 = 0;
 const PARTITION: u32 = 1;
@@ -109,12 +109,12 @@ impl SideRecord {
 }
 
 /// `spe_dfs` in the registry of builders.
-pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
+pub const BUILDER: crate::registry::Builder = crate::registry::Builder::cell(
     "spe_dfs",
     "depth first: PPE recursion, one SPE partitions each interval with Fig. 1's five buffers (Table 1, column 3)",
     spawn,
 )
-.with_quality(crate::build::Quality::ALL);
+.with_quality(crate::registry::Quality::ALL);
 
 fn spawn(
     cell: &mut Cell,
@@ -293,7 +293,7 @@ fn spawn(
                 Some(bins) if centers.min != centers.max => {
                     stats.items_binned += count as u64;
                     stats.sah_sweeps += 1;
-                    let per_axis = crate::build::sah::bins_per_axis(bins) as u64;
+                    let per_axis = crate::kernels::sah::bins_per_axis(bins) as u64;
                     ppe.compute_items(k.ppe_sah_bin, 3 * per_axis);
                     let b = bins_of(first, count, centers, bins).await?;
                     b.choose_or_halve(&mut candidate, &mut 0)

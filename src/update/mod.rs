@@ -36,9 +36,9 @@ pub use local::{Enclosing, Stop, enclosing_node, interval};
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
-use crate::build::BuilderKind;
-use crate::build::host::{PrimRef, build_items};
 use crate::cell::{CellConfig, CellError};
+use crate::kernels::recursion::{PrimRef, build_items};
+use crate::registry::BuilderKind;
 use crate::scene::{Scene, SceneError, Triangle};
 
 /// How a frame's moves are brought into the tree.

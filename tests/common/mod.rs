@@ -174,8 +174,8 @@ pub fn same_tree_structure(a: &Bih, b: &Bih) -> Result<(), String> {
 /// per-SPE work, node array); every node was made by one job of one SPE;
 /// the arenas' blocks hold exactly the nodes and their unused slots.
 pub fn check_multi_spe_runs(
-    r: &cellbih::build::BuildReport,
-    again: &cellbih::build::BuildReport,
+    r: &cellbih::registry::BuildReport,
+    again: &cellbih::registry::BuildReport,
     what: &str,
 ) {
     let (a, b) = (
@@ -189,7 +189,7 @@ pub fn check_multi_spe_runs(
     let jobs: u64 = a.spe_work.iter().map(|w| w.jobs).sum();
     assert_eq!(jobs as usize, r.bih.nodes.len(), "{what}");
     let slots: u64 = a.spe_work.iter().map(|w| w.arena_blocks).sum::<u64>()
-        * cellbih::strategy::arena::BLOCK_NODES as u64;
+        * cellbih::strategy::machinery::arena::BLOCK_NODES as u64;
     let unused: u64 = a.spe_work.iter().map(|w| w.arena_unused).sum();
     assert_eq!(slots - unused, jobs, "{what}");
 }

@@ -7,12 +7,12 @@
 use super::{Job, SpeBuilder};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
-use crate::build::cutoff::{Clip, empty_gap};
-use crate::build::kernels::{Split, choose_split, partition};
-use crate::build::sah::Bins;
 use crate::cell::{CellError, ListElement, WaitMode};
-use crate::strategy::fig1::{partition_in_place, stream_fold};
-use crate::strategy::layout::TriRecord;
+use crate::kernels::cutoff::{Clip, empty_gap};
+use crate::kernels::sah::Bins;
+use crate::kernels::split::{Split, choose_split, partition};
+use crate::strategy::machinery::fig1::{partition_in_place, stream_fold};
+use crate::strategy::machinery::layout::TriRecord;
 
 /// What a job makes: a leaf, a clip node (the empty-space cut-off: no
 /// triangle moves), or an inner node that splits its interval (with the
@@ -106,8 +106,8 @@ impl SpeBuilder<'_> {
             self.dealt_starts = jobs.iter().map(|j| j.first).collect();
         }
         let k = self.spe.cost().kernels;
-        let per_block =
-            (crate::strategy::fig1::BLOCK_BYTES as usize / size_of::<TriRecord>()) as u32;
+        let per_block = (crate::strategy::machinery::fig1::BLOCK_BYTES as usize
+            / size_of::<TriRecord>()) as u32;
         let mut steps = Vec::new();
         let mut batch = Batch::default();
         for &job in jobs {

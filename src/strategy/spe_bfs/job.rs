@@ -5,8 +5,8 @@ use glam::Vec3;
 
 use crate::aabb::Aabb;
 use crate::bih::BihConfig;
-use crate::build::kernels::Side;
-use crate::strategy::work_queue::WorkQueue;
+use crate::kernels::split::Side;
+use crate::strategy::machinery::work_queue::WorkQueue;
 
 /// One job: a node to make and its interval of the triangle array. Its
 /// first 64 bytes are the paper's job and all that travels, unless the

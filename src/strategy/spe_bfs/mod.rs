@@ -6,21 +6,21 @@
 //! - **Jobs** (the intervals of the next tree level, 64 bytes each, [`Job`])
 //!   live in `WorkA` (the current level) and `WorkB` (the next), spilled to
 //!   `WorkAPPE`/`WorkBPPE`: the two-phase queue of Fig. 2
-//!   ([`super::work_queue`]).
+//!   ([`super::machinery::work_queue`]).
 //! - **Partitions**: an interval over 16 KiB streams through the five
 //!   buffers of Fig. 1; smaller ones are **agglomerated**: consecutive jobs
 //!   whose intervals span at most 16 KiB of the triangle array travel in one
 //!   get and one put.
-//! - **Nodes** go into an **ObjectArena** ([`super::arena`]) whose blocks
+//! - **Nodes** go into an **ObjectArena** ([`super::machinery::arena`]) whose blocks
 //!   the PPE allocates on request. Every job is one node, made in the order
 //!   of node ids, so the SPE computes each node's address itself.
 //!
 //! The splits are the host builder's (same heuristic, same sets on each
 //! side), so the tree is the host tree with its nodes numbered breadth first.
 //! So with the quality knobs (issue 15, not in the paper): with the
-//! empty-space cut-off ([`crate::build::cutoff`]) a job carries its region
+//! empty-space cut-off ([`crate::kernels::cutoff`]) a job carries its region
 //! and its triangles' box (128 bytes) and a clip node is a job that moves
-//! no triangle; with binned SAH ([`crate::build::sah`]) a split job bins its
+//! no triangle; with binned SAH ([`crate::kernels::sah`]) a split job bins its
 //! triangles in the local store (or in one more stream through Fig. 1's
 //! buffers) before its partition. The multi-SPE strategies run this loop
 //! and build the same knobs.
@@ -31,27 +31,27 @@ mod job;
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use super::arena::{BlockSource, NodeWrites, ObjectArena, pieces, serve_blocks};
-use super::fig1::{Fig1Buffers, stream_bounds};
-use super::layout::TriRecord;
-use super::work_queue::{Level, WorkQueue};
+use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena, pieces, serve_blocks};
+use super::machinery::fig1::{Fig1Buffers, stream_bounds};
+use super::machinery::layout::TriRecord;
+use super::machinery::work_queue::{Level, WorkQueue};
 use super::{Knobs, Output, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
-use crate::build::cutoff::{Clip, child_regions};
-use crate::build::host::BuildStats;
-use crate::build::kernels::{Side, Split, clip_planes};
-use crate::build::sah::Bins;
 use crate::cell::{CellError, Ea, LsAddr, Spe, WaitMode};
+use crate::kernels::cutoff::{Clip, child_regions};
+use crate::kernels::recursion::BuildStats;
+use crate::kernels::sah::Bins;
+use crate::kernels::split::{Side, Split, clip_planes};
 pub use job::Job;
 
 /// `spe_bfs`, the baseline, in the registry of builders.
-pub const BUILDER: crate::build::Builder = crate::build::Builder::cell(
+pub const BUILDER: crate::registry::Builder = crate::registry::Builder::cell(
     "spe_bfs",
     "breadth first, the baseline: one SPE builds level by level (WorkA/WorkB, Fig. 2), small jobs agglomerated, nodes in an ObjectArena (Table 1, column 4)",
     spawn,
 )
-.with_quality(crate::build::Quality::ALL);
+.with_quality(crate::registry::Quality::ALL);
 
 fn spawn(
     cell: &mut crate::cell::Cell,
@@ -62,7 +62,7 @@ fn spawn(
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     // WorkAPPE and WorkBPPE: room for the widest level the tree can have
     // (the paper sized them for as many jobs as triangles, 6.5 times more
-    // with leaves of 12; see strategy/footprint.rs).
+    // with leaves of 12; see strategy/machinery/footprint.rs).
     let work_ppe_bytes = Job::spill_bytes_for(n, &cfg);
     let work_a_ppe = cell.memory_mut().alloc("WorkAPPE", work_ppe_bytes, 128)?;
     let work_b_ppe = cell.memory_mut().alloc("WorkBPPE", work_ppe_bytes, 128)?;
@@ -127,7 +127,7 @@ pub(super) struct SpeBuilder<'a> {
     prefetch: bool,
     /// The other SPEs help partition intervals of at least this many
     /// triangles (multi-SPE strategies, before the deal).
-    pub(super) coop: Option<(super::coop::Coop, u32)>,
+    pub(super) coop: Option<(super::machinery::coop::Coop, u32)>,
     /// Which Fig. 1 buffer the next agglomerated batch uses (0 or 1; 0 to
     /// 2 when prefetching).
     batch_buf: usize,

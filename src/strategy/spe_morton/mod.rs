@@ -2,7 +2,7 @@
 //! using Morton curves is performed to find regions of primitives that then
 //! could be built-up totally independent", with the Morton codes computed
 //! on the SPEs and "a radix sort [...] on the Cell B. E." (the keys and the
-//! passes are the shared kernels of `build::morton` and `build::radix`).
+//! passes are the shared kernels of `kernels::morton` and `kernels::radix`).
 //!
 //! 1. **Keys**: each SPE streams its slice of the triangle records and
 //!    writes a (key, record index) pair per triangle (`Knobs::key_order`,
@@ -40,15 +40,15 @@ use std::rc::Rc;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::arena::{BlockSource, NodeWrites, ObjectArena};
-use super::layout::TriRecord;
-use super::top::alloc_pool;
+use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
+use super::machinery::layout::TriRecord;
+use super::machinery::top::alloc_pool;
 use super::{Knobs, Output, Setup};
 use crate::bih::BihConfig;
-use crate::build::Builder;
-use crate::build::morton::KeySpec;
-use crate::build::radix;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
+use crate::kernels::morton::KeySpec;
+use crate::kernels::radix;
+use crate::registry::Builder;
 
 /// `spe_morton` in the registry of builders.
 pub const BUILDER: Builder = Builder::multi_spe(

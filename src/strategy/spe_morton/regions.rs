@@ -9,14 +9,14 @@ use glam::Vec3;
 use super::{KEY, KeyRec, NODE, Program, RECORD, RECORDS_PER_BLOCK, SPILL_UNIT, Top};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
-use crate::build::host::build_subtree;
-use crate::build::kernels::{Side, side_of};
-use crate::build::morton::KeyOrder;
 use crate::cell::{CellError, Ea};
-use crate::strategy::fig1::stream_bounds;
-use crate::strategy::layout::TriRecord;
+use crate::kernels::morton::KeyOrder;
+use crate::kernels::recursion::build_subtree;
+use crate::kernels::split::{Side, side_of};
+use crate::strategy::machinery::fig1::stream_bounds;
+use crate::strategy::machinery::layout::TriRecord;
+use crate::strategy::machinery::work_queue::{from_wire, to_wire};
 use crate::strategy::spe_bfs::{Job, SpeBuilder};
-use crate::strategy::work_queue::{from_wire, to_wire};
 
 /// Bytes of a region job in main memory: the paper's job.
 const JOB: usize = 64;

@@ -5,10 +5,10 @@
 //! on its slice, streamed through the local store.
 
 use super::{KEY, KEYS_PER_BLOCK, KeyRec, Program, RECORD, RECORDS_PER_BLOCK};
-use crate::build::kernels::Boxed;
-use crate::build::radix;
 use crate::cell::{CellError, Cycles, Ea, ListElement, LsAddr, WaitMode};
-use crate::strategy::layout::TriRecord;
+use crate::kernels::radix;
+use crate::kernels::split::Boxed;
+use crate::strategy::machinery::layout::TriRecord;
 
 /// `count` elements of `size` bytes at `ea`, read `per_block` a block.
 #[derive(Clone, Copy)]

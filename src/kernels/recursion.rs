@@ -1,17 +1,18 @@
-//! The host builder: the recursive in-place build of Wächter & Keller with
-//! the global heuristic. The recursion ([`build_items`]) is written once,
-//! over any boxed item with an id, and counts the work it does
-//! ([`BuildStats`]); the host builder runs it natively, the PPE strategy runs
-//! it on the triangle records in emulated memory and charges those counts.
+//! The recursive in-place build of Wächter & Keller (section 2's naive
+//! build), written once over any boxed item with an id ([`build_items`]),
+//! counting the work it does ([`BuildStats`]): the host builder runs it
+//! natively, `ppe_naive` runs it on the triangle records in emulated memory
+//! and charges those counts, and the builders that finish their upper levels
+//! another way (`ppe_approx`, the Morton reference) finish with
+//! [`build_subtree`].
 
 use glam::{Vec3A, Vec4};
 
 use super::cutoff::{Cut, child_regions, empty_gap};
-use super::kernels::{Boxed, Side, Split, choose_split_counted, clip_planes, partition, side_of};
 use super::sah::Bins;
+use super::split::{Boxed, Side, Split, choose_split_counted, clip_planes, partition, side_of};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
-use crate::scene::Scene;
 
 /// Something a builder sorts: a box, and the id of the triangle it stands for.
 pub trait Item: Boxed {
@@ -71,33 +72,9 @@ pub struct BuildStats {
     /// Clip nodes the empty-space cut-off emitted (0 when it is off).
     pub clip_nodes: u64,
     /// Halvings of the global heuristic that `f32` could not make
-    /// ([`super::kernels::choose_split_counted`]); counted by the host
+    /// ([`super::split::choose_split_counted`]); counted by the host
     /// recursion.
     pub f32_stalls: u64,
-}
-
-/// Builds the tree of `scene` in one host thread.
-/// The host builder in the registry of builders.
-pub const BUILDER: super::Builder = super::Builder::host(
-    "host",
-    "recursive in-place build, global heuristic, on the host (one thread)",
-    build_in,
-);
-
-pub fn build(scene: &Scene, cfg: &BihConfig) -> Bih {
-    build_in(scene, scene.bounds(), cfg)
-}
-
-/// [`build`] with `region` as the scene box of the global heuristic.
-pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    let mut refs: Vec<PrimRef> = scene
-        .triangles
-        .iter()
-        .enumerate()
-        .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
-        .collect();
-    let (bih, _) = build_items(&mut refs, region, cfg);
-    bih
 }
 
 /// Builds a tree over `items`, sorting them in place, with `region` as the

@@ -12,15 +12,15 @@
 use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource};
 use super::coop::{Coop, CoopArea, GO};
 use super::layout::TriRecord;
-use super::spe_bfs::{Job, SpeBuilder};
 use super::work_queue::Level;
-use super::{Knobs, Output, SpeWork};
 use crate::aabb::Aabb;
 use crate::cell::{Cell, CellError, Ea, Spe};
+use crate::strategy::spe_bfs::{Job, SpeBuilder};
+use crate::strategy::{Knobs, Output, SpeWork};
 
 /// The ObjectArena pool and the cooperative partition's areas.
 #[derive(Clone, Copy)]
-pub(super) struct Common {
+pub(in crate::strategy) struct Common {
     pub pool: Ea,
     pub blocks: BlockSource,
     pub coop: CoopArea,
@@ -66,7 +66,7 @@ impl Common {
 /// One ObjectArena pool for every SPE's arena, for `n` triangles: every
 /// node, plus a pair skipped and a part-filled block per SPE and phase.
 /// The output reads the pool back (compacted) and has a slot per SPE.
-pub(super) fn alloc_pool(
+pub(in crate::strategy) fn alloc_pool(
     cell: &mut Cell,
     n: usize,
     out: &std::cell::RefCell<Output>,
@@ -93,7 +93,7 @@ pub(super) fn alloc_pool(
 /// `deal_per_spe` jobs per SPE (in `WorkA`), or `None` if the tree ended
 /// before. The top levels' arena is closed; its blocks are counted in
 /// `work`.
-pub(super) async fn build_top(
+pub(in crate::strategy) async fn build_top(
     b: &mut SpeBuilder<'_>,
     helper: Coop,
     n: usize,
@@ -123,7 +123,7 @@ pub(super) async fn build_top(
 
 /// Every SPE but 0: helps partition the top levels until SPE 0 signals
 /// their end (signal register 1, anything but `GO`).
-pub(super) async fn help_top(
+pub(in crate::strategy) async fn help_top(
     spe: &Spe,
     b: &SpeBuilder<'_>,
     helper: &mut Coop,

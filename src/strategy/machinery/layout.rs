@@ -14,9 +14,9 @@
 
 use glam::Vec3A;
 
-use crate::build::host::Item;
-use crate::build::kernels::Boxed;
 use crate::cell::{Cell, CellError, Ea};
+use crate::kernels::recursion::Item;
+use crate::kernels::split::Boxed;
 use crate::scene::Scene;
 
 /// One triangle in main memory: 48 bytes, 16-byte aligned in arrays.

@@ -19,8 +19,8 @@
 
 use glam::Vec3A;
 
-use super::host::{BuildStats, Item, build_subtree};
-use super::kernels::{Boxed, Side, choose_split, clip_planes, partition, side_of};
+use super::recursion::{BuildStats, Item, build_subtree};
+use super::split::{Boxed, Side, choose_split, clip_planes, partition, side_of};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
 
@@ -225,7 +225,7 @@ fn resolution<T: Boxed>(items: &[T], region: Aabb, max_cells: usize) -> [usize; 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::build::host::PrimRef;
+    use crate::kernels::recursion::PrimRef;
     use glam::Vec3;
 
     fn refs(boxes: &[(Vec3, Vec3)]) -> Vec<PrimRef> {

@@ -1,14 +1,8 @@
-//! Builders that run on the host, and the one place a builder is chosen by
-//! name. Builders that run on the emulated Cell live in `strategy/` and are
-//! listed here too, so that every `--builder` name works everywhere.
-
-pub mod approx;
-pub mod cutoff;
-pub mod host;
-pub mod kernels;
-pub mod morton;
-pub mod radix;
-pub mod sah;
+//! The registry of builders: the one place a builder is chosen by name,
+//! above both families — the host builders ([`crate::host`]) and the
+//! strategies that run on the emulated Cell ([`crate::strategy`]) — so that
+//! every `--builder` name works in every command, test, bench and
+//! experiment.
 
 use std::time::{Duration, Instant};
 
@@ -51,7 +45,7 @@ impl Quality {
         binned_sah: false,
         empty_cut: false,
     };
-    /// The shared recursion of [`host`]: every knob.
+    /// The shared recursion of [`crate::kernels::recursion`]: every knob.
     pub const ALL: Quality = Quality {
         binned_sah: true,
         empty_cut: true,
@@ -148,7 +142,7 @@ impl std::fmt::Debug for BuilderKind {
 
 impl BuilderKind {
     /// Recursive in-place build on the host, one thread (the reference).
-    pub const HOST: BuilderKind = BuilderKind(&host::BUILDER);
+    pub const HOST: BuilderKind = BuilderKind(&crate::host::BUILDER);
     /// The paper's naive build on the emulated PPE.
     pub const PPE_NAIVE: BuilderKind = BuilderKind(&strategy::ppe_naive::BUILDER);
     /// W&K's approximate sorting on the emulated PPE, naive finish.
@@ -278,7 +272,7 @@ impl BuilderKind {
             Run::Host(build) => (build(scene, region, cfg), None),
             Run::Cell(spawn) => {
                 let b = strategy::run_in(spawn, scene, region, cfg, cell, knobs)?;
-                let footprint = strategy::footprint::Footprint::of(&b.run, &b.bih);
+                let footprint = strategy::machinery::footprint::Footprint::of(&b.run, &b.bih);
                 (
                     b.bih,
                     Some(Simulated {
@@ -311,7 +305,7 @@ impl std::fmt::Display for BuilderKind {
 #[derive(Clone, Debug)]
 pub struct Simulated {
     pub run: RunReport,
-    pub stats: host::BuildStats,
+    pub stats: crate::kernels::recursion::BuildStats,
     /// Multi-SPE builders: what each SPE did (jobs, arena blocks).
     pub spe_work: Vec<strategy::SpeWork>,
     /// Strategies made of phases: each phase's name and the cycle it
@@ -320,7 +314,7 @@ pub struct Simulated {
     /// The timeline, if the Cell's config asked for it.
     pub trace: Option<crate::cell::Trace>,
     /// Main memory by purpose, local-store high-water marks.
-    pub footprint: strategy::footprint::Footprint,
+    pub footprint: strategy::machinery::footprint::Footprint,
 }
 
 impl Simulated {

@@ -21,8 +21,8 @@
 
 use bytemuck::Pod;
 
-use crate::build::kernels::{Boxed, Side, Split, partition, side_of};
 use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe};
+use crate::kernels::split::{Boxed, Side, Split, partition, side_of};
 
 /// Bytes of one streaming block: the largest single DMA.
 pub const BLOCK_BYTES: u32 = 16 * 1024;

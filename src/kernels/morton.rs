@@ -7,7 +7,7 @@
 //! Two bit orders ([`KeyOrder`]):
 //!
 //! - **The global heuristic's order.** The builder halves its candidate box
-//!   at the middle of the longest axis ([`super::kernels::choose_split`]).
+//!   at the middle of the longest axis ([`super::split::choose_split`]).
 //!   A key bit here is exactly that halving, made along the triangle's own
 //!   path: start from the scene box, take its longest axis and its `f32`
 //!   midpoint as the builder computes them, set the bit when the
@@ -30,8 +30,8 @@
 
 use glam::Vec3A;
 
-use super::host::Item;
-use super::kernels::{Side, choose_split, clip_planes, partition, side_of};
+use super::recursion::Item;
+use super::split::{Side, choose_split, clip_planes, partition, side_of};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
 use crate::scene::Scene;
@@ -198,8 +198,8 @@ pub fn build_scene(scene: &Scene, order: KeyOrder, bits: u32, cfg: &BihConfig) -
         bits,
         scene: scene.bounds(),
     };
-    let mut refs: Vec<super::host::PrimRef> = (scene.triangles.iter().enumerate())
-        .map(|(i, t)| super::host::PrimRef::new(i as u32, t.bounds()))
+    let mut refs: Vec<super::recursion::PrimRef> = (scene.triangles.iter().enumerate())
+        .map(|(i, t)| super::recursion::PrimRef::new(i as u32, t.bounds()))
         .collect();
     let nodes = build_from_keys(&mut refs, &spec, cfg);
     Bih {
@@ -290,7 +290,7 @@ impl<T: Item> FromKeys<'_, T> {
         self.nodes[id] = BihNode::inner(children as u32, axis, cl, cr);
         let mut nodes = std::mem::take(self.nodes);
         let cfg = self.cfg;
-        super::host::build_subtree(
+        super::recursion::build_subtree(
             self.items,
             &mut nodes,
             children,
@@ -300,7 +300,7 @@ impl<T: Item> FromKeys<'_, T> {
             depth + 1,
             cfg,
         );
-        super::host::build_subtree(
+        super::recursion::build_subtree(
             self.items,
             &mut nodes,
             children + 1,

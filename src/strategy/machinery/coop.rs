@@ -24,8 +24,8 @@ use glam::Vec3A;
 
 use super::fig1::{BLOCK_BYTES, Fig1Buffers};
 use super::layout::TriRecord;
-use crate::build::kernels::{Side, Split, partition};
 use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe, WaitMode};
+use crate::kernels::split::{Side, Split, partition};
 
 /// Signal-register-1 values from the coordinator.
 pub const GO: u32 = 2;

@@ -1,6 +1,6 @@
 //! Binned SAH split choice — the high-quality end of the speed/accuracy
 //! trade (issue 15; not in the paper, whose builders all use the global
-//! heuristic of [`super::kernels::choose_split`]).
+//! heuristic of [`super::split::choose_split`]).
 //!
 //! Binning after Wald ("On fast construction of SAH-based bounding volume
 //! hierarchies", RT 2007): on each axis on which the node's box centers
@@ -22,7 +22,7 @@
 
 use glam::{DVec3, Vec3A};
 
-use super::kernels::{Boxed, Split, choose_split_counted};
+use super::split::{Boxed, Split, choose_split_counted};
 use crate::aabb::Aabb;
 
 /// Bins per axis when none is asked for: 16, a common choice (Wald 2007
@@ -296,8 +296,8 @@ impl Bin {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::build::host::PrimRef;
-    use crate::build::kernels::side_of;
+    use crate::kernels::recursion::PrimRef;
+    use crate::kernels::split::side_of;
     use glam::Vec3;
 
     fn unit_boxes(xs: &[f32]) -> Vec<PrimRef> {
@@ -419,7 +419,7 @@ mod tests {
     #[test]
     fn sah_above_bins_only_the_nodes_above_it() {
         use crate::bih::{BihConfig, SplitChoice};
-        use crate::build::host::build;
+        use crate::host::build;
         let cfg = |above| BihConfig {
             split: SplitChoice::BinnedSah { bins: 16, above },
             ..BihConfig::SAH_CUT

@@ -1,0 +1,30 @@
+//! The builders that run on the host's own cores. So far one: `host`, the
+//! serial reference, which runs the shared recursion
+//! ([`crate::kernels::recursion`]) on the scene's triangle boxes in one
+//! thread. The host counterparts of section 5's strategies will live here.
+
+use crate::aabb::Aabb;
+use crate::bih::{Bih, BihConfig};
+use crate::kernels::recursion::{PrimRef, build_items};
+use crate::scene::Scene;
+
+/// The host builder in the registry of builders.
+pub const BUILDER: crate::registry::Builder = crate::registry::Builder::host(
+    "host",
+    "recursive in-place build, global heuristic, on the host (one thread)",
+    build_in,
+);
+
+/// Builds the tree of `scene` in one host thread.
+pub fn build(scene: &Scene, cfg: &BihConfig) -> Bih {
+    build_in(scene, scene.bounds(), cfg)
+}
+
+/// [`build`] with `region` as the scene box of the global heuristic.
+pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
+    let mut refs: Vec<PrimRef> = (scene.triangles.iter().enumerate())
+        .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
+        .collect();
+    let (bih, _) = build_items(&mut refs, region, cfg);
+    bih
+}
