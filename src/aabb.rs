@@ -23,10 +23,6 @@ impl Aabb {
         Aabb { min, max }
     }
 
-    pub fn from_points(points: &[Vec3]) -> Self {
-        points.iter().fold(Aabb::EMPTY, |b, &p| b.grow(p))
-    }
-
     pub fn is_empty(&self) -> bool {
         self.min.cmpgt(self.max).any()
     }

@@ -1,6 +1,47 @@
-//! cellbih: building Bounding Interval Hierarchies on an emulated Cell
-//! Broadband Engine, and measuring what each construction strategy costs and
-//! what tree it gives. See `README.md` and `../shared/DESIGN.md`.
+//! cellbih: building Bounding Interval Hierarchies (BIH) on an emulated Cell
+//! Broadband Engine — a PPE and 6–8 SPEs whose 256 KiB local stores reach
+//! memory only by DMA — and measuring what each construction strategy costs
+//! (simulated PS3 time, deterministic) and what tree it gives. It reproduces
+//! Weier, Roth & Hinkenjann (2009): the emulator ([`cell`]), the paper's
+//! four builders and its local update, and runs the paper's section 5
+//! strategies on 1–8 SPEs.
+//!
+//! The parts, from the bottom up: [`scene`] (triangles), [`bih`] (the one
+//! tree type: nodes, traversal, validation), [`kernels`] (the plain
+//! functions host and SPE code share), [`cell`] (the emulator, which knows
+//! nothing of trees), [`host`] (builders on the host's cores),
+//! [`strategy`] (programs for the emulated Cell), and on top of both
+//! families the [`registry`] of builders, which every command, test, bench
+//! and experiment iterates. Then [`update`] (section 3's local update),
+//! [`quality`], [`render`] and [`report`].
+//!
+//! Load a scene, build its tree with a builder of the registry on the
+//! emulated PS3, check the tree, and cast a ray through it:
+//!
+//! ```
+//! use cellbih::bih::{BihConfig, Ray, RayStats, Tracer, brute_force_closest};
+//! use cellbih::registry::BuilderKind;
+//! use glam::DVec3;
+//!
+//! let scene = cellbih::scene::load("default", None)?;
+//! let spe_bfs = BuilderKind::from_name("spe_bfs").expect("the baseline is registered");
+//! let report = spe_bfs.build(&scene, &BihConfig::default())?;
+//! report.bih.validate(&scene)?;
+//! let simulated = report.simulated.as_ref().expect("an emulated builder reports its run");
+//! println!("{} nodes in {:.2} simulated ms", report.bih.nodes.len(), simulated.run.ms);
+//!
+//! let center = scene.bounds().center().as_dvec3();
+//! let ray = Ray::new(center - DVec3::new(0.0, 0.0, 1e3), DVec3::Z);
+//! let hit = Tracer::new(&report.bih, &scene).closest(&ray, &mut RayStats::default());
+//! let expected = brute_force_closest(&scene, &ray);
+//! assert!(hit.is_some(), "the ray aims at the scene's center");
+//! assert_eq!(hit.map(|h| h.t), expected.map(|h| h.t));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! The README and `docs/` say how to run the `cellbih` command, the
+//! experiments and the benches; `docs/adding-a-strategy.md` how to add a
+//! builder.
 
 pub mod aabb;
 pub mod bih;

@@ -152,10 +152,6 @@ pub struct Bih {
 }
 
 impl Bih {
-    pub fn node_count(&self) -> usize {
-        self.nodes.len()
-    }
-
     /// Bytes of the node array and the triangle index array.
     pub fn memory_bytes(&self) -> usize {
         std::mem::size_of_val(self.nodes.as_slice())

@@ -1,6 +1,5 @@
-//! Tree invariants, in pairs as svenstaro/bvh does it: [`Bih::is_valid`] for
-//! property tests, [`Bih::validate`] with a message that names the first
-//! violation for people.
+//! Tree invariants: [`Bih::validate`] checks them all and its error names
+//! the first violation, for property tests and people alike.
 //!
 //! Checked: node indices in range and no node reached twice; leaf ranges in
 //! range and every triangle in exactly one leaf; each triangle's box on its
@@ -66,10 +65,6 @@ pub enum Violation {
 }
 
 impl Bih {
-    pub fn is_valid(&self, scene: &Scene) -> bool {
-        self.validate(scene).is_ok()
-    }
-
     /// Checks every invariant; the error names the first violation found.
     pub fn validate(&self, scene: &Scene) -> Result<(), Violation> {
         let n = scene.len();

@@ -1,7 +1,8 @@
 //! The executor: runs every core's program in virtual-time order.
 //!
-//! It always resumes the ready core with the smallest clock (ties: PPE,
-//! then SPE 0, 1, …), after applying every event (DMA completion, mailbox
+//! It always resumes the ready core with the smallest clock (ties broken in
+//! a seeded order that rotates at every resume, the same every run: see
+//! `earliest_ready`), after applying every event (DMA completion, mailbox
 //! or signal arrival) due at or before that time. When no core is ready and
 //! no event is pending while programs remain, the run ends with a deadlock
 //! error that says who waits for what; it never hangs.

@@ -6,7 +6,8 @@
 //! [`Ppe`]). Every call that touches shared state (DMA issue and wait,
 //! mailboxes, signals, the atomic unit, main memory) first yields: the
 //! executor then resumes, one at a time, the ready core with the smallest
-//! virtual clock (ties: PPE before SPE 0 before SPE 1 …), after applying
+//! virtual clock (ties broken in a seeded order that rotates at every
+//! resume, the same every run: see `executor.rs`), after applying
 //! every event (DMA completion, mailbox or signal arrival) due at or before
 //! that time. So the order of all shared effects is fixed by virtual time
 //! alone: the same program gives the same cycles and the same bytes on any

@@ -7,8 +7,9 @@
 //! signals and the atomic unit ([`Spe`], [`Ppe`]), and virtual time
 //! ([`clock`], [`cost`]). Programs are `async` blocks written against
 //! [`Spe`] and [`Ppe`] the way SPE C code is written against spu_mfcio.h;
-//! `machine` holds the discrete-event executor that runs them in
-//! virtual-time order, deterministically. Counters and a Chrome-trace
+//! `machine` holds the cores' state and the event queue, and `executor` the
+//! discrete-event loop that runs the programs in virtual-time order,
+//! deterministically. Counters and a Chrome-trace
 //! timeline come from [`trace`].
 //!
 //! This module imports nothing from trees, scenes or strategies.

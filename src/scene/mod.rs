@@ -231,17 +231,6 @@ impl Scene {
         }
         self.bounds = bounds;
     }
-
-    /// Replaces the triangles (same count, same geometry ids), for moving
-    /// objects; the bounds are recomputed and the new coordinates checked.
-    pub fn with_triangles(&self, triangles: Vec<Triangle>) -> Result<Self, SceneError> {
-        Scene::new(
-            self.name.clone(),
-            triangles,
-            self.geometry_ids.clone(),
-            self.geometry_names.clone(),
-        )
-    }
 }
 
 /// The default scene, shipped in `scenes/default.obj` and embedded in the
