@@ -207,6 +207,9 @@ fn run(cli: Cli) -> Res<()> {
                 };
                 let w = width.unwrap_or(0);
                 println!("{:<w$} {}{knobs}", b.name(), b.describe());
+                for k in b.knobs() {
+                    println!("{:<w$}   --{:<15} {}", "", k.name, k.help);
+                }
             }
             Ok(())
         }

@@ -26,6 +26,8 @@ pub struct Builder {
     /// The quality knobs of [`BihConfig`] it builds beyond the paper's
     /// tree; it refuses the others, by name.
     pub quality: Quality,
+    /// The strategy knobs it takes (`--NAME`); the others are refused.
+    pub knobs: &'static [&'static strategy::Knob],
     run: Run,
 }
 
@@ -89,6 +91,7 @@ impl Builder {
             describe,
             multi_spe: false,
             quality: Quality::ALL,
+            knobs: &[],
             run: Run::Host(build),
         }
     }
@@ -101,6 +104,7 @@ impl Builder {
             describe,
             multi_spe: false,
             quality: Quality::PAPER,
+            knobs: &[],
             run: Run::Cell(spawn),
         }
     }
@@ -108,6 +112,11 @@ impl Builder {
     /// This builder builds the quality knobs `quality`.
     pub const fn with_quality(self, quality: Quality) -> Self {
         Builder { quality, ..self }
+    }
+
+    /// This builder takes the strategy knobs `knobs`.
+    pub const fn with_knobs(self, knobs: &'static [&'static strategy::Knob]) -> Self {
+        Builder { knobs, ..self }
     }
 
     /// A builder that runs on every SPE of the emulated Cell.
@@ -181,6 +190,31 @@ impl BuilderKind {
 
     pub fn describe(self) -> &'static str {
         self.0.describe
+    }
+
+    /// The strategy knobs the builder takes.
+    pub fn knobs(self) -> &'static [&'static strategy::Knob] {
+        self.0.knobs
+    }
+
+    /// Refuses a strategy knob (`--NAME`) the builder does not take,
+    /// naming the builders that take it.
+    pub fn check_knob(self, name: &str) -> Result<(), CellError> {
+        if self.knobs().iter().any(|k| k.name == name) {
+            return Ok(());
+        }
+        let takers: Vec<&str> = (Self::ALL.iter())
+            .filter(|b| b.knobs().iter().any(|k| k.name == name))
+            .map(|b| b.name())
+            .collect();
+        Err(CellError::Config(format!(
+            "--{name} is a knob of {}; builder {self} does not take it",
+            if takers.is_empty() {
+                "no builder".to_string()
+            } else {
+                takers.join(", ")
+            }
+        )))
     }
 
     pub fn from_name(name: &str) -> Option<Self> {

@@ -519,3 +519,47 @@ fn binned_sah_options_need_split_sah() {
     let out = cellbih(&["build", "--split", "sah", "--sah-above", "64"]);
     assert_ok(&out);
 }
+
+/// Every strategy knob of the registry, given to every builder: built by
+/// the builders whose table holds it, refused by the others with an error
+/// naming the knob and the builders that take it, nothing built.
+#[test]
+fn a_knob_is_taken_by_the_builders_that_declare_it_and_refused_by_the_rest() {
+    use cellbih::registry::BuilderKind;
+    let mut knobs: Vec<&cellbih::strategy::Knob> = (BuilderKind::ALL.iter())
+        .flat_map(|b| b.knobs().iter().copied())
+        .collect();
+    knobs.sort_by_key(|k| k.name);
+    knobs.dedup_by_key(|k| k.name);
+    assert!(!knobs.is_empty(), "the registry declares no knob");
+    for &b in BuilderKind::ALL {
+        for k in &knobs {
+            let flag = format!("--{}", k.name);
+            let mut args = vec!["build", "--scene", "default", "--builder", b.name()];
+            args.extend(["--mode", "functional", flag.as_str()]);
+            if !k.other.is_empty() {
+                args.push(k.other);
+            }
+            let out = cellbih(&args);
+            let takes = b.knobs().iter().any(|t| t.name == k.name);
+            if takes {
+                assert!(out.status.success(), "{b} {flag}: {}", stderr(&out));
+                continue;
+            }
+            let err = stderr(&out);
+            assert!(!out.status.success(), "{b} took {flag} silently");
+            assert!(
+                stdout(&out).is_empty(),
+                "{b} {flag} built: {}",
+                stdout(&out)
+            );
+            assert!(err.contains(&flag), "{b} {flag}: {err}");
+            for taker in BuilderKind::ALL.iter().filter(|t| t.knobs().contains(k)) {
+                assert!(
+                    err.contains(taker.name()),
+                    "{b} {flag} names no {taker}: {err}"
+                );
+            }
+        }
+    }
+}

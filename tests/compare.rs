@@ -79,7 +79,8 @@ fn compare_with_knobs_builds_them_where_they_are_built() {
         doc["not_built_by"],
         serde_json::json!(not.iter().map(|b| b.name()).collect::<Vec<_>>())
     );
-    assert!(not.len() == 2 && built.len() == 6, "{names:?}");
+    assert!(!not.is_empty() && !built.is_empty(), "{names:?}");
+    assert_eq!(built.len() + not.len(), BuilderKind::ALL.len());
     // The same tree from every builder of the knobs: the host's.
     for r in rows {
         assert_eq!(r["sah_cost"], rows[0]["sah_cost"], "{r}");

@@ -84,10 +84,9 @@ pub struct BuildArgs {
     #[command(flatten)]
     pub tree: TreeArgs,
     /// ppe_approx: at most this many cells of the presort grid per axis
-    /// (1 to 1024).
-    #[arg(long, default_value_t = Knobs::default().approx_max_cells as u64,
-          value_parser = clap::value_parser!(u64).range(1..=1024))]
-    pub approx_cells: u64,
+    /// (1 to 1024) [default: 1024].
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
+    pub approx_cells: Option<u64>,
     /// SPEs of the emulated Cell, 1 to 8 (a PS3 program gets 6; 8 is a
     /// whole Cell). Builders that use fewer leave the others idle.
     #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
@@ -106,18 +105,17 @@ pub struct BuildArgs {
     #[arg(long)]
     pub no_coop_top: bool,
     /// Multi-SPE builders: the top levels end at the first level with this
-    /// many jobs per SPE (1 to 16).
-    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u64).range(1..=16))]
-    pub deal_per_spe: u64,
+    /// many jobs per SPE (1 to 16) [default: 4].
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=16))]
+    pub deal_per_spe: Option<u64>,
     /// Multi-SPE builders: the dealt jobs stay in per-SPE lists and an SPE
     /// whose list is empty steals from another's (the atomic unit).
     #[arg(long)]
     pub steal: bool,
     /// spe_bfs_shared: jobs taken from the shared queue per atomic
-    /// operation (1 to 256).
-    #[arg(long, default_value_t = Knobs::default().agglomerate as u64,
-          value_parser = clap::value_parser!(u64).range(1..=256))]
-    pub agglomerate: u64,
+    /// operation (1 to 256) [default: 16].
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=256))]
+    pub agglomerate: Option<u64>,
     /// spe_bfs_shared: every take is --agglomerate jobs, not an SPE's
     /// share of the jobs left (guided self-scheduling, the default).
     #[arg(long)]
@@ -134,21 +132,20 @@ pub struct BuildArgs {
     #[arg(long)]
     pub prefetch: bool,
     /// spe_morton: the keys' bit order: the global heuristic's halvings
-    /// (gh: the baseline's tree) or round robin x, y, z (xyz: LBVH).
-    #[arg(long, value_enum, default_value = "gh")]
-    pub key_order: KeyOrderArg,
-    /// spe_morton: key bits, 32 or 64.
-    #[arg(long, default_value_t = Knobs::default().key_bits,
-          value_parser = parse_key_bits)]
-    pub key_bits: u32,
-    /// spe_morton: bits per radix-sort pass (4 to 11).
-    #[arg(long, default_value_t = Knobs::default().digit_bits as u64,
-          value_parser = clap::value_parser!(u64).range(4..=11))]
-    pub digit_bits: u64,
-    /// spe_morton: the largest region built by one SPE alone (triangles).
-    #[arg(long, default_value_t = Knobs::default().region_size as u64,
-          value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
-    pub region_size: u64,
+    /// (gh: the baseline's tree) or round robin x, y, z (xyz: LBVH)
+    /// [default: gh].
+    #[arg(long, value_enum)]
+    pub key_order: Option<KeyOrderArg>,
+    /// spe_morton: key bits, 32 or 64 [default: 32].
+    #[arg(long, value_parser = parse_key_bits)]
+    pub key_bits: Option<u32>,
+    /// spe_morton: bits per radix-sort pass (4 to 11) [default: 8].
+    #[arg(long, value_parser = clap::value_parser!(u64).range(4..=11))]
+    pub digit_bits: Option<u64>,
+    /// spe_morton: the largest region built by one SPE alone (triangles)
+    /// [default: 2048].
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
+    pub region_size: Option<u64>,
     /// spe_morton: regions dealt before the builds, not taken from an
     /// atomic counter.
     #[arg(long)]
@@ -227,24 +224,46 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
     if let Mode::Functional = args.mode {
         cell.cost = cellbih::cell::CostModel::functional();
     }
+    // A strategy knob the builder does not take is an error, not ignored.
+    let given = [
+        ("no-coop-top", args.no_coop_top),
+        ("deal-per-spe", args.deal_per_spe.is_some()),
+        ("steal", args.steal),
+        ("agglomerate", args.agglomerate.is_some()),
+        ("fixed-takes", args.fixed_takes),
+        ("double-buffer", args.double_buffer),
+        ("dma-lists", args.dma_lists),
+        ("prefetch", args.prefetch),
+        ("key-order", args.key_order.is_some()),
+        ("key-bits", args.key_bits.is_some()),
+        ("digit-bits", args.digit_bits.is_some()),
+        ("region-size", args.region_size.is_some()),
+        ("static-regions", args.static_regions),
+        ("approx-cells", args.approx_cells.is_some()),
+    ];
+    for (name, _) in given.iter().filter(|(_, given)| *given) {
+        builder.check_knob(name)?;
+    }
+    let d = Knobs::default();
     let knobs = Knobs {
         coop_top: !args.no_coop_top,
-        deal_per_spe: args.deal_per_spe as usize,
+        deal_per_spe: args.deal_per_spe.map_or(d.deal_per_spe, |v| v as usize),
         steal: args.steal,
-        agglomerate: args.agglomerate as usize,
+        agglomerate: args.agglomerate.map_or(d.agglomerate, |v| v as usize),
         guided: !args.fixed_takes,
         double_buffer: args.double_buffer,
         dma_lists: args.dma_lists,
         prefetch: args.prefetch,
         key_order: match args.key_order {
-            KeyOrderArg::Gh => KeyOrder::GlobalHeuristic,
-            KeyOrderArg::Xyz => KeyOrder::RoundRobin,
+            None => d.key_order,
+            Some(KeyOrderArg::Gh) => KeyOrder::GlobalHeuristic,
+            Some(KeyOrderArg::Xyz) => KeyOrder::RoundRobin,
         },
-        key_bits: args.key_bits,
-        digit_bits: args.digit_bits as u32,
-        region_size: args.region_size as usize,
+        key_bits: args.key_bits.unwrap_or(d.key_bits),
+        digit_bits: args.digit_bits.map_or(d.digit_bits, |v| v as u32),
+        region_size: args.region_size.map_or(d.region_size, |v| v as usize),
         static_regions: args.static_regions,
-        approx_max_cells: args.approx_cells as usize,
+        approx_max_cells: args.approx_cells.map_or(d.approx_max_cells, |v| v as usize),
     };
     Ok(Chosen {
         builder,

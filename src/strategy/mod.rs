@@ -38,8 +38,23 @@ pub struct Setup {
     pub knobs: Knobs,
 }
 
-/// The knobs of the multi-SPE strategies, each declared here with what it
-/// buys and costs. The paper's builders ignore them.
+/// A strategy's knob as the command line names it (`--NAME`), declared
+/// beside the code that reads it; a builder's table of these
+/// ([`crate::registry::Builder::knobs`]) is what it takes, and a knob given
+/// to a builder that does not take it is refused by name.
+#[derive(Debug, PartialEq, Eq)]
+pub struct Knob {
+    /// The option's name without `--`.
+    pub name: &'static str,
+    /// One line: what it does.
+    pub help: &'static str,
+    /// A value other than the default, as the command line takes it (empty
+    /// for a flag): what tests and experiments try.
+    pub other: &'static str,
+}
+
+/// The values of the strategies' knobs, each field declared here with what
+/// it buys and costs; a builder reads only the knobs of its table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Knobs {
     /// Before the deal, every SPE helps partition each large interval of

@@ -26,7 +26,15 @@ pub const BUILDER: crate::registry::Builder = crate::registry::Builder::cell(
     "ppe_approx",
     "Wachter & Keller's approximate sorting (bucket presort) on the emulated PPE, nodes over 12 triangles finished naively (Table 1, column 2)",
     spawn,
-);
+)
+.with_knobs(&[&APPROX_CELLS]);
+
+/// `--approx-cells N`: [`Knobs::approx_max_cells`].
+pub const APPROX_CELLS: super::Knob = super::Knob {
+    name: "approx-cells",
+    help: "at most this many cells of the presort grid per axis (1 to 1024)",
+    other: "16",
+};
 
 fn spawn(
     cell: &mut Cell,

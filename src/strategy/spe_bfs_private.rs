@@ -27,10 +27,10 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use super::machinery::coop::Coop;
-use super::machinery::top::{Common, build_top, help_top};
+use super::machinery::top::{Common, DEAL_PER_SPE, NO_COOP_TOP, build_top, help_top};
 use super::machinery::work_queue::{Level, WORK_BYTES};
-use super::spe_bfs::{Job, SpeBuilder};
-use super::{Output, Setup, SpeWork};
+use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, SpeBuilder};
+use super::{Knob, Output, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, Spe};
 use crate::registry::Builder;
@@ -41,7 +41,22 @@ pub const BUILDER: Builder = Builder::multi_spe(
     "section 5: SPE 0 builds the top levels, deals the jobs largest first, then every SPE builds its own jobs breadth first with its own ObjectArena list (--spes)",
     spawn,
 )
-.with_quality(crate::registry::Quality::ALL);
+.with_quality(crate::registry::Quality::ALL)
+.with_knobs(&[
+    &DOUBLE_BUFFER,
+    &DMA_LISTS,
+    &PREFETCH,
+    &NO_COOP_TOP,
+    &DEAL_PER_SPE,
+    &STEAL,
+]);
+
+/// `--steal`: [`Knobs::steal`].
+pub const STEAL: Knob = Knob {
+    name: "steal",
+    help: "dealt jobs stay in per-SPE lists; an SPE whose list is empty steals from another's",
+    other: "",
+};
 
 /// A deal record in main memory, one 128-byte line per SPE: jobs dealt,
 /// the depth of their level, and the SPE's `WorkAPPE` and `WorkBPPE`.

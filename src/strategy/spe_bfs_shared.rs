@@ -35,10 +35,10 @@ use std::rc::Rc;
 
 use super::machinery::arena::NodeWrites;
 use super::machinery::coop::Coop;
-use super::machinery::top::{Common, build_top, help_top};
+use super::machinery::top::{Common, DEAL_PER_SPE, NO_COOP_TOP, build_top, help_top};
 use super::machinery::work_queue::{SharedSpill, WorkQueue};
-use super::spe_bfs::{Job, SpeBuilder};
-use super::{Output, Setup, SpeWork};
+use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, SpeBuilder};
+use super::{Knob, Output, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
 use crate::registry::Builder;
@@ -49,7 +49,29 @@ pub const BUILDER: Builder = Builder::multi_spe(
     "section 5: every SPE takes jobs from one shared job queue (lock-line atomics, --agglomerate jobs per take), a barrier per level, each SPE's nodes in its own ObjectArena list (--spes)",
     spawn,
 )
-.with_quality(crate::registry::Quality::ALL);
+.with_quality(crate::registry::Quality::ALL)
+.with_knobs(&[
+    &DOUBLE_BUFFER,
+    &DMA_LISTS,
+    &PREFETCH,
+    &NO_COOP_TOP,
+    &DEAL_PER_SPE,
+    &AGGLOMERATE,
+    &FIXED_TAKES,
+]);
+
+/// `--agglomerate N`: [`Knobs::agglomerate`].
+pub const AGGLOMERATE: Knob = Knob {
+    name: "agglomerate",
+    help: "jobs taken from the shared queue per atomic operation (1 to 256)",
+    other: "1",
+};
+/// `--fixed-takes`: [`Knobs::guided`] off.
+pub const FIXED_TAKES: Knob = Knob {
+    name: "fixed-takes",
+    help: "every take is --agglomerate jobs, not an SPE's share of the jobs left",
+    other: "",
+};
 
 /// The queue's lock lines in main memory.
 #[derive(Clone, Copy)]

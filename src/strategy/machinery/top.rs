@@ -18,6 +18,19 @@ use crate::cell::{Cell, CellError, Ea, Spe};
 use crate::strategy::spe_bfs::{Job, SpeBuilder};
 use crate::strategy::{Knobs, Output, SpeWork};
 
+/// `--no-coop-top`: [`Knobs::coop_top`] off.
+pub const NO_COOP_TOP: crate::strategy::Knob = crate::strategy::Knob {
+    name: "no-coop-top",
+    help: "the SPEs do not help partition the top levels (they wait for the deal)",
+    other: "",
+};
+/// `--deal-per-spe N`: [`Knobs::deal_per_spe`].
+pub const DEAL_PER_SPE: crate::strategy::Knob = crate::strategy::Knob {
+    name: "deal-per-spe",
+    help: "the top levels end at the first level with this many jobs per SPE (1 to 16)",
+    other: "1",
+};
+
 /// The ObjectArena pool and the cooperative partition's areas.
 #[derive(Clone, Copy)]
 pub(in crate::strategy) struct Common {

@@ -97,6 +97,25 @@ fn spawn(
     Ok(())
 }
 
+/// `--double-buffer`: [`Knobs::double_buffer`].
+pub const DOUBLE_BUFFER: super::Knob = super::Knob {
+    name: "double-buffer",
+    help: "double-buffered WorkA/WorkB: no synchronous job-queue DMA (section 5)",
+    other: "",
+};
+/// `--dma-lists`: [`Knobs::dma_lists`].
+pub const DMA_LISTS: super::Knob = super::Knob {
+    name: "dma-lists",
+    help: "DMA lists gather and scatter the intervals of agglomerated jobs (section 5)",
+    other: "",
+};
+/// `--prefetch`: [`Knobs::prefetch`].
+pub const PREFETCH: super::Knob = super::Knob {
+    name: "prefetch",
+    help: "the next batch's get overlaps this batch's partition",
+    other: "",
+};
+
 /// The SPE program's state: its local-store buffers and counters. The
 /// multi-SPE strategies run the same loop on every SPE.
 pub(super) struct SpeBuilder<'a> {

@@ -43,7 +43,8 @@ use bytemuck::{Pod, Zeroable};
 use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
 use super::machinery::layout::TriRecord;
 use super::machinery::top::alloc_pool;
-use super::{Knobs, Output, Setup};
+use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, PREFETCH};
+use super::{Knob, Knobs, Output, Setup};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
 use crate::kernels::morton::KeySpec;
@@ -55,7 +56,49 @@ pub const BUILDER: Builder = Builder::multi_spe(
     "spe_morton",
     "section 5: Morton keys and a radix sort on the SPEs, the top of the tree from the sorted keys, then regions built independently, one SPE each, in the local store where they fit (--spes)",
     spawn,
-);
+)
+.with_knobs(&[
+    &KEY_ORDER,
+    &KEY_BITS,
+    &DIGIT_BITS,
+    &REGION_SIZE,
+    &STATIC_REGIONS,
+    // Regions too large for a local store run the breadth-first loop.
+    &DOUBLE_BUFFER,
+    &DMA_LISTS,
+    &PREFETCH,
+]);
+
+/// `--key-order gh|xyz`: [`Knobs::key_order`].
+pub const KEY_ORDER: Knob = Knob {
+    name: "key-order",
+    help: "the keys' bit order: the global heuristic's halvings (gh) or round robin x, y, z (xyz)",
+    other: "xyz",
+};
+/// `--key-bits 32|64`: [`Knobs::key_bits`].
+pub const KEY_BITS: Knob = Knob {
+    name: "key-bits",
+    help: "key bits, 32 or 64",
+    other: "64",
+};
+/// `--digit-bits N`: [`Knobs::digit_bits`].
+pub const DIGIT_BITS: Knob = Knob {
+    name: "digit-bits",
+    help: "bits per radix-sort pass (4 to 11)",
+    other: "4",
+};
+/// `--region-size N`: [`Knobs::region_size`].
+pub const REGION_SIZE: Knob = Knob {
+    name: "region-size",
+    help: "the largest region built by one SPE alone (triangles)",
+    other: "256",
+};
+/// `--static-regions`: [`Knobs::static_regions`].
+pub const STATIC_REGIONS: Knob = Knob {
+    name: "static-regions",
+    help: "regions dealt before the builds, not taken from an atomic counter",
+    other: "",
+};
 
 /// A key and the index of its triangle record: 16 bytes.
 #[repr(C)]
