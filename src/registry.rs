@@ -7,159 +7,50 @@
 use std::time::{Duration, Instant};
 
 use crate::aabb::Aabb;
-use crate::bih::{Bih, BihConfig, SplitChoice};
+use crate::bih::{Bih, BihConfig};
 use crate::cell::{CellConfig, CellError, RunReport};
+use crate::host::HostBuilder;
 use crate::scene::Scene;
-use crate::strategy;
+use crate::strategy::{self, Strategy};
 
-/// One builder: its name, what it is, and how it runs. A builder is one
-/// file that defines such a value (`pub const BUILDER: Builder = …`) and one
-/// line in [`BuilderKind::ALL`]; the CLI, tests, benches and experiments
-/// iterate over that list.
-pub struct Builder {
-    /// The `--builder` name.
-    pub name: &'static str,
-    /// One line for `cellbih builders`.
-    pub describe: &'static str,
-    /// It puts every SPE of the machine to work (`--spes` changes its time).
-    pub multi_spe: bool,
-    /// The quality knobs of [`BihConfig`] it builds beyond the paper's
-    /// tree; it refuses the others, by name.
-    pub quality: Quality,
-    /// The strategy knobs it takes (`--NAME`); the others are refused.
-    pub knobs: &'static [&'static strategy::Knob],
-    run: Run,
-}
-
-/// Which of [`BihConfig`]'s quality knobs a builder builds (the leaf size
-/// and depth limit every builder builds).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Quality {
-    /// `SplitChoice::BinnedSah`: the builder bins its nodes' triangles.
-    pub binned_sah: bool,
-    /// `BihConfig::empty_cut`: the builder knows each node's region.
-    pub empty_cut: bool,
-}
-
-impl Quality {
-    /// The paper's tree only.
-    pub const PAPER: Quality = Quality {
-        binned_sah: false,
-        empty_cut: false,
-    };
-    /// The shared recursion of [`crate::kernels::recursion`]: every knob.
-    pub const ALL: Quality = Quality {
-        binned_sah: true,
-        empty_cut: true,
-    };
-    /// Whether a builder with these knobs builds `cfg`.
-    pub fn builds(self, cfg: &BihConfig) -> bool {
-        (self.binned_sah || cfg.split == SplitChoice::GlobalHeuristic)
-            && (self.empty_cut || cfg.empty_cut.is_none())
-    }
-
-    /// `cfg` without the knobs a builder with these does not build (the
-    /// paper's setting in their place).
-    pub fn reach(self, cfg: &BihConfig) -> BihConfig {
-        BihConfig {
-            split: if self.binned_sah {
-                cfg.split
-            } else {
-                SplitChoice::GlobalHeuristic
-            },
-            empty_cut: cfg.empty_cut.filter(|_| self.empty_cut),
-            ..*cfg
-        }
-    }
-}
-
-/// How a builder runs: on the host, or as a program of the emulated Cell.
-enum Run {
-    Host(fn(&Scene, Aabb, &BihConfig) -> Bih),
-    Cell(strategy::Spawn),
-}
-
-impl Builder {
-    /// A builder that runs on the host: `build(scene, region, cfg)`.
-    pub const fn host(
-        name: &'static str,
-        describe: &'static str,
-        build: fn(&Scene, Aabb, &BihConfig) -> Bih,
-    ) -> Self {
-        Builder {
-            name,
-            describe,
-            multi_spe: false,
-            quality: Quality::ALL,
-            knobs: &[],
-            run: Run::Host(build),
-        }
-    }
-
-    /// A builder that runs on the emulated Cell: `spawn` sets up its
-    /// programs (see [`strategy::Spawn`]).
-    pub const fn cell(name: &'static str, describe: &'static str, spawn: strategy::Spawn) -> Self {
-        Builder {
-            name,
-            describe,
-            multi_spe: false,
-            quality: Quality::PAPER,
-            knobs: &[],
-            run: Run::Cell(spawn),
-        }
-    }
-
-    /// This builder builds the quality knobs `quality`.
-    pub const fn with_quality(self, quality: Quality) -> Self {
-        Builder { quality, ..self }
-    }
-
-    /// This builder takes the strategy knobs `knobs`.
-    pub const fn with_knobs(self, knobs: &'static [&'static strategy::Knob]) -> Self {
-        Builder { knobs, ..self }
-    }
-
-    /// A builder that runs on every SPE of the emulated Cell.
-    pub const fn multi_spe(
-        name: &'static str,
-        describe: &'static str,
-        spawn: strategy::Spawn,
-    ) -> Self {
-        Builder {
-            multi_spe: true,
-            ..Builder::cell(name, describe, spawn)
-        }
-    }
-}
+pub use crate::bih::Quality;
 
 /// A handle on one of the registered builders; what `--builder` names.
+/// Each is a value its own file defines: a [`HostBuilder`] or a
+/// [`Strategy`] of the emulated Cell.
 #[derive(Clone, Copy)]
-pub struct BuilderKind(&'static Builder);
+pub struct BuilderKind(Family);
+
+#[derive(Clone, Copy)]
+enum Family {
+    Host(&'static HostBuilder),
+    Cell(&'static Strategy),
+}
 
 impl PartialEq for BuilderKind {
     fn eq(&self, o: &Self) -> bool {
-        self.0.name == o.0.name
+        self.name() == o.name()
     }
 }
 impl Eq for BuilderKind {}
 
 impl std::fmt::Debug for BuilderKind {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.0.name)
+        f.write_str(self.name())
     }
 }
 
 impl BuilderKind {
     /// Recursive in-place build on the host, one thread (the reference).
-    pub const HOST: BuilderKind = BuilderKind(&crate::host::BUILDER);
+    pub const HOST: BuilderKind = BuilderKind::host(&crate::host::BUILDER);
     /// The paper's naive build on the emulated PPE.
-    pub const PPE_NAIVE: BuilderKind = BuilderKind(&strategy::ppe_naive::BUILDER);
+    pub const PPE_NAIVE: BuilderKind = BuilderKind::cell(&strategy::ppe_naive::STRATEGY);
     /// W&K's approximate sorting on the emulated PPE, naive finish.
-    pub const PPE_APPROX: BuilderKind = BuilderKind(&strategy::ppe_approx::BUILDER);
+    pub const PPE_APPROX: BuilderKind = BuilderKind::cell(&strategy::ppe_approx::STRATEGY);
     /// PPE recursion, one SPE partitions each interval (Fig. 1).
-    pub const SPE_DFS: BuilderKind = BuilderKind(&strategy::spe_dfs::BUILDER);
+    pub const SPE_DFS: BuilderKind = BuilderKind::cell(&strategy::spe_dfs::STRATEGY);
     /// One SPE builds level by level (Fig. 2): the baseline.
-    pub const SPE_BFS: BuilderKind = BuilderKind(&strategy::spe_bfs::BUILDER);
+    pub const SPE_BFS: BuilderKind = BuilderKind::cell(&strategy::spe_bfs::STRATEGY);
 
     /// Every builder, the registry: a new builder is one line here.
     pub const ALL: &'static [BuilderKind] = &[
@@ -168,13 +59,24 @@ impl BuilderKind {
         BuilderKind::PPE_APPROX,
         BuilderKind::SPE_DFS,
         BuilderKind::SPE_BFS,
-        BuilderKind(&strategy::spe_bfs_shared::BUILDER),
-        BuilderKind(&strategy::spe_bfs_private::BUILDER),
-        BuilderKind(&strategy::spe_morton::BUILDER),
+        BuilderKind::cell(&strategy::spe_bfs_shared::STRATEGY),
+        BuilderKind::cell(&strategy::spe_bfs_private::STRATEGY),
+        BuilderKind::cell(&strategy::spe_morton::STRATEGY),
     ];
 
+    const fn host(b: &'static HostBuilder) -> Self {
+        BuilderKind(Family::Host(b))
+    }
+
+    const fn cell(s: &'static Strategy) -> Self {
+        BuilderKind(Family::Cell(s))
+    }
+
     pub fn name(self) -> &'static str {
-        self.0.name
+        match self.0 {
+            Family::Host(b) => b.name,
+            Family::Cell(s) => s.name,
+        }
     }
 
     /// Every builder with the paper's settings, then every builder that
@@ -189,12 +91,18 @@ impl BuilderKind {
     }
 
     pub fn describe(self) -> &'static str {
-        self.0.describe
+        match self.0 {
+            Family::Host(b) => b.describe,
+            Family::Cell(s) => s.describe,
+        }
     }
 
     /// The strategy knobs the builder takes.
     pub fn knobs(self) -> &'static [&'static strategy::Knob] {
-        self.0.knobs
+        match self.0 {
+            Family::Host(_) => &[],
+            Family::Cell(s) => s.knobs,
+        }
     }
 
     /// Refuses a strategy knob (`--NAME`) the builder does not take,
@@ -224,23 +132,26 @@ impl BuilderKind {
     /// Whether the builder puts every SPE to work (`--spes` changes its
     /// time; the paper's builders use one).
     pub fn multi_spe(self) -> bool {
-        self.0.multi_spe
+        matches!(self.0, Family::Cell(s) if s.multi_spe)
     }
 
     /// The quality knobs the builder builds beyond the paper's tree.
     pub fn quality(self) -> Quality {
-        self.0.quality
+        match self.0 {
+            Family::Host(b) => b.quality,
+            Family::Cell(s) => s.quality,
+        }
     }
 
     /// Whether the builder builds `cfg`'s split choice and cut-off.
     pub fn builds(self, cfg: &BihConfig) -> bool {
-        self.0.quality.builds(cfg)
+        self.quality().builds(cfg)
     }
 
     /// Whether the builder runs on the emulated Cell (and so reports
     /// simulated time and can keep a trace).
     pub fn emulated(self) -> bool {
-        matches!(self.0.run, Run::Cell(_))
+        matches!(self.0, Family::Cell(_))
     }
 
     /// Builds the tree of `scene` (on the PS3 model for emulated builders).
@@ -302,10 +213,10 @@ impl BuilderKind {
             )));
         }
         let start = Instant::now();
-        let (bih, simulated) = match self.0.run {
-            Run::Host(build) => (build(scene, region, cfg), None),
-            Run::Cell(spawn) => {
-                let b = strategy::run_in(spawn, scene, region, cfg, cell, knobs)?;
+        let (bih, simulated) = match self.0 {
+            Family::Host(b) => ((b.build)(scene, region, cfg), None),
+            Family::Cell(s) => {
+                let b = strategy::run_in(s.spawn, scene, region, cfg, cell, knobs)?;
                 let footprint = strategy::machinery::footprint::Footprint::of(&b.run, &b.bih);
                 (
                     b.bih,

@@ -15,7 +15,7 @@ pub use validate::Violation;
 use crate::aabb::Aabb;
 
 /// The limits every builder honours, and the quality knobs (which builder
-/// builds which: `crate::registry::Quality`). Each knob is off by default: the
+/// builds which: [`Quality`]). Each knob is off by default: the
 /// default is the paper's tree, and Table 1 does not move.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct BihConfig {
@@ -156,5 +156,47 @@ impl Bih {
     pub fn memory_bytes(&self) -> usize {
         std::mem::size_of_val(self.nodes.as_slice())
             + std::mem::size_of_val(self.prim_ids.as_slice())
+    }
+}
+
+/// Which of [`BihConfig`]'s quality knobs a builder builds (the leaf size
+/// and depth limit every builder builds).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Quality {
+    /// `SplitChoice::BinnedSah`: the builder bins its nodes' triangles.
+    pub binned_sah: bool,
+    /// `BihConfig::empty_cut`: the builder knows each node's region.
+    pub empty_cut: bool,
+}
+
+impl Quality {
+    /// The paper's tree only.
+    pub const PAPER: Quality = Quality {
+        binned_sah: false,
+        empty_cut: false,
+    };
+    /// Every knob (the shared recursion of `kernels::recursion` builds them).
+    pub const ALL: Quality = Quality {
+        binned_sah: true,
+        empty_cut: true,
+    };
+    /// Whether a builder with these knobs builds `cfg`.
+    pub fn builds(self, cfg: &BihConfig) -> bool {
+        (self.binned_sah || cfg.split == SplitChoice::GlobalHeuristic)
+            && (self.empty_cut || cfg.empty_cut.is_none())
+    }
+
+    /// `cfg` without the knobs a builder with these does not build (the
+    /// paper's setting in their place).
+    pub fn reach(self, cfg: &BihConfig) -> BihConfig {
+        BihConfig {
+            split: if self.binned_sah {
+                cfg.split
+            } else {
+                SplitChoice::GlobalHeuristic
+            },
+            empty_cut: cfg.empty_cut.filter(|_| self.empty_cut),
+            ..*cfg
+        }
     }
 }

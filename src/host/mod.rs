@@ -4,16 +4,30 @@
 //! thread. The host counterparts of section 5's strategies will live here.
 
 use crate::aabb::Aabb;
-use crate::bih::{Bih, BihConfig};
+use crate::bih::{Bih, BihConfig, Quality};
 use crate::kernels::recursion::{PrimRef, build_items};
 use crate::scene::Scene;
 
-/// The host builder in the registry of builders.
-pub const BUILDER: crate::registry::Builder = crate::registry::Builder::host(
-    "host",
-    "recursive in-place build, global heuristic, on the host (one thread)",
-    build_in,
-);
+/// A builder that runs on the host: what the registry needs of it.
+pub struct HostBuilder {
+    /// The `--builder` name.
+    pub name: &'static str,
+    /// One line for `cellbih builders`.
+    pub describe: &'static str,
+    /// The quality knobs of [`BihConfig`] it builds.
+    pub quality: Quality,
+    /// `build(scene, region, cfg)`: the tree of `scene` with `region` as
+    /// the scene box of the global heuristic.
+    pub build: fn(&Scene, Aabb, &BihConfig) -> Bih,
+}
+
+/// The host builder, the serial reference.
+pub const BUILDER: HostBuilder = HostBuilder {
+    name: "host",
+    describe: "recursive in-place build, global heuristic, on the host (one thread)",
+    quality: Quality::ALL,
+    build: build_in,
+};
 
 /// Builds the tree of `scene` in one host thread.
 pub fn build(scene: &Scene, cfg: &BihConfig) -> Bih {

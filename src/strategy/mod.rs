@@ -19,7 +19,7 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use crate::aabb::Aabb;
-use crate::bih::{Bih, BihConfig, BihNode};
+use crate::bih::{Bih, BihConfig, BihNode, Quality};
 use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport, Trace};
 pub use crate::kernels::morton::KeyOrder;
 use crate::kernels::recursion::BuildStats;
@@ -29,6 +29,57 @@ use machinery::layout;
 /// How a strategy starts: it spawns its programs on the Cell for the
 /// triangles of `Setup`, and they leave the tree's node pieces in `Output`.
 pub type Spawn = fn(&mut Cell, &Setup, &BihConfig, Rc<RefCell<Output>>) -> Result<(), CellError>;
+
+/// A strategy of the emulated Cell: what the registry needs of it. Each
+/// strategy's file defines one (`pub const STRATEGY: Strategy = …`).
+pub struct Strategy {
+    /// The `--builder` name.
+    pub name: &'static str,
+    /// One line for `cellbih builders`.
+    pub describe: &'static str,
+    /// It puts every SPE of the machine to work (`--spes` changes its time).
+    pub multi_spe: bool,
+    /// The quality knobs of [`BihConfig`] it builds beyond the paper's
+    /// tree; it refuses the others, by name.
+    pub quality: Quality,
+    /// The strategy knobs it takes (`--NAME`); the others are refused.
+    pub knobs: &'static [&'static Knob],
+    /// Sets up its programs on the Cell.
+    pub spawn: Spawn,
+}
+
+impl Strategy {
+    /// A strategy that builds the paper's tree, takes no knob and uses one
+    /// SPE at most.
+    pub const fn new(name: &'static str, describe: &'static str, spawn: Spawn) -> Self {
+        Strategy {
+            name,
+            describe,
+            multi_spe: false,
+            quality: Quality::PAPER,
+            knobs: &[],
+            spawn,
+        }
+    }
+
+    /// It puts every SPE of the machine to work.
+    pub const fn on_every_spe(self) -> Self {
+        Strategy {
+            multi_spe: true,
+            ..self
+        }
+    }
+
+    /// It builds the quality knobs `quality`.
+    pub const fn with_quality(self, quality: Quality) -> Self {
+        Strategy { quality, ..self }
+    }
+
+    /// It takes the strategy knobs `knobs`.
+    pub const fn with_knobs(self, knobs: &'static [&'static Knob]) -> Self {
+        Strategy { knobs, ..self }
+    }
+}
 
 /// Where a strategy finds its input in main memory, and its knobs.
 pub struct Setup {
@@ -40,7 +91,7 @@ pub struct Setup {
 
 /// A strategy's knob as the command line names it (`--NAME`), declared
 /// beside the code that reads it; a builder's table of these
-/// ([`crate::registry::Builder::knobs`]) is what it takes, and a knob given
+/// ([`Strategy::knobs`]) is what it takes, and a knob given
 /// to a builder that does not take it is refused by name.
 #[derive(Debug, PartialEq, Eq)]
 pub struct Knob {

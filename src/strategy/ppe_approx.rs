@@ -22,14 +22,14 @@ use crate::kernels::approx::build_approx;
 use crate::kernels::recursion::BuildStats;
 
 /// `ppe_approx` in the registry of builders.
-pub const BUILDER: crate::registry::Builder = crate::registry::Builder::cell(
+pub const STRATEGY: super::Strategy = super::Strategy::new(
     "ppe_approx",
     "Wachter & Keller's approximate sorting (bucket presort) on the emulated PPE, nodes over 12 triangles finished naively (Table 1, column 2)",
     spawn,
 )
 .with_knobs(&[&APPROX_CELLS]);
 
-/// `--approx-cells N`: [`Knobs::approx_max_cells`].
+/// `--approx-cells N`: [`super::Knobs::approx_max_cells`].
 pub const APPROX_CELLS: super::Knob = super::Knob {
     name: "approx-cells",
     help: "at most this many cells of the presort grid per axis (1 to 1024)",

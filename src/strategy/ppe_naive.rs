@@ -19,12 +19,12 @@ use crate::cell::{Cell, CellError};
 use crate::kernels::recursion::{BuildStats, build_items};
 
 /// `ppe_naive` in the registry of builders.
-pub const BUILDER: crate::registry::Builder = crate::registry::Builder::cell(
+pub const STRATEGY: super::Strategy = super::Strategy::new(
     "ppe_naive",
     "the paper's naive recursive build on the emulated PPE (Table 1, column 1)",
     spawn,
 )
-.with_quality(crate::registry::Quality::ALL);
+.with_quality(crate::bih::Quality::ALL);
 
 fn spawn(
     cell: &mut Cell,

@@ -33,15 +33,15 @@ use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, SpeBuilder};
 use super::{Knob, Output, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, Spe};
-use crate::registry::Builder;
 
 /// `spe_bfs_private` in the registry of builders.
-pub const BUILDER: Builder = Builder::multi_spe(
+pub const STRATEGY: super::Strategy = super::Strategy::new(
     "spe_bfs_private",
     "section 5: SPE 0 builds the top levels, deals the jobs largest first, then every SPE builds its own jobs breadth first with its own ObjectArena list (--spes)",
     spawn,
 )
-.with_quality(crate::registry::Quality::ALL)
+.on_every_spe()
+.with_quality(crate::bih::Quality::ALL)
 .with_knobs(&[
     &DOUBLE_BUFFER,
     &DMA_LISTS,
@@ -51,7 +51,7 @@ pub const BUILDER: Builder = Builder::multi_spe(
     &STEAL,
 ]);
 
-/// `--steal`: [`Knobs::steal`].
+/// `--steal`: [`super::Knobs::steal`].
 pub const STEAL: Knob = Knob {
     name: "steal",
     help: "dealt jobs stay in per-SPE lists; an SPE whose list is empty steals from another's",
@@ -70,7 +70,7 @@ fn spawn(
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let knobs = setup.knobs;
-    let common = Common::alloc(cell, BUILDER.name, tris, n, &knobs, &out)?;
+    let common = Common::alloc(cell, STRATEGY.name, tris, n, &knobs, &out)?;
     let (spes, blocks) = (cell.config().spes, common.blocks);
     let mem = || cell.memory_mut();
     // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its

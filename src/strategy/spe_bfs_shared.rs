@@ -41,15 +41,15 @@ use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, SpeBuilder};
 use super::{Knob, Output, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
-use crate::registry::Builder;
 
 /// `spe_bfs_shared` in the registry of builders.
-pub const BUILDER: Builder = Builder::multi_spe(
+pub const STRATEGY: super::Strategy = super::Strategy::new(
     "spe_bfs_shared",
     "section 5: every SPE takes jobs from one shared job queue (lock-line atomics, --agglomerate jobs per take), a barrier per level, each SPE's nodes in its own ObjectArena list (--spes)",
     spawn,
 )
-.with_quality(crate::registry::Quality::ALL)
+.on_every_spe()
+.with_quality(crate::bih::Quality::ALL)
 .with_knobs(&[
     &DOUBLE_BUFFER,
     &DMA_LISTS,
@@ -60,13 +60,13 @@ pub const BUILDER: Builder = Builder::multi_spe(
     &FIXED_TAKES,
 ]);
 
-/// `--agglomerate N`: [`Knobs::agglomerate`].
+/// `--agglomerate N`: [`super::Knobs::agglomerate`].
 pub const AGGLOMERATE: Knob = Knob {
     name: "agglomerate",
     help: "jobs taken from the shared queue per atomic operation (1 to 256)",
     other: "1",
 };
-/// `--fixed-takes`: [`Knobs::guided`] off.
+/// `--fixed-takes`: [`super::Knobs::guided`] off.
 pub const FIXED_TAKES: Knob = Knob {
     name: "fixed-takes",
     help: "every take is --agglomerate jobs, not an SPE's share of the jobs left",
@@ -107,7 +107,7 @@ fn spawn(
             knobs.agglomerate,
         )));
     }
-    let common = Common::alloc(cell, BUILDER.name, tris, n, &knobs, &out)?;
+    let common = Common::alloc(cell, STRATEGY.name, tris, n, &knobs, &out)?;
     let spes = cell.config().spes;
     // A level's jobs: two per job of the level before with more than a
     // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1)

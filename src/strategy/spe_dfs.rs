@@ -109,12 +109,12 @@ impl SideRecord {
 }
 
 /// `spe_dfs` in the registry of builders.
-pub const BUILDER: crate::registry::Builder = crate::registry::Builder::cell(
+pub const STRATEGY: super::Strategy = super::Strategy::new(
     "spe_dfs",
     "depth first: PPE recursion, one SPE partitions each interval with Fig. 1's five buffers (Table 1, column 3)",
     spawn,
 )
-.with_quality(crate::registry::Quality::ALL);
+.with_quality(crate::bih::Quality::ALL);
 
 fn spawn(
     cell: &mut Cell,

@@ -46,12 +46,12 @@ use crate::kernels::split::{Side, Split, clip_planes};
 pub use job::Job;
 
 /// `spe_bfs`, the baseline, in the registry of builders.
-pub const BUILDER: crate::registry::Builder = crate::registry::Builder::cell(
+pub const STRATEGY: super::Strategy = super::Strategy::new(
     "spe_bfs",
     "breadth first, the baseline: one SPE builds level by level (WorkA/WorkB, Fig. 2), small jobs agglomerated, nodes in an ObjectArena (Table 1, column 4)",
     spawn,
 )
-.with_quality(crate::registry::Quality::ALL);
+.with_quality(crate::bih::Quality::ALL);
 
 fn spawn(
     cell: &mut crate::cell::Cell,

@@ -49,14 +49,14 @@ use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
 use crate::kernels::morton::KeySpec;
 use crate::kernels::radix;
-use crate::registry::Builder;
 
 /// `spe_morton` in the registry of builders.
-pub const BUILDER: Builder = Builder::multi_spe(
+pub const STRATEGY: super::Strategy = super::Strategy::new(
     "spe_morton",
     "section 5: Morton keys and a radix sort on the SPEs, the top of the tree from the sorted keys, then regions built independently, one SPE each, in the local store where they fit (--spes)",
     spawn,
 )
+.on_every_spe()
 .with_knobs(&[
     &KEY_ORDER,
     &KEY_BITS,
