@@ -25,11 +25,7 @@ use glam::{DVec3, Vec3A};
 use super::split::{Boxed, Split, choose_split_counted};
 use crate::aabb::Aabb;
 
-/// Bins per axis when none is asked for: 16, a common choice (Wald 2007
-/// found 16 bins within a few percent of the full sweep's quality).
-pub const DEFAULT_BINS: u32 = 16;
-/// Most bins per axis the builder accepts.
-pub const MAX_BINS: u32 = 256;
+pub use crate::bih::{DEFAULT_BINS, MAX_BINS};
 
 /// Bins per axis for a requested count: clamped to `2..=MAX_BINS`.
 pub fn bins_per_axis(bins: u32) -> u32 {
