@@ -229,9 +229,32 @@ fn sizes_past_their_limits_are_refused_at_once() {
         ),
         (&["build", "--leaf-size", "0"][..], "0 is not in 1.."),
         (&["build", "--spes", "9"][..], "9 is not in 1..=8"),
+        // A strategy checks its knobs' ranges itself, once, when it starts.
         (
-            &["build", "--deal-per-spe", "17"][..],
-            "17 is not in 1..=16",
+            &[
+                "build",
+                "--builder",
+                "spe_bfs_private",
+                "--deal-per-spe",
+                "17",
+            ][..],
+            "17 jobs per SPE; 1 to 16",
+        ),
+        (
+            &["build", "--builder", "spe_morton", "--digit-bits", "3"][..],
+            "3-bit digits; 4 to 11",
+        ),
+        (
+            &["build", "--builder", "spe_morton", "--key-bits", "48"][..],
+            "48-bit keys; 32 or 64",
+        ),
+        (
+            &["build", "--builder", "ppe_approx", "--approx-cells", "0"][..],
+            "0 cells per axis; 1 to 1024",
+        ),
+        (
+            &["build", "--builder", "spe_bfs_shared", "--agglomerate", "0"][..],
+            "0 jobs per take; 1 to 256",
         ),
     ] {
         assert_fails_with(&run_limited(exe, args, limit), msg);

@@ -10,7 +10,7 @@ use cellbih::cell::CellConfig;
 use cellbih::kernels::sah::{DEFAULT_BINS, MAX_BINS};
 use cellbih::registry::{BuildReport, BuilderKind};
 use cellbih::scene::Scene;
-use cellbih::strategy::{KeyOrder, Knobs};
+use cellbih::strategy::Knobs;
 
 use super::Res;
 
@@ -85,7 +85,7 @@ pub struct BuildArgs {
     pub tree: TreeArgs,
     /// ppe_approx: at most this many cells of the presort grid per axis
     /// (1 to 1024) [default: 1024].
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
+    #[arg(long)]
     pub approx_cells: Option<u64>,
     /// SPEs of the emulated Cell, 1 to 8 (a PS3 program gets 6; 8 is a
     /// whole Cell). Builders that use fewer leave the others idle.
@@ -106,7 +106,7 @@ pub struct BuildArgs {
     pub no_coop_top: bool,
     /// Multi-SPE builders: the top levels end at the first level with this
     /// many jobs per SPE (1 to 16) [default: 4].
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=16))]
+    #[arg(long)]
     pub deal_per_spe: Option<u64>,
     /// Multi-SPE builders: the dealt jobs stay in per-SPE lists and an SPE
     /// whose list is empty steals from another's (the atomic unit).
@@ -114,7 +114,7 @@ pub struct BuildArgs {
     pub steal: bool,
     /// spe_bfs_shared: jobs taken from the shared queue per atomic
     /// operation (1 to 256) [default: 16].
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=256))]
+    #[arg(long)]
     pub agglomerate: Option<u64>,
     /// spe_bfs_shared: every take is --agglomerate jobs, not an SPE's
     /// share of the jobs left (guided self-scheduling, the default).
@@ -137,14 +137,14 @@ pub struct BuildArgs {
     #[arg(long, value_enum)]
     pub key_order: Option<KeyOrderArg>,
     /// spe_morton: key bits, 32 or 64 [default: 32].
-    #[arg(long, value_parser = parse_key_bits)]
-    pub key_bits: Option<u32>,
+    #[arg(long)]
+    pub key_bits: Option<u64>,
     /// spe_morton: bits per radix-sort pass (4 to 11) [default: 8].
-    #[arg(long, value_parser = clap::value_parser!(u64).range(4..=11))]
+    #[arg(long)]
     pub digit_bits: Option<u64>,
     /// spe_morton: the largest region built by one SPE alone (triangles)
     /// [default: 2048].
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
+    #[arg(long)]
     pub region_size: Option<u64>,
     /// spe_morton: regions dealt before the builds, not taken from an
     /// atomic counter.
@@ -158,15 +158,6 @@ pub enum Mode {
     Checked,
     Timed,
     Functional,
-}
-
-/// `--key-bits`: 32 or 64.
-fn parse_key_bits(s: &str) -> Result<u32, String> {
-    match s {
-        "32" => Ok(32),
-        "64" => Ok(64),
-        _ => Err(format!("{s} bits: keys are 32 or 64 bits wide")),
-    }
 }
 
 /// `--split`.
@@ -224,47 +215,35 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
     if let Mode::Functional = args.mode {
         cell.cost = cellbih::cell::CostModel::functional();
     }
-    // A strategy knob the builder does not take is an error, not ignored.
+    // The strategy knobs given, as the command line spells them: one the
+    // builder does not take is an error, not ignored; the strategy checks
+    // the values' ranges when it starts.
+    let flag = |on: bool| on.then(String::new);
+    let num = |v: Option<u64>| v.map(|v| v.to_string());
     let given = [
-        ("no-coop-top", args.no_coop_top),
-        ("deal-per-spe", args.deal_per_spe.is_some()),
-        ("steal", args.steal),
-        ("agglomerate", args.agglomerate.is_some()),
-        ("fixed-takes", args.fixed_takes),
-        ("double-buffer", args.double_buffer),
-        ("dma-lists", args.dma_lists),
-        ("prefetch", args.prefetch),
-        ("key-order", args.key_order.is_some()),
-        ("key-bits", args.key_bits.is_some()),
-        ("digit-bits", args.digit_bits.is_some()),
-        ("region-size", args.region_size.is_some()),
-        ("static-regions", args.static_regions),
-        ("approx-cells", args.approx_cells.is_some()),
+        ("no-coop-top", flag(args.no_coop_top)),
+        ("deal-per-spe", num(args.deal_per_spe)),
+        ("steal", flag(args.steal)),
+        ("agglomerate", num(args.agglomerate)),
+        ("fixed-takes", flag(args.fixed_takes)),
+        ("double-buffer", flag(args.double_buffer)),
+        ("dma-lists", flag(args.dma_lists)),
+        ("prefetch", flag(args.prefetch)),
+        (
+            "key-order",
+            (args.key_order).map(|o| o.to_possible_value().unwrap().get_name().to_string()),
+        ),
+        ("key-bits", num(args.key_bits)),
+        ("digit-bits", num(args.digit_bits)),
+        ("region-size", num(args.region_size)),
+        ("static-regions", flag(args.static_regions)),
+        ("approx-cells", num(args.approx_cells)),
     ];
-    for (name, _) in given.iter().filter(|(_, given)| *given) {
+    let mut knobs = Knobs::default();
+    for (name, value) in given.iter().filter_map(|(n, v)| Some((n, v.as_ref()?))) {
         builder.check_knob(name)?;
+        knobs.set(name, value)?;
     }
-    let d = Knobs::default();
-    let knobs = Knobs {
-        coop_top: !args.no_coop_top,
-        deal_per_spe: args.deal_per_spe.map_or(d.deal_per_spe, |v| v as usize),
-        steal: args.steal,
-        agglomerate: args.agglomerate.map_or(d.agglomerate, |v| v as usize),
-        guided: !args.fixed_takes,
-        double_buffer: args.double_buffer,
-        dma_lists: args.dma_lists,
-        prefetch: args.prefetch,
-        key_order: match args.key_order {
-            None => d.key_order,
-            Some(KeyOrderArg::Gh) => KeyOrder::GlobalHeuristic,
-            Some(KeyOrderArg::Xyz) => KeyOrder::RoundRobin,
-        },
-        key_bits: args.key_bits.unwrap_or(d.key_bits),
-        digit_bits: args.digit_bits.map_or(d.digit_bits, |v| v as u32),
-        region_size: args.region_size.map_or(d.region_size, |v| v as usize),
-        static_regions: args.static_regions,
-        approx_max_cells: args.approx_cells.map_or(d.approx_max_cells, |v| v as usize),
-    };
     Ok(Chosen {
         builder,
         cfg,

@@ -200,6 +200,49 @@ impl Knobs {
     };
 }
 
+impl Knobs {
+    /// Sets the knob `--name` to `value` as the command line gives it (an
+    /// empty `value` for a flag). Only parses: each strategy checks the
+    /// ranges of its knobs when it starts, in one place, so that a library
+    /// caller and the command line get the same refusal.
+    pub fn set(&mut self, name: &str, value: &str) -> Result<(), String> {
+        let int = || -> Result<usize, String> {
+            (value.parse::<usize>())
+                .map_err(|_| format!("--{name} takes a whole number, not '{value}'"))
+        };
+        let flag = || -> Result<bool, String> {
+            match value {
+                "" => Ok(true),
+                _ => Err(format!("--{name} is a flag: it takes no value ('{value}')")),
+            }
+        };
+        match name {
+            "no-coop-top" => self.coop_top = !flag()?,
+            "deal-per-spe" => self.deal_per_spe = int()?,
+            "steal" => self.steal = flag()?,
+            "agglomerate" => self.agglomerate = int()?,
+            "fixed-takes" => self.guided = !flag()?,
+            "double-buffer" => self.double_buffer = flag()?,
+            "dma-lists" => self.dma_lists = flag()?,
+            "prefetch" => self.prefetch = flag()?,
+            "key-order" => {
+                self.key_order = match value {
+                    "gh" => KeyOrder::GlobalHeuristic,
+                    "xyz" => KeyOrder::RoundRobin,
+                    _ => return Err(format!("--key-order is gh or xyz, not '{value}'")),
+                }
+            }
+            "key-bits" => self.key_bits = int()? as u32,
+            "digit-bits" => self.digit_bits = int()? as u32,
+            "region-size" => self.region_size = int()?,
+            "static-regions" => self.static_regions = flag()?,
+            "approx-cells" => self.approx_max_cells = int()?,
+            _ => return Err(format!("no strategy has a knob --{name}")),
+        }
+        Ok(())
+    }
+}
+
 impl Default for Knobs {
     fn default() -> Self {
         Knobs {

@@ -44,6 +44,12 @@ fn spawn(
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let max_cells = setup.knobs.approx_max_cells;
+    if !(1..=crate::kernels::approx::MAX_RESOLUTION).contains(&max_cells) {
+        return Err(CellError::Config(format!(
+            "ppe_approx: {max_cells} cells per axis; 1 to {}",
+            crate::kernels::approx::MAX_RESOLUTION
+        )));
+    }
     cell.spawn_ppe(move |ppe| async move {
         let items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
         let (sorted, bih, a) = build_approx(&items, region, &cfg, max_cells);
