@@ -1,6 +1,6 @@
 //! The refactorings of the layout keep every simulated cycle and every
 //! tree: each run below (every builder of the registry, with the paper's
-//! settings, the quality knobs it builds and each of its strategy knobs
+//! settings, the quality knobs it builds and each knob of its table
 //! moved once, on the default scene; every builder on the bunny) is
 //! compared with `tests/golden/runs.txt`, recorded before the move.
 //!
@@ -14,7 +14,7 @@ use cellbih::bih::{Bih, BihConfig, SplitChoice};
 use cellbih::cell::CellConfig;
 use cellbih::registry::{BuildReport, BuilderKind};
 use cellbih::scene::{self, Scene};
-use cellbih::strategy::{KeyOrder, Knobs};
+use cellbih::strategy::Knobs;
 
 /// FNV-1a over the node array's bytes and the triangle ids: two trees with
 /// the same digest are the same tree (nodes and leaf order).
@@ -71,98 +71,12 @@ fn runs() -> BTreeMap<String, String> {
             let label = format!("default {b} --split sah --sah-above 40 --empty-cut 10");
             record(label, build(&default, b, &quality, 6, &d));
         }
-        let knobs: Vec<(&str, Knobs)> = match b.name() {
-            "ppe_approx" => vec![(
-                "--approx-cells 16",
-                Knobs {
-                    approx_max_cells: 16,
-                    ..d
-                },
-            )],
-            "spe_bfs_shared" | "spe_bfs_private" | "spe_morton" => {
-                let mut v = vec![
-                    (
-                        "--double-buffer",
-                        Knobs {
-                            double_buffer: true,
-                            ..d
-                        },
-                    ),
-                    (
-                        "--dma-lists",
-                        Knobs {
-                            dma_lists: true,
-                            ..d
-                        },
-                    ),
-                    (
-                        "--prefetch",
-                        Knobs {
-                            prefetch: true,
-                            ..d
-                        },
-                    ),
-                ];
-                if b.name() != "spe_morton" {
-                    v.push((
-                        "--no-coop-top",
-                        Knobs {
-                            coop_top: false,
-                            ..d
-                        },
-                    ));
-                    v.push((
-                        "--deal-per-spe 1",
-                        Knobs {
-                            deal_per_spe: 1,
-                            ..d
-                        },
-                    ));
-                }
-                match b.name() {
-                    "spe_bfs_shared" => {
-                        v.push((
-                            "--agglomerate 1",
-                            Knobs {
-                                agglomerate: 1,
-                                ..d
-                            },
-                        ));
-                        v.push(("--fixed-takes", Knobs { guided: false, ..d }));
-                    }
-                    "spe_bfs_private" => v.push(("--steal", Knobs { steal: true, ..d })),
-                    _ => {
-                        v.push((
-                            "--key-order xyz",
-                            Knobs {
-                                key_order: KeyOrder::RoundRobin,
-                                ..d
-                            },
-                        ));
-                        v.push(("--key-bits 64", Knobs { key_bits: 64, ..d }));
-                        v.push(("--digit-bits 4", Knobs { digit_bits: 4, ..d }));
-                        v.push((
-                            "--region-size 256",
-                            Knobs {
-                                region_size: 256,
-                                ..d
-                            },
-                        ));
-                        v.push((
-                            "--static-regions",
-                            Knobs {
-                                static_regions: true,
-                                ..d
-                            },
-                        ));
-                    }
-                }
-                v
-            }
-            _ => vec![],
-        };
-        for (flag, k) in knobs {
-            let label = format!("default {b} {flag}");
+        // Each knob of the builder's table moved once, to its `other` value.
+        for knob in b.knobs() {
+            let mut k = Knobs::default();
+            k.set(knob.name, knob.other).unwrap();
+            let flag = format!("--{} {}", knob.name, knob.other);
+            let label = format!("default {b} {}", flag.trim_end());
             record(label, build(&default, b, &BihConfig::DEFAULT, 6, &k));
         }
     }
