@@ -34,6 +34,7 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use super::machinery::arena::NodeWrites;
+use super::machinery::barrier::Barrier;
 use super::machinery::coop::Coop;
 use super::machinery::top::{Common, DEAL_PER_SPE, NO_COOP_TOP, build_top, help_top};
 use super::machinery::work_queue::{SharedSpill, WorkQueue};
@@ -208,6 +209,7 @@ async fn shared_levels(
     let job_bytes = b.queue.stride() as u64;
     let mut taken = 0u64;
     let mut level = 0usize;
+    let mut barrier = Barrier::new(q.arrivals, q.spes);
     loop {
         let (this, next) = (q.levels[level % 2], q.levels[1 - level % 2]);
         b.queue.share(Some(SharedSpill {
@@ -252,7 +254,7 @@ async fn shared_levels(
         b.queue.flush_shared().await?;
         b.drain().await?;
         level += 1;
-        barrier(spe, q, level, line).await?;
+        level_end(spe, q, &mut barrier, line).await?;
     }
 }
 
@@ -270,24 +272,23 @@ fn take_size(left: u32, spes: usize, agglomerate: usize, guided: bool) -> u32 {
     }
 }
 
-/// The end of level `level` (counting from 1): the last SPE to arrive
-/// makes the next level the one to take from (its job count is what was
-/// pushed) and signals the others (signal register 2).
-async fn barrier(spe: &Spe, q: Queue, level: usize, line: LsAddr) -> Result<(), CellError> {
-    let arrived = spe.atomic_fetch_add_u32(line, q.arrivals, 1).await? + 1;
-    if arrived as usize == level * q.spes {
-        let pushed = spe.atomic_update_u32(line, q.push, |_| 0).await?;
-        spe.atomic_update_line(line, q.take, |w| {
-            (w[0], w[1]) = (0, pushed);
-        })
-        .await?;
-        for to in (0..q.spes).filter(|&s| s != spe.id()) {
-            spe.send_signal(to, 2, 1).await?;
-        }
-    } else {
-        spe.read_signal(2).await?;
+/// The end of a level: the last SPE to arrive makes the next level the one
+/// to take from (its job count is what was pushed) and signals the others.
+async fn level_end(
+    spe: &Spe,
+    q: Queue,
+    barrier: &mut Barrier,
+    line: LsAddr,
+) -> Result<(), CellError> {
+    if !barrier.arrive(spe, line).await? {
+        return spe.read_signal(2).await.map(|_| ());
     }
-    Ok(())
+    let pushed = spe.atomic_update_u32(line, q.push, |_| 0).await?;
+    spe.atomic_update_line(line, q.take, |w| {
+        (w[0], w[1]) = (0, pushed);
+    })
+    .await?;
+    barrier.release(spe).await
 }
 
 #[cfg(test)]

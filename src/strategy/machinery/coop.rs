@@ -22,6 +22,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3A;
 
+use super::barrier::Barrier;
 use super::fig1::{BLOCK_BYTES, Fig1Buffers};
 use super::layout::TriRecord;
 use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe, WaitMode};
@@ -97,7 +98,7 @@ pub struct Coop {
     pub area: CoopArea,
     line: LsAddr,
     table_ls: LsAddr,
-    barriers: u32,
+    barrier: Barrier,
     tag: u32,
     /// `Knobs::prefetch`: each block's get overlaps the block before.
     prefetch: bool,
@@ -109,7 +110,7 @@ impl Coop {
             area,
             line: spe.ls_alloc(128, 128)?,
             table_ls: spe.ls_alloc(128 * area.spes as u32, 128)?,
-            barriers: 0,
+            barrier: Barrier::new(area.arrivals, area.spes),
             tag: spe.tag("cooperative partition")?,
             prefetch,
         })
@@ -333,18 +334,6 @@ impl Coop {
     /// Waits until every SPE has arrived: the last to arrive signals the
     /// others.
     async fn barrier(&mut self, spe: &Spe) -> Result<(), CellError> {
-        self.barriers += 1;
-        let n = self.area.spes as u32;
-        let old = spe
-            .atomic_fetch_add_u32(self.line, self.area.arrivals, 1)
-            .await?;
-        if old + 1 == self.barriers * n {
-            for to in (0..self.area.spes).filter(|&s| s != spe.id()) {
-                spe.send_signal(to, 2, 1).await?;
-            }
-        } else {
-            spe.read_signal(2).await?;
-        }
-        Ok(())
+        self.barrier.wait(spe, self.line).await
     }
 }

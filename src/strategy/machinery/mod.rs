@@ -1,11 +1,12 @@
 //! What the emulated strategies share: the triangle records' layout in main
 //! memory ([`layout`]), Fig. 1's five-buffer streaming partition ([`fig1`]),
-//! the ObjectArena ([`arena`]), the WorkA/WorkB job queue of Fig. 2
+//! the ObjectArena ([`arena`]), the counting barrier ([`barrier`]), the WorkA/WorkB job queue of Fig. 2
 //! ([`work_queue`]), section 2's cooperative partition ([`coop`]), the top
 //! levels of the multi-SPE strategies ([`top`]) and the memory footprint
 //! by purpose ([`footprint`]).
 
 pub mod arena;
+pub mod barrier;
 pub mod coop;
 pub mod fig1;
 pub mod footprint;

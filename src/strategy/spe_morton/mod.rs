@@ -41,6 +41,7 @@ use std::rc::Rc;
 use bytemuck::{Pod, Zeroable};
 
 use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
+use super::machinery::barrier::Barrier;
 use super::machinery::layout::TriRecord;
 use super::machinery::top::alloc_pool;
 use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, PREFETCH};
@@ -232,27 +233,6 @@ fn spawn(
     Ok(())
 }
 
-/// A barrier of every SPE on one lock line: arrivals counted by
-/// fetch-and-add; the last to arrive signals the others (register 2).
-struct Barrier {
-    rounds: u32,
-}
-
-impl Barrier {
-    async fn wait(&mut self, spe: &Spe, line: LsAddr, a: &Areas) -> Result<(), CellError> {
-        self.rounds += 1;
-        let old = spe.atomic_fetch_add_u32(line, a.arrivals, 1).await?;
-        if old + 1 == self.rounds * a.spes as u32 {
-            for to in (0..a.spes).filter(|&s| s != spe.id()) {
-                spe.send_signal(to, 2, 1).await?;
-            }
-        } else {
-            spe.read_signal(2).await?;
-        }
-        Ok(())
-    }
-}
-
 /// One node of the top of the tree, as SPE 0 keeps it until the regions'
 /// bounds are known.
 enum Top {
@@ -329,7 +309,7 @@ impl<'a> Program<'a> {
             cfg,
             line: spe.ls_alloc(128, 128)?,
             tags: spe.tags("spe_morton streams", 4)?,
-            barrier: Barrier { rounds: 0 },
+            barrier: Barrier::new(a.arrivals, a.spes),
             arena: ObjectArena::new(spe, a.blocks)?,
             writes: Some(NodeWrites::new(spe, a.pool, true)?),
             items_partitioned: 0,
@@ -354,8 +334,7 @@ impl<'a> Program<'a> {
     }
 
     async fn barrier(&mut self) -> Result<(), CellError> {
-        let (spe, line, a) = (self.spe, self.line, self.a);
-        self.barrier.wait(spe, line, &a).await
+        self.barrier.wait(self.spe, self.line).await
     }
 
     /// A barrier that ends a phase (SPE 0 notes when).
