@@ -363,3 +363,36 @@ fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
     }
     assert_eq!(ppe_messages, 0, "the pool needs no PPE");
 }
+
+/// Each knob of the registry's tables: its declared default is what
+/// `Knobs::default()` holds, and its `other` value moves it.
+#[test]
+fn every_knob_table_states_its_default_and_another_value() {
+    use cellbih::strategy::Knobs;
+    let d = Knobs::default();
+    let knobs: Vec<_> = (BuilderKind::ALL.iter())
+        .flat_map(|b| b.knobs().iter().copied())
+        .collect();
+    assert!(!knobs.is_empty());
+    for k in knobs {
+        let flag = k.other.is_empty();
+        assert_eq!(
+            flag,
+            k.default == "off",
+            "--{}: a flag's default is off",
+            k.name
+        );
+        if !flag {
+            let mut at_default = d;
+            at_default.set(k.name, k.default).unwrap();
+            assert_eq!(
+                at_default, d,
+                "--{} {} is not the default",
+                k.name, k.default
+            );
+        }
+        let mut moved = d;
+        moved.set(k.name, k.other).unwrap();
+        assert_ne!(moved, d, "--{} {} moves nothing", k.name, k.other);
+    }
+}

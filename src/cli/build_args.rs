@@ -10,7 +10,7 @@ use cellbih::cell::CellConfig;
 use cellbih::kernels::sah::{DEFAULT_BINS, MAX_BINS};
 use cellbih::registry::{BuildReport, BuilderKind};
 use cellbih::scene::Scene;
-use cellbih::strategy::Knobs;
+use cellbih::strategy::{Knob, Knobs};
 
 use super::Res;
 
@@ -83,10 +83,6 @@ pub struct BuildArgs {
     pub builder: String,
     #[command(flatten)]
     pub tree: TreeArgs,
-    /// ppe_approx: at most this many cells of the presort grid per axis
-    /// (1 to 1024) [default: 1024].
-    #[arg(long)]
-    pub approx_cells: Option<u64>,
     /// SPEs of the emulated Cell, 1 to 8 (a PS3 program gets 6; 8 is a
     /// whole Cell). Builders that use fewer leave the others idle.
     #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
@@ -100,56 +96,9 @@ pub struct BuildArgs {
     /// or functional (no timing: fastest, for correctness runs).
     #[arg(long, value_enum, default_value = "checked")]
     pub mode: Mode,
-    /// Multi-SPE builders: the SPEs do not help partition the top levels
-    /// (they wait for the deal instead).
-    #[arg(long)]
-    pub no_coop_top: bool,
-    /// Multi-SPE builders: the top levels end at the first level with this
-    /// many jobs per SPE (1 to 16) [default: 4].
-    #[arg(long)]
-    pub deal_per_spe: Option<u64>,
-    /// Multi-SPE builders: the dealt jobs stay in per-SPE lists and an SPE
-    /// whose list is empty steals from another's (the atomic unit).
-    #[arg(long)]
-    pub steal: bool,
-    /// spe_bfs_shared: jobs taken from the shared queue per atomic
-    /// operation (1 to 256) [default: 16].
-    #[arg(long)]
-    pub agglomerate: Option<u64>,
-    /// spe_bfs_shared: every take is --agglomerate jobs, not an SPE's
-    /// share of the jobs left (guided self-scheduling, the default).
-    #[arg(long)]
-    pub fixed_takes: bool,
-    /// Multi-SPE builders: double-buffered WorkA/WorkB (no synchronous
-    /// job-queue DMA; section 5).
-    #[arg(long)]
-    pub double_buffer: bool,
-    /// Multi-SPE builders: DMA lists for agglomerated jobs (section 5).
-    #[arg(long)]
-    pub dma_lists: bool,
-    /// Multi-SPE builders: the next batch's get overlaps this batch's
-    /// partition.
-    #[arg(long)]
-    pub prefetch: bool,
-    /// spe_morton: the keys' bit order: the global heuristic's halvings
-    /// (gh: the baseline's tree) or round robin x, y, z (xyz: LBVH)
-    /// [default: gh].
-    #[arg(long, value_enum)]
-    pub key_order: Option<KeyOrderArg>,
-    /// spe_morton: key bits, 32 or 64 [default: 32].
-    #[arg(long)]
-    pub key_bits: Option<u64>,
-    /// spe_morton: bits per radix-sort pass (4 to 11) [default: 8].
-    #[arg(long)]
-    pub digit_bits: Option<u64>,
-    /// spe_morton: the largest region built by one SPE alone (triangles)
-    /// [default: 2048].
-    #[arg(long)]
-    pub region_size: Option<u64>,
-    /// spe_morton: regions dealt before the builds, not taken from an
-    /// atomic counter.
-    #[arg(long)]
-    pub static_regions: bool,
+    /// The strategies' knobs, as the registry's tables declare them.
+    #[command(flatten)]
+    pub knobs: KnobArgs,
 }
 
 /// `--mode`: the emulator's own speed/accuracy trade.
@@ -165,13 +114,6 @@ pub enum Mode {
 pub enum SplitArg {
     Gh,
     Sah,
-}
-
-/// `--key-order`.
-#[derive(Clone, Copy, ValueEnum)]
-pub enum KeyOrderArg {
-    Gh,
-    Xyz,
 }
 
 /// What `--builder` and its options ask for.
@@ -215,32 +157,10 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
     if let Mode::Functional = args.mode {
         cell.cost = cellbih::cell::CostModel::functional();
     }
-    // The strategy knobs given, as the command line spells them: one the
-    // builder does not take is an error, not ignored; the strategy checks
-    // the values' ranges when it starts.
-    let flag = |on: bool| on.then(String::new);
-    let num = |v: Option<u64>| v.map(|v| v.to_string());
-    let given = [
-        ("no-coop-top", flag(args.no_coop_top)),
-        ("deal-per-spe", num(args.deal_per_spe)),
-        ("steal", flag(args.steal)),
-        ("agglomerate", num(args.agglomerate)),
-        ("fixed-takes", flag(args.fixed_takes)),
-        ("double-buffer", flag(args.double_buffer)),
-        ("dma-lists", flag(args.dma_lists)),
-        ("prefetch", flag(args.prefetch)),
-        (
-            "key-order",
-            (args.key_order).map(|o| o.to_possible_value().unwrap().get_name().to_string()),
-        ),
-        ("key-bits", num(args.key_bits)),
-        ("digit-bits", num(args.digit_bits)),
-        ("region-size", num(args.region_size)),
-        ("static-regions", flag(args.static_regions)),
-        ("approx-cells", num(args.approx_cells)),
-    ];
+    // A knob the builder does not take is an error, not ignored; the
+    // strategy checks the values' ranges when it starts.
     let mut knobs = Knobs::default();
-    for (name, value) in given.iter().filter_map(|(n, v)| Some((n, v.as_ref()?))) {
+    for (name, value) in &args.knobs.given {
         builder.check_knob(name)?;
         knobs.set(name, value)?;
     }
@@ -250,4 +170,72 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
         cell,
         knobs,
     })
+}
+
+/// The options of every strategy knob of the registry (`--NAME` for a
+/// flag, `--NAME VALUE` otherwise), made from the builders' tables, and the
+/// ones given.
+#[derive(Default)]
+pub struct KnobArgs {
+    /// (name, value) of each knob given; an empty value for a flag.
+    pub given: Vec<(&'static str, String)>,
+}
+
+/// Every knob of the registry's tables, once each, in table order.
+fn every_knob() -> Vec<&'static Knob> {
+    let mut seen: Vec<&'static Knob> = Vec::new();
+    for k in BuilderKind::ALL
+        .iter()
+        .flat_map(|b| b.knobs().iter().copied())
+    {
+        if !seen.iter().any(|s| s.name == k.name) {
+            seen.push(k);
+        }
+    }
+    seen
+}
+
+impl clap::FromArgMatches for KnobArgs {
+    fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
+        let mut args = KnobArgs::default();
+        args.update_from_arg_matches(m)?;
+        Ok(args)
+    }
+
+    fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
+        for k in every_knob() {
+            if k.other.is_empty() {
+                if m.get_flag(k.name) {
+                    self.given.push((k.name, String::new()));
+                }
+            } else if let Some(v) = m.get_one::<String>(k.name) {
+                self.given.push((k.name, v.clone()));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl clap::Args for KnobArgs {
+    fn augment_args(cmd: clap::Command) -> clap::Command {
+        let mut cmd = cmd;
+        for k in every_knob() {
+            let takers: Vec<&str> = (BuilderKind::ALL.iter())
+                .filter(|b| b.knobs().iter().any(|t| t.name == k.name))
+                .map(|b| b.name())
+                .collect();
+            let help = format!("{}: {} [default: {}]", takers.join(", "), k.help, k.default);
+            let arg = clap::Arg::new(k.name).long(k.name).help(help);
+            cmd = cmd.arg(if k.other.is_empty() {
+                arg.action(clap::ArgAction::SetTrue)
+            } else {
+                arg.value_name("VALUE").action(clap::ArgAction::Set)
+            });
+        }
+        cmd
+    }
+
+    fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
+        Self::augment_args(cmd)
+    }
 }

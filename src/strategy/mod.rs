@@ -99,6 +99,9 @@ pub struct Knob {
     pub name: &'static str,
     /// One line: what it does.
     pub help: &'static str,
+    /// The default value, as the command line spells it ("off" for a
+    /// flag); [`Knobs::default`] holds it.
+    pub default: &'static str,
     /// A value other than the default, as the command line takes it (empty
     /// for a flag): what tests and experiments try.
     pub other: &'static str,

@@ -33,6 +33,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 pub const APPROX_CELLS: super::Knob = super::Knob {
     name: "approx-cells",
     help: "at most this many cells of the presort grid per axis (1 to 1024)",
+    default: "1024",
     other: "16",
 };
 

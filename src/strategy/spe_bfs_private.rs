@@ -55,6 +55,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 pub const STEAL: Knob = Knob {
     name: "steal",
     help: "dealt jobs stay in per-SPE lists; an SPE whose list is empty steals from another's",
+    default: "off",
     other: "",
 };
 

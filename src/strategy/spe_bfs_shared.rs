@@ -65,12 +65,14 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 pub const AGGLOMERATE: Knob = Knob {
     name: "agglomerate",
     help: "jobs taken from the shared queue per atomic operation (1 to 256)",
+    default: "16",
     other: "1",
 };
 /// `--fixed-takes`: [`super::Knobs::guided`] off.
 pub const FIXED_TAKES: Knob = Knob {
     name: "fixed-takes",
     help: "every take is --agglomerate jobs, not an SPE's share of the jobs left",
+    default: "off",
     other: "",
 };
 

@@ -22,12 +22,14 @@ use crate::strategy::{Knobs, Output, SpeWork};
 pub const NO_COOP_TOP: crate::strategy::Knob = crate::strategy::Knob {
     name: "no-coop-top",
     help: "the SPEs do not help partition the top levels (they wait for the deal)",
+    default: "off",
     other: "",
 };
 /// `--deal-per-spe N`: [`Knobs::deal_per_spe`].
 pub const DEAL_PER_SPE: crate::strategy::Knob = crate::strategy::Knob {
     name: "deal-per-spe",
     help: "the top levels end at the first level with this many jobs per SPE (1 to 16)",
+    default: "4",
     other: "1",
 };
 

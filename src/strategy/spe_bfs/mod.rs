@@ -101,18 +101,21 @@ fn spawn(
 pub const DOUBLE_BUFFER: super::Knob = super::Knob {
     name: "double-buffer",
     help: "double-buffered WorkA/WorkB: no synchronous job-queue DMA (section 5)",
+    default: "off",
     other: "",
 };
 /// `--dma-lists`: [`Knobs::dma_lists`].
 pub const DMA_LISTS: super::Knob = super::Knob {
     name: "dma-lists",
     help: "DMA lists gather and scatter the intervals of agglomerated jobs (section 5)",
+    default: "off",
     other: "",
 };
 /// `--prefetch`: [`Knobs::prefetch`].
 pub const PREFETCH: super::Knob = super::Knob {
     name: "prefetch",
     help: "the next batch's get overlaps this batch's partition",
+    default: "off",
     other: "",
 };
 

@@ -74,30 +74,35 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 pub const KEY_ORDER: Knob = Knob {
     name: "key-order",
     help: "the keys' bit order: the global heuristic's halvings (gh) or round robin x, y, z (xyz)",
+    default: "gh",
     other: "xyz",
 };
 /// `--key-bits 32|64`: [`Knobs::key_bits`].
 pub const KEY_BITS: Knob = Knob {
     name: "key-bits",
     help: "key bits, 32 or 64",
+    default: "32",
     other: "64",
 };
 /// `--digit-bits N`: [`Knobs::digit_bits`].
 pub const DIGIT_BITS: Knob = Knob {
     name: "digit-bits",
     help: "bits per radix-sort pass (4 to 11)",
+    default: "8",
     other: "4",
 };
 /// `--region-size N`: [`Knobs::region_size`].
 pub const REGION_SIZE: Knob = Knob {
     name: "region-size",
     help: "the largest region built by one SPE alone (triangles)",
+    default: "2048",
     other: "256",
 };
 /// `--static-regions`: [`Knobs::static_regions`].
 pub const STATIC_REGIONS: Knob = Knob {
     name: "static-regions",
     help: "regions dealt before the builds, not taken from an atomic counter",
+    default: "off",
     other: "",
 };
 
