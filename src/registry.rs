@@ -8,12 +8,13 @@ use std::time::{Duration, Instant};
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig};
-use crate::cell::{CellConfig, CellError, RunReport};
+use crate::cell::{CellConfig, CellError};
 use crate::host::HostBuilder;
 use crate::scene::Scene;
 use crate::strategy::{self, Strategy};
 
 pub use crate::bih::Quality;
+pub use crate::strategy::Simulated;
 
 /// A handle on one of the registered builders; what `--builder` names.
 /// Each is a value its own file defines: a [`HostBuilder`] or a
@@ -216,19 +217,8 @@ impl BuilderKind {
         let (bih, simulated) = match self.0 {
             Family::Host(b) => ((b.build)(scene, region, cfg), None),
             Family::Cell(s) => {
-                let b = strategy::run_in(s.spawn, scene, region, cfg, cell, knobs)?;
-                let footprint = strategy::machinery::footprint::Footprint::of(&b.run, &b.bih);
-                (
-                    b.bih,
-                    Some(Simulated {
-                        footprint,
-                        run: b.run,
-                        stats: b.stats,
-                        spe_work: b.spe_work,
-                        phases: b.phases,
-                        trace: b.trace,
-                    }),
-                )
+                let (bih, simulated) = strategy::run_in(s.spawn, scene, region, cfg, cell, knobs)?;
+                (bih, Some(simulated))
             }
         };
         Ok(BuildReport {
@@ -243,38 +233,6 @@ impl BuilderKind {
 impl std::fmt::Display for BuilderKind {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
-    }
-}
-
-/// What an emulated build cost on the Cell.
-#[derive(Clone, Debug)]
-pub struct Simulated {
-    pub run: RunReport,
-    pub stats: crate::kernels::recursion::BuildStats,
-    /// Multi-SPE builders: what each SPE did (jobs, arena blocks).
-    pub spe_work: Vec<strategy::SpeWork>,
-    /// Strategies made of phases: each phase's name and the cycle it
-    /// ended at.
-    pub phases: Vec<(&'static str, u64)>,
-    /// The timeline, if the Cell's config asked for it.
-    pub trace: Option<crate::cell::Trace>,
-    /// Main memory by purpose, local-store high-water marks.
-    pub footprint: strategy::machinery::footprint::Footprint,
-}
-
-impl Simulated {
-    /// Each phase's name and simulated milliseconds, in order (empty for
-    /// strategies without phases).
-    pub fn phase_ms(&self) -> Vec<(&'static str, f64)> {
-        let ms_per_cycle = self.run.ms / self.run.cycles.0.max(1) as f64;
-        let mut start = 0;
-        (self.phases.iter())
-            .map(|&(name, end)| {
-                let ms = end.saturating_sub(start) as f64 * ms_per_cycle;
-                start = end;
-                (name, ms)
-            })
-            .collect()
     }
 }
 

@@ -363,17 +363,37 @@ fn check_jobs(work: &[SpeWork], nodes: usize) -> Result<(), CellError> {
     })
 }
 
-/// A tree built on the emulated Cell and what it cost there.
-pub struct CellBuild {
-    pub bih: Bih,
+/// What a build on the emulated Cell cost there: the one result of a
+/// strategy beside its tree ([`run_in`]).
+#[derive(Clone, Debug)]
+pub struct Simulated {
     pub run: RunReport,
     pub stats: BuildStats,
-    /// Multi-SPE strategies: what each SPE did.
+    /// Multi-SPE builders: what each SPE did (jobs, arena blocks).
     pub spe_work: Vec<SpeWork>,
-    /// Phases and the cycle each ended at ([`Output::phases`]).
+    /// Strategies made of phases: each phase's name and the cycle it
+    /// ended at.
     pub phases: Vec<(&'static str, u64)>,
-    /// The timeline, if `cell_cfg.trace` was set.
+    /// The timeline, if the Cell's config asked for it.
     pub trace: Option<Trace>,
+    /// Main memory by purpose, local-store high-water marks.
+    pub footprint: machinery::footprint::Footprint,
+}
+
+impl Simulated {
+    /// Each phase's name and simulated milliseconds, in order (empty for
+    /// strategies without phases).
+    pub fn phase_ms(&self) -> Vec<(&'static str, f64)> {
+        let ms_per_cycle = self.run.ms / self.run.cycles.0.max(1) as f64;
+        let mut start = 0;
+        (self.phases.iter())
+            .map(|&(name, end)| {
+                let ms = end.saturating_sub(start) as f64 * ms_per_cycle;
+                start = end;
+                (name, ms)
+            })
+            .collect()
+    }
 }
 
 /// Builds the tree of `scene` with the strategy `spawn` starts, on a Cell
@@ -388,7 +408,7 @@ pub fn run_in(
     cfg: &BihConfig,
     cell_cfg: &CellConfig,
     knobs: &Knobs,
-) -> Result<CellBuild, CellError> {
+) -> Result<(Bih, Simulated), CellError> {
     assert!(
         region.contains_box(&scene.bounds()),
         "the region must contain the scene"
@@ -427,14 +447,15 @@ pub fn run_in(
         bounds: region,
         config: *cfg,
     };
-    Ok(CellBuild {
-        bih,
+    let simulated = Simulated {
+        footprint: machinery::footprint::Footprint::of(&run, &bih),
         run,
         stats: o.stats,
         spe_work: o.spe_work.clone(),
         phases: o.phases.clone(),
         trace: cell.take_trace(),
-    })
+    };
+    Ok((bih, simulated))
 }
 
 #[cfg(test)]
