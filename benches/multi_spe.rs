@@ -19,40 +19,22 @@ use simulated::SimulatedTime;
 
 const SPES: usize = 6;
 
-/// The baseline and every multi-SPE builder, the latter with its
-/// defaults and, for the breadth-first ones, without the cooperative top
-/// and with section 5's queue improvements (double-buffered WorkA/WorkB,
-/// DMA lists, prefetched batches); `spe_morton` also with round-robin
-/// keys: (label, builder, knobs).
+/// The baseline and every multi-SPE builder, the latter with its defaults
+/// and with its strategy's settings of several knobs at once
+/// ([`BuilderKind::combos`]: section 5's queue improvements for the
+/// breadth-first ones): (label, builder, knobs).
 fn variants() -> Vec<(String, BuilderKind, Knobs)> {
     let mut v = vec![(
         "spe_bfs".to_string(),
         BuilderKind::SPE_BFS,
         Knobs::default(),
     )];
-    let d = Knobs::default();
-    let off = Knobs {
-        coop_top: false,
-        ..d
-    };
-    let queue = Knobs {
-        double_buffer: true,
-        dma_lists: true,
-        prefetch: true,
-        ..d
-    };
     for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
-        v.push((b.name().to_string(), b, d));
-        if b.name() == "spe_morton" {
-            let rr = Knobs {
-                key_order: cellbih::strategy::KeyOrder::RoundRobin,
-                ..d
-            };
-            v.push((format!("{}_xyz", b.name()), b, rr));
-            continue;
+        v.push((b.name().to_string(), b, Knobs::default()));
+        for knobs in b.combos() {
+            let options = knobs.spelled().replace("--", "").replace(' ', "_");
+            v.push((format!("{}_{options}", b.name()), b, knobs));
         }
-        v.push((format!("{}_no_coop_top", b.name()), b, off));
-        v.push((format!("{}_queue_knobs", b.name()), b, queue));
     }
     v
 }

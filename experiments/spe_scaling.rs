@@ -54,147 +54,23 @@ struct Variant {
     name: String,
 }
 
-/// Every multi-SPE builder: its defaults, without the cooperative top,
-/// with its own knobs (work stealing; one job or 64 per take, fixed
-/// takes), with each of
-/// section 5's queue improvements alone, with all of them, and (private)
-/// all of them dealt at two jobs per SPE. Named by their CLI options.
+/// Every multi-SPE builder with each knob setting its registry entry
+/// sweeps ([`BuilderKind::sweeps`]: its defaults, each knob's sweep values
+/// alone, its settings of several knobs at once). Named by their CLI
+/// options.
 fn variants() -> Vec<Variant> {
-    let d = Knobs::default();
-    let all = Knobs {
-        double_buffer: true,
-        dma_lists: true,
-        prefetch: true,
-        ..d
-    };
     let mut v = Vec::new();
     for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
-        if b.name() == "spe_morton" {
-            v.extend(morton_variants(b));
-            continue;
-        }
-        let shared = b.name() == "spe_bfs_shared";
-        let mut settings = vec![
-            ("", d),
-            (
-                " --no-coop-top",
-                Knobs {
-                    coop_top: false,
-                    ..d
-                },
-            ),
-            (
-                " --double-buffer",
-                Knobs {
-                    double_buffer: true,
-                    ..d
-                },
-            ),
-            (
-                " --dma-lists",
-                Knobs {
-                    dma_lists: true,
-                    ..d
-                },
-            ),
-            (
-                " --prefetch",
-                Knobs {
-                    prefetch: true,
-                    ..d
-                },
-            ),
-            (" --double-buffer --dma-lists --prefetch", all),
-        ];
-        if shared {
-            settings.splice(
-                2..2,
-                [
-                    (
-                        " --agglomerate 1",
-                        Knobs {
-                            agglomerate: 1,
-                            ..d
-                        },
-                    ),
-                    (
-                        " --agglomerate 64",
-                        Knobs {
-                            agglomerate: 64,
-                            ..d
-                        },
-                    ),
-                    (" --fixed-takes", Knobs { guided: false, ..d }),
-                ],
-            );
-        } else {
-            settings.insert(2, (" --steal", Knobs { steal: true, ..d }));
-            settings.push((
-                " --double-buffer --dma-lists --prefetch --deal-per-spe 2",
-                Knobs {
-                    deal_per_spe: 2,
-                    ..all
-                },
-            ));
-        }
-        for (flags, knobs) in settings {
+        for knobs in b.sweeps() {
+            let name = format!("{} {}", b.name(), knobs.spelled());
             v.push(Variant {
                 builder: b,
+                name: name.trim_end().to_string(),
                 knobs,
-                name: format!("{}{flags}", b.name()),
             });
         }
     }
     v
-}
-
-/// `spe_morton`: its defaults (global heuristic's order, 32-bit keys,
-/// 8-bit digits, regions of 2,048, taken from an atomic counter) and each
-/// knob changed alone.
-fn morton_variants(b: BuilderKind) -> Vec<Variant> {
-    let d = Knobs::default();
-    let rr = cellbih::strategy::KeyOrder::RoundRobin;
-    [
-        ("", d),
-        (" --key-order xyz", Knobs { key_order: rr, ..d }),
-        (" --key-bits 64", Knobs { key_bits: 64, ..d }),
-        (" --digit-bits 4", Knobs { digit_bits: 4, ..d }),
-        (
-            " --digit-bits 11",
-            Knobs {
-                digit_bits: 11,
-                ..d
-            },
-        ),
-        (
-            " --region-size 512",
-            Knobs {
-                region_size: 512,
-                ..d
-            },
-        ),
-        (
-            " --region-size 8192",
-            Knobs {
-                region_size: 8192,
-                ..d
-            },
-        ),
-        (
-            " --static-regions",
-            Knobs {
-                static_regions: true,
-                ..d
-            },
-        ),
-    ]
-    .into_iter()
-    .map(|(flags, knobs)| Variant {
-        builder: b,
-        knobs,
-        name: format!("{}{flags}", b.name()),
-    })
-    .collect()
 }
 
 fn main() {

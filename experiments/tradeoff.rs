@@ -35,7 +35,7 @@ use cellbih::report::{
     Format, Series, output, print_rows, scatter_plot, write_json, write_rows_csv,
 };
 use cellbih::scene::{self, Scene};
-use cellbih::strategy::{KeyOrder, Knobs};
+use cellbih::strategy::Knobs;
 
 #[derive(Parser)]
 struct Args {
@@ -71,8 +71,8 @@ struct Setting {
 /// Every builder with leaf size 12 and 4 × the quality knobs it builds
 /// (global heuristic and binned SAH × no cut-off, 10 % and 30 %), a depth
 /// limit of 16 for the builders that run the host recursion, and each
-/// builder's own knobs (ppe_approx's grid, spe_morton's key order, key
-/// width and region size).
+/// knob setting the registry sweeps for the builder
+/// ([`BuilderKind::sweeps`]) at the paper's tree settings.
 fn settings() -> Vec<Setting> {
     let (d, k) = (BihConfig::default(), Knobs::default());
     let mut v = Vec::new();
@@ -107,36 +107,19 @@ fn settings() -> Vec<Setting> {
                         empty_cut: cut,
                         ..d
                     };
-                    push(b, cfg, k, &cfg.flags());
+                    push(b, cfg, k.clone(), &cfg.flags());
                 }
             }
         }
         if q == Quality::ALL {
             let deep = BihConfig { max_depth: 16, ..d };
-            push(b, deep, k, &deep.flags());
+            push(b, deep, k.clone(), &deep.flags());
         }
-        match b.name() {
-            "ppe_approx" => {
-                let coarse = Knobs {
-                    approx_max_cells: 64,
-                    ..k
-                };
-                push(b, d, coarse, "--approx-cells 64");
-            }
-            "spe_morton" => {
-                let xyz = Knobs {
-                    key_order: KeyOrder::RoundRobin,
-                    ..k
-                };
-                push(b, d, xyz, "--key-order xyz");
-                push(b, d, Knobs { key_bits: 64, ..k }, "--key-bits 64");
-                let small = Knobs {
-                    region_size: 512,
-                    ..k
-                };
-                push(b, d, small, "--region-size 512");
-            }
-            _ => {}
+        // Each knob setting the registry sweeps for the builder, at the
+        // paper's tree settings (the defaults are the first, built above).
+        for knobs in b.sweeps().into_iter().skip(1) {
+            let flags = knobs.spelled();
+            push(b, d, knobs, &flags);
         }
     }
     v

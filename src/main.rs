@@ -208,7 +208,11 @@ fn run(cli: Cli) -> Res<()> {
                 let w = width.unwrap_or(0);
                 println!("{:<w$} {}{knobs}", b.name(), b.describe());
                 for k in b.knobs() {
-                    println!("{:<w$}   --{:<15} {}", "", k.name, k.help);
+                    let range = match k.is_flag() {
+                        true => String::new(),
+                        false => format!(" ({}; default {})", k.range(), k.default_text()),
+                    };
+                    println!("{:<w$}   --{:<15} {}{range}", "", k.name, k.help);
                 }
             }
             Ok(())

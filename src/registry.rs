@@ -106,6 +106,58 @@ impl BuilderKind {
         }
     }
 
+    /// The knob `--name` of the builder's table, or an error naming the
+    /// builders that take it.
+    pub fn knob(self, name: &str) -> Result<&'static strategy::Knob, CellError> {
+        self.check_knob(name)?;
+        Ok(self.knobs().iter().find(|k| k.name == name).unwrap())
+    }
+
+    /// Sets the builder's knob `--name` to `value` as the command line
+    /// gives it (empty for a flag): an error names a knob it does not take
+    /// (and the builders that do), or a value out of the knob's range.
+    pub fn set_knob(
+        self,
+        knobs: &mut strategy::Knobs,
+        name: &str,
+        value: &str,
+    ) -> Result<(), CellError> {
+        knobs
+            .set(self.knob(name)?, value)
+            .map_err(|e| CellError::Config(format!("builder {self}: {e}")))
+    }
+
+    /// The knob settings experiments try with this builder, each named by
+    /// its options ([`strategy::Knobs::spelled`]): the defaults first,
+    /// then each knob's sweep values alone, in table order, then the
+    /// strategy's settings of several knobs at once ([`Self::combos`]).
+    pub fn sweeps(self) -> Vec<strategy::Knobs> {
+        let alone = (self.knobs().iter())
+            .flat_map(|&k| k.sweep.iter().map(move |&v| self.knobs_of(&[(k, v)])));
+        std::iter::once(strategy::Knobs::default())
+            .chain(alone)
+            .chain(self.combos())
+            .collect()
+    }
+
+    /// The strategy's settings of several knobs at once (benches try these
+    /// beside the defaults).
+    pub fn combos(self) -> Vec<strategy::Knobs> {
+        match self.0 {
+            Family::Host(_) => Vec::new(),
+            Family::Cell(s) => s.combos.iter().map(|c| self.knobs_of(c)).collect(),
+        }
+    }
+
+    /// Knobs with these values, which the builder's tables declare.
+    fn knobs_of(self, pairs: &[(&'static strategy::Knob, &str)]) -> strategy::Knobs {
+        let mut k = strategy::Knobs::default();
+        for &(knob, value) in pairs {
+            (k.set(knob, value)).unwrap_or_else(|e| panic!("{self}'s table: {e}"));
+        }
+        k
+    }
+
     /// Refuses a strategy knob (`--NAME`) the builder does not take,
     /// naming the builders that take it.
     pub fn check_knob(self, name: &str) -> Result<(), CellError> {
@@ -212,6 +264,9 @@ impl BuilderKind {
                 "builder {self} builds {builds} only; {} build these settings",
                 with.join(", ")
             )));
+        }
+        for k in knobs.given() {
+            self.check_knob(k.name)?;
         }
         let start = Instant::now();
         let (bih, simulated) = match self.0 {

@@ -229,7 +229,7 @@ fn sizes_past_their_limits_are_refused_at_once() {
         ),
         (&["build", "--leaf-size", "0"][..], "0 is not in 1.."),
         (&["build", "--spes", "9"][..], "9 is not in 1..=8"),
-        // A strategy checks its knobs' ranges itself, once, when it starts.
+        // A knob's range is its table's, checked once, when it is set.
         (
             &[
                 "build",
@@ -238,23 +238,23 @@ fn sizes_past_their_limits_are_refused_at_once() {
                 "--deal-per-spe",
                 "17",
             ][..],
-            "17 jobs per SPE; 1 to 16",
+            "builder spe_bfs_private: --deal-per-spe 17: 1 to 16",
         ),
         (
             &["build", "--builder", "spe_morton", "--digit-bits", "3"][..],
-            "3-bit digits; 4 to 11",
+            "--digit-bits 3: 4 to 11",
         ),
         (
             &["build", "--builder", "spe_morton", "--key-bits", "48"][..],
-            "48-bit keys; 32 or 64",
+            "--key-bits is 32 or 64, not '48'",
         ),
         (
             &["build", "--builder", "ppe_approx", "--approx-cells", "0"][..],
-            "0 cells per axis; 1 to 1024",
+            "--approx-cells 0: 1 to 1024",
         ),
         (
             &["build", "--builder", "spe_bfs_shared", "--agglomerate", "0"][..],
-            "0 jobs per take; 1 to 256",
+            "--agglomerate 0: 1 to 256",
         ),
     ] {
         assert_fails_with(&run_limited(exe, args, limit), msg);
@@ -560,8 +560,8 @@ fn a_knob_is_taken_by_the_builders_that_declare_it_and_refused_by_the_rest() {
             let flag = format!("--{}", k.name);
             let mut args = vec!["build", "--scene", "default", "--builder", b.name()];
             args.extend(["--mode", "functional", flag.as_str()]);
-            if !k.other.is_empty() {
-                args.push(k.other);
+            if !k.is_flag() {
+                args.push(k.sweep[0]);
             }
             let out = cellbih(&args);
             let takes = b.knobs().iter().any(|t| t.name == k.name);

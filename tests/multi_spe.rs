@@ -1,8 +1,9 @@
-//! The multi-SPE strategies of section 5 (`spe_bfs_shared`,
-//! `spe_bfs_private`) with every knob, on 1 to 8 SPEs: the baseline's tree
-//! (same splits, same leaves; only numbering may differ), valid, equal to
-//! brute force at the extremes, and the same cycles, counters and nodes on
-//! every run.
+//! Section 5's multi-SPE strategies (every builder of the registry that
+//! puts every SPE to work) with every knob setting their tables sweep, on
+//! 1 to 8 SPEs: the baseline's tree (same splits, same leaves; only
+//! numbering may differ) unless a knob that changes the tree is set,
+//! valid, equal to brute force at the extremes, and the same cycles,
+//! counters and nodes on every run.
 
 mod common;
 
@@ -10,79 +11,30 @@ use cellbih::bih::{BihConfig, SplitChoice, Tracer};
 use cellbih::cell::CellConfig;
 use cellbih::registry::BuilderKind;
 use cellbih::scene::{self, Scene};
-use cellbih::strategy::Knobs;
+use cellbih::strategy::{Kind, Knobs};
 use common::same_tree_structure;
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;
 
-fn builder(name: &str) -> BuilderKind {
-    BuilderKind::from_name(name).unwrap()
+/// The builders that put every SPE to work.
+fn multi_spe() -> Vec<BuilderKind> {
+    let v: Vec<BuilderKind> = (BuilderKind::ALL.iter().copied())
+        .filter(|b| b.multi_spe())
+        .collect();
+    assert!(!v.is_empty(), "the registry has no multi-SPE builder");
+    v
 }
 
 /// The knob settings a builder is checked with, each with the SPE counts
-/// it runs on: the first levels alone and helped (on every count), each
-/// of section 5's queue improvements alone, and everything at once.
-fn settings(name: &str) -> Vec<(&'static str, Knobs, Vec<usize>)> {
-    let every: Vec<usize> = (1..=8).collect();
-    let some = vec![1, 3, 8];
-    let d = Knobs::default();
-    let mut v = vec![
-        (
-            "no coop top",
-            Knobs {
-                coop_top: false,
-                ..d
-            },
-            every.clone(),
-        ),
-        ("default", d, every.clone()),
-        (
-            "double buffer",
-            Knobs {
-                double_buffer: true,
-                ..d
-            },
-            some.clone(),
-        ),
-        (
-            "dma lists",
-            Knobs {
-                dma_lists: true,
-                ..d
-            },
-            some.clone(),
-        ),
-        (
-            "prefetch",
-            Knobs {
-                prefetch: true,
-                ..d
-            },
-            some.clone(),
-        ),
-    ];
-    let all = Knobs {
-        double_buffer: true,
-        dma_lists: true,
-        prefetch: true,
-        ..d
-    };
-    if name == "spe_bfs_private" {
-        v.push(("steal", Knobs { steal: true, ..d }, every.clone()));
-        v.push(("all, stealing", Knobs { steal: true, ..all }, every));
-    } else {
-        v.push((
-            "one job per take",
-            Knobs {
-                agglomerate: 1,
-                ..d
-            },
-            some.clone(),
-        ));
-        v.push(("fixed takes", Knobs { guided: false, ..d }, some));
-        v.push(("all", all, every));
-    }
-    v
+/// it runs on: its defaults on every count, every other setting its
+/// registry entry sweeps on 1, 3 and 8.
+fn settings(b: BuilderKind) -> Vec<(Knobs, Vec<usize>)> {
+    (b.sweeps().into_iter().enumerate())
+        .map(|(i, k)| match i {
+            0 => (k, (1..=8).collect()),
+            _ => (k, vec![1, 3, 8]),
+        })
+        .collect()
 }
 
 /// Builds `s` with `b` and checks the run against the baseline's tree and
@@ -99,7 +51,9 @@ fn check_build(
     let r = build();
     r.bih.validate(s).unwrap_or_else(|v| panic!("{what}: {v}"));
     let base = BuilderKind::SPE_BFS.build(s, cfg).unwrap();
-    same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{what}: {e}"));
+    if !knobs.change_the_tree() {
+        same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{what}: {e}"));
+    }
     common::check_multi_spe_runs(&r, &build(), what);
     let a = r.simulated.unwrap();
     if spes > 1 && s.len() > 10_000 {
@@ -115,24 +69,24 @@ fn check_build(
     a.run.cycles.0
 }
 
-/// Both builders with every setting, on scenes large enough for every
-/// path: levels that spill, intervals over 16 KiB and under, several
-/// arena blocks per SPE. With several SPEs, helping with the top levels
-/// pays.
-fn every_setting_gives_the_baseline_tree(name: &str) {
-    let b = builder(name);
+/// A builder with every setting, on scenes large enough for every path:
+/// levels that spill, intervals over 16 KiB and under, several arena
+/// blocks per SPE, regions in and out of a local store. Where the SPEs can
+/// wait instead of helping with the top levels, helping pays.
+fn every_setting_gives_the_baseline_tree(b: BuilderKind) {
     for spec in ["default", "car", "rtperf:30000:3"] {
         let s = scene::load(spec, None).unwrap();
         let mut by_setting = std::collections::HashMap::new();
-        for (label, knobs, counts) in settings(name) {
+        for (knobs, counts) in settings(b) {
+            let label = knobs.spelled();
             for spes in counts {
-                let what = format!("{name}, {spec} on {spes} SPEs, {label}");
+                let what = format!("{b} {label}, {spec} on {spes} SPEs");
                 let cycles = check_build(b, &s, spes, (&knobs, &BihConfig::default()), &what);
-                by_setting.insert((label, spes), cycles);
+                by_setting.insert((label.clone(), spes), cycles);
             }
         }
-        // The quality knobs: the jobs carry their regions through the
-        // deal, the shared queue and the spills; split jobs bin their
+        // The quality knobs it builds: the jobs carry their regions through
+        // the deal, the shared queue and the spills; split jobs bin their
         // triangles.
         let cut = BihConfig {
             empty_cut: Some(10),
@@ -145,87 +99,33 @@ fn every_setting_gives_the_baseline_tree(name: &str) {
             },
             ..BihConfig::SAH_CUT
         };
-        for (cfg, flags) in [
-            (cut, "--empty-cut 10"),
-            (BihConfig::SAH_CUT, "--split sah --empty-cut 10"),
-            (sah_above, "--split sah --sah-above 40 --empty-cut 10"),
-        ] {
-            for spes in [1, 3, 8] {
-                let what = format!("{name}, {spec} on {spes} SPEs, {flags}");
+        for cfg in [cut, BihConfig::SAH_CUT, sah_above] {
+            for spes in [1, 3, 8].into_iter().filter(|_| b.builds(&cfg)) {
+                let what = format!("{b} {}, {spec} on {spes} SPEs", cfg.flags());
                 check_build(b, &s, spes, (&Knobs::default(), &cfg), &what);
             }
         }
-        if s.len() > 10_000 {
-            for spes in 2..=8 {
-                let (alone, helped) = (
-                    by_setting[&("no coop top", spes)],
-                    by_setting[&("default", spes)],
-                );
+        let alone = |spes| by_setting.get(&("--no-coop-top".to_string(), spes));
+        if s.len() > 10_000 && alone(3).is_some() {
+            for spes in [3, 8] {
+                let helped = by_setting[&(String::new(), spes)];
                 assert!(
-                    helped < alone,
-                    "{name}, {spec} on {spes} SPEs: helping pays"
+                    helped < *alone(spes).unwrap(),
+                    "{b}, {spec} on {spes} SPEs: helping pays"
                 );
             }
         }
     }
 }
 
+/// Every multi-SPE builder of the registry, side by side on the host's
+/// cores (each is deterministic, so the order cannot matter).
 #[test]
-fn spe_bfs_shared_builds_the_baseline_tree_on_1_to_8_spes_with_every_knob() {
-    every_setting_gives_the_baseline_tree("spe_bfs_shared");
-}
-
-#[test]
-fn spe_bfs_private_builds_the_baseline_tree_on_1_to_8_spes_with_every_knob() {
-    every_setting_gives_the_baseline_tree("spe_bfs_private");
-}
-
-/// Each of section 5's queue knobs changes what the SPEs do (a knob that
-/// changed nothing would not be wired in): the simulated cycles differ
-/// from the default's on a scene whose levels spill and whose batches
-/// gather non-adjacent intervals.
-#[test]
-fn every_queue_knob_changes_the_run() {
-    let s = scene::load("rtperf:30000:3", None).unwrap();
-    for name in ["spe_bfs_shared", "spe_bfs_private"] {
-        let b = builder(name);
-        let cell = CellConfig::ps3().with_spes(2);
-        let run = |knobs: Knobs| {
-            let r = b.build_with(&s, s.bounds(), &BihConfig::default(), &cell, &knobs);
-            r.unwrap().simulated.unwrap().run.cycles.0
-        };
-        let d = Knobs::default();
-        let default = run(d);
-        for (label, knobs) in [
-            (
-                "double buffer",
-                Knobs {
-                    double_buffer: true,
-                    ..d
-                },
-            ),
-            (
-                "dma lists",
-                Knobs {
-                    dma_lists: true,
-                    ..d
-                },
-            ),
-            (
-                "prefetch",
-                Knobs {
-                    prefetch: true,
-                    ..d
-                },
-            ),
-        ] {
-            assert_ne!(run(knobs), default, "{name}: {label} changed nothing");
-        }
-        if name == "spe_bfs_shared" {
-            let fixed = run(Knobs { guided: false, ..d });
-            assert_ne!(fixed, default, "{name}: fixed takes changed nothing");
-        }
-    }
+fn every_multi_spe_builder_builds_the_baseline_tree_on_1_to_8_spes_with_every_knob() {
+    use rayon::prelude::*;
+    multi_spe()
+        .into_par_iter()
+        .for_each(every_setting_gives_the_baseline_tree);
 }
 
 /// The same cycles, counters and tree whatever the host does: builds run
@@ -236,12 +136,9 @@ fn host_threads_change_nothing() {
     use rayon::prelude::*;
     let s = scene::load("rtperf:20000:5", None).unwrap();
     let cell = CellConfig::ps3().with_spes(8);
-    let knobs = Knobs {
-        prefetch: true,
-        ..Knobs::default()
-    };
-    for name in ["spe_bfs_shared", "spe_bfs_private"] {
-        let b = builder(name);
+    for b in multi_spe() {
+        // Its last sweep setting: the most knobs at once.
+        let knobs = b.sweeps().pop().unwrap();
         let build = || {
             let r = b.build_with(&s, s.bounds(), &BihConfig::default(), &cell, &knobs);
             let r = r.unwrap();
@@ -261,7 +158,7 @@ fn host_threads_change_nothing() {
                 .unwrap();
             let runs: Vec<_> = pool.install(|| (0..4).into_par_iter().map(|_| build()).collect());
             for r in runs {
-                assert!(r == alone, "{name}: {threads} host threads changed the run");
+                assert!(r == alone, "{b}: {threads} host threads changed the run");
             }
         }
     }
@@ -276,16 +173,16 @@ fn host_threads_change_nothing() {
 fn a_cut_off_that_outgrows_the_arena_pool_is_a_clear_error() {
     let s = scene::load("rtperf:20000:1", None).unwrap();
     let cell = CellConfig::ps3();
-    for name in ["spe_bfs_private", "spe_bfs_shared"] {
+    for b in multi_spe().into_iter().filter(|b| b.quality().empty_cut) {
         let tiny = BihConfig {
             leaf_size: 1,
             empty_cut: Some(1),
             ..BihConfig::default()
         };
-        let e = builder(name)
+        let e = b
             .build_with(&s, s.bounds(), &tiny, &cell, &Knobs::default())
             .err()
-            .unwrap_or_else(|| panic!("{name} fitted {tiny:?} in the pool"))
+            .unwrap_or_else(|| panic!("{b} fitted {tiny:?} in the pool"))
             .to_string();
         assert!(
             e.contains("ObjectArena pool") && e.contains("--empty-cut"),
@@ -295,112 +192,130 @@ fn a_cut_off_that_outgrows_the_arena_pool_is_a_clear_error() {
             empty_cut: Some(10),
             ..tiny
         };
-        let r = builder(name)
+        let r = b
             .build_with(&s, s.bounds(), &usable, &cell, &Knobs::default())
             .unwrap();
         r.bih.validate(&s).unwrap();
     }
 }
 
-/// Knobs out of range are errors that name the builder, not panics.
+/// Every knob of every builder's table refuses a value out of its range,
+/// naming the builder and the knob, and sets nothing.
 #[test]
 fn knobs_out_of_range_are_errors() {
-    let s = scene::load("default", None).unwrap();
-    let cell = CellConfig::ps3();
-    let cfg = BihConfig::default();
-    for (name, knobs) in [
-        (
-            "spe_bfs_shared",
-            Knobs {
-                agglomerate: 0,
-                ..Knobs::default()
-            },
-        ),
-        (
-            "spe_bfs_shared",
-            Knobs {
-                agglomerate: 257,
-                ..Knobs::default()
-            },
-        ),
-        (
-            "spe_bfs_private",
-            Knobs {
-                deal_per_spe: 0,
-                ..Knobs::default()
-            },
-        ),
-        (
-            "spe_bfs_shared",
-            Knobs {
-                deal_per_spe: 17,
-                ..Knobs::default()
-            },
-        ),
-    ] {
-        let e = builder(name).build_with(&s, s.bounds(), &cfg, &cell, &knobs);
-        let e = e
-            .err()
-            .unwrap_or_else(|| panic!("{name} accepted {knobs:?}"))
-            .to_string();
-        assert!(e.contains(name), "{e}");
+    let mut refused = 0;
+    for &b in BuilderKind::ALL {
+        for &k in b.knobs() {
+            let bad: Vec<String> = match k.kind {
+                Kind::Flag => vec!["1".into()],
+                Kind::Int { min, max, .. } => {
+                    let mut v = vec!["-1".to_string(), "x".into()];
+                    v.extend(min.checked_sub(1).map(|m| m.to_string()));
+                    v.extend((max < usize::MAX).then(|| (max + 1).to_string()));
+                    v
+                }
+                Kind::Word(_) => vec!["nope".into(), String::new()],
+            };
+            for value in bad {
+                let mut knobs = Knobs::default();
+                let e = b.set_knob(&mut knobs, k.name, &value);
+                let e = e
+                    .err()
+                    .unwrap_or_else(|| panic!("{b} --{} {value}", k.name));
+                let e = e.to_string();
+                assert!(e.contains(b.name()) && e.contains(k.name), "{e}");
+                assert_eq!(knobs, Knobs::default(), "{e}");
+                refused += 1;
+            }
+        }
     }
+    assert!(refused > 0);
 }
 
-fn knobs_strategy() -> impl Strategy<Value = Knobs> {
-    (
-        (any::<bool>(), 1usize..=16, any::<bool>()),
-        (1usize..=32, any::<bool>()),
-        (any::<bool>(), any::<bool>(), any::<bool>()),
-    )
-        .prop_map(
-            |(
-                (coop_top, deal_per_spe, steal),
-                (agglomerate, guided),
-                (double_buffer, dma_lists, prefetch),
-            )| Knobs {
-                coop_top,
-                deal_per_spe,
-                steal,
-                agglomerate,
-                guided,
-                double_buffer,
-                dma_lists,
-                prefetch,
-                ..Knobs::default()
+/// A take of the shared queue must fit `WorkA`: 128 jobs of 128 bytes with
+/// the empty-space cut-off. More is refused by the builders that take
+/// `--agglomerate`, naming it, though it is in the knob's range.
+#[test]
+fn a_take_larger_than_work_a_is_refused() {
+    let s = scene::load("default", None).unwrap();
+    let cut = BihConfig {
+        empty_cut: Some(10),
+        ..BihConfig::default()
+    };
+    let takers = (BuilderKind::ALL.iter()).filter(|b| b.knob("agglomerate").is_ok());
+    let mut checked = 0;
+    for &b in takers {
+        let mut knobs = Knobs::default();
+        b.set_knob(&mut knobs, "agglomerate", "129").unwrap();
+        let cell = CellConfig::ps3();
+        let e = (b.build_with(&s, s.bounds(), &cut, &cell, &knobs)).unwrap_err();
+        assert!(e.to_string().contains("--agglomerate 129"), "{e}");
+        let paper = b.build_with(&s, s.bounds(), &BihConfig::default(), &cell, &knobs);
+        assert!(paper.is_ok(), "64-byte jobs: 256 fit");
+        checked += 1;
+    }
+    assert!(checked > 0);
+}
+
+/// Knobs for `b`: each knob of its table at its default, its least value,
+/// one of its sweep values, or a value in its range (up to four times its
+/// default), as `picks` say.
+fn knobs_from(b: BuilderKind, picks: &[(u32, f64)]) -> Knobs {
+    let mut knobs = Knobs::default();
+    for (&k, &(pick, frac)) in b.knobs().iter().zip(picks.iter().cycle()) {
+        let value = match k.kind {
+            Kind::Flag if pick % 2 == 1 => String::new(),
+            Kind::Flag => continue,
+            Kind::Word(words) => words[pick as usize % words.len()].to_string(),
+            Kind::Int { default, min, max } => match pick % 4 {
+                0 => default.to_string(),
+                1 => min.to_string(),
+                2 => k.sweep[(pick / 4) as usize % k.sweep.len()].to_string(),
+                _ => {
+                    let hi = max.min(4 * default);
+                    (min + (frac * (hi - min) as f64) as usize).to_string()
+                }
             },
-        )
+        };
+        knobs.set(k, &value).unwrap();
+    }
+    knobs
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 96, ..Default::default() })]
+    #![proptest_config(ProptestConfig { cases: 128, ..Default::default() })]
 
-    /// Both builders on the property scenes (scales 1e-15 to 1e15, flat,
-    /// degenerate, stacks, grids) with 1 to 8 SPEs, any knobs and small
-    /// leaves (so that the top levels hand over), with or without the
-    /// empty-space cut-off and binned SAH: valid, equal to brute force,
-    /// the baseline's tree.
+    /// Every multi-SPE builder on the property scenes (scales 1e-15 to
+    /// 1e15, flat, degenerate, stacks, grids) with 1 to 8 SPEs, any knobs
+    /// of its table and small leaves (so that the top levels hand over),
+    /// with or without the empty-space cut-off and binned SAH where it
+    /// builds them: valid, equal to brute force, the baseline's tree unless
+    /// a knob that changes the tree is set.
     #[test]
     fn multi_spe_builders_on_any_scene_spe_count_and_knobs(
         scene in common::scene_strategy(),
-        shared in any::<bool>(),
+        which in any::<prop::sample::Index>(),
         spes in 1usize..=8,
         leaf in 1u32..4,
-        knobs in knobs_strategy(),
+        picks in proptest::collection::vec((0u32..64, 0.0f64..1.0), 1..12),
         empty_cut in proptest::option::of(1u32..=99),
         sah in proptest::option::of((2u32..=32, prop_oneof![Just(0u32), 1u32..64])),
     ) {
-        let name = if shared { "spe_bfs_shared" } else { "spe_bfs_private" };
+        let b = *which.get(&multi_spe());
+        let knobs = knobs_from(b, &picks);
         let split = sah.map_or(SplitChoice::GlobalHeuristic, |(bins, above)| SplitChoice::BinnedSah { bins, above });
         let cfg = BihConfig { leaf_size: leaf, split, empty_cut, ..BihConfig::default() };
+        let cfg = b.quality().reach(&cfg);
         let cell = CellConfig::ps3().with_spes(spes);
-        let fail = |e: String| TestCaseError::fail(format!("{name} on {spes} SPEs, {knobs:?}: {e}"));
-        let r = builder(name)
+        let fail = |e: String| TestCaseError::fail(format!("{b} {} {} on {spes} SPEs: {e}", knobs.spelled(), cfg.flags()));
+        let r = b
             .build_with(&scene, scene.bounds(), &cfg, &cell, &knobs)
             .map_err(|e| fail(e.to_string()))?;
         r.bih.validate(&scene).map_err(|v| fail(v.to_string()))?;
-        let base = BuilderKind::SPE_BFS.build(&scene, &cfg).unwrap();
-        same_tree_structure(&base.bih, &r.bih).map_err(fail)?;
+        if !knobs.change_the_tree() {
+            let base = BuilderKind::SPE_BFS.build(&scene, &cfg).unwrap();
+            same_tree_structure(&base.bih, &r.bih).map_err(fail)?;
+        }
         let tracer = Tracer::new(&r.bih, &scene);
         for ray in common::rays_for(&scene, 24, 5) {
             common::check_ray(&scene, &tracer, &ray).map_err(fail)?;

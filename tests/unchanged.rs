@@ -71,12 +71,11 @@ fn runs() -> BTreeMap<String, String> {
             let label = format!("default {b} --split sah --sah-above 40 --empty-cut 10");
             record(label, build(&default, b, &quality, 6, &d));
         }
-        // Each knob of the builder's table moved once, to its `other` value.
-        for knob in b.knobs() {
-            let mut k = Knobs::default();
-            k.set(knob.name, knob.other).unwrap();
-            let flag = format!("--{} {}", knob.name, knob.other);
-            let label = format!("default {b} {}", flag.trim_end());
+        // Each knob of the builder's table moved once, to its first sweep
+        // value.
+        for &knob in b.knobs() {
+            let k = Knobs::default().with(knob, knob.sweep[0]).unwrap();
+            let label = format!("default {b} {}", knob.spelled(knob.sweep[0]));
             record(label, build(&default, b, &BihConfig::DEFAULT, 6, &k));
         }
     }

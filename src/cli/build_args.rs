@@ -157,12 +157,11 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
     if let Mode::Functional = args.mode {
         cell.cost = cellbih::cell::CostModel::functional();
     }
-    // A knob the builder does not take is an error, not ignored; the
-    // strategy checks the values' ranges when it starts.
+    // A knob the builder does not take is an error, not ignored, and so
+    // is a value out of the knob's range (its table says which).
     let mut knobs = Knobs::default();
     for (name, value) in &args.knobs.given {
-        builder.check_knob(name)?;
-        knobs.set(name, value)?;
+        builder.set_knob(&mut knobs, name, value)?;
     }
     Ok(Chosen {
         builder,
@@ -204,7 +203,7 @@ impl clap::FromArgMatches for KnobArgs {
 
     fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
         for k in every_knob() {
-            if k.other.is_empty() {
+            if k.is_flag() {
                 if m.get_flag(k.name) {
                     self.given.push((k.name, String::new()));
                 }
@@ -224,9 +223,19 @@ impl clap::Args for KnobArgs {
                 .filter(|b| b.knobs().iter().any(|t| t.name == k.name))
                 .map(|b| b.name())
                 .collect();
-            let help = format!("{}: {} [default: {}]", takers.join(", "), k.help, k.default);
+            let help = if k.is_flag() {
+                format!("{}: {}", takers.join(", "), k.help)
+            } else {
+                format!(
+                    "{}: {} ({}) [default: {}]",
+                    takers.join(", "),
+                    k.help,
+                    k.range(),
+                    k.default_text()
+                )
+            };
             let arg = clap::Arg::new(k.name).long(k.name).help(help);
-            cmd = cmd.arg(if k.other.is_empty() {
+            cmd = cmd.arg(if k.is_flag() {
                 arg.action(clap::ArgAction::SetTrue)
             } else {
                 arg.value_name("VALUE").action(clap::ArgAction::Set)

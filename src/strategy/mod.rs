@@ -6,6 +6,7 @@
 //! [`machinery`]. Each writes its tree into emulated main memory in the one
 //! node format; [`run_in`] reads it back as a [`Bih`].
 
+pub mod knob;
 pub mod machinery;
 pub mod ppe_approx;
 pub mod ppe_naive;
@@ -24,6 +25,7 @@ use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport, Trace};
 pub use crate::kernels::morton::KeyOrder;
 use crate::kernels::recursion::BuildStats;
 use crate::scene::Scene;
+pub use knob::{Kind, Knob, Knobs};
 use machinery::layout;
 
 /// How a strategy starts: it spawns its programs on the Cell for the
@@ -44,6 +46,9 @@ pub struct Strategy {
     pub quality: Quality,
     /// The strategy knobs it takes (`--NAME`); the others are refused.
     pub knobs: &'static [&'static Knob],
+    /// Settings of several of its knobs at once that experiments and
+    /// benches also try (each knob's own sweep values they try alone).
+    pub combos: &'static [&'static [(&'static Knob, &'static str)]],
     /// Sets up its programs on the Cell.
     pub spawn: Spawn,
 }
@@ -58,6 +63,7 @@ impl Strategy {
             multi_spe: false,
             quality: Quality::PAPER,
             knobs: &[],
+            combos: &[],
             spawn,
         }
     }
@@ -79,6 +85,15 @@ impl Strategy {
     pub const fn with_knobs(self, knobs: &'static [&'static Knob]) -> Self {
         Strategy { knobs, ..self }
     }
+
+    /// Experiments and benches also try these settings of several knobs
+    /// at once.
+    pub const fn with_combos(
+        self,
+        combos: &'static [&'static [(&'static Knob, &'static str)]],
+    ) -> Self {
+        Strategy { combos, ..self }
+    }
 }
 
 /// Where a strategy finds its input in main memory, and its knobs.
@@ -87,173 +102,6 @@ pub struct Setup {
     pub count: usize,
     pub region: Aabb,
     pub knobs: Knobs,
-}
-
-/// A strategy's knob as the command line names it (`--NAME`), declared
-/// beside the code that reads it; a builder's table of these
-/// ([`Strategy::knobs`]) is what it takes, and a knob given
-/// to a builder that does not take it is refused by name.
-#[derive(Debug, PartialEq, Eq)]
-pub struct Knob {
-    /// The option's name without `--`.
-    pub name: &'static str,
-    /// One line: what it does.
-    pub help: &'static str,
-    /// The default value, as the command line spells it ("off" for a
-    /// flag); [`Knobs::default`] holds it.
-    pub default: &'static str,
-    /// A value other than the default, as the command line takes it (empty
-    /// for a flag): what tests and experiments try.
-    pub other: &'static str,
-}
-
-/// The values of the strategies' knobs, each field declared here with what
-/// it buys and costs; a builder reads only the knobs of its table.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Knobs {
-    /// Before the deal, every SPE helps partition each large interval of
-    /// the top levels (the cooperative partition, `coop.rs`). Buys: the
-    /// other SPEs work instead of waiting for the deal (dragon on 6 SPEs:
-    /// 342 → 186 ms). Costs: every record of those levels travels twice
-    /// (through a scratch array) and two barriers per interval.
-    pub coop_top: bool,
-    /// The top levels end at the first level with this many jobs per SPE
-    /// (1 to 16: the level must fit `WorkA`). More jobs give the
-    /// largest-first deal more room to balance, but more levels are built
-    /// before it.
-    pub deal_per_spe: usize,
-    /// The dealt jobs stay in per-SPE lists in main memory; each SPE takes
-    /// its next one when it has built the last, and when its list is empty
-    /// it steals from the end of another's (lock-line updates). Buys:
-    /// balance when a few dealt jobs hold most of the work. Costs: an
-    /// atomic update per job taken, and each dealt job is built alone (its
-    /// levels are not batched with the SPE's other jobs).
-    pub steal: bool,
-    /// `spe_bfs_shared`: jobs taken from the shared queue per atomic
-    /// operation (1 to 256). Buys: fewer lock-line updates and larger
-    /// batches. Costs: balance at the end of a level (the last takes are
-    /// large).
-    pub agglomerate: usize,
-    /// `spe_bfs_shared`: a take hands out no more than an equal share of
-    /// the level's jobs left among the SPEs (guided self-scheduling), so
-    /// that a level of few jobs is spread over every SPE. Buys: balance at
-    /// the top of the shared levels and at each level's end. Costs: more
-    /// takes (lock-line updates) near each level's end.
-    pub guided: bool,
-    /// Section 5: a second `WorkA` and `WorkB` in the local store, so that a
-    /// full `WorkB` is written back while the other fills, and the next
-    /// block of a spilled level is read while this one is built (no
-    /// synchronous queue DMA). Costs 32 KiB of local store.
-    pub double_buffer: bool,
-    /// Section 5: DMA lists for agglomerated jobs — a batch gathers the
-    /// intervals of jobs that are not adjacent in one `getl` and scatters
-    /// them back in one `putl`, and nodes written into other arenas' slots
-    /// go out in one `putl` per batch. Off, each adjacent run is its own
-    /// batch and each piece of a node its own put.
-    pub dma_lists: bool,
-    /// The get of the next agglomerated batch is issued before the current
-    /// one is partitioned, so the transfer overlaps the partition (three
-    /// batch buffers instead of two). Off, a batch's get is waited for
-    /// before its partition starts, as in the paper.
-    pub prefetch: bool,
-    /// `spe_morton`: the order of the keys' bits. The global heuristic's
-    /// order gives the baseline's tree; round robin (LBVH) another tree,
-    /// its keys cheaper to reason about, its quality the cost.
-    pub key_order: KeyOrder,
-    /// `spe_morton`: key bits, 32 or 64. Buys: fewer ranges left to the
-    /// global heuristic (64). Costs: key time per bit, radix passes.
-    pub key_bits: u32,
-    /// `spe_morton`: bits per radix pass (4 to 11). Buys: fewer passes
-    /// over the keys. Costs: larger count tables (2^bits per SPE) and
-    /// more scattered runs per pass.
-    pub digit_bits: u32,
-    /// `spe_morton`: the top of the tree stops at ranges of at most this
-    /// many triangles (regions), each built by one SPE alone. Buys: fewer
-    /// top nodes and probes (large); more regions to balance (small).
-    pub region_size: usize,
-    /// `spe_morton`: regions dealt before the builds (largest first, each
-    /// to the least-loaded SPE) instead of taken largest first from an
-    /// atomic counter. Buys: no atomics. Costs: balance.
-    pub static_regions: bool,
-    /// `ppe_approx`: at most this many cells of the presort's grid per axis
-    /// (1 to 1024; the default 1024 is the grid of Table 1). Buys (fewer):
-    /// a smaller count table and fewer buckets for the upper levels.
-    /// Costs: fuller buckets, so more of the tree is left to the naive
-    /// finish. The tree is the paper's either way.
-    pub approx_max_cells: usize,
-}
-
-impl Knobs {
-    /// The paper's single-SPE queue: none of section 5's improvements.
-    pub const PAPER: Knobs = Knobs {
-        coop_top: false,
-        deal_per_spe: 4,
-        steal: false,
-        agglomerate: 16,
-        guided: false,
-        double_buffer: false,
-        dma_lists: false,
-        prefetch: false,
-        key_order: KeyOrder::GlobalHeuristic,
-        key_bits: 32,
-        digit_bits: 8,
-        region_size: 2048,
-        static_regions: false,
-        approx_max_cells: crate::kernels::approx::MAX_RESOLUTION,
-    };
-}
-
-impl Knobs {
-    /// Sets the knob `--name` to `value` as the command line gives it (an
-    /// empty `value` for a flag). Only parses: each strategy checks the
-    /// ranges of its knobs when it starts, in one place, so that a library
-    /// caller and the command line get the same refusal.
-    pub fn set(&mut self, name: &str, value: &str) -> Result<(), String> {
-        let int = || -> Result<usize, String> {
-            (value.parse::<usize>())
-                .map_err(|_| format!("--{name} takes a whole number, not '{value}'"))
-        };
-        let flag = || -> Result<bool, String> {
-            match value {
-                "" => Ok(true),
-                _ => Err(format!("--{name} is a flag: it takes no value ('{value}')")),
-            }
-        };
-        match name {
-            "no-coop-top" => self.coop_top = !flag()?,
-            "deal-per-spe" => self.deal_per_spe = int()?,
-            "steal" => self.steal = flag()?,
-            "agglomerate" => self.agglomerate = int()?,
-            "fixed-takes" => self.guided = !flag()?,
-            "double-buffer" => self.double_buffer = flag()?,
-            "dma-lists" => self.dma_lists = flag()?,
-            "prefetch" => self.prefetch = flag()?,
-            "key-order" => {
-                self.key_order = match value {
-                    "gh" => KeyOrder::GlobalHeuristic,
-                    "xyz" => KeyOrder::RoundRobin,
-                    _ => return Err(format!("--key-order is gh or xyz, not '{value}'")),
-                }
-            }
-            "key-bits" => self.key_bits = int()? as u32,
-            "digit-bits" => self.digit_bits = int()? as u32,
-            "region-size" => self.region_size = int()?,
-            "static-regions" => self.static_regions = flag()?,
-            "approx-cells" => self.approx_max_cells = int()?,
-            _ => return Err(format!("no strategy has a knob --{name}")),
-        }
-        Ok(())
-    }
-}
-
-impl Default for Knobs {
-    fn default() -> Self {
-        Knobs {
-            coop_top: true,
-            guided: true,
-            ..Knobs::PAPER
-        }
-    }
 }
 
 /// What a strategy's program leaves for reading back.
@@ -419,7 +267,7 @@ pub fn run_in(
         triangles,
         count: scene.len(),
         region,
-        knobs: *knobs,
+        knobs: knobs.clone(),
     };
     let out = Rc::new(RefCell::new(Output::default()));
     spawn(&mut cell, &setup, cfg, out.clone())?;

@@ -4,9 +4,9 @@
 //!
 //! 1. **The top levels**: SPE 0 builds alone with the baseline's loop
 //!    (`spe_bfs`: WorkA/WorkB, Fig. 1, agglomeration) until a level holds
-//!    at least `Knobs::deal_per_spe` jobs per SPE. Alone, the other SPEs
+//!    at least `--deal-per-spe` jobs per SPE. Alone, the other SPEs
 //!    would wait — the paper's worry that on the upper levels most SPEs sit
-//!    idle; with `Knobs::coop_top` they help partition every large interval
+//!    idle; unless `--no-coop-top`, they help partition every large interval
 //!    of those levels ([`super::machinery::coop`]).
 //! 2. **The deal** (static, largest first): SPE 0 sorts that level's jobs
 //!    by triangle count and gives each, in turn, to the SPE with the fewest
@@ -27,9 +27,9 @@ use std::cell::RefCell;
 use std::rc::Rc;
 
 use super::machinery::coop::Coop;
-use super::machinery::top::{Common, DEAL_PER_SPE, NO_COOP_TOP, build_top, help_top};
+use super::machinery::top::{Common, DEAL_PER_SPE, NO_COOP_TOP, TopKnobs, build_top, help_top};
 use super::machinery::work_queue::{Level, WORK_BYTES};
-use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, SpeBuilder};
+use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, QueueKnobs, SpeBuilder};
 use super::{Knob, Output, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, Spe};
@@ -49,15 +49,37 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &NO_COOP_TOP,
     &DEAL_PER_SPE,
     &STEAL,
+])
+// Section 5's three queue improvements together, and with a deal of two
+// jobs per SPE.
+.with_combos(&[
+    &[(&DOUBLE_BUFFER, ""), (&DMA_LISTS, ""), (&PREFETCH, "")],
+    &[
+        (&DOUBLE_BUFFER, ""),
+        (&DMA_LISTS, ""),
+        (&PREFETCH, ""),
+        (&DEAL_PER_SPE, "2"),
+    ],
 ]);
 
-/// `--steal`: [`super::Knobs::steal`].
-pub const STEAL: Knob = Knob {
-    name: "steal",
-    help: "dealt jobs stay in per-SPE lists; an SPE whose list is empty steals from another's",
-    default: "off",
-    other: "",
-};
+/// `--steal`: the dealt jobs stay in per-SPE lists in main memory; each
+/// SPE takes its next one when it has built the last, and when its list is
+/// empty it steals from the end of another's (lock-line updates). Buys:
+/// balance when a few dealt jobs hold most of the work. Costs: an atomic
+/// update per job taken, and each dealt job is built alone (its levels are
+/// not batched with the SPE's other jobs).
+pub const STEAL: Knob = Knob::flag(
+    "steal",
+    "dealt jobs stay in per-SPE lists; an SPE whose list is empty steals from another's",
+);
+
+/// This strategy's knobs, read from those given.
+#[derive(Clone, Copy)]
+struct PrivateKnobs {
+    queue: QueueKnobs,
+    top: TopKnobs,
+    steal: bool,
+}
 
 /// A deal record in main memory, one 128-byte line per SPE: jobs dealt,
 /// the depth of their level, and the SPE's `WorkAPPE` and `WorkBPPE`.
@@ -70,8 +92,12 @@ fn spawn(
     out: Rc<RefCell<Output>>,
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
-    let knobs = setup.knobs;
-    let common = Common::alloc(cell, STRATEGY.name, tris, n, &knobs, &out)?;
+    let knobs = PrivateKnobs {
+        queue: QueueKnobs::read(&setup.knobs),
+        top: TopKnobs::read(&setup.knobs),
+        steal: setup.knobs.flag(&STEAL),
+    };
+    let common = Common::alloc(cell, tris, n, &out)?;
     let (spes, blocks) = (cell.config().spes, common.blocks);
     let mem = || cell.memory_mut();
     // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
@@ -79,7 +105,7 @@ fn spawn(
     // (With stealing, areas go with the dealt jobs: fewer than twice the
     // deal level's size of them.)
     let parts = if knobs.steal {
-        2 * knobs.deal_per_spe * spes
+        2 * knobs.top.deal_per_spe * spes
     } else {
         spes
     };
@@ -94,13 +120,13 @@ fn spawn(
     for id in 0..spes {
         let out = out.clone();
         cell.spawn_spe(id, move |spe| async move {
-            let mut b = SpeBuilder::new(&spe, tris, ([work, work], 0), cfg, blocks, &knobs)?;
+            let mut b = SpeBuilder::new(&spe, tris, ([work, work], 0), cfg, blocks, knobs.queue)?;
             let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
             let tag = spe.tag("deal")?;
-            let mut helper = Coop::new(&spe, common.coop, knobs.prefetch)?;
+            let mut helper = Coop::new(&spe, common.coop, knobs.queue.prefetch)?;
             if id == 0 {
                 let mut top = SpeWork::default();
-                let dealt = build_top(&mut b, helper, n, region, &knobs, &mut top).await?;
+                let dealt = build_top(&mut b, helper, n, region, knobs.top, &mut top).await?;
                 out.borrow_mut().spe_work[0] = top;
                 let own = match dealt {
                     Some(level) if knobs.steal => {
@@ -248,7 +274,7 @@ struct Lists {
 }
 
 /// SPE 0 deals the jobs of `level` largest first into per-SPE lists in main
-/// memory (`Knobs::steal`), writes every SPE's deal record (job count,
+/// memory (`--steal`), writes every SPE's deal record (job count,
 /// depth, the jobs, the lists) and signals the others.
 async fn deal_to_lists(
     spe: &Spe,
@@ -292,7 +318,7 @@ async fn deal_to_lists(
     Ok(())
 }
 
-/// Every SPE with `Knobs::steal`: reads the dealt jobs, then takes the next
+/// Every SPE with `--steal`: reads the dealt jobs, then takes the next
 /// job of its own list, or steals the last of another's, and builds it,
 /// until every list is empty. Each job's `WorkAPPE`/`WorkBPPE` are carved
 /// from `work` in the jobs' order, so any SPE can build any job. Returns

@@ -4,12 +4,12 @@
 //! 128-byte lock lines; the PPE does nothing per job).
 //!
 //! 1. **The top levels** ([`super::machinery::top`]): SPE 0 builds until a level holds
-//!    `Knobs::deal_per_spe` jobs per SPE (the others help partition with
-//!    `Knobs::coop_top`), then writes that level into the queue.
+//!    `--deal-per-spe` jobs per SPE (the others help partition unless
+//!    `--no-coop-top`), then writes that level into the queue.
 //! 2. **The shared queue**, one tree level at a time: the level's jobs lie
 //!    in one array (the shared `WorkAPPE`); an SPE takes up to
-//!    `Knobs::agglomerate` jobs per lock-line update of the *take* line
-//!    (with `Knobs::guided`, no more than its share of the jobs left),
+//!    `--agglomerate` jobs per lock-line update of the *take* line
+//!    (unless `--fixed-takes`, no more than its share of the jobs left),
 //!    builds them with the baseline's loop (Fig. 1, agglomeration), and
 //!    collects their children in its own `WorkB`, which it writes into the
 //!    next level's array (the shared `WorkBPPE`) at places reserved by
@@ -21,7 +21,7 @@
 //!    children's two adjacent ids from its own arena (blocks from one pool
 //!    by fetch-and-add); the SPE that later takes a child writes its node
 //!    straight into that slot, computing the address itself
-//!    ([`NodeWrites`]: one `putl` per batch with `Knobs::dma_lists`).
+//!    ([`NodeWrites`]: one `putl` per batch with `--dma-lists`).
 //!
 //! A batch of agglomerated jobs moves only records of jobs this SPE took:
 //! two jobs adjacent in the queue need not be adjacent in the triangle
@@ -36,9 +36,9 @@ use std::rc::Rc;
 use super::machinery::arena::NodeWrites;
 use super::machinery::barrier::Barrier;
 use super::machinery::coop::Coop;
-use super::machinery::top::{Common, DEAL_PER_SPE, NO_COOP_TOP, build_top, help_top};
+use super::machinery::top::{Common, DEAL_PER_SPE, NO_COOP_TOP, TopKnobs, build_top, help_top};
 use super::machinery::work_queue::{SharedSpill, WorkQueue};
-use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, SpeBuilder};
+use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, QueueKnobs, SpeBuilder};
 use super::{Knob, Output, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
@@ -59,22 +59,41 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &DEAL_PER_SPE,
     &AGGLOMERATE,
     &FIXED_TAKES,
-]);
+])
+// Section 5's three queue improvements together.
+.with_combos(&[&[(&DOUBLE_BUFFER, ""), (&DMA_LISTS, ""), (&PREFETCH, "")]]);
 
-/// `--agglomerate N`: [`super::Knobs::agglomerate`].
-pub const AGGLOMERATE: Knob = Knob {
-    name: "agglomerate",
-    help: "jobs taken from the shared queue per atomic operation (1 to 256)",
-    default: "16",
-    other: "1",
-};
-/// `--fixed-takes`: [`super::Knobs::guided`] off.
-pub const FIXED_TAKES: Knob = Knob {
-    name: "fixed-takes",
-    help: "every take is --agglomerate jobs, not an SPE's share of the jobs left",
-    default: "off",
-    other: "",
-};
+/// `--agglomerate N`: [`SharedKnobs::agglomerate`].
+pub const AGGLOMERATE: Knob = Knob::int(
+    "agglomerate",
+    "jobs taken from the shared queue per atomic operation",
+    16,
+    (1, 256),
+    &["1", "64"],
+);
+/// `--fixed-takes`: [`SharedKnobs::guided`] off.
+pub const FIXED_TAKES: Knob = Knob::flag(
+    "fixed-takes",
+    "every take is --agglomerate jobs, not an SPE's share of the jobs left",
+);
+
+/// This strategy's knobs, read from those given.
+#[derive(Clone, Copy)]
+struct SharedKnobs {
+    queue: QueueKnobs,
+    top: TopKnobs,
+    /// Jobs taken from the shared queue per atomic operation (1 to 256,
+    /// and no more than a `WorkA` holds). Buys: fewer lock-line updates
+    /// and larger batches. Costs: balance at the end of a level (the last
+    /// takes are large).
+    agglomerate: usize,
+    /// A take hands out no more than an equal share of the level's jobs
+    /// left among the SPEs (guided self-scheduling), so that a level of
+    /// few jobs is spread over every SPE. Buys: balance at the top of the
+    /// shared levels and at each level's end. Costs: more takes (lock-line
+    /// updates) near each level's end.
+    guided: bool,
+}
 
 /// The queue's lock lines in main memory.
 #[derive(Clone, Copy)]
@@ -101,16 +120,21 @@ fn spawn(
     out: Rc<RefCell<Output>>,
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
-    let knobs = setup.knobs;
+    let knobs = SharedKnobs {
+        queue: QueueKnobs::read(&setup.knobs),
+        top: TopKnobs::read(&setup.knobs),
+        agglomerate: setup.knobs.int(&AGGLOMERATE),
+        guided: !setup.knobs.flag(&FIXED_TAKES),
+    };
     let job_bytes = Job::bytes(&cfg);
     let per_buffer = WorkQueue::<Job>::per_buffer(job_bytes);
-    if !(1..=per_buffer).contains(&knobs.agglomerate) {
+    if knobs.agglomerate > per_buffer {
         return Err(CellError::Config(format!(
-            "spe_bfs_shared: {} jobs per take; 1 to {per_buffer}",
+            "spe_bfs_shared: --agglomerate {}: a take must fit WorkA, which holds {per_buffer} jobs of {job_bytes} bytes with these settings",
             knobs.agglomerate,
         )));
     }
-    let common = Common::alloc(cell, STRATEGY.name, tris, n, &knobs, &out)?;
+    let common = Common::alloc(cell, tris, n, &out)?;
     let spes = cell.config().spes;
     // A level's jobs: two per job of the level before with more than a
     // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1)
@@ -147,13 +171,13 @@ fn spawn(
                 (queue.levels, queue.level_bytes),
                 cfg,
                 common.blocks,
-                &knobs,
+                knobs.queue,
             )?;
-            let mut helper = Coop::new(&spe, common.coop, knobs.prefetch)?;
+            let mut helper = Coop::new(&spe, common.coop, knobs.queue.prefetch)?;
             let line = spe.ls_alloc(128, 128)?;
             let mut work = SpeWork::default();
             if id == 0 {
-                let top = build_top(&mut b, helper, n, region, &knobs, &mut work).await?;
+                let top = build_top(&mut b, helper, n, region, knobs.top, &mut work).await?;
                 let count = match top {
                     Some(level) => {
                         let mut count = 0;
@@ -178,7 +202,7 @@ fn spawn(
                 help_top(&spe, &b, &mut helper).await?;
             }
             b.arena.renew(common.blocks);
-            b.node_writes = Some(NodeWrites::new(&spe, common.pool, knobs.dma_lists)?);
+            b.node_writes = Some(NodeWrites::new(&spe, common.pool, knobs.queue.dma_lists)?);
             b.strict_spans = true;
             let taken =
                 shared_levels(&spe, &mut b, queue, knobs.agglomerate, knobs.guided, line).await?;

@@ -3,7 +3,7 @@
 //! in main memory.
 //!
 //! SPE 0 builds the first levels with the baseline's loop until a level
-//! holds `Knobs::deal_per_spe` jobs per SPE; with `Knobs::coop_top` the
+//! holds `--deal-per-spe` jobs per SPE; unless `--no-coop-top`, the
 //! other SPEs help partition each large interval of those levels (the
 //! cooperative partition of section 2, [`super::coop`]), otherwise they
 //! wait. Then `spe_bfs_private` deals that level and `spe_bfs_shared` puts
@@ -16,22 +16,46 @@ use super::work_queue::Level;
 use crate::aabb::Aabb;
 use crate::cell::{Cell, CellError, Ea, Spe};
 use crate::strategy::spe_bfs::{Job, SpeBuilder};
-use crate::strategy::{Knobs, Output, SpeWork};
+use crate::strategy::{Knob, Knobs, Output, SpeWork};
 
-/// `--no-coop-top`: [`Knobs::coop_top`] off.
-pub const NO_COOP_TOP: crate::strategy::Knob = crate::strategy::Knob {
-    name: "no-coop-top",
-    help: "the SPEs do not help partition the top levels (they wait for the deal)",
-    default: "off",
-    other: "",
-};
-/// `--deal-per-spe N`: [`Knobs::deal_per_spe`].
-pub const DEAL_PER_SPE: crate::strategy::Knob = crate::strategy::Knob {
-    name: "deal-per-spe",
-    help: "the top levels end at the first level with this many jobs per SPE (1 to 16)",
-    default: "4",
-    other: "1",
-};
+/// `--no-coop-top`: [`TopKnobs::coop`] off.
+pub const NO_COOP_TOP: Knob = Knob::flag(
+    "no-coop-top",
+    "the SPEs do not help partition the top levels (they wait for the deal)",
+);
+/// `--deal-per-spe N`: [`TopKnobs::deal_per_spe`].
+pub const DEAL_PER_SPE: Knob = Knob::int(
+    "deal-per-spe",
+    "the top levels end at the first level with this many jobs per SPE",
+    4,
+    (1, 16),
+    &["1", "2", "16"],
+);
+
+/// How the top levels are built.
+#[derive(Clone, Copy, Debug)]
+pub(in crate::strategy) struct TopKnobs {
+    /// Before the deal, every SPE helps partition each large interval of
+    /// the top levels (the cooperative partition, `coop.rs`). Buys: the
+    /// other SPEs work instead of waiting for the deal (dragon on 6 SPEs:
+    /// 342 → 186 ms). Costs: every record of those levels travels twice
+    /// (through a scratch array) and two barriers per interval.
+    pub coop: bool,
+    /// The top levels end at the first level with this many jobs per SPE
+    /// (1 to 16: the level must fit `WorkA`). More jobs give the
+    /// largest-first deal more room to balance, but more levels are built
+    /// before it.
+    pub deal_per_spe: usize,
+}
+
+impl TopKnobs {
+    pub fn read(knobs: &Knobs) -> Self {
+        TopKnobs {
+            coop: !knobs.flag(&NO_COOP_TOP),
+            deal_per_spe: knobs.int(&DEAL_PER_SPE),
+        }
+    }
+}
 
 /// The ObjectArena pool and the cooperative partition's areas.
 #[derive(Clone, Copy)]
@@ -42,22 +66,13 @@ pub(in crate::strategy) struct Common {
 }
 
 impl Common {
-    /// Allocates them for `n` triangle records at `tris`, and checks the
-    /// knobs of the top levels.
+    /// Allocates them for `n` triangle records at `tris`.
     pub fn alloc(
         cell: &mut Cell,
-        name: &str,
         tris: Ea,
         n: usize,
-        knobs: &Knobs,
         out: &std::cell::RefCell<Output>,
     ) -> Result<Self, CellError> {
-        if !(1..=16).contains(&knobs.deal_per_spe) {
-            return Err(CellError::Config(format!(
-                "{name}: the top levels end at {} jobs per SPE; 1 to 16",
-                knobs.deal_per_spe
-            )));
-        }
         let spes = cell.config().spes;
         let (pool, blocks) = alloc_pool(cell, n, out)?;
         let mut mem = cell.memory_mut();
@@ -104,7 +119,7 @@ pub(in crate::strategy) fn alloc_pool(
 }
 
 /// SPE 0: builds the top levels of the `n` records in `region`, helped by
-/// the others with `Knobs::coop_top`; returns the first level of at least
+/// the others with [`TopKnobs::coop`]; returns the first level of at least
 /// `deal_per_spe` jobs per SPE (in `WorkA`), or `None` if the tree ended
 /// before. The top levels' arena is closed; its blocks are counted in
 /// `work`.
@@ -113,12 +128,12 @@ pub(in crate::strategy) async fn build_top(
     helper: Coop,
     n: usize,
     region: Aabb,
-    knobs: &Knobs,
+    knobs: TopKnobs,
     work: &mut SpeWork,
 ) -> Result<Option<Level>, CellError> {
     let spes = helper.area.spes;
     let all = b.bounds_of_all(n).await?;
-    if spes > 1 && knobs.coop_top {
+    if spes > 1 && knobs.coop {
         let per_block = super::fig1::BLOCK_BYTES / size_of::<TriRecord>() as u32;
         b.coop = Some((helper, spes as u32 * per_block));
     }

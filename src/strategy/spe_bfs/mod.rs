@@ -35,7 +35,7 @@ use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena, pieces, serv
 use super::machinery::fig1::{Fig1Buffers, stream_bounds};
 use super::machinery::layout::TriRecord;
 use super::machinery::work_queue::{Level, WorkQueue};
-use super::{Knobs, Output, Setup};
+use super::{Knob, Knobs, Output, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
 use crate::cell::{CellError, Ea, LsAddr, Spe, WaitMode};
@@ -71,14 +71,13 @@ fn spawn(
     let spe_stats = stats.clone();
 
     cell.spawn_spe(0, move |spe| async move {
-        let paper = Knobs::PAPER;
         let mut b = SpeBuilder::new(
             &spe,
             tris,
             (work_ppe, work_ppe_bytes),
             cfg,
             BlockSource::Mailbox,
-            &paper,
+            QueueKnobs::PAPER,
         )?;
         let all = b.bounds_of_all(n).await?;
         b.run(Job::new(0, n, 0, 0, region, &all)).await?;
@@ -97,27 +96,61 @@ fn spawn(
     Ok(())
 }
 
-/// `--double-buffer`: [`Knobs::double_buffer`].
-pub const DOUBLE_BUFFER: super::Knob = super::Knob {
-    name: "double-buffer",
-    help: "double-buffered WorkA/WorkB: no synchronous job-queue DMA (section 5)",
-    default: "off",
-    other: "",
-};
-/// `--dma-lists`: [`Knobs::dma_lists`].
-pub const DMA_LISTS: super::Knob = super::Knob {
-    name: "dma-lists",
-    help: "DMA lists gather and scatter the intervals of agglomerated jobs (section 5)",
-    default: "off",
-    other: "",
-};
-/// `--prefetch`: [`Knobs::prefetch`].
-pub const PREFETCH: super::Knob = super::Knob {
-    name: "prefetch",
-    help: "the next batch's get overlaps this batch's partition",
-    default: "off",
-    other: "",
-};
+/// `--double-buffer`: [`QueueKnobs::double_buffer`].
+pub const DOUBLE_BUFFER: Knob = Knob::flag(
+    "double-buffer",
+    "double-buffered WorkA/WorkB: no synchronous job-queue DMA (section 5)",
+);
+/// `--dma-lists`: [`QueueKnobs::dma_lists`].
+pub const DMA_LISTS: Knob = Knob::flag(
+    "dma-lists",
+    "DMA lists gather and scatter the intervals of agglomerated jobs (section 5)",
+);
+/// `--prefetch`: [`QueueKnobs::prefetch`].
+pub const PREFETCH: Knob = Knob::flag(
+    "prefetch",
+    "the next batch's get overlaps this batch's partition",
+);
+
+/// Section 5's improvements of the job queue, which the multi-SPE
+/// strategies take as knobs (the baseline runs without them).
+#[derive(Clone, Copy, Debug)]
+pub(in crate::strategy) struct QueueKnobs {
+    /// Section 5: a second `WorkA` and `WorkB` in the local store, so that a
+    /// full `WorkB` is written back while the other fills, and the next
+    /// block of a spilled level is read while this one is built (no
+    /// synchronous queue DMA). Costs 32 KiB of local store.
+    pub double_buffer: bool,
+    /// Section 5: DMA lists for agglomerated jobs — a batch gathers the
+    /// intervals of jobs that are not adjacent in one `getl` and scatters
+    /// them back in one `putl`, and nodes written into other arenas' slots
+    /// go out in one `putl` per batch. Off, each adjacent run is its own
+    /// batch and each piece of a node its own put.
+    pub dma_lists: bool,
+    /// The get of the next agglomerated batch is issued before the current
+    /// one is partitioned, so the transfer overlaps the partition (three
+    /// batch buffers instead of two). Off, a batch's get is waited for
+    /// before its partition starts, as in the paper.
+    pub prefetch: bool,
+}
+
+impl QueueKnobs {
+    /// The paper's single-SPE queue: none of section 5's improvements.
+    pub const PAPER: QueueKnobs = QueueKnobs {
+        double_buffer: false,
+        dma_lists: false,
+        prefetch: false,
+    };
+
+    /// The values `knobs` gives them.
+    pub fn read(knobs: &Knobs) -> Self {
+        QueueKnobs {
+            double_buffer: knobs.flag(&DOUBLE_BUFFER),
+            dma_lists: knobs.flag(&DMA_LISTS),
+            prefetch: knobs.flag(&PREFETCH),
+        }
+    }
+}
 
 /// The SPE program's state: its local-store buffers and counters. The
 /// multi-SPE strategies run the same loop on every SPE.
@@ -168,7 +201,7 @@ impl<'a> SpeBuilder<'a> {
         (work_ppe, work_ppe_bytes): ([Ea; 2], u64),
         cfg: BihConfig,
         blocks: BlockSource,
-        knobs: &Knobs,
+        knobs: QueueKnobs,
     ) -> Result<Self, CellError> {
         Ok(SpeBuilder {
             spe,

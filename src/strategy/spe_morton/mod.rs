@@ -5,9 +5,9 @@
 //! passes are the shared kernels of `kernels::morton` and `kernels::radix`).
 //!
 //! 1. **Keys**: each SPE streams its slice of the triangle records and
-//!    writes a (key, record index) pair per triangle (`Knobs::key_order`,
-//!    `Knobs::key_bits`).
-//! 2. **Radix sort**, LSD, `Knobs::digit_bits` a pass: each SPE counts the
+//!    writes a (key, record index) pair per triangle (`--key-order`,
+//!    `--key-bits`).
+//! 2. **Radix sort**, LSD, `--digit-bits` a pass: each SPE counts the
 //!    digits of its slice and writes its row of the count table; after a
 //!    barrier each reads the table, prefix-sums its offsets and scatters
 //!    its pairs to their places, each block's pairs as one DMA list (`putl`)
@@ -17,10 +17,10 @@
 //!    second record array where the tree is built.
 //! 4. **The top of the tree** (SPE 0): a node wherever a range's keys first
 //!    differ (Karras 2012), found by binary search over the sorted keys in
-//!    main memory, down to **regions** of at most `Knobs::region_size`
+//!    main memory, down to **regions** of at most `--region-size`
 //!    triangles (or ranges that share their whole key, or leaves).
 //! 5. **Independent subtrees**: every SPE takes regions largest first from
-//!    an atomic counter (or, `Knobs::static_regions`, from its own dealt
+//!    an atomic counter (or, `--static-regions`, from its own dealt
 //!    list) and builds each alone: a region that fits in the local store is
 //!    loaded once, built there with the global heuristic and written back
 //!    once; a larger one runs the baseline's breadth-first loop, its
@@ -44,11 +44,11 @@ use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
 use super::machinery::barrier::Barrier;
 use super::machinery::layout::TriRecord;
 use super::machinery::top::alloc_pool;
-use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, PREFETCH};
+use super::spe_bfs::{DMA_LISTS, PREFETCH, QueueKnobs};
 use super::{Knob, Knobs, Output, Setup};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
-use crate::kernels::morton::KeySpec;
+use crate::kernels::morton::{KeyOrder, KeySpec};
 use crate::kernels::radix;
 
 /// `spe_morton` in the registry of builders.
@@ -65,46 +65,89 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &REGION_SIZE,
     &STATIC_REGIONS,
     // Regions too large for a local store run the breadth-first loop.
-    &DOUBLE_BUFFER,
+    // (Not --double-buffer: its second WorkA/WorkB does not fit in the
+    // local store beside this program's own buffers.)
     &DMA_LISTS,
     &PREFETCH,
 ]);
 
-/// `--key-order gh|xyz`: [`Knobs::key_order`].
-pub const KEY_ORDER: Knob = Knob {
-    name: "key-order",
-    help: "the keys' bit order: the global heuristic's halvings (gh) or round robin x, y, z (xyz)",
-    default: "gh",
-    other: "xyz",
-};
-/// `--key-bits 32|64`: [`Knobs::key_bits`].
-pub const KEY_BITS: Knob = Knob {
-    name: "key-bits",
-    help: "key bits, 32 or 64",
-    default: "32",
-    other: "64",
-};
-/// `--digit-bits N`: [`Knobs::digit_bits`].
-pub const DIGIT_BITS: Knob = Knob {
-    name: "digit-bits",
-    help: "bits per radix-sort pass (4 to 11)",
-    default: "8",
-    other: "4",
-};
-/// `--region-size N`: [`Knobs::region_size`].
-pub const REGION_SIZE: Knob = Knob {
-    name: "region-size",
-    help: "the largest region built by one SPE alone (triangles)",
-    default: "2048",
-    other: "256",
-};
-/// `--static-regions`: [`Knobs::static_regions`].
-pub const STATIC_REGIONS: Knob = Knob {
-    name: "static-regions",
-    help: "regions dealt before the builds, not taken from an atomic counter",
-    default: "off",
-    other: "",
-};
+/// `--key-order gh|xyz`: [`MortonKnobs::key_order`].
+pub const KEY_ORDER: Knob = Knob::word(
+    "key-order",
+    "the keys' bit order: the global heuristic's halvings (gh) or round robin x, y, z (xyz)",
+    &["gh", "xyz"],
+    &["xyz"],
+)
+.changing_the_tree();
+/// `--key-bits 32|64`: [`MortonKnobs::key_bits`].
+pub const KEY_BITS: Knob = Knob::word("key-bits", "key bits", &["32", "64"], &["64"]);
+/// `--digit-bits N`: [`MortonKnobs::digit_bits`].
+pub const DIGIT_BITS: Knob = Knob::int(
+    "digit-bits",
+    "bits per radix-sort pass",
+    8,
+    (4, 11),
+    &["4", "11"],
+);
+/// `--region-size N`: [`MortonKnobs::region_size`].
+pub const REGION_SIZE: Knob = Knob::int(
+    "region-size",
+    "the largest region built by one SPE alone (triangles)",
+    2048,
+    (1, usize::MAX),
+    &["256", "512", "8192"],
+);
+/// `--static-regions`: [`MortonKnobs::static_regions`].
+pub const STATIC_REGIONS: Knob = Knob::flag(
+    "static-regions",
+    "regions dealt before the builds, not taken from an atomic counter",
+);
+
+/// This strategy's knobs, read from those given.
+#[derive(Clone, Copy)]
+struct MortonKnobs {
+    /// The order of the keys' bits. The global heuristic's order gives the
+    /// baseline's tree; round robin (LBVH) another tree, its keys cheaper
+    /// to reason about, its quality the cost.
+    key_order: KeyOrder,
+    /// Key bits, 32 or 64. Buys: fewer ranges left to the global heuristic
+    /// (64). Costs: key time per bit, radix passes.
+    key_bits: u32,
+    /// Bits per radix pass (4 to 11). Buys: fewer passes over the keys.
+    /// Costs: larger count tables (2^bits per SPE) and more scattered runs
+    /// per pass.
+    digit_bits: u32,
+    /// The top of the tree stops at ranges of at most this many triangles
+    /// (regions), each built by one SPE alone. Buys: fewer top nodes and
+    /// probes (large); more regions to balance (small).
+    region_size: usize,
+    /// Regions dealt before the builds (largest first, each to the
+    /// least-loaded SPE) instead of taken largest first from an atomic
+    /// counter. Buys: no atomics. Costs: balance.
+    static_regions: bool,
+    /// Regions too large for a local store run the breadth-first loop,
+    /// with these (never double-buffered).
+    queue: QueueKnobs,
+}
+
+impl MortonKnobs {
+    fn read(k: &Knobs) -> Self {
+        MortonKnobs {
+            key_order: match k.word(&KEY_ORDER) {
+                "xyz" => KeyOrder::RoundRobin,
+                _ => KeyOrder::GlobalHeuristic,
+            },
+            key_bits: if k.word(&KEY_BITS) == "64" { 64 } else { 32 },
+            digit_bits: k.int(&DIGIT_BITS) as u32,
+            region_size: k.int(&REGION_SIZE),
+            static_regions: k.flag(&STATIC_REGIONS),
+            queue: QueueKnobs {
+                double_buffer: false,
+                ..QueueKnobs::read(k)
+            },
+        }
+    }
+}
 
 /// A key and the index of its triangle record: 16 bytes.
 #[repr(C)]
@@ -157,17 +200,7 @@ fn spawn(
     cfg: &BihConfig,
     out: Rc<RefCell<Output>>,
 ) -> Result<(), CellError> {
-    let (n, knobs, cfg) = (setup.count, setup.knobs, *cfg);
-    let bad = |msg: String| Err(CellError::Config(format!("spe_morton: {msg}")));
-    if knobs.key_bits != 32 && knobs.key_bits != 64 {
-        return bad(format!("{}-bit keys; 32 or 64", knobs.key_bits));
-    }
-    if !(4..=11).contains(&knobs.digit_bits) {
-        return bad(format!("{}-bit digits; 4 to 11", knobs.digit_bits));
-    }
-    if knobs.region_size == 0 {
-        return bad("regions of 0 triangles".into());
-    }
+    let (n, knobs, cfg) = (setup.count, MortonKnobs::read(&setup.knobs), *cfg);
     let spes = cell.config().spes;
     let (pool, blocks) = alloc_pool(cell, n, &out)?;
     let mut mem = cell.memory_mut();
@@ -256,7 +289,7 @@ struct Program<'a> {
     spe: &'a Spe,
     a: Areas,
     spec: KeySpec,
-    knobs: Knobs,
+    knobs: MortonKnobs,
     cfg: BihConfig,
     line: LsAddr,
     tags: u32,
@@ -303,7 +336,7 @@ impl<'a> Program<'a> {
         spe: &'a Spe,
         a: Areas,
         spec: KeySpec,
-        knobs: Knobs,
+        knobs: MortonKnobs,
         cfg: BihConfig,
     ) -> Result<Self, CellError> {
         Ok(Program {

@@ -290,7 +290,7 @@ impl Program<'_> {
             work_ppe,
             self.cfg,
             self.a.blocks,
-            &self.knobs,
+            self.knobs.queue,
         )?;
         // This SPE's own arena list and node writes go on.
         std::mem::swap(&mut b.arena, &mut self.arena);
