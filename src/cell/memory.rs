@@ -73,11 +73,37 @@ pub struct MainMemory {
     log: Vec<Allocation>,
 }
 
-/// One allocation of main memory: the name its program gave it, its size,
-/// and the alignment padding before it.
+/// What a program calls a buffer of main memory, and the group it files
+/// it under: an opaque label the emulator only carries into its report (a
+/// program groups its buffers by what they are for, and reports add them
+/// up by group). A plain name is in no group (`""`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Label {
+    pub group: &'static str,
+    pub name: String,
+}
+
+impl Label {
+    pub fn new(group: &'static str, name: impl Into<String>) -> Self {
+        Label {
+            group,
+            name: name.into(),
+        }
+    }
+}
+
+impl From<&str> for Label {
+    fn from(name: &str) -> Self {
+        Label::new("", name)
+    }
+}
+
+/// One allocation of main memory: the name its program gave it, the group
+/// it filed it under, its size, and the alignment padding before it.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct Allocation {
     pub what: String,
+    pub group: &'static str,
     pub bytes: u64,
     pub padding: u64,
 }
@@ -94,7 +120,13 @@ impl MainMemory {
 
     /// Allocates `size` bytes aligned to `align` (a power of two), zeroed;
     /// `what` names the buffer in the error when memory is full.
-    pub fn alloc(&mut self, what: &str, size: u64, align: u64) -> Result<Ea, CellError> {
+    pub fn alloc(
+        &mut self,
+        what: impl Into<Label>,
+        size: u64,
+        align: u64,
+    ) -> Result<Ea, CellError> {
+        let Label { group, name: what } = what.into();
         assert!(
             align.is_power_of_two(),
             "alignment {align} is not a power of two"
@@ -108,7 +140,7 @@ impl MainMemory {
                 .map(|a| format!("{} {} bytes", a.what, a.bytes))
                 .collect();
             return Err(CellError::OutOfMemory {
-                what: what.to_string(),
+                what,
                 asked: size,
                 in_use: self.bytes.len() as u64,
                 capacity: self.capacity,
@@ -123,7 +155,8 @@ impl MainMemory {
         self.bytes.resize((end - BASE) as usize, 0);
         self.high_water = self.high_water.max(end - BASE);
         self.log.push(Allocation {
-            what: what.to_string(),
+            what,
+            group,
             bytes: size,
             padding,
         });
@@ -182,7 +215,7 @@ impl MainMemory {
     /// Allocates room for `values` (the buffer `what`) and copies them in.
     pub fn alloc_pod<T: bytemuck::Pod>(
         &mut self,
-        what: &str,
+        what: impl Into<Label>,
         values: &[T],
         align: u64,
     ) -> Result<Ea, CellError> {

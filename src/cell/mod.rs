@@ -75,7 +75,7 @@ use thiserror::Error;
 pub use clock::Cycles;
 pub use cost::{Bandwidth, CostModel, KernelRates};
 pub use local_store::LsAddr;
-pub use memory::{Allocation, Ea, MainMemory};
+pub use memory::{Allocation, Ea, Label, MainMemory};
 pub use mfc::{ListElement, MAX_LIST_ELEMENTS, MAX_TRANSFER, Order, WaitMode};
 pub use ppe::Ppe;
 pub use spe::{Reservation, Spe};

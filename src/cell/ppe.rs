@@ -68,7 +68,13 @@ impl Ppe {
     /// Allocates `size` bytes of main memory aligned to `align` for the
     /// buffer `what` (named in the error if memory is full); charged
     /// `ppe_alloc_cycles`.
-    pub async fn alloc(&self, what: &str, size: u64, align: u64) -> Result<Ea, CellError> {
+    pub async fn alloc(
+        &self,
+        what: impl Into<crate::cell::Label>,
+        size: u64,
+        align: u64,
+    ) -> Result<Ea, CellError> {
+        let what = what.into();
         self.sync().await;
         let mut m = self.m.borrow_mut();
         let c = m.cfg.cost.ppe_alloc_cycles;

@@ -26,6 +26,7 @@ pub use crate::kernels::morton::KeyOrder;
 use crate::kernels::recursion::BuildStats;
 use crate::scene::Scene;
 pub use knob::{Kind, Knob, Knobs};
+use machinery::footprint::Purpose;
 use machinery::layout;
 
 /// How a strategy starts: it spawns its programs on the Cell for the
@@ -144,7 +145,11 @@ pub struct SpeWork {
 /// it; returns its address and node count, as [`Output::nodes`] holds them.
 pub(crate) async fn write_nodes(ppe: &Ppe, nodes: &[BihNode]) -> Result<(Ea, usize), CellError> {
     let ea = ppe
-        .alloc("node array", std::mem::size_of_val(nodes) as u64, 128)
+        .alloc(
+            Purpose::Nodes.buffer("node array"),
+            std::mem::size_of_val(nodes) as u64,
+            128,
+        )
         .await?;
     ppe.write_pod(ea, nodes).await?;
     Ok((ea, nodes.len()))

@@ -11,6 +11,7 @@
 //! scatter, gather), every bucket an upper-level partition touches, and every
 //! item of the naive finish; and at the per-node rate for every node.
 
+use crate::strategy::machinery::footprint::Purpose;
 use std::cell::RefCell;
 use std::rc::Rc;
 
@@ -59,7 +60,13 @@ fn spawn(
         ppe.compute_items(k.ppe_node, a.nodes);
         // The scatter's second array, written and read back by the gather.
         let size = (n * size_of::<TriRecord>()) as u64;
-        let scattered: Ea = ppe.alloc("scattered records", size, 128).await?;
+        let scattered: Ea = ppe
+            .alloc(
+                Purpose::TriangleRecords.buffer("scattered records"),
+                size,
+                128,
+            )
+            .await?;
         ppe.write_pod(scattered, &items).await?;
         let _: Vec<TriRecord> = ppe.read_pod(scattered, n).await?;
         ppe.write_pod(tris, &sorted).await?;

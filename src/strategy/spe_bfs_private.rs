@@ -23,6 +23,7 @@
 //! The splits are the baseline's, so the tree is the baseline's tree; only
 //! the numbering differs (nodes read back are renumbered breadth first).
 
+use crate::strategy::machinery::footprint::Purpose;
 use std::cell::RefCell;
 use std::rc::Rc;
 
@@ -113,10 +114,26 @@ fn spawn(
     // adds two jobs.
     let per_part_slack = 3 * WORK_BYTES as u64;
     let work_bytes = 2 * (Job::spill_bytes_for(n, &cfg) + parts as u64 * per_part_slack);
-    let work = mem().alloc("WorkAPPE/WorkBPPE of every SPE", work_bytes, 128)?;
-    let records = mem().alloc("deal records", spes as u64 * RECORD_BYTES, 128)?;
-    let dealt_jobs = mem().alloc("dealt jobs", WORK_BYTES as u64, 128)?;
-    let lists = mem().alloc("dealt job lists", spes as u64 * 128, 128)?;
+    let work = mem().alloc(
+        Purpose::WorkPpe.buffer("WorkAPPE/WorkBPPE of every SPE"),
+        work_bytes,
+        128,
+    )?;
+    let records = mem().alloc(
+        Purpose::JobQueues.buffer("deal records"),
+        spes as u64 * RECORD_BYTES,
+        128,
+    )?;
+    let dealt_jobs = mem().alloc(
+        Purpose::JobQueues.buffer("dealt jobs"),
+        WORK_BYTES as u64,
+        128,
+    )?;
+    let lists = mem().alloc(
+        Purpose::JobQueues.buffer("dealt job lists"),
+        spes as u64 * 128,
+        128,
+    )?;
     for id in 0..spes {
         let out = out.clone();
         cell.spawn_spe(id, move |spe| async move {

@@ -30,6 +30,7 @@
 //! The splits are the baseline's, so the tree is the baseline's tree; only
 //! the numbering differs (nodes read back are renumbered breadth first).
 
+use crate::strategy::machinery::footprint::Purpose;
 use std::cell::RefCell;
 use std::rc::Rc;
 
@@ -148,11 +149,31 @@ fn spawn(
     })?;
     let level_bytes = (jobs * job_bytes) as u64;
     let mem = || cell.memory_mut();
-    let level_a = mem().alloc("shared job queue: level A", level_bytes, 128)?;
-    let level_b = mem().alloc("shared job queue: level B", level_bytes, 128)?;
-    let take = mem().alloc("shared job queue: take line", 128, 128)?;
-    let push = mem().alloc("shared job queue: push line", 128, 128)?;
-    let arrivals = mem().alloc("shared job queue: arrivals line", 128, 128)?;
+    let level_a = mem().alloc(
+        Purpose::JobQueues.buffer("shared job queue: level A"),
+        level_bytes,
+        128,
+    )?;
+    let level_b = mem().alloc(
+        Purpose::JobQueues.buffer("shared job queue: level B"),
+        level_bytes,
+        128,
+    )?;
+    let take = mem().alloc(
+        Purpose::JobQueues.buffer("shared job queue: take line"),
+        128,
+        128,
+    )?;
+    let push = mem().alloc(
+        Purpose::JobQueues.buffer("shared job queue: push line"),
+        128,
+        128,
+    )?;
+    let arrivals = mem().alloc(
+        Purpose::JobQueues.buffer("shared job queue: arrivals line"),
+        128,
+        128,
+    )?;
     let queue = Queue {
         levels: [level_a, level_b],
         level_bytes,

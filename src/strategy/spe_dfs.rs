@@ -20,6 +20,7 @@
 //! buffers, bins it and puts the bins back; the PPE sweeps them (a job is
 //! then 64 bytes: the interval's bounds of centers travel with it).
 
+use crate::strategy::machinery::footprint::Purpose;
 use std::cell::RefCell;
 use std::rc::Rc;
 
@@ -124,12 +125,16 @@ fn spawn(
 ) -> Result<(), CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let job_bytes = DfsJob::bytes(&cfg);
-    let job_ea = cell
-        .memory_mut()
-        .alloc("depth-first job", job_bytes as u64, 128)?;
-    let result_ea =
-        cell.memory_mut()
-            .alloc("side records", 2 * size_of::<SideRecord>() as u64, 128)?;
+    let job_ea = cell.memory_mut().alloc(
+        Purpose::JobQueues.buffer("depth-first job"),
+        job_bytes as u64,
+        128,
+    )?;
+    let result_ea = cell.memory_mut().alloc(
+        Purpose::JobQueues.buffer("side records"),
+        2 * size_of::<SideRecord>() as u64,
+        128,
+    )?;
     // Binned SAH: where the SPE puts the bins it filled.
     let bins = match cfg.split {
         SplitChoice::BinnedSah { bins, .. } => Some(bins),
@@ -137,9 +142,11 @@ fn spawn(
     };
     let bins_bytes = bins.map_or(0, Bins::ls_bytes);
     let bins_ea = match bins {
-        Some(_) => cell
-            .memory_mut()
-            .alloc("SAH bins", bins_bytes as u64, 128)?,
+        Some(_) => cell.memory_mut().alloc(
+            Purpose::JobQueues.buffer("SAH bins"),
+            bins_bytes as u64,
+            128,
+        )?,
         None => Ea(0),
     };
 

@@ -26,6 +26,7 @@
 //! handed out is written with [`ObjectArena::emit_foreign`] (a lock-line
 //! update, since one node is 12 bytes and DMA moves multiples of 16).
 
+use super::footprint::Purpose;
 use crate::bih::BihNode;
 use crate::cell::{CellError, Ea, LsAddr, Ppe, Reservation, Spe, WaitMode};
 
@@ -329,7 +330,9 @@ pub async fn serve_blocks(ppe: &Ppe, spe: usize) -> Result<(Vec<Ea>, usize), Cel
     loop {
         match ppe.read_out_mbox(spe).await? {
             REQUEST_BLOCK => {
-                let ea = ppe.alloc("ObjectArena block", BLOCK_BYTES, 128).await?;
+                let ea = ppe
+                    .alloc(Purpose::Nodes.buffer("ObjectArena block"), BLOCK_BYTES, 128)
+                    .await?;
                 blocks.push(ea);
                 ppe.write_in_mbox(spe, ea_word(ea)?).await?;
             }

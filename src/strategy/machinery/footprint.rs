@@ -1,7 +1,8 @@
 //! Memory modelled to the scene (issue 15, item 5): an emulated build's
 //! main-memory footprint by purpose, made of the allocations its programs
-//! named ([`crate::cell::Allocation`]), and each SPE's local-store
-//! high-water mark.
+//! labelled with a [`Purpose`] ([`Purpose::buffer`], carried by the
+//! emulator as an opaque group: [`crate::cell::Allocation`]), and each
+//! SPE's local-store high-water mark.
 //!
 //! Purposes: the triangle records (and every second copy of them: a
 //! scatter, a key-ordered permutation, the cooperative partition's
@@ -17,7 +18,7 @@
 //! what the widest level of the tree actually held.
 
 use crate::bih::Bih;
-use crate::cell::{Allocation, RunReport};
+use crate::cell::{Allocation, Label, RunReport};
 
 /// What a buffer of main memory is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -48,35 +49,16 @@ impl Purpose {
         }
     }
 
-    /// The purpose of a buffer by the name its program gave it; `None` for
-    /// a name no strategy uses (a test keeps every name known).
-    pub fn of(what: &str) -> Option<Purpose> {
-        Some(match what {
-            "triangle records"
-            | "records in key order"
-            | "scattered records"
-            | "cooperative partition scratch" => Purpose::TriangleRecords,
-            "WorkAPPE"
-            | "WorkBPPE"
-            | "WorkAPPE/WorkBPPE of every SPE"
-            | "spe_morton: WorkAPPE/WorkBPPE of large regions" => Purpose::WorkPpe,
-            "ObjectArena pool" | "ObjectArena block" | "node array" => Purpose::Nodes,
-            "keys A" | "keys B" | "radix count table" => Purpose::KeysAndSort,
-            w if w.starts_with("shared job queue")
-                || w.starts_with("cooperative partition")
-                || w.starts_with("spe_morton: region")
-                || w.starts_with("dealt job")
-                || w.starts_with("region ") =>
-            {
-                Purpose::JobQueues
-            }
-            "deal records"
-            | "depth-first job"
-            | "side records"
-            | "barrier arrivals"
-            | "ObjectArena pool counter" => Purpose::JobQueues,
-            _ => return None,
-        })
+    /// The label of a buffer named `name` for this purpose: a strategy
+    /// allocates every buffer with one, and the footprint adds them up by
+    /// purpose.
+    pub fn buffer(self, name: impl Into<String>) -> Label {
+        Label::new(self.name(), name)
+    }
+
+    /// The purpose a buffer was allocated for (its label's group).
+    fn of(group: &str) -> Option<Purpose> {
+        Purpose::ALL.into_iter().find(|p| p.name() == group)
     }
 }
 
@@ -104,8 +86,8 @@ pub struct Footprint {
     /// Each SPE's local-store high-water mark, bytes (code and stack
     /// reserve included).
     pub ls_high_water: Vec<u32>,
-    /// Buffers whose name has no known purpose (empty unless a strategy
-    /// adds a buffer and forgets to say what it is for).
+    /// Buffers allocated without a purpose (empty unless a strategy adds a
+    /// buffer and forgets to say what it is for).
     pub unknown: Vec<String>,
 }
 
@@ -114,8 +96,11 @@ impl Footprint {
     pub fn of(run: &RunReport, bih: &Bih) -> Self {
         let mut by_purpose: Vec<(Purpose, u64)> = Purpose::ALL.iter().map(|&p| (p, 0)).collect();
         let mut unknown = Vec::new();
-        for Allocation { what, bytes, .. } in &run.memory {
-            match Purpose::of(what) {
+        for Allocation {
+            what, group, bytes, ..
+        } in &run.memory
+        {
+            match Purpose::of(group) {
                 Some(p) => by_purpose.iter_mut().find(|(q, _)| *q == p).unwrap().1 += bytes,
                 None => unknown.push(what.clone()),
             }
@@ -176,13 +161,11 @@ mod tests {
     }
 
     #[test]
-    fn every_name_has_a_purpose_and_unknown_names_none() {
-        assert_eq!(Purpose::of("WorkAPPE"), Some(Purpose::WorkPpe));
-        assert_eq!(
-            Purpose::of("shared job queue: level A"),
-            Some(Purpose::JobQueues)
-        );
-        assert_eq!(Purpose::of("keys B"), Some(Purpose::KeysAndSort));
-        assert_eq!(Purpose::of("a buffer nobody named"), None);
+    fn a_buffer_is_counted_for_the_purpose_it_was_allocated_for() {
+        for p in Purpose::ALL {
+            assert_eq!(Purpose::of(p.buffer("any name").group), Some(p));
+        }
+        let plain: Label = "a buffer with no purpose".into();
+        assert_eq!(Purpose::of(plain.group), None);
     }
 }

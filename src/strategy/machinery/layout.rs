@@ -12,6 +12,7 @@
 //! | `spe_bfs` job | 64 | first, count, node id, depth (u32); candidate box min, max (6 × f32); bounds of centers min, max (6 × f32) |
 //! | `spe_bfs` ObjectArena block | 48,960 | 4,080 nodes; node `id` is in block `id / 4080` at byte `(id % 4080) × 12` |
 
+use super::footprint::Purpose;
 use glam::Vec3A;
 
 use crate::cell::{Cell, CellError, Ea};
@@ -67,6 +68,9 @@ pub fn records(scene: &Scene) -> Vec<TriRecord> {
 
 /// Writes the scene's triangle array into main memory (128-byte aligned).
 pub fn upload(cell: &Cell, scene: &Scene) -> Result<Ea, CellError> {
-    cell.memory_mut()
-        .alloc_pod("triangle records", &records(scene), 128)
+    cell.memory_mut().alloc_pod(
+        Purpose::TriangleRecords.buffer("triangle records"),
+        &records(scene),
+        128,
+    )
 }

@@ -11,6 +11,7 @@
 
 use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource};
 use super::coop::{Coop, CoopArea, GO};
+use super::footprint::Purpose;
 use super::layout::TriRecord;
 use super::work_queue::Level;
 use crate::aabb::Aabb;
@@ -77,7 +78,7 @@ impl Common {
         let (pool, blocks) = alloc_pool(cell, n, out)?;
         let mut mem = cell.memory_mut();
         let scratch = mem.alloc(
-            "cooperative partition scratch",
+            Purpose::TriangleRecords.buffer("cooperative partition scratch"),
             (n * size_of::<TriRecord>()) as u64,
             128,
         )?;
@@ -85,9 +86,21 @@ impl Common {
             spes,
             tris,
             scratch,
-            descriptor: mem.alloc("cooperative partition descriptor", 128, 128)?,
-            table: mem.alloc("cooperative partition table", spes as u64 * 128, 128)?,
-            arrivals: mem.alloc("cooperative partition arrivals", 128, 128)?,
+            descriptor: mem.alloc(
+                Purpose::JobQueues.buffer("cooperative partition descriptor"),
+                128,
+                128,
+            )?,
+            table: mem.alloc(
+                Purpose::JobQueues.buffer("cooperative partition table"),
+                spes as u64 * 128,
+                128,
+            )?,
+            arrivals: mem.alloc(
+                Purpose::JobQueues.buffer("cooperative partition arrivals"),
+                128,
+                128,
+            )?,
         };
         Ok(Common { pool, blocks, coop })
     }
@@ -104,8 +117,16 @@ pub(in crate::strategy) fn alloc_pool(
     let spes = cell.config().spes;
     let mut mem = cell.memory_mut();
     let pool_blocks = (2 * n + 1).div_ceil(BLOCK_NODES) + 2 * spes + 2;
-    let pool = mem.alloc("ObjectArena pool", pool_blocks as u64 * BLOCK_BYTES, 128)?;
-    let counter = mem.alloc("ObjectArena pool counter", 128, 128)?;
+    let pool = mem.alloc(
+        Purpose::Nodes.buffer("ObjectArena pool"),
+        pool_blocks as u64 * BLOCK_BYTES,
+        128,
+    )?;
+    let counter = mem.alloc(
+        Purpose::JobQueues.buffer("ObjectArena pool counter"),
+        128,
+        128,
+    )?;
     let mut o = out.borrow_mut();
     o.nodes = vec![(pool, pool_blocks * BLOCK_NODES)];
     o.compact = true;

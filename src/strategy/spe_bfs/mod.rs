@@ -28,6 +28,7 @@
 mod batch;
 mod job;
 
+use crate::strategy::machinery::footprint::Purpose;
 use std::cell::RefCell;
 use std::rc::Rc;
 
@@ -64,8 +65,12 @@ fn spawn(
     // (the paper sized them for as many jobs as triangles, 6.5 times more
     // with leaves of 12; see strategy/machinery/footprint.rs).
     let work_ppe_bytes = Job::spill_bytes_for(n, &cfg);
-    let work_a_ppe = cell.memory_mut().alloc("WorkAPPE", work_ppe_bytes, 128)?;
-    let work_b_ppe = cell.memory_mut().alloc("WorkBPPE", work_ppe_bytes, 128)?;
+    let work_a_ppe =
+        cell.memory_mut()
+            .alloc(Purpose::WorkPpe.buffer("WorkAPPE"), work_ppe_bytes, 128)?;
+    let work_b_ppe =
+        cell.memory_mut()
+            .alloc(Purpose::WorkPpe.buffer("WorkBPPE"), work_ppe_bytes, 128)?;
     let work_ppe = [work_a_ppe, work_b_ppe];
     let stats = Rc::new(RefCell::new(BuildStats::default()));
     let spe_stats = stats.clone();

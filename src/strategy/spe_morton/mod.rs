@@ -35,6 +35,7 @@
 mod regions;
 mod sort;
 
+use crate::strategy::machinery::footprint::Purpose;
 use std::cell::RefCell;
 use std::rc::Rc;
 
@@ -210,19 +211,23 @@ fn spawn(
         n,
         spes,
         tris: setup.triangles,
-        sorted: mem.alloc("records in key order", n64 * RECORD as u64, 128)?,
+        sorted: mem.alloc(
+            Purpose::TriangleRecords.buffer("records in key order"),
+            n64 * RECORD as u64,
+            128,
+        )?,
         keys: [
-            mem.alloc("keys A", n64 * KEY as u64, 128)?,
-            mem.alloc("keys B", n64 * KEY as u64, 128)?,
+            mem.alloc(Purpose::KeysAndSort.buffer("keys A"), n64 * KEY as u64, 128)?,
+            mem.alloc(Purpose::KeysAndSort.buffer("keys B"), n64 * KEY as u64, 128)?,
         ],
         counts: mem.alloc(
-            "radix count table",
+            Purpose::KeysAndSort.buffer("radix count table"),
             spes as u64 * (4 << knobs.digit_bits),
             128,
         )?,
-        deal_header: mem.alloc("region deal header", line, 128)?,
-        arrivals: mem.alloc("barrier arrivals", line, 128)?,
-        take: mem.alloc("region counter", line, 128)?,
+        deal_header: mem.alloc(Purpose::JobQueues.buffer("region deal header"), line, 128)?,
+        arrivals: mem.alloc(Purpose::JobQueues.buffer("barrier arrivals"), line, 128)?,
+        take: mem.alloc(Purpose::JobQueues.buffer("region counter"), line, 128)?,
         pool,
         blocks,
     };
@@ -246,20 +251,26 @@ fn spawn(
         let regions = ppe.read_out_mbox(0).await? as u64;
         // Per SPE: room for the largest region's two levels of jobs.
         let spill = ppe.read_out_mbox(0).await? as u64 * SPILL_UNIT * spes as u64;
-        for (what, bytes) in [
-            ("spe_morton: region jobs", regions * 64),
-            ("spe_morton: region bounds", regions * 32),
+        use Purpose::{JobQueues, WorkPpe};
+        for (purpose, what, bytes) in [
+            (JobQueues, "spe_morton: region jobs", regions * 64),
+            (JobQueues, "spe_morton: region bounds", regions * 32),
             (
+                JobQueues,
                 "spe_morton: region deal",
                 (regions * 4).next_multiple_of(16),
             ),
-            ("spe_morton: WorkAPPE/WorkBPPE of large regions", spill),
+            (
+                WorkPpe,
+                "spe_morton: WorkAPPE/WorkBPPE of large regions",
+                spill,
+            ),
         ] {
             if bytes == 0 {
                 ppe.write_in_mbox(0, 0).await?;
                 continue;
             }
-            let ea = ppe.alloc(what, bytes, 128).await?;
+            let ea = ppe.alloc(purpose.buffer(what), bytes, 128).await?;
             let word = u32::try_from(ea.0).map_err(|_| CellError::Program {
                 core: "PPE".into(),
                 msg: format!("{what} at {ea} does not fit a mailbox word"),
