@@ -103,7 +103,7 @@ fn shared_queue(cost: CostModel, jobs: u32) -> (Vec<u32>, Cycles) {
                 }
                 taken.borrow_mut()[id] += 1;
                 // A job's work, at a kernel rate (free in functional mode).
-                spe.compute(spe.cost().kernels.spe_job);
+                spe.compute(cellbih::kernels::rates::KernelRates::PS3.spe_job);
             }
         });
     }

@@ -239,8 +239,9 @@ fn ppe_naive_time_is_kernels_plus_traffic() {
         .unwrap();
     let sim = r.simulated.unwrap();
     let k = cellbih::cell::CostModel::ps3();
-    let compute = k.kernels.ppe_partition_item.0 * sim.stats.items_partitioned
-        + k.kernels.ppe_node.0 * sim.stats.nodes;
+    let r = cellbih::kernels::rates::KernelRates::PS3;
+    let compute =
+        r.ppe_partition_item.0 * sim.stats.items_partitioned + r.ppe_node.0 * sim.stats.nodes;
     // Read the triangle array, write it back sorted, write the nodes.
     let traffic = k.ppe_memory_bandwidth.cycles(48 * s.len() as u64).0 * 2
         + k.ppe_memory_bandwidth.cycles(12 * sim.stats.nodes).0;

@@ -4,7 +4,8 @@
 //! mailboxes, signals, the atomic unit, PPE memory access — from these
 //! rates the moment a program calls them; programs charge only their
 //! compute, through [`Spe::compute`](super::Spe::compute) with cycles they
-//! take from their own named kernel rates.
+//! take from their own named kernel rates, which live with the programs,
+//! not here.
 
 use super::clock::Cycles;
 
@@ -34,96 +35,6 @@ impl Bandwidth {
 
     pub fn gb_per_s(self, hz: f64) -> f64 {
         self.bytes_per_kcycle as f64 / 1000.0 * hz / 1e9
-    }
-}
-
-/// Compute rates of the named kernels programs run, per core type. The
-/// machine never charges these itself; programs charge them through
-/// `compute`. Calibrations are in docs/calibration.md.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
-pub struct KernelRates {
-    /// PPE cycles per item looked at by an in-place partition (load the
-    /// record, its box center, compare, swap), all cache effects included.
-    /// Fitted on one cell of the paper's Table 1 (naive PPE build of the
-    /// Stanford Bunny, 340 ms) with `ppe_node` fixed beforehand.
-    pub ppe_partition_item: Cycles,
-    /// PPE cycles per node written: split choice, a heap allocation for the
-    /// node (the paper's naive build allocates each), recursion. Estimate.
-    pub ppe_node: Cycles,
-    /// SPE cycles per item of an in-place partition on a local-store block
-    /// (box of the record's three vertices, center, compare, move). Fitted
-    /// on one cell of Table 1 (SPE breadth-first build of the Dragon, 897 ms).
-    pub spe_partition_item: Cycles,
-    /// SPE cycles per item of a bounds pass (box and center min/max only).
-    /// Estimate.
-    pub spe_bounds_item: Cycles,
-    /// SPE cycles per job of a build run on the SPE (read the job, choose
-    /// the split, write the node, push the children's jobs). Estimate.
-    pub spe_job: Cycles,
-    /// SPE cycles per triangle per key bit of a Morton key (`spe_morton`):
-    /// one halving of the candidate cell, four triangles a vector.
-    /// Derived from an instruction count and scaled by the partition's
-    /// fitted/derived ratio (`docs/cost-model.md`).
-    pub spe_morton_bit: Cycles,
-    /// SPE cycles per key of a radix-sort histogram step (digit, count
-    /// update), and per entry of the prefix sum over the counts. Derived
-    /// and scaled the same way.
-    pub spe_radix_count: Cycles,
-    /// SPE cycles per key of a radix-sort scatter step (digit, offset
-    /// update, the pair copied to its place in the staging buffer, a
-    /// DMA-list element where a run ends), and per record of the
-    /// permutation's gather list. Derived and scaled the same way.
-    pub spe_radix_scatter: Cycles,
-    /// SPE cycles per item binned by the binned SAH split choice (the
-    /// record's box and center, a bin index per axis, three bins' counts
-    /// and boxes updated). Derived and scaled the same way.
-    pub spe_bin_item: Cycles,
-    /// SPE cycles per bin and axis of the binned SAH sweep (the two
-    /// running unions, both sides' areas and the cost in double precision,
-    /// the best kept). Derived and scaled the same way.
-    pub spe_sah_bin: Cycles,
-    /// PPE cycles per bin and axis of the binned SAH sweep
-    /// (`ppe_naive`, `spe_dfs`): by analogy with `spe_sah_bin`, the same
-    /// sweep, whose dependent double-precision operations the PPE's scalar
-    /// FPU issues at a latency close to the SPU's.
-    pub ppe_sah_bin: Cycles,
-}
-
-impl KernelRates {
-    pub fn ps3() -> Self {
-        KernelRates {
-            ppe_partition_item: Cycles(1065),
-            ppe_node: Cycles(1000),
-            spe_partition_item: Cycles(161),
-            spe_bounds_item: Cycles(20),
-            spe_job: Cycles(200),
-            // Derived: 7.5, 3 and 5.5 SPU cycles; x4 (the partition's
-            // fitted 161 over its derived 40 cycles), rounded.
-            spe_morton_bit: Cycles(30),
-            spe_radix_count: Cycles(12),
-            spe_radix_scatter: Cycles(22),
-            // Derived: 40 and 75 SPU cycles; x4 the same way.
-            spe_bin_item: Cycles(160),
-            spe_sah_bin: Cycles(300),
-            // By analogy: spe_sah_bin's count and scale.
-            ppe_sah_bin: Cycles(300),
-        }
-    }
-
-    pub fn free() -> Self {
-        KernelRates {
-            ppe_partition_item: Cycles::ZERO,
-            ppe_node: Cycles::ZERO,
-            spe_partition_item: Cycles::ZERO,
-            spe_bounds_item: Cycles::ZERO,
-            spe_job: Cycles::ZERO,
-            spe_morton_bit: Cycles::ZERO,
-            spe_radix_count: Cycles::ZERO,
-            spe_radix_scatter: Cycles::ZERO,
-            spe_bin_item: Cycles::ZERO,
-            spe_sah_bin: Cycles::ZERO,
-            ppe_sah_bin: Cycles::ZERO,
-        }
     }
 }
 
@@ -195,8 +106,10 @@ pub struct CostModel {
     /// The PPE's bandwidth to main memory through its caches, for the
     /// bytes a PPE program reads or writes explicitly.
     pub ppe_memory_bandwidth: Bandwidth,
-    /// Compute rates of the programs' kernels.
-    pub kernels: KernelRates,
+    /// Whether the programs' compute is charged: their kernel rates are
+    /// their own (`crate::kernels::rates`, and beside each strategy);
+    /// the functional mode charges none.
+    pub charge_compute: bool,
 }
 
 impl CostModel {
@@ -223,7 +136,7 @@ impl CostModel {
             ppe_alloc_cycles: Cycles(300),
             ppe_atomic_cycles: Cycles(100),
             ppe_memory_bandwidth: Bandwidth::from_gb_per_s(6.4, hz),
-            kernels: KernelRates::ps3(),
+            charge_compute: true,
         }
     }
 
@@ -254,7 +167,7 @@ impl CostModel {
             ppe_alloc_cycles: Cycles::ZERO,
             ppe_atomic_cycles: Cycles::ZERO,
             ppe_memory_bandwidth: free,
-            kernels: KernelRates::free(),
+            charge_compute: false,
         }
     }
 }

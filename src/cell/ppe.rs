@@ -37,9 +37,16 @@ impl Ppe {
         self.m.borrow().spes.len()
     }
 
-    /// Charges `cycles` of PPE computation.
+    /// Charges `cycles` of PPE computation (none in the functional mode:
+    /// [`CostModel::charge_compute`]).
     pub fn compute(&self, cycles: Cycles) {
-        self.m.borrow_mut().busy(PPE, cycles, SpanKind::Compute);
+        let mut m = self.m.borrow_mut();
+        let cycles = if m.cost.charge_compute {
+            cycles
+        } else {
+            Cycles::ZERO
+        };
+        m.busy(PPE, cycles, SpanKind::Compute);
     }
 
     async fn sync(&self) {

@@ -50,15 +50,20 @@ impl Spe {
         self.m.borrow().cost.clone()
     }
 
-    /// Charges `cycles` of computation on the local store.
+    /// Charges `cycles` of computation on the local store (none in the
+    /// functional mode: [`CostModel::charge_compute`]).
     pub fn compute(&self, cycles: Cycles) {
-        self.m
-            .borrow_mut()
-            .busy(self.core(), cycles, SpanKind::Compute);
+        let mut m = self.m.borrow_mut();
+        let cycles = if m.cost.charge_compute {
+            cycles
+        } else {
+            Cycles::ZERO
+        };
+        m.busy(self.core(), cycles, SpanKind::Compute);
     }
 
-    /// Charges `items` items of a kernel at `rate` cycles each (a named
-    /// rate of `CostModel::kernels`).
+    /// Charges `items` items of a kernel at `rate` cycles each (the
+    /// program's named rate).
     pub fn compute_items(&self, rate: Cycles, items: u64) {
         self.compute(Cycles(rate.0 * items));
     }

@@ -3,13 +3,15 @@
 //! ([`split`]), binned SAH ([`sah`]), the empty-space cut-off ([`cutoff`]),
 //! the recursion written once over boxed items ([`recursion`]), the bucket
 //! presort of approximate sorting ([`approx`]), Morton keys ([`morton`]) and
-//! the radix-sort passes ([`radix`]). A host builder calls them on whole
-//! arrays, an SPE program on local-store blocks.
+//! the radix-sort passes ([`radix`]), and their compute rates ([`rates`]).
+//! A host builder calls them on whole arrays, an SPE program on
+//! local-store blocks.
 
 pub mod approx;
 pub mod cutoff;
 pub mod morton;
 pub mod radix;
+pub mod rates;
 pub mod recursion;
 pub mod sah;
 pub mod split;

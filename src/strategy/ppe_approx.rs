@@ -11,6 +11,7 @@
 //! scatter, gather), every bucket an upper-level partition touches, and every
 //! item of the naive finish; and at the per-node rate for every node.
 
+use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -54,7 +55,7 @@ fn spawn(
     cell.spawn_ppe(move |ppe| async move {
         let items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
         let (sorted, bih, a) = build_approx(&items, region, &cfg, max_cells);
-        let k = ppe.cost().kernels;
+        let k = KernelRates::PS3;
         let touched = a.items_sorted + a.buckets_partitioned + a.naive.items_partitioned;
         ppe.compute_items(k.ppe_partition_item, touched);
         ppe.compute_items(k.ppe_node, a.nodes);

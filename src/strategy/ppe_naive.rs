@@ -9,6 +9,7 @@
 //! kernel rates of the cost model. It builds every quality knob of
 //! [`BihConfig`] (the split choice, the empty-space cut-off).
 
+use crate::kernels::rates::KernelRates;
 use std::cell::RefCell;
 use std::rc::Rc;
 
@@ -36,7 +37,7 @@ fn spawn(
     cell.spawn_ppe(move |ppe| async move {
         let mut items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
         let (bih, stats) = build_items(&mut items, region, &cfg);
-        let k = ppe.cost().kernels;
+        let k = KernelRates::PS3;
         let BuildStats {
             items_partitioned,
             items_binned,

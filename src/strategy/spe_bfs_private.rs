@@ -23,6 +23,7 @@
 //! The splits are the baseline's, so the tree is the baseline's tree; only
 //! the numbering differs (nodes read back are renumbered breadth first).
 
+use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -234,7 +235,7 @@ async fn deal(
     let depth = jobs[0].depth;
     // Sorting and dealing: the per-job bookkeeping rate of the SPE loop for
     // each job (docs/cost-model.md).
-    spe.compute_items(spe.cost().kernels.spe_job, jobs.len() as u64);
+    spe.compute_items(KernelRates::PS3.spe_job, jobs.len() as u64);
     let hands = largest_first(&jobs, spes);
     let mut own = None;
     let mut at = work;
@@ -304,7 +305,7 @@ async fn deal_to_lists(
 ) -> Result<(), CellError> {
     let jobs = b.queue.load(level, 0).await?;
     let depth = jobs[0].depth;
-    spe.compute_items(spe.cost().kernels.spe_job, jobs.len() as u64);
+    spe.compute_items(KernelRates::PS3.spe_job, jobs.len() as u64);
     let hands = largest_first(&jobs, spes);
     let mut grouped = Vec::with_capacity(jobs.len());
     let mut ranges = Vec::with_capacity(spes);
@@ -370,7 +371,7 @@ async fn take_and_steal(
     let mut stolen = 0;
     loop {
         // Choosing where to take from: the per-job bookkeeping rate.
-        spe.compute(spe.cost().kernels.spe_job);
+        spe.compute(KernelRates::PS3.spe_job);
         let Some((k, from_other)) = take(spe, record, lists, id, spes).await? else {
             break;
         };

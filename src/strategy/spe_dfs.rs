@@ -20,6 +20,7 @@
 //! buffers, bins it and puts the bins back; the PPE sweeps them (a job is
 //! then 64 bytes: the interval's bounds of centers travel with it).
 
+use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -159,7 +160,7 @@ fn spawn(
             None => None,
         };
         let job_tag = spe.tag("depth-first job and result")?;
-        let k = spe.cost().kernels;
+        let k = KernelRates::PS3;
         loop {
             spe.read_signal(1).await?;
             spe.get(job_ls, job_ea, job_bytes as u32, job_tag).await?;
@@ -232,7 +233,7 @@ fn spawn(
     });
 
     cell.spawn_ppe(move |ppe| async move {
-        let k = ppe.cost().kernels;
+        let k = KernelRates::PS3;
         // One job on SPE 0, and its two sides.
         let send = async |job: DfsJob| -> Result<(), CellError> {
             ppe.write_pod(job_ea, &to_wire(&[job], job_bytes)).await?;

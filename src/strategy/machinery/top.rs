@@ -16,6 +16,7 @@ use super::layout::TriRecord;
 use super::work_queue::Level;
 use crate::aabb::Aabb;
 use crate::cell::{Cell, CellError, Ea, Spe};
+use crate::kernels::rates::KernelRates;
 use crate::strategy::spe_bfs::{Job, SpeBuilder};
 use crate::strategy::{Knob, Knobs, Output, SpeWork};
 
@@ -179,7 +180,7 @@ pub(in crate::strategy) async fn help_top(
     b: &SpeBuilder<'_>,
     helper: &mut Coop,
 ) -> Result<(), CellError> {
-    let rate = spe.cost().kernels.spe_partition_item;
+    let rate = KernelRates::PS3.spe_partition_item;
     while spe.read_signal(1).await? == GO {
         helper.help(spe, &b.fig1, rate).await?;
     }

@@ -28,6 +28,7 @@
 mod batch;
 mod job;
 
+use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -244,7 +245,7 @@ impl<'a> SpeBuilder<'a> {
     /// The bounds of all `n` triangle records (one streaming pass), for
     /// the root job.
     pub(super) async fn bounds_of_all(&self, n: usize) -> Result<Side, CellError> {
-        let rate = self.spe.cost().kernels.spe_bounds_item;
+        let rate = KernelRates::PS3.spe_bounds_item;
         stream_bounds::<TriRecord>(self.spe, &self.fig1, self.tris, n as u64, rate).await
     }
 

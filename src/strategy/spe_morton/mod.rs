@@ -48,9 +48,10 @@ use super::machinery::top::alloc_pool;
 use super::spe_bfs::{DMA_LISTS, PREFETCH, QueueKnobs};
 use super::{Knob, Knobs, Output, Setup};
 use crate::bih::BihConfig;
-use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
+use crate::cell::{Cell, CellError, Cycles, Ea, LsAddr, Spe};
 use crate::kernels::morton::{KeyOrder, KeySpec};
 use crate::kernels::radix;
+use crate::kernels::rates::FITTED_OVER_DERIVED;
 
 /// `spe_morton` in the registry of builders.
 pub const STRATEGY: super::Strategy = super::Strategy::new(
@@ -149,6 +150,30 @@ impl MortonKnobs {
         }
     }
 }
+
+/// The rates of this strategy's own kernels, SPE cycles: each derived
+/// from an instruction count on the SPU's two pipelines (7.5, 3 and 5.5
+/// cycles) and scaled by the partition's fitted/derived ratio
+/// ([`crate::kernels::rates::FITTED_OVER_DERIVED`]), `docs/cost-model.md`.
+pub struct MortonRates {
+    /// Per triangle per key bit of a Morton key: one halving of the
+    /// candidate cell, four triangles a vector.
+    pub key_bit: Cycles,
+    /// Per key of a radix-sort histogram step (digit, count update), and
+    /// per entry of the prefix sum over the counts.
+    pub radix_count: Cycles,
+    /// Per key of a radix-sort scatter step (digit, offset update, the
+    /// pair copied to its place in the staging buffer, a DMA-list element
+    /// where a run ends), and per record of the permutation's gather list.
+    pub radix_scatter: Cycles,
+}
+
+/// The PS3's [`MortonRates`].
+pub const RATES: MortonRates = MortonRates {
+    key_bit: Cycles(15 * FITTED_OVER_DERIVED / 2),
+    radix_count: Cycles(3 * FITTED_OVER_DERIVED),
+    radix_scatter: Cycles(11 * FITTED_OVER_DERIVED / 2),
+};
 
 /// A key and the index of its triangle record: 16 bytes.
 #[repr(C)]

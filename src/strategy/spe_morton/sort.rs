@@ -85,8 +85,7 @@ impl Program<'_> {
     /// Phase 1: a key for every record of this SPE's slice, into keys A.
     pub(super) async fn keys(&mut self, bufs: [LsAddr; 4]) -> Result<(), CellError> {
         let (lo, hi) = self.slice();
-        let k = self.spe.cost().kernels;
-        let rate = Cycles(k.spe_morton_bit.0 * self.spec.bits as u64);
+        let rate = Cycles(super::RATES.key_bit.0 * self.spec.bits as u64);
         let src = self.a.tris.offset((lo * RECORD) as u64);
         let count = hi - lo;
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
@@ -121,7 +120,6 @@ impl Program<'_> {
         let (lo, hi) = self.slice();
         let (count, d) = (hi - lo, self.knobs.digit_bits);
         let digits = 1usize << d;
-        let k = self.spe.cost().kernels;
         let (src, dst) = (
             self.a.keys[pass as usize % 2],
             self.a.keys[1 - pass as usize % 2],
@@ -136,7 +134,7 @@ impl Program<'_> {
                 let keys: Vec<u64> = keys.iter().map(|r| r.key).collect();
                 radix::histogram(&keys, pass, d, &mut counts);
             })?;
-            self.spe.compute_items(k.spe_radix_count, len as u64);
+            self.spe.compute_items(super::RATES.radix_count, len as u64);
         }
         // This SPE's row of the table, then everyone's.
         let (row, tag) = (bufs[2], self.tags + 2);
@@ -153,7 +151,8 @@ impl Program<'_> {
             self.spe.get(row, at, row_bytes as u32, tag).await?;
             self.spe.wait_tag(tag).await?;
             rows.push(self.spe.ls_read::<u32>(row, digits)?);
-            self.spe.compute_items(k.spe_radix_count, digits as u64);
+            self.spe
+                .compute_items(super::RATES.radix_count, digits as u64);
         }
         let mut offsets = radix::offsets(&rows).swap_remove(self.spe.id());
         // Scatter: each block's pairs in order of their places, one putl.
@@ -164,7 +163,8 @@ impl Program<'_> {
             let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
             let keys: Vec<u64> = recs.iter().map(|r| r.key).collect();
             let to = radix::scatter(&keys, pass, d, &mut offsets);
-            self.spe.compute_items(k.spe_radix_scatter, len as u64);
+            self.spe
+                .compute_items(super::RATES.radix_scatter, len as u64);
             let mut order: Vec<usize> = (0..len).collect();
             order.sort_by_key(|&i| to[i]);
             let staged: Vec<KeyRec> = order.iter().map(|&i| recs[i]).collect();
@@ -191,7 +191,6 @@ impl Program<'_> {
     pub(super) async fn permute(&mut self, keys: Ea, bufs: [LsAddr; 4]) -> Result<(), CellError> {
         let (lo, hi) = self.slice();
         let count = hi - lo;
-        let k = self.spe.cost().kernels;
         let slice = keys.offset((lo * KEY) as u64);
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
             let (first, len, buf) = self
@@ -204,7 +203,8 @@ impl Program<'_> {
                     size: RECORD as u32,
                 })
                 .collect();
-            self.spe.compute_items(k.spe_radix_scatter, len as u64);
+            self.spe
+                .compute_items(super::RATES.radix_scatter, len as u64);
             let (obuf, tag) = self.out_buffer(b, bufs).await?;
             self.spe.getl(obuf, &list, tag).await?;
             self.spe.wait_tag(tag).await?;

@@ -1,0 +1,71 @@
+//! The compute rates of the kernels that host-side recursion, PPE programs
+//! and SPE programs share (DESIGN.md rule 4: cost is charged where the work
+//! is done, by named rates): the Table 1 calibration's two fitted rates,
+//! the estimates beside them, and the binned SAH's derived rates. A
+//! strategy's own kernels keep their rates in the strategy's file
+//! (`spe_morton`'s keys and radix passes). The machine never charges these
+//! itself; programs charge them through `Spe::compute_items` and
+//! `Ppe::compute_items`, and the functional mode charges nothing.
+//! Sources, derivations and the calibration: `docs/cost-model.md`,
+//! `docs/calibration.md`.
+
+use crate::cell::Cycles;
+
+/// Compute rates of the shared kernels, per core type.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct KernelRates {
+    /// PPE cycles per item looked at by an in-place partition (load the
+    /// record, its box center, compare, swap), all cache effects included.
+    /// Fitted on one cell of the paper's Table 1 (naive PPE build of the
+    /// Stanford Bunny, 340 ms) with `ppe_node` fixed beforehand.
+    pub ppe_partition_item: Cycles,
+    /// PPE cycles per node written: split choice, a heap allocation for the
+    /// node (the paper's naive build allocates each), recursion. Estimate.
+    pub ppe_node: Cycles,
+    /// SPE cycles per item of an in-place partition on a local-store block
+    /// (box of the record's three vertices, center, compare, move). Fitted
+    /// on one cell of Table 1 (SPE breadth-first build of the Dragon, 897 ms).
+    pub spe_partition_item: Cycles,
+    /// SPE cycles per item of a bounds pass (box and center min/max only).
+    /// Estimate.
+    pub spe_bounds_item: Cycles,
+    /// SPE cycles per job of a build run on the SPE (read the job, choose
+    /// the split, write the node, push the children's jobs). Estimate.
+    pub spe_job: Cycles,
+    /// SPE cycles per item binned by the binned SAH split choice (the
+    /// record's box and center, a bin index per axis, three bins' counts
+    /// and boxes updated). Derived from an instruction count and scaled by
+    /// the partition's fitted/derived ratio (`docs/cost-model.md`).
+    pub spe_bin_item: Cycles,
+    /// SPE cycles per bin and axis of the binned SAH sweep (the two
+    /// running unions, both sides' areas and the cost in double precision,
+    /// the best kept). Derived and scaled the same way.
+    pub spe_sah_bin: Cycles,
+    /// PPE cycles per bin and axis of the binned SAH sweep
+    /// (`ppe_naive`, `spe_dfs`): by analogy with `spe_sah_bin`, the same
+    /// sweep, whose dependent double-precision operations the PPE's scalar
+    /// FPU issues at a latency close to the SPU's.
+    pub ppe_sah_bin: Cycles,
+}
+
+/// The partition's fitted SPE rate over its derived one (161 fitted, 40
+/// SPU cycles counted): the factor a new SPE kernel's derived rate is
+/// scaled by, so that no strategy is faster only because its bookkeeping
+/// is modelled as cheaper (`docs/cost-model.md`).
+pub const FITTED_OVER_DERIVED: u64 = 4;
+
+impl KernelRates {
+    /// The PS3's, as calibrated and derived.
+    pub const PS3: KernelRates = KernelRates {
+        ppe_partition_item: Cycles(1065),
+        ppe_node: Cycles(1000),
+        spe_partition_item: Cycles(161),
+        spe_bounds_item: Cycles(20),
+        spe_job: Cycles(200),
+        // Derived: 40 and 75 SPU cycles; x4 the same way.
+        spe_bin_item: Cycles(40 * FITTED_OVER_DERIVED),
+        spe_sah_bin: Cycles(75 * FITTED_OVER_DERIVED),
+        // By analogy: spe_sah_bin's count and scale.
+        ppe_sah_bin: Cycles(75 * FITTED_OVER_DERIVED),
+    };
+}
