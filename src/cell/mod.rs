@@ -251,30 +251,37 @@ impl Cell {
         RefMut::map(self.m.borrow_mut(), |m| &mut m.mem)
     }
 
-    /// Sets the PPE's program for the next run.
-    pub fn spawn_ppe<F, Fut>(&mut self, program: F)
+    /// Sets the PPE's program for the next run; what it returns is in the
+    /// [`Exit`] once it has ended.
+    pub fn spawn_ppe<F, Fut, T>(&mut self, program: F) -> Exit<T>
     where
         F: FnOnce(Ppe) -> Fut,
-        Fut: Future<Output = Result<(), CellError>> + 'static,
+        Fut: Future<Output = Result<T, CellError>> + 'static,
+        T: 'static,
     {
-        let fut = program(Ppe { m: self.m.clone() });
+        let (exit, fut) = Exit::wrap(program(Ppe { m: self.m.clone() }));
         self.tasks.retain(|(c, _)| *c != machine::PPE);
         self.tasks.push((machine::PPE, Box::pin(fut)));
+        exit
     }
 
-    /// Sets SPE `spe`'s program for the next run.
-    pub fn spawn_spe<F, Fut>(&mut self, spe: usize, program: F)
+    /// Sets SPE `spe`'s program for the next run; what it returns is in
+    /// the [`Exit`] once it has ended (as libspe2's `spe_context_run`
+    /// returns the program's stop code).
+    pub fn spawn_spe<F, Fut, T>(&mut self, spe: usize, program: F) -> Exit<T>
     where
         F: FnOnce(Spe) -> Fut,
-        Fut: Future<Output = Result<(), CellError>> + 'static,
+        Fut: Future<Output = Result<T, CellError>> + 'static,
+        T: 'static,
     {
         assert!(spe < self.m.borrow().spes.len(), "there is no SPE {spe}");
-        let fut = program(Spe {
+        let (exit, fut) = Exit::wrap(program(Spe {
             m: self.m.clone(),
             id: spe,
-        });
+        }));
         self.tasks.retain(|(c, _)| *c != spe + 1);
         self.tasks.push((spe + 1, Box::pin(fut)));
+        exit
     }
 
     /// Runs the spawned programs to completion. All clocks start together
@@ -313,5 +320,37 @@ impl Cell {
         let mut m = self.m.borrow_mut();
         let fresh = m.trace.as_ref().map(|t| Trace::new(t.spes, t.hz));
         std::mem::replace(&mut m.trace, fresh)
+    }
+}
+
+/// What a program returned, once it has ended: the handle
+/// [`Cell::spawn_ppe`] and [`Cell::spawn_spe`] give back.
+pub struct Exit<T>(Rc<RefCell<Option<T>>>);
+
+impl<T: 'static> Exit<T> {
+    /// The program `fut`, storing what it returns, and the handle to it.
+    fn wrap(
+        fut: impl Future<Output = Result<T, CellError>> + 'static,
+    ) -> (Self, impl Future<Output = Result<(), CellError>> + 'static) {
+        let slot = Rc::new(RefCell::new(None));
+        let fill = slot.clone();
+        let fut = async move {
+            let value = fut.await?;
+            *fill.borrow_mut() = Some(value);
+            Ok(())
+        };
+        (Exit(slot), fut)
+    }
+
+    /// What the program returned; an error naming `who` if it has not
+    /// ended (it was never run, or the run failed first).
+    pub fn take(&self, who: &str) -> Result<T, CellError> {
+        self.0
+            .borrow_mut()
+            .take()
+            .ok_or_else(|| CellError::Program {
+                core: who.to_string(),
+                msg: "the program has not ended: nothing to read back".into(),
+            })
     }
 }

@@ -16,9 +16,6 @@ pub mod spe_bfs_shared;
 pub mod spe_dfs;
 pub mod spe_morton;
 
-use std::cell::RefCell;
-use std::rc::Rc;
-
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality};
 use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport, Trace};
@@ -30,8 +27,12 @@ use machinery::footprint::Purpose;
 use machinery::layout;
 
 /// How a strategy starts: it spawns its programs on the Cell for the
-/// triangles of `Setup`, and they leave the tree's node pieces in `Output`.
-pub type Spawn = fn(&mut Cell, &Setup, &BihConfig, Rc<RefCell<Output>>) -> Result<(), CellError>;
+/// triangles of `Setup`, and returns how to read back what they leave
+/// (from what they return: [`crate::cell::Exit`]) once they have ended.
+pub type Spawn = fn(&mut Cell, &Setup, &BihConfig) -> Result<Readback, CellError>;
+
+/// A strategy's [`Output`], made once its programs have ended.
+pub type Readback = Box<dyn FnOnce() -> Result<Output, CellError>>;
 
 /// A strategy of the emulated Cell: what the registry needs of it. Each
 /// strategy's file defines one (`pub const STRATEGY: Strategy = …`).
@@ -105,7 +106,8 @@ pub struct Setup {
     pub knobs: Knobs,
 }
 
-/// What a strategy's program leaves for reading back.
+/// What a strategy's programs leave for reading back: the value its
+/// [`Readback`] makes of what they returned.
 #[derive(Default)]
 pub struct Output {
     /// The node array, in one or more pieces (address, node count) that
@@ -274,10 +276,9 @@ pub fn run_in(
         region,
         knobs: knobs.clone(),
     };
-    let out = Rc::new(RefCell::new(Output::default()));
-    spawn(&mut cell, &setup, cfg, out.clone())?;
+    let readback = spawn(&mut cell, &setup, cfg)?;
     let run = cell.run()?;
-    let o = out.borrow();
+    let o = readback()?;
     if o.nodes.is_empty() {
         return Err(CellError::Program {
             core: "strategy".into(),
@@ -304,8 +305,8 @@ pub fn run_in(
         footprint: machinery::footprint::Footprint::of(&run, &bih),
         run,
         stats: o.stats,
-        spe_work: o.spe_work.clone(),
-        phases: o.phases.clone(),
+        spe_work: o.spe_work,
+        phases: o.phases,
         trace: cell.take_trace(),
     };
     Ok((bih, simulated))

@@ -13,11 +13,9 @@
 
 use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
-use std::cell::RefCell;
-use std::rc::Rc;
 
 use super::machinery::layout::TriRecord;
-use super::{Output, Setup};
+use super::{Output, Readback, Setup};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea};
 use crate::kernels::approx::build_approx;
@@ -44,15 +42,10 @@ pub const APPROX_CELLS: super::Knob = super::Knob::int(
     &["16", "64"],
 );
 
-fn spawn(
-    cell: &mut Cell,
-    setup: &Setup,
-    cfg: &BihConfig,
-    out: Rc<RefCell<Output>>,
-) -> Result<(), CellError> {
+fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let max_cells = setup.knobs.int(&APPROX_CELLS);
-    cell.spawn_ppe(move |ppe| async move {
+    let ppe = cell.spawn_ppe(move |ppe| async move {
         let items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
         let (sorted, bih, a) = build_approx(&items, region, &cfg, max_cells);
         let k = KernelRates::PS3;
@@ -72,15 +65,17 @@ fn spawn(
         let _: Vec<TriRecord> = ppe.read_pod(scattered, n).await?;
         ppe.write_pod(tris, &sorted).await?;
         let node_array = super::write_nodes(&ppe, &bih.nodes).await?;
-        let mut o = out.borrow_mut();
-        o.nodes = vec![node_array];
-        o.stats = BuildStats {
+        let stats = BuildStats {
             items_partitioned: touched,
             nodes: a.nodes,
             partitions: a.naive.partitions,
             ..BuildStats::default()
         };
-        Ok::<(), CellError>(())
+        Ok(Output {
+            nodes: vec![node_array],
+            stats,
+            ..Output::default()
+        })
     });
-    Ok(())
+    Ok(Box::new(move || ppe.take("PPE")))
 }

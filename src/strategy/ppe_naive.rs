@@ -10,11 +10,9 @@
 //! [`BihConfig`] (the split choice, the empty-space cut-off).
 
 use crate::kernels::rates::KernelRates;
-use std::cell::RefCell;
-use std::rc::Rc;
 
 use super::machinery::layout::TriRecord;
-use super::{Output, Setup};
+use super::{Output, Readback, Setup};
 use crate::bih::{BihConfig, SplitChoice};
 use crate::cell::{Cell, CellError};
 use crate::kernels::recursion::{BuildStats, build_items};
@@ -27,14 +25,9 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 )
 .with_quality(crate::bih::Quality::ALL);
 
-fn spawn(
-    cell: &mut Cell,
-    setup: &Setup,
-    cfg: &BihConfig,
-    out: Rc<RefCell<Output>>,
-) -> Result<(), CellError> {
+fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
-    cell.spawn_ppe(move |ppe| async move {
+    let ppe = cell.spawn_ppe(move |ppe| async move {
         let mut items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
         let (bih, stats) = build_items(&mut items, region, &cfg);
         let k = KernelRates::PS3;
@@ -58,10 +51,11 @@ fn spawn(
         ppe.compute_items(k.ppe_node, nodes);
         ppe.write_pod(tris, &items).await?;
         let node_array = super::write_nodes(&ppe, &bih.nodes).await?;
-        let mut o = out.borrow_mut();
-        o.nodes = vec![node_array];
-        o.stats = stats;
-        Ok::<(), CellError>(())
+        Ok(Output {
+            nodes: vec![node_array],
+            stats,
+            ..Output::default()
+        })
     });
-    Ok(())
+    Ok(Box::new(move || ppe.take("PPE")))
 }

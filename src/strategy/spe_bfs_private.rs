@@ -25,14 +25,14 @@
 
 use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
-use std::cell::RefCell;
-use std::rc::Rc;
 
 use super::machinery::coop::Coop;
-use super::machinery::top::{Common, DEAL_PER_SPE, NO_COOP_TOP, TopKnobs, build_top, help_top};
+use super::machinery::top::{
+    Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TopKnobs, build_top, help_top,
+};
 use super::machinery::work_queue::{Level, WORK_BYTES};
 use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, QueueKnobs, SpeBuilder};
-use super::{Knob, Output, Setup, SpeWork};
+use super::{Knob, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, Spe};
 
@@ -87,20 +87,15 @@ struct PrivateKnobs {
 /// the depth of their level, and the SPE's `WorkAPPE` and `WorkBPPE`.
 const RECORD_BYTES: u64 = 128;
 
-fn spawn(
-    cell: &mut Cell,
-    setup: &Setup,
-    cfg: &BihConfig,
-    out: Rc<RefCell<Output>>,
-) -> Result<(), CellError> {
+fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let knobs = PrivateKnobs {
         queue: QueueKnobs::read(&setup.knobs),
         top: TopKnobs::read(&setup.knobs),
         steal: setup.knobs.flag(&STEAL),
     };
-    let common = Common::alloc(cell, tris, n, &out)?;
-    let (spes, blocks) = (cell.config().spes, common.blocks);
+    let common = Common::alloc(cell, tris, n)?;
+    let (spes, blocks) = (cell.config().spes, common.pool.blocks);
     let mem = || cell.memory_mut();
     // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
     // triangles: room for one level of as many jobs as triangles each.
@@ -115,7 +110,7 @@ fn spawn(
     // adds two jobs.
     let per_part_slack = 3 * WORK_BYTES as u64;
     let work_bytes = 2 * (Job::spill_bytes_for(n, &cfg) + parts as u64 * per_part_slack);
-    let work = mem().alloc(
+    let work_ppe = mem().alloc(
         Purpose::WorkPpe.buffer("WorkAPPE/WorkBPPE of every SPE"),
         work_bytes,
         128,
@@ -135,17 +130,24 @@ fn spawn(
         spes as u64 * 128,
         128,
     )?;
+    let mut exits = Vec::with_capacity(spes);
     for id in 0..spes {
-        let out = out.clone();
-        cell.spawn_spe(id, move |spe| async move {
-            let mut b = SpeBuilder::new(&spe, tris, ([work, work], 0), cfg, blocks, knobs.queue)?;
+        exits.push(cell.spawn_spe(id, move |spe| async move {
+            let mut b = SpeBuilder::new(
+                &spe,
+                tris,
+                ([work_ppe, work_ppe], 0),
+                cfg,
+                blocks,
+                knobs.queue,
+            )?;
             let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
             let tag = spe.tag("deal")?;
             let mut helper = Coop::new(&spe, common.coop, knobs.queue.prefetch)?;
+            // SPE 0's top arena is counted by build_top.
+            let mut work = SpeWork::default();
             if id == 0 {
-                let mut top = SpeWork::default();
-                let dealt = build_top(&mut b, helper, n, region, knobs.top, &mut top).await?;
-                out.borrow_mut().spe_work[0] = top;
+                let dealt = build_top(&mut b, helper, n, region, knobs.top, &mut work).await?;
                 let own = match dealt {
                     Some(level) if knobs.steal => {
                         let to = Lists {
@@ -157,7 +159,7 @@ fn spawn(
                         None
                     }
                     Some(level) => {
-                        deal(&spe, &mut b, level, spes, work, records, record, tag).await?
+                        deal(&spe, &mut b, level, spes, work_ppe, records, record, tag).await?
                     }
                     None => {
                         // The tree ended in the top levels: nothing to deal.
@@ -175,9 +177,8 @@ fn spawn(
                     b.arena.close(count).await?;
                 } else if knobs.steal && dealt.is_some() {
                     b.arena.renew(blocks);
-                    let stolen =
-                        take_and_steal(&spe, &mut b, spes, work, record, records, tag).await?;
-                    out.borrow_mut().spe_work[0].stolen = stolen;
+                    work.stolen =
+                        take_and_steal(&spe, &mut b, spes, work_ppe, record, records, tag).await?;
                 }
             } else {
                 // Help partition the top levels until the deal comes.
@@ -189,9 +190,8 @@ fn spawn(
                     unreachable!("four words")
                 };
                 if knobs.steal && count > 0 {
-                    let stolen =
-                        take_and_steal(&spe, &mut b, spes, work, record, records, tag).await?;
-                    out.borrow_mut().spe_work[id].stolen = stolen;
+                    work.stolen =
+                        take_and_steal(&spe, &mut b, spes, work_ppe, record, records, tag).await?;
                 } else if count > 0 {
                     b.queue.set_spill([Ea(a), Ea(bb)], bb - a);
                     b.foreign_depth = Some(depth as u32);
@@ -200,20 +200,15 @@ fn spawn(
                     b.arena.close(count).await?;
                 }
             }
-            let mut o = out.borrow_mut();
-            o.stats.items_partitioned += b.stats.items_partitioned;
-            o.stats.partitions += b.stats.partitions;
-            let w = &mut o.spe_work[id];
-            w.jobs = b.jobs;
             if b.foreign_depth.is_some() {
-                // The arena of its own jobs (SPE 0's top arena is counted above).
-                w.arena_blocks += b.arena.stats.blocks;
-                w.arena_unused += b.arena.unused();
+                // The arena of its own jobs.
+                work.arena_blocks += b.arena.stats.blocks;
+                work.arena_unused += b.arena.unused();
             }
-            Ok(())
-        });
+            Ok(SpeExit::of(&b, work))
+        }));
     }
-    Ok(())
+    Ok(common.pool.readback(exits, None))
 }
 
 /// SPE 0 deals the jobs of `level` (in `WorkA`): largest first, each to the

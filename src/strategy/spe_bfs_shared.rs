@@ -31,16 +31,16 @@
 //! the numbering differs (nodes read back are renumbered breadth first).
 
 use crate::strategy::machinery::footprint::Purpose;
-use std::cell::RefCell;
-use std::rc::Rc;
 
 use super::machinery::arena::NodeWrites;
 use super::machinery::barrier::Barrier;
 use super::machinery::coop::Coop;
-use super::machinery::top::{Common, DEAL_PER_SPE, NO_COOP_TOP, TopKnobs, build_top, help_top};
+use super::machinery::top::{
+    Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TopKnobs, build_top, help_top,
+};
 use super::machinery::work_queue::{SharedSpill, WorkQueue};
 use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, QueueKnobs, SpeBuilder};
-use super::{Knob, Output, Setup, SpeWork};
+use super::{Knob, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
 
@@ -114,12 +114,7 @@ struct Queue {
     spes: usize,
 }
 
-fn spawn(
-    cell: &mut Cell,
-    setup: &Setup,
-    cfg: &BihConfig,
-    out: Rc<RefCell<Output>>,
-) -> Result<(), CellError> {
+fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let knobs = SharedKnobs {
         queue: QueueKnobs::read(&setup.knobs),
@@ -135,7 +130,7 @@ fn spawn(
             knobs.agglomerate,
         )));
     }
-    let common = Common::alloc(cell, tris, n, &out)?;
+    let common = Common::alloc(cell, tris, n)?;
     let spes = cell.config().spes;
     // A level's jobs: two per job of the level before with more than a
     // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1)
@@ -183,15 +178,15 @@ fn spawn(
         arrivals,
         spes,
     };
+    let mut exits = Vec::with_capacity(spes);
     for id in 0..spes {
-        let out = out.clone();
-        cell.spawn_spe(id, move |spe| async move {
+        exits.push(cell.spawn_spe(id, move |spe| async move {
             let mut b = SpeBuilder::new(
                 &spe,
                 tris,
                 (queue.levels, queue.level_bytes),
                 cfg,
-                common.blocks,
+                common.pool.blocks,
                 knobs.queue,
             )?;
             let mut helper = Coop::new(&spe, common.coop, knobs.queue.prefetch)?;
@@ -222,25 +217,24 @@ fn spawn(
             } else {
                 help_top(&spe, &b, &mut helper).await?;
             }
-            b.arena.renew(common.blocks);
-            b.node_writes = Some(NodeWrites::new(&spe, common.pool, knobs.queue.dma_lists)?);
+            b.arena.renew(common.pool.blocks);
+            b.node_writes = Some(NodeWrites::new(
+                &spe,
+                common.pool.base,
+                knobs.queue.dma_lists,
+            )?);
             b.strict_spans = true;
             let taken =
                 shared_levels(&spe, &mut b, queue, knobs.agglomerate, knobs.guided, line).await?;
             let count = b.arena.allocated();
             b.arena.close(count).await?;
-            let mut o = out.borrow_mut();
-            o.stats.items_partitioned += b.stats.items_partitioned;
-            o.stats.partitions += b.stats.partitions;
-            work.jobs = b.jobs;
             work.taken = taken;
             work.arena_blocks += b.arena.stats.blocks;
             work.arena_unused += b.arena.unused();
-            o.spe_work[id] = work;
-            Ok(())
-        });
+            Ok(SpeExit::of(&b, work))
+        }));
     }
-    Ok(())
+    Ok(common.pool.readback(exits, None))
 }
 
 /// Every SPE: takes jobs from the shared queue level by level until a

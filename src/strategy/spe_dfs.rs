@@ -22,15 +22,13 @@
 
 use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
-use std::cell::RefCell;
-use std::rc::Rc;
 
 use glam::Vec3A;
 
 use super::machinery::fig1::{Fig1Buffers, partition_in_place, stream_bounds, stream_fold};
 use super::machinery::layout::TriRecord;
 use super::machinery::work_queue::{from_wire, to_wire};
-use super::{Output, Setup};
+use super::{Output, Readback, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
 use crate::cell::{Cell, CellError, Ea};
@@ -118,12 +116,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 )
 .with_quality(crate::bih::Quality::ALL);
 
-fn spawn(
-    cell: &mut Cell,
-    setup: &Setup,
-    cfg: &BihConfig,
-    out: Rc<RefCell<Output>>,
-) -> Result<(), CellError> {
+fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let job_bytes = DfsJob::bytes(&cfg);
     let job_ea = cell.memory_mut().alloc(
@@ -232,7 +225,7 @@ fn spawn(
         }
     });
 
-    cell.spawn_ppe(move |ppe| async move {
+    let ppe = cell.spawn_ppe(move |ppe| async move {
         let k = KernelRates::PS3;
         // One job on SPE 0, and its two sides.
         let send = async |job: DfsJob| -> Result<(), CellError> {
@@ -343,10 +336,11 @@ fn spawn(
         ppe.send_signal(0, 1, 1).await?;
         let node_array = super::write_nodes(&ppe, &nodes).await?;
         stats.nodes = nodes.len() as u64;
-        let mut o = out.borrow_mut();
-        o.nodes = vec![node_array];
-        o.stats = stats;
-        Ok::<(), CellError>(())
+        Ok(Output {
+            nodes: vec![node_array],
+            stats,
+            ..Output::default()
+        })
     });
-    Ok(())
+    Ok(Box::new(move || ppe.take("PPE")))
 }

@@ -15,10 +15,11 @@ use super::footprint::Purpose;
 use super::layout::TriRecord;
 use super::work_queue::Level;
 use crate::aabb::Aabb;
+use crate::cell::Exit;
 use crate::cell::{Cell, CellError, Ea, Spe};
 use crate::kernels::rates::KernelRates;
 use crate::strategy::spe_bfs::{Job, SpeBuilder};
-use crate::strategy::{Knob, Knobs, Output, SpeWork};
+use crate::strategy::{Knob, Knobs, Output, Readback, SpeWork};
 
 /// `--no-coop-top`: [`TopKnobs::coop`] off.
 pub const NO_COOP_TOP: Knob = Knob::flag(
@@ -62,21 +63,15 @@ impl TopKnobs {
 /// The ObjectArena pool and the cooperative partition's areas.
 #[derive(Clone, Copy)]
 pub(in crate::strategy) struct Common {
-    pub pool: Ea,
-    pub blocks: BlockSource,
+    pub pool: Pool,
     pub coop: CoopArea,
 }
 
 impl Common {
     /// Allocates them for `n` triangle records at `tris`.
-    pub fn alloc(
-        cell: &mut Cell,
-        tris: Ea,
-        n: usize,
-        out: &std::cell::RefCell<Output>,
-    ) -> Result<Self, CellError> {
+    pub fn alloc(cell: &mut Cell, tris: Ea, n: usize) -> Result<Self, CellError> {
         let spes = cell.config().spes;
-        let (pool, blocks) = alloc_pool(cell, n, out)?;
+        let pool = Pool::alloc(cell, n)?;
         let mut mem = cell.memory_mut();
         let scratch = mem.alloc(
             Purpose::TriangleRecords.buffer("cooperative partition scratch"),
@@ -103,41 +98,95 @@ impl Common {
                 128,
             )?,
         };
-        Ok(Common { pool, blocks, coop })
+        Ok(Common { pool, coop })
     }
 }
 
-/// One ObjectArena pool for every SPE's arena, for `n` triangles: every
-/// node, plus a pair skipped and a part-filled block per SPE and phase.
-/// The output reads the pool back (compacted) and has a slot per SPE.
-pub(in crate::strategy) fn alloc_pool(
-    cell: &mut Cell,
-    n: usize,
-    out: &std::cell::RefCell<Output>,
-) -> Result<(Ea, BlockSource), CellError> {
-    let spes = cell.config().spes;
-    let mut mem = cell.memory_mut();
-    let pool_blocks = (2 * n + 1).div_ceil(BLOCK_NODES) + 2 * spes + 2;
-    let pool = mem.alloc(
-        Purpose::Nodes.buffer("ObjectArena pool"),
-        pool_blocks as u64 * BLOCK_BYTES,
-        128,
-    )?;
-    let counter = mem.alloc(
-        Purpose::JobQueues.buffer("ObjectArena pool counter"),
-        128,
-        128,
-    )?;
-    let mut o = out.borrow_mut();
-    o.nodes = vec![(pool, pool_blocks * BLOCK_NODES)];
-    o.compact = true;
-    o.spe_work = vec![SpeWork::default(); spes];
-    let blocks = BlockSource::Pool {
-        base: pool,
-        blocks: pool_blocks as u32,
-        counter,
-    };
-    Ok((pool, blocks))
+/// One ObjectArena pool in main memory for every SPE's arena.
+#[derive(Clone, Copy)]
+pub(in crate::strategy) struct Pool {
+    pub base: Ea,
+    /// Node slots in the pool.
+    pub slots: usize,
+    /// Where the SPEs' arenas take their blocks.
+    pub blocks: BlockSource,
+}
+
+impl Pool {
+    /// The pool for `n` triangles: every node, plus a pair skipped and a
+    /// part-filled block per SPE and phase.
+    pub fn alloc(cell: &mut Cell, n: usize) -> Result<Self, CellError> {
+        let spes = cell.config().spes;
+        let mut mem = cell.memory_mut();
+        let pool_blocks = (2 * n + 1).div_ceil(BLOCK_NODES) + 2 * spes + 2;
+        let base = mem.alloc(
+            Purpose::Nodes.buffer("ObjectArena pool"),
+            pool_blocks as u64 * BLOCK_BYTES,
+            128,
+        )?;
+        let counter = mem.alloc(
+            Purpose::JobQueues.buffer("ObjectArena pool counter"),
+            128,
+            128,
+        )?;
+        let blocks = BlockSource::Pool {
+            base,
+            blocks: pool_blocks as u32,
+            counter,
+        };
+        Ok(Pool {
+            base,
+            slots: pool_blocks * BLOCK_NODES,
+            blocks,
+        })
+    }
+
+    /// How a build whose SPEs return `exits` (in SPE order) is read back:
+    /// the pool, compacted (the arenas' unused slots dropped), what each
+    /// SPE did, and the triangle records at `records` if the strategy
+    /// moved them.
+    pub fn readback(self, exits: Vec<Exit<SpeExit>>, records: Option<Ea>) -> Readback {
+        Box::new(move || {
+            let mut o = Output {
+                nodes: vec![(self.base, self.slots)],
+                compact: true,
+                records,
+                ..Output::default()
+            };
+            for (id, exit) in exits.iter().enumerate() {
+                let e = exit.take(&format!("SPE {id}"))?;
+                o.stats.items_partitioned += e.items_partitioned;
+                o.stats.partitions += e.partitions;
+                o.spe_work.push(e.work);
+                o.phases.extend(e.phases);
+            }
+            Ok(o)
+        })
+    }
+}
+
+/// What one SPE of a multi-SPE build returns.
+#[derive(Default)]
+pub(in crate::strategy) struct SpeExit {
+    pub work: SpeWork,
+    pub items_partitioned: u64,
+    pub partitions: u64,
+    /// A strategy made of phases: each phase's name and the cycle it
+    /// ended at (SPE 0 reports them).
+    pub phases: Vec<(&'static str, u64)>,
+}
+
+impl SpeExit {
+    /// What `b`'s loop did, as SPE work `work` (its jobs set from the loop).
+    pub fn of(b: &SpeBuilder<'_>, mut work: SpeWork) -> Self {
+        work.jobs = b.jobs;
+        SpeExit {
+            work,
+            items_partitioned: b.stats.items_partitioned,
+            partitions: b.stats.partitions,
+            phases: Vec::new(),
+        }
+    }
 }
 
 /// SPE 0: builds the top levels of the `n` records in `region`, helped by

@@ -30,14 +30,12 @@ mod job;
 
 use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
-use std::cell::RefCell;
-use std::rc::Rc;
 
 use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena, pieces, serve_blocks};
 use super::machinery::fig1::{Fig1Buffers, stream_bounds};
 use super::machinery::layout::TriRecord;
 use super::machinery::work_queue::{Level, WorkQueue};
-use super::{Knob, Knobs, Output, Setup};
+use super::{Knob, Knobs, Output, Readback, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
 use crate::cell::{CellError, Ea, LsAddr, Spe, WaitMode};
@@ -59,8 +57,7 @@ fn spawn(
     cell: &mut crate::cell::Cell,
     setup: &Setup,
     cfg: &BihConfig,
-    out: Rc<RefCell<Output>>,
-) -> Result<(), CellError> {
+) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     // WorkAPPE and WorkBPPE: room for the widest level the tree can have
     // (the paper sized them for as many jobs as triangles, 6.5 times more
@@ -73,10 +70,8 @@ fn spawn(
         cell.memory_mut()
             .alloc(Purpose::WorkPpe.buffer("WorkBPPE"), work_ppe_bytes, 128)?;
     let work_ppe = [work_a_ppe, work_b_ppe];
-    let stats = Rc::new(RefCell::new(BuildStats::default()));
-    let spe_stats = stats.clone();
 
-    cell.spawn_spe(0, move |spe| async move {
+    let spe = cell.spawn_spe(0, move |spe| async move {
         let mut b = SpeBuilder::new(
             &spe,
             tris,
@@ -87,19 +82,21 @@ fn spawn(
         )?;
         let all = b.bounds_of_all(n).await?;
         b.run(Job::new(0, n, 0, 0, region, &all)).await?;
-        *spe_stats.borrow_mut() = b.stats;
-        Ok(())
+        Ok(b.stats)
     });
 
-    cell.spawn_ppe(move |ppe| async move {
+    let ppe = cell.spawn_ppe(move |ppe| async move {
         // The PPE only allocates the arena's blocks.
         let (blocks, count) = serve_blocks(&ppe, 0).await?;
-        let mut o = out.borrow_mut();
-        o.nodes = pieces(&blocks, count);
-        o.stats = *stats.borrow();
-        Ok::<(), CellError>(())
+        Ok(pieces(&blocks, count))
     });
-    Ok(())
+    Ok(Box::new(move || {
+        Ok(Output {
+            nodes: ppe.take("PPE")?,
+            stats: spe.take("SPE 0")?,
+            ..Output::default()
+        })
+    }))
 }
 
 /// `--double-buffer`: [`QueueKnobs::double_buffer`].

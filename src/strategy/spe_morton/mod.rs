@@ -36,17 +36,15 @@ mod regions;
 mod sort;
 
 use crate::strategy::machinery::footprint::Purpose;
-use std::cell::RefCell;
-use std::rc::Rc;
 
 use bytemuck::{Pod, Zeroable};
 
 use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
 use super::machinery::barrier::Barrier;
 use super::machinery::layout::TriRecord;
-use super::machinery::top::alloc_pool;
+use super::machinery::top::{Pool, SpeExit};
 use super::spe_bfs::{DMA_LISTS, PREFETCH, QueueKnobs};
-use super::{Knob, Knobs, Output, Setup};
+use super::{Knob, Knobs, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, Ea, LsAddr, Spe};
 use crate::kernels::morton::{KeyOrder, KeySpec};
@@ -220,15 +218,10 @@ struct Areas {
     blocks: BlockSource,
 }
 
-fn spawn(
-    cell: &mut Cell,
-    setup: &Setup,
-    cfg: &BihConfig,
-    out: Rc<RefCell<Output>>,
-) -> Result<(), CellError> {
+fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (n, knobs, cfg) = (setup.count, MortonKnobs::read(&setup.knobs), *cfg);
     let spes = cell.config().spes;
-    let (pool, blocks) = alloc_pool(cell, n, &out)?;
+    let pool = Pool::alloc(cell, n)?;
     let mut mem = cell.memory_mut();
     let n64 = n as u64;
     let line = 128;
@@ -253,23 +246,23 @@ fn spawn(
         deal_header: mem.alloc(Purpose::JobQueues.buffer("region deal header"), line, 128)?,
         arrivals: mem.alloc(Purpose::JobQueues.buffer("barrier arrivals"), line, 128)?,
         take: mem.alloc(Purpose::JobQueues.buffer("region counter"), line, 128)?,
-        pool,
-        blocks,
+        pool: pool.base,
+        blocks: pool.blocks,
     };
     drop(mem);
-    out.borrow_mut().records = Some(a.sorted);
     let spec = KeySpec {
         order: knobs.key_order,
         bits: knobs.key_bits,
         scene: setup.region,
     };
-    for id in 0..spes {
-        let out = out.clone();
-        cell.spawn_spe(id, move |spe| async move {
-            let mut p = Program::new(&spe, a, spec, knobs, cfg)?;
-            p.run(&out).await
-        });
-    }
+    let exits = (0..spes)
+        .map(|id| {
+            cell.spawn_spe(id, move |spe| async move {
+                let mut p = Program::new(&spe, a, spec, knobs, cfg)?;
+                p.run().await
+            })
+        })
+        .collect();
     // The PPE only allocates: the region tables, once SPE 0 knows how many
     // regions the top of the tree made (memory to what the scene needs).
     cell.spawn_ppe(move |ppe| async move {
@@ -304,7 +297,7 @@ fn spawn(
         }
         Ok::<(), CellError>(())
     });
-    Ok(())
+    Ok(pool.readback(exits, Some(a.sorted)))
 }
 
 /// One node of the top of the tree, as SPE 0 keeps it until the regions'
@@ -420,7 +413,7 @@ impl<'a> Program<'a> {
         Ok(())
     }
 
-    async fn run(&mut self, out: &RefCell<Output>) -> Result<(), CellError> {
+    async fn run(&mut self) -> Result<SpeExit, CellError> {
         let mark = self.spe.ls_mark();
         let bufs = [
             self.spe.ls_alloc(16 * 1024, 128)?,
@@ -454,18 +447,20 @@ impl<'a> Program<'a> {
         let nodes = self.w().nodes;
         let count = self.arena.allocated();
         self.arena.close(count).await?;
-        let mut o = out.borrow_mut();
         if self.spe.id() == 0 {
             self.phases.push(("top nodes", self.spe.now().0));
-            o.phases = std::mem::take(&mut self.phases);
         }
-        o.stats.items_partitioned += self.items_partitioned;
-        o.stats.partitions += self.partitions;
-        let w = &mut o.spe_work[self.spe.id()];
-        w.jobs = nodes;
-        w.taken = self.regions_built;
-        w.arena_blocks = self.arena.stats.blocks;
-        w.arena_unused = self.arena.unused();
-        Ok(())
+        Ok(SpeExit {
+            work: SpeWork {
+                jobs: nodes,
+                taken: self.regions_built,
+                arena_blocks: self.arena.stats.blocks,
+                arena_unused: self.arena.unused(),
+                ..SpeWork::default()
+            },
+            items_partitioned: self.items_partitioned,
+            partitions: self.partitions,
+            phases: std::mem::take(&mut self.phases),
+        })
     }
 }
