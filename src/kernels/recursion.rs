@@ -8,9 +8,10 @@
 
 use glam::{Vec3A, Vec4};
 
-use super::cutoff::{Cut, child_regions, empty_gap};
+use super::cutoff::child_regions;
+use super::decide::{Decision, NodeView, decide};
 use super::sah::Bins;
-use super::split::{Boxed, Side, Split, choose_split_counted, clip_planes, partition, side_of};
+use super::split::{Boxed, Side, clip_planes, partition, side_of};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
 
@@ -155,17 +156,36 @@ impl<T: Item> Builder<'_, T> {
         depth: u32,
         region: Aabb,
     ) {
-        let leaf = BihNode::leaf(first as u32, count as u32);
-        if self.cfg.ends_in_leaf(count, depth) {
-            self.nodes[id] = leaf;
-            return;
-        }
-        let gap = (self.cfg.empty_cut).and_then(|p| empty_gap(&region, &side.bounds(), p));
-        if let Some(cut) = gap {
-            return self.clip_node(id, first, count, candidate, side, depth, region, cut);
-        }
-        let Some(split) = self.choose(first, count, &mut candidate, side) else {
-            self.nodes[id] = leaf;
+        let view = NodeView {
+            first,
+            count,
+            depth,
+            region,
+            bounds: side.bounds(),
+            centers: side.centers(),
+            candidate,
+        };
+        let split = match decide(self.cfg, &view, &mut self.stats.f32_stalls) {
+            Decision::Leaf => None,
+            Decision::Clip(clip) => {
+                self.stats.clip_nodes += 1;
+                let full = clip.make_in(&mut self.nodes, id);
+                return self.node(full, first, count, candidate, side, depth + 1, clip.region);
+            }
+            Decision::Split(split, c) => {
+                candidate = c;
+                Some(split)
+            }
+            Decision::Bin(bins) => {
+                self.stats.items_binned += count as u64;
+                self.stats.sah_sweeps += 1;
+                let mut b = Bins::new(&view.centers, bins);
+                b.add(&self.items[first..first + count]);
+                b.choose_or_halve(&mut candidate, &mut self.stats.f32_stalls)
+            }
+        };
+        let Some(split) = split else {
+            self.nodes[id] = BihNode::leaf(first as u32, count as u32);
             return;
         };
         let (l, r) = partition(&mut self.items[first..first + count], split);
@@ -189,57 +209,5 @@ impl<T: Item> Builder<'_, T> {
             depth + 1,
             rr,
         );
-    }
-
-    /// The split of the configured choice; binned SAH falls back to the
-    /// global heuristic when no binned plane separates in `f32`.
-    fn choose(
-        &mut self,
-        first: usize,
-        count: usize,
-        candidate: &mut Aabb,
-        side: &Side,
-    ) -> Option<Split> {
-        let centers = side.centers();
-        match self.cfg.sah_bins(count) {
-            None => choose_split_counted(candidate, &centers, &mut self.stats.f32_stalls),
-            Some(bins) => {
-                if centers.min == centers.max {
-                    return None;
-                }
-                self.stats.items_binned += count as u64;
-                self.stats.sah_sweeps += 1;
-                let mut b = Bins::new(&centers, bins);
-                b.add(&self.items[first..first + count]);
-                b.choose_or_halve(candidate, &mut self.stats.f32_stalls)
-            }
-        }
-    }
-
-    /// The empty-space cut-off ([`super::cutoff`]): node `id` becomes a
-    /// clip node whose empty child is a leaf of no triangles and whose
-    /// other child is the node again, in its cut region.
-    #[allow(clippy::too_many_arguments)]
-    fn clip_node(
-        &mut self,
-        id: usize,
-        first: usize,
-        count: usize,
-        candidate: Aabb,
-        side: &Side,
-        depth: u32,
-        region: Aabb,
-        cut: Cut,
-    ) {
-        let clip = cut.clip(region, &side.bounds(), first, count);
-        let children = self.nodes.len();
-        self.nodes.push(BihNode::default());
-        self.nodes.push(BihNode::default());
-        self.stats.clip_nodes += 1;
-        self.nodes[children + clip.empty] = BihNode::leaf(clip.leaf_at as u32, 0);
-        let [cl, cr] = clip.planes;
-        self.nodes[id] = BihNode::inner(children as u32, clip.axis, cl, cr);
-        let full = children + 1 - clip.empty;
-        self.node(full, first, count, candidate, side, depth + 1, clip.region);
     }
 }

@@ -32,10 +32,11 @@ use super::{Output, Readback, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
 use crate::cell::{Cell, CellError, Ea};
-use crate::kernels::cutoff::{child_regions, empty_gap};
+use crate::kernels::cutoff::child_regions;
+use crate::kernels::decide::{Decision, NodeView, decide};
 use crate::kernels::recursion::BuildStats;
 use crate::kernels::sah::Bins;
-use crate::kernels::split::{Side, Split, choose_split, clip_planes};
+use crate::kernels::split::{Side, Split, clip_planes};
 
 const STOP: u32 = 0;
 const PARTITION: u32 = 1;
@@ -270,36 +271,36 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         while let Some((id, first, count, mut candidate, side, depth, region)) = stack.pop() {
             ppe.compute(k.ppe_node);
             let leaf = BihNode::leaf(first as u32, count as u32);
-            if cfg.ends_in_leaf(count, depth) {
-                nodes[id] = leaf;
-                continue;
-            }
-            let gap = (cfg.empty_cut).and_then(|p| empty_gap(&region, &side.bounds(), p));
-            if let Some(cut) = gap {
-                // A clip node (the empty-space cut-off): no SPE work.
-                let clip = cut.clip(region, &side.bounds(), first, count);
-                let children = nodes.len();
-                nodes.push(BihNode::default());
-                nodes.push(BihNode::default());
-                nodes[children + clip.empty] = BihNode::leaf(clip.leaf_at as u32, 0);
-                let [cl, cr] = clip.planes;
-                nodes[id] = BihNode::inner(children as u32, clip.axis, cl, cr);
-                stats.clip_nodes += 1;
-                let full = children + 1 - clip.empty;
-                stack.push((full, first, count, candidate, side, depth + 1, clip.region));
-                continue;
-            }
-            let centers = side.centers();
-            let split = match cfg.sah_bins(count) {
-                Some(bins) if centers.min != centers.max => {
+            let view = NodeView {
+                first,
+                count,
+                depth,
+                region,
+                bounds: side.bounds(),
+                centers: side.centers(),
+                candidate,
+            };
+            let split = match decide(&cfg, &view, &mut 0) {
+                Decision::Leaf => None,
+                Decision::Clip(clip) => {
+                    // A clip node (the empty-space cut-off): no SPE work.
+                    stats.clip_nodes += 1;
+                    let full = clip.make_in(&mut nodes, id);
+                    stack.push((full, first, count, candidate, side, depth + 1, clip.region));
+                    continue;
+                }
+                Decision::Split(split, c) => {
+                    candidate = c;
+                    Some(split)
+                }
+                Decision::Bin(bins) => {
                     stats.items_binned += count as u64;
                     stats.sah_sweeps += 1;
                     let per_axis = crate::kernels::sah::bins_per_axis(bins) as u64;
                     ppe.compute_items(k.ppe_sah_bin, 3 * per_axis);
-                    let b = bins_of(first, count, centers, bins).await?;
+                    let b = bins_of(first, count, view.centers, bins).await?;
                     b.choose_or_halve(&mut candidate, &mut 0)
                 }
-                _ => choose_split(&mut candidate, &centers),
             };
             let Some(split) = split else {
                 nodes[id] = leaf;

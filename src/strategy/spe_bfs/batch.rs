@@ -8,10 +8,11 @@ use super::{Job, SpeBuilder};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 use crate::cell::{CellError, ListElement, WaitMode};
-use crate::kernels::cutoff::{Clip, empty_gap};
+use crate::kernels::cutoff::Clip;
+use crate::kernels::decide::{Decision, NodeView, decide};
 use crate::kernels::rates::KernelRates;
 use crate::kernels::sah::Bins;
-use crate::kernels::split::{Split, choose_split, partition};
+use crate::kernels::split::{Split, partition};
 use crate::strategy::machinery::fig1::{partition_in_place, stream_fold};
 use crate::strategy::machinery::layout::TriRecord;
 
@@ -79,22 +80,20 @@ impl SpeBuilder<'_> {
     /// cut-off finds a gap, else a split (binned SAH: chosen later, where
     /// the records are).
     fn make(&self, job: &Job) -> Make {
-        if self.cfg.ends_in_leaf(job.count as usize, job.depth) {
-            return Make::Leaf;
-        }
-        let (region, bounds) = (job.region(), job.bounds());
-        if let Some(cut) = (self.cfg.empty_cut).and_then(|p| empty_gap(&region, &bounds, p)) {
-            let (first, count) = (job.first as usize, job.count as usize);
-            return Make::Clip(cut.clip(region, &bounds, first, count));
-        }
-        let (mut candidate, centers) = (job.candidate(), job.centers());
-        match self.cfg.sah_bins(job.count as usize) {
-            Some(_) if centers.min == centers.max => Make::Leaf,
-            Some(_) => Make::Sah(candidate),
-            None => match choose_split(&mut candidate, &centers) {
-                Some(s) => Make::Split(s, candidate),
-                None => Make::Leaf,
-            },
+        let view = NodeView {
+            first: job.first as usize,
+            count: job.count as usize,
+            depth: job.depth,
+            region: job.region(),
+            bounds: job.bounds(),
+            centers: job.centers(),
+            candidate: job.candidate(),
+        };
+        match decide(&self.cfg, &view, &mut 0) {
+            Decision::Leaf => Make::Leaf,
+            Decision::Clip(clip) => Make::Clip(clip),
+            Decision::Split(s, candidate) => Make::Split(s, candidate),
+            Decision::Bin(_) => Make::Sah(view.candidate),
         }
     }
 
