@@ -12,7 +12,7 @@
 //!
 //! A builder needs, per node, its region and the bounds of its triangles:
 //! the host recursion passes them down; the SPE builders' jobs carry them
-//! (`strategy::spe_bfs::Job`, 128 bytes instead of 64 when the cut-off is
+//! (`strategy::machinery::breadth_first::Job`, 128 bytes instead of 64 when the cut-off is
 //! on).
 
 use crate::aabb::Aabb;

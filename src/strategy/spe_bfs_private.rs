@@ -26,12 +26,14 @@
 use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
 
+use super::machinery::breadth_first::{
+    DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, QueueKnobs, SpeBuilder,
+};
 use super::machinery::coop::Coop;
 use super::machinery::top::{
     Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TopKnobs, build_top, help_top,
 };
 use super::machinery::work_queue::{Level, WORK_BYTES};
-use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, QueueKnobs, SpeBuilder};
 use super::{Knob, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, Spe};
@@ -170,7 +172,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                 if let Some((jobs, depth, areas)) = own {
                     b.arena.renew(blocks);
                     b.queue.set_spill(areas, areas[1].0 - areas[0].0);
-                    b.foreign_depth = Some(depth);
+                    b.take_dealt(depth);
                     let level = b.queue.restart_local(&jobs)?;
                     b.levels(level, None).await?;
                     let count = b.arena.allocated();
@@ -194,13 +196,13 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                         take_and_steal(&spe, &mut b, spes, work_ppe, record, records, tag).await?;
                 } else if count > 0 {
                     b.queue.set_spill([Ea(a), Ea(bb)], bb - a);
-                    b.foreign_depth = Some(depth as u32);
+                    b.take_dealt(depth as u32);
                     b.levels(Level::InMemory(count as usize), None).await?;
                     let count = b.arena.allocated();
                     b.arena.close(count).await?;
                 }
             }
-            if b.foreign_depth.is_some() {
+            if b.builds_dealt() {
                 // The arena of its own jobs.
                 work.arena_blocks += b.arena.stats.blocks;
                 work.arena_unused += b.arena.unused();
@@ -362,7 +364,7 @@ async fn take_and_steal(
         areas.push([at, at.offset(area)]);
         at = at.offset(2 * area);
     }
-    b.foreign_depth = Some(depth as u32);
+    b.take_dealt(depth as u32);
     let mut stolen = 0;
     loop {
         // Choosing where to take from: the per-job bookkeeping rate.

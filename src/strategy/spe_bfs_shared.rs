@@ -34,12 +34,14 @@ use crate::strategy::machinery::footprint::Purpose;
 
 use super::machinery::arena::NodeWrites;
 use super::machinery::barrier::Barrier;
+use super::machinery::breadth_first::{
+    DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, QueueKnobs, SpeBuilder,
+};
 use super::machinery::coop::Coop;
 use super::machinery::top::{
     Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TopKnobs, build_top, help_top,
 };
 use super::machinery::work_queue::{SharedSpill, WorkQueue};
-use super::spe_bfs::{DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, QueueKnobs, SpeBuilder};
 use super::{Knob, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
@@ -218,12 +220,11 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                 help_top(&spe, &b, &mut helper).await?;
             }
             b.arena.renew(common.pool.blocks);
-            b.node_writes = Some(NodeWrites::new(
+            b.share_queue(NodeWrites::new(
                 &spe,
                 common.pool.base,
                 knobs.queue.dma_lists,
             )?);
-            b.strict_spans = true;
             let taken =
                 shared_levels(&spe, &mut b, queue, knobs.agglomerate, knobs.guided, line).await?;
             let count = b.arena.allocated();
@@ -273,11 +274,7 @@ async fn shared_levels(
             if first >= len {
                 if len == 0 {
                     // An empty level: the tree is done.
-                    b.node_writes
-                        .as_mut()
-                        .expect("shared builds write nodes directly")
-                        .finish()
-                        .await?;
+                    b.finish_node_writes().await?;
                     return Ok(taken);
                 }
                 break;

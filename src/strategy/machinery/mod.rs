@@ -7,6 +7,7 @@
 
 pub mod arena;
 pub mod barrier;
+pub mod breadth_first;
 pub mod coop;
 pub mod fig1;
 pub mod footprint;

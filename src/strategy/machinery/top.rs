@@ -18,7 +18,7 @@ use crate::aabb::Aabb;
 use crate::cell::Exit;
 use crate::cell::{Cell, CellError, Ea, Spe};
 use crate::kernels::rates::KernelRates;
-use crate::strategy::spe_bfs::{Job, SpeBuilder};
+use crate::strategy::machinery::breadth_first::{Job, SpeBuilder};
 use crate::strategy::{Knob, Knobs, Output, Readback, SpeWork};
 
 /// `--no-coop-top`: [`TopKnobs::coop`] off.
@@ -206,7 +206,7 @@ pub(in crate::strategy) async fn build_top(
     let all = b.bounds_of_all(n).await?;
     if spes > 1 && knobs.coop {
         let per_block = super::fig1::BLOCK_BYTES / size_of::<TriRecord>() as u32;
-        b.coop = Some((helper, spes as u32 * per_block));
+        b.help_with(Some((helper, spes as u32 * per_block)));
     }
     let root_id = b.arena.alloc(1).await?;
     let level = b
@@ -214,7 +214,7 @@ pub(in crate::strategy) async fn build_top(
         .start(Job::new(0, n, root_id as usize, 0, region, &all))?;
     let top = b.levels(level, Some(knobs.deal_per_spe * spes)).await?;
     // From here on, every SPE works on whole jobs.
-    b.coop = None;
+    b.help_with(None);
     let top_nodes = b.arena.allocated();
     b.arena.close(top_nodes).await?;
     work.arena_blocks += b.arena.stats.blocks;

@@ -41,9 +41,9 @@ use bytemuck::{Pod, Zeroable};
 
 use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
 use super::machinery::barrier::Barrier;
+use super::machinery::breadth_first::{DMA_LISTS, PREFETCH, QueueKnobs};
 use super::machinery::layout::TriRecord;
 use super::machinery::top::{Pool, SpeExit};
-use super::spe_bfs::{DMA_LISTS, PREFETCH, QueueKnobs};
 use super::{Knob, Knobs, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, Ea, LsAddr, Spe};

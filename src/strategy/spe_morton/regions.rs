@@ -14,10 +14,10 @@ use crate::cell::{CellError, Ea};
 use crate::kernels::morton::KeyOrder;
 use crate::kernels::recursion::build_subtree;
 use crate::kernels::split::{Side, side_of};
+use crate::strategy::machinery::breadth_first::{Job, SpeBuilder};
 use crate::strategy::machinery::fig1::stream_bounds;
 use crate::strategy::machinery::layout::TriRecord;
 use crate::strategy::machinery::work_queue::{from_wire, to_wire};
-use crate::strategy::spe_bfs::{Job, SpeBuilder};
 
 /// Bytes of a region job in main memory: the paper's job.
 const JOB: usize = 64;
@@ -295,7 +295,7 @@ impl Program<'_> {
         )?;
         // This SPE's own arena list and node writes go on.
         std::mem::swap(&mut b.arena, &mut self.arena);
-        b.node_writes = self.writes.take();
+        b.lend_node_writes(self.writes.take());
         let k = KernelRates::PS3;
         let at = self.a.sorted.offset((first * RECORD) as u64);
         let side =
@@ -315,7 +315,7 @@ impl Program<'_> {
         self.items_partitioned += b.stats.items_partitioned;
         self.partitions += b.stats.partitions;
         std::mem::swap(&mut b.arena, &mut self.arena);
-        self.writes = b.node_writes.take();
+        self.writes = b.lend_node_writes(None);
         drop(b);
         self.spe.ls_release_to(mark);
         Ok(side)

@@ -1,41 +1,39 @@
-//! `spe_bfs` — the paper's breadth-first construction (section 2, Fig. 2,
-//! Table 1), the **baseline** of this project: one SPE builds the tree
-//! level by level "almost entirely independent from the PPE", which only
-//! allocates memory.
+//! The breadth-first loop of the paper's baseline (section 2, Fig. 2,
+//! Table 1), which `spe_bfs` runs on one SPE and section 5's multi-SPE
+//! strategies run on every SPE ([`SpeBuilder`]): the tree is built level by
+//! level "almost entirely independent from the PPE".
 //!
 //! - **Jobs** (the intervals of the next tree level, 64 bytes each, [`Job`])
 //!   live in `WorkA` (the current level) and `WorkB` (the next), spilled to
 //!   `WorkAPPE`/`WorkBPPE`: the two-phase queue of Fig. 2
-//!   ([`super::machinery::work_queue`]).
+//!   ([`super::work_queue`]).
 //! - **Partitions**: an interval over 16 KiB streams through the five
 //!   buffers of Fig. 1; smaller ones are **agglomerated**: consecutive jobs
 //!   whose intervals span at most 16 KiB of the triangle array travel in one
 //!   get and one put.
-//! - **Nodes** go into an **ObjectArena** ([`super::machinery::arena`]) whose blocks
-//!   the PPE allocates on request. Every job is one node, made in the order
-//!   of node ids, so the SPE computes each node's address itself.
+//! - **Nodes** go into an **ObjectArena** ([`super::arena`]) whose blocks
+//!   the PPE (or a pool) hands out. Every job is one node, made in the
+//!   order of node ids, so the SPE computes each node's address itself.
 //!
-//! The splits are the host builder's (same heuristic, same sets on each
-//! side), so the tree is the host tree with its nodes numbered breadth first.
-//! So with the quality knobs (issue 15, not in the paper): with the
+//! What a job makes is the one node decision ([`crate::kernels::decide`]),
+//! so the tree is the host tree with its nodes numbered breadth first. So
+//! with the quality knobs (issue 15, not in the paper): with the
 //! empty-space cut-off ([`crate::kernels::cutoff`]) a job carries its region
 //! and its triangles' box (128 bytes) and a clip node is a job that moves
-//! no triangle; with binned SAH ([`crate::kernels::sah`]) a split job bins its
-//! triangles in the local store (or in one more stream through Fig. 1's
-//! buffers) before its partition. The multi-SPE strategies run this loop
-//! and build the same knobs.
+//! no triangle; with binned SAH ([`crate::kernels::sah`]) a split job bins
+//! its triangles in the local store (or in one more stream through Fig. 1's
+//! buffers) before its partition. Section 5's improvements of the queue
+//! are knobs ([`QueueKnobs`]) of the strategies that take them.
 
 mod batch;
 mod job;
 
 use crate::kernels::rates::KernelRates;
-use crate::strategy::machinery::footprint::Purpose;
 
-use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena, pieces, serve_blocks};
-use super::machinery::fig1::{Fig1Buffers, stream_bounds};
-use super::machinery::layout::TriRecord;
-use super::machinery::work_queue::{Level, WorkQueue};
-use super::{Knob, Knobs, Output, Readback, Setup};
+use super::arena::{BlockSource, NodeWrites, ObjectArena};
+use super::fig1::{Fig1Buffers, stream_bounds};
+use super::layout::TriRecord;
+use super::work_queue::{Level, WorkQueue};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
 use crate::cell::{CellError, Ea, LsAddr, Spe, WaitMode};
@@ -43,61 +41,8 @@ use crate::kernels::cutoff::{Clip, child_regions};
 use crate::kernels::recursion::BuildStats;
 use crate::kernels::sah::Bins;
 use crate::kernels::split::{Side, Split, clip_planes};
+use crate::strategy::{Knob, Knobs};
 pub use job::Job;
-
-/// `spe_bfs`, the baseline, in the registry of builders.
-pub const STRATEGY: super::Strategy = super::Strategy::new(
-    "spe_bfs",
-    "breadth first, the baseline: one SPE builds level by level (WorkA/WorkB, Fig. 2), small jobs agglomerated, nodes in an ObjectArena (Table 1, column 4)",
-    spawn,
-)
-.with_quality(crate::bih::Quality::ALL);
-
-fn spawn(
-    cell: &mut crate::cell::Cell,
-    setup: &Setup,
-    cfg: &BihConfig,
-) -> Result<Readback, CellError> {
-    let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
-    // WorkAPPE and WorkBPPE: room for the widest level the tree can have
-    // (the paper sized them for as many jobs as triangles, 6.5 times more
-    // with leaves of 12; see strategy/machinery/footprint.rs).
-    let work_ppe_bytes = Job::spill_bytes_for(n, &cfg);
-    let work_a_ppe =
-        cell.memory_mut()
-            .alloc(Purpose::WorkPpe.buffer("WorkAPPE"), work_ppe_bytes, 128)?;
-    let work_b_ppe =
-        cell.memory_mut()
-            .alloc(Purpose::WorkPpe.buffer("WorkBPPE"), work_ppe_bytes, 128)?;
-    let work_ppe = [work_a_ppe, work_b_ppe];
-
-    let spe = cell.spawn_spe(0, move |spe| async move {
-        let mut b = SpeBuilder::new(
-            &spe,
-            tris,
-            (work_ppe, work_ppe_bytes),
-            cfg,
-            BlockSource::Mailbox,
-            QueueKnobs::PAPER,
-        )?;
-        let all = b.bounds_of_all(n).await?;
-        b.run(Job::new(0, n, 0, 0, region, &all)).await?;
-        Ok(b.stats)
-    });
-
-    let ppe = cell.spawn_ppe(move |ppe| async move {
-        // The PPE only allocates the arena's blocks.
-        let (blocks, count) = serve_blocks(&ppe, 0).await?;
-        Ok(pieces(&blocks, count))
-    });
-    Ok(Box::new(move || {
-        Ok(Output {
-            nodes: ppe.take("PPE")?,
-            stats: spe.take("SPE 0")?,
-            ..Output::default()
-        })
-    }))
-}
 
 /// `--double-buffer`: [`QueueKnobs::double_buffer`].
 pub const DOUBLE_BUFFER: Knob = Knob::flag(
@@ -157,25 +102,25 @@ impl QueueKnobs {
 
 /// The SPE program's state: its local-store buffers and counters. The
 /// multi-SPE strategies run the same loop on every SPE.
-pub(super) struct SpeBuilder<'a> {
+pub(in crate::strategy) struct SpeBuilder<'a> {
     spe: &'a Spe,
     tris: Ea,
-    pub(super) cfg: BihConfig,
-    pub(super) fig1: Fig1Buffers,
+    pub(in crate::strategy) cfg: BihConfig,
+    pub(in crate::strategy) fig1: Fig1Buffers,
     /// `WorkA`/`WorkB` and their spill areas.
-    pub(super) queue: WorkQueue<'a, Job>,
-    pub(super) arena: ObjectArena<'a>,
+    pub(in crate::strategy) queue: WorkQueue<'a, Job>,
+    pub(in crate::strategy) arena: ObjectArena<'a>,
     /// Jobs of this depth were dealt to this SPE: their nodes' slots belong
     /// to another arena (multi-SPE strategies).
-    pub(super) foreign_depth: Option<u32>,
+    foreign_depth: Option<u32>,
     /// Where the intervals of the jobs dealt to this SPE start: a batch of
     /// agglomerated jobs never spans two of them.
-    pub(super) dealt_starts: Vec<u32>,
+    dealt_starts: Vec<u32>,
     /// A shared queue: records between two jobs this SPE took may be
     /// another SPE's, so a batch's span never crosses a gap.
-    pub(super) strict_spans: bool,
+    strict_spans: bool,
     /// A shared queue: every node goes straight into its slot.
-    pub(super) node_writes: Option<NodeWrites<'a>>,
+    node_writes: Option<NodeWrites<'a>>,
     /// Batches gather non-adjacent intervals with DMA lists.
     dma_lists: bool,
     /// Binned SAH: the bins' place in the local store (filled there, then
@@ -185,20 +130,20 @@ pub(super) struct SpeBuilder<'a> {
     prefetch: bool,
     /// The other SPEs help partition intervals of at least this many
     /// triangles (multi-SPE strategies, before the deal).
-    pub(super) coop: Option<(super::machinery::coop::Coop, u32)>,
+    coop: Option<(super::coop::Coop, u32)>,
     /// Which Fig. 1 buffer the next agglomerated batch uses (0 or 1; 0 to
     /// 2 when prefetching).
     batch_buf: usize,
     /// The interval each batch buffer last put back (its put may still be
     /// under way).
     batch_put: [Option<(u32, u32)>; 3],
-    pub(super) stats: BuildStats,
+    pub(in crate::strategy) stats: BuildStats,
     /// Jobs this SPE made nodes for.
-    pub(super) jobs: u64,
+    pub(in crate::strategy) jobs: u64,
 }
 
 impl<'a> SpeBuilder<'a> {
-    pub(super) fn new(
+    pub(in crate::strategy) fn new(
         spe: &'a Spe,
         tris: Ea,
         (work_ppe, work_ppe_bytes): ([Ea; 2], u64),
@@ -241,13 +186,57 @@ impl<'a> SpeBuilder<'a> {
 
     /// The bounds of all `n` triangle records (one streaming pass), for
     /// the root job.
-    pub(super) async fn bounds_of_all(&self, n: usize) -> Result<Side, CellError> {
+    /// The jobs of `depth` were dealt to this SPE: their nodes' slots
+    /// belong to other arenas, and a batch of agglomerated jobs never spans
+    /// two of them (multi-SPE strategies).
+    pub(in crate::strategy) fn take_dealt(&mut self, depth: u32) {
+        self.foreign_depth = Some(depth);
+    }
+
+    /// Whether this SPE builds jobs dealt to it (see [`Self::take_dealt`]).
+    pub(in crate::strategy) fn builds_dealt(&self) -> bool {
+        self.foreign_depth.is_some()
+    }
+
+    /// From now on the jobs come from a queue shared with other SPEs: every
+    /// node goes straight into its slot through `writes`, and a batch's
+    /// span never crosses a gap (the records between two jobs this SPE
+    /// took may be another SPE's).
+    pub(in crate::strategy) fn share_queue(&mut self, writes: NodeWrites<'a>) {
+        self.node_writes = Some(writes);
+        self.strict_spans = true;
+    }
+
+    /// Lends the loop the node writes of a program that builds around it
+    /// (every node straight into its slot), and returns those it had.
+    pub(in crate::strategy) fn lend_node_writes(
+        &mut self,
+        writes: Option<NodeWrites<'a>>,
+    ) -> Option<NodeWrites<'a>> {
+        std::mem::replace(&mut self.node_writes, writes)
+    }
+
+    /// Waits for the node writes of a shared queue (the tree is done).
+    pub(in crate::strategy) async fn finish_node_writes(&mut self) -> Result<(), CellError> {
+        match self.node_writes.as_mut() {
+            Some(w) => w.finish().await,
+            None => Ok(()),
+        }
+    }
+
+    /// Intervals of at least `min` triangles are partitioned with the other
+    /// SPEs' help through `coop` (`None`: alone again).
+    pub(in crate::strategy) fn help_with(&mut self, coop: Option<(super::coop::Coop, u32)>) {
+        self.coop = coop;
+    }
+
+    pub(in crate::strategy) async fn bounds_of_all(&self, n: usize) -> Result<Side, CellError> {
         let rate = KernelRates::PS3.spe_bounds_item;
         stream_bounds::<TriRecord>(self.spe, &self.fig1, self.tris, n as u64, rate).await
     }
 
     /// Builds the tree below `root`, level by level (Fig. 2).
-    async fn run(&mut self, root: Job) -> Result<(), CellError> {
+    pub(in crate::strategy) async fn run(&mut self, root: Job) -> Result<(), CellError> {
         // Ask for the first arena block before anything else.
         self.arena.open().await;
         let root_id = self.arena.alloc(1).await?;
@@ -263,7 +252,7 @@ impl<'a> SpeBuilder<'a> {
     /// Builds level by level from `level`. With `stop_at`, stops before the
     /// first level of at least that many jobs (at most 128, so that it is
     /// still in `WorkA`) and returns it; otherwise runs to the end.
-    pub(super) async fn levels(
+    pub(in crate::strategy) async fn levels(
         &mut self,
         mut level: Level,
         stop_at: Option<usize>,
@@ -300,7 +289,7 @@ impl<'a> SpeBuilder<'a> {
 
     /// Waits until every partitioned record this SPE put back is in main
     /// memory (Fig. 1's buffers, which the batches use too).
-    pub(super) async fn drain(&self) -> Result<(), CellError> {
+    pub(in crate::strategy) async fn drain(&self) -> Result<(), CellError> {
         let all = (0..5).fold(0, |m, b| m | 1 << self.fig1.tag(b));
         self.spe.wait_tags(all, WaitMode::All).await.map(|_| ())
     }
