@@ -41,7 +41,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
 use super::machinery::barrier::Barrier;
-use super::machinery::breadth_first::{DMA_LISTS, PREFETCH, QueueKnobs};
+use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, PREFETCH, QueueKnobs};
 use super::machinery::layout::TriRecord;
 use super::machinery::top::{Pool, SpeExit};
 use super::{Knob, Knobs, Readback, Setup, SpeWork};
@@ -65,8 +65,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &REGION_SIZE,
     &STATIC_REGIONS,
     // Regions too large for a local store run the breadth-first loop.
-    // (Not --double-buffer: its second WorkA/WorkB does not fit in the
-    // local store beside this program's own buffers.)
+    &DOUBLE_BUFFER,
     &DMA_LISTS,
     &PREFETCH,
 ]);
@@ -126,7 +125,7 @@ struct MortonKnobs {
     /// counter. Buys: no atomics. Costs: balance.
     static_regions: bool,
     /// Regions too large for a local store run the breadth-first loop,
-    /// with these (never double-buffered).
+    /// with these.
     queue: QueueKnobs,
 }
 
@@ -141,10 +140,7 @@ impl MortonKnobs {
             digit_bits: k.int(&DIGIT_BITS) as u32,
             region_size: k.int(&REGION_SIZE),
             static_regions: k.flag(&STATIC_REGIONS),
-            queue: QueueKnobs {
-                double_buffer: false,
-                ..QueueKnobs::read(k)
-            },
+            queue: QueueKnobs::read(k),
         }
     }
 }
@@ -323,7 +319,9 @@ struct Program<'a> {
     line: LsAddr,
     tags: u32,
     barrier: Barrier,
-    arena: ObjectArena<'a>,
+    /// This SPE's ObjectArena list (lent to the breadth-first loop while
+    /// it builds a region too large for the local store).
+    arena: Option<ObjectArena<'a>>,
     /// Nodes straight into their slots (lent to the breadth-first loop
     /// while it builds a large region).
     writes: Option<NodeWrites<'a>>,
@@ -377,7 +375,7 @@ impl<'a> Program<'a> {
             line: spe.ls_alloc(128, 128)?,
             tags: spe.tags("spe_morton streams", 4)?,
             barrier: Barrier::new(a.arrivals, a.spes),
-            arena: ObjectArena::new(spe, a.blocks)?,
+            arena: Some(ObjectArena::new(spe, a.blocks)?),
             writes: Some(NodeWrites::new(spe, a.pool, true)?),
             items_partitioned: 0,
             partitions: 0,
@@ -386,6 +384,13 @@ impl<'a> Program<'a> {
             tables: [Ea(0); 4],
             spill_per_spe: 0,
         })
+    }
+
+    /// This SPE's ObjectArena list.
+    fn arena(&mut self) -> &mut ObjectArena<'a> {
+        self.arena
+            .as_mut()
+            .expect("the arena is back from the loop")
     }
 
     /// This SPE's slice of `0..n`.
@@ -445,8 +450,8 @@ impl<'a> Program<'a> {
         }
         self.w().finish().await?;
         let nodes = self.w().nodes;
-        let count = self.arena.allocated();
-        self.arena.close(count).await?;
+        let count = self.arena().allocated();
+        self.arena().close(count).await?;
         if self.spe.id() == 0 {
             self.phases.push(("top nodes", self.spe.now().0));
         }
@@ -454,8 +459,8 @@ impl<'a> Program<'a> {
             work: SpeWork {
                 jobs: nodes,
                 taken: self.regions_built,
-                arena_blocks: self.arena.stats.blocks,
-                arena_unused: self.arena.unused(),
+                arena_blocks: self.arena().stats.blocks,
+                arena_unused: self.arena().unused(),
                 ..SpeWork::default()
             },
             items_partitioned: self.items_partitioned,

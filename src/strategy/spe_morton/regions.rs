@@ -38,7 +38,7 @@ impl Program<'_> {
     pub(super) async fn top(&mut self, keys: Ea) -> Result<Vec<Top>, CellError> {
         let k = KernelRates::PS3;
         let bits = self.spec.bits;
-        let root = self.arena.alloc(1).await?;
+        let root = self.arena().alloc(1).await?;
         let mut top: Vec<Top> = Vec::new();
         let mut regions: Vec<Job> = Vec::new();
         // (top index, node id, first, count, depth, key bits the cell has
@@ -89,7 +89,7 @@ impl Program<'_> {
                 KeyOrder::GlobalHeuristic => self.spec.cell(key_first, bit).longest_axis(),
                 KeyOrder::RoundRobin => (bit % 3) as usize,
             };
-            let children = self.arena.alloc(2).await?;
+            let children = self.arena().alloc(2).await?;
             top.push(Top::Inner {
                 id,
                 children,
@@ -285,16 +285,16 @@ impl Program<'_> {
         let half = self.spill_per_spe / 2;
         let work_ppe = ([mine, mine.offset(half)], half);
         let mark = self.spe.ls_mark();
-        let mut b = SpeBuilder::new(
+        // This SPE's own arena list and node writes go on in the loop.
+        let arena = self.arena.take().expect("the arena is lent only here");
+        let mut b = SpeBuilder::with_arena(
             self.spe,
             self.a.sorted,
             work_ppe,
             self.cfg,
-            self.a.blocks,
+            arena,
             self.knobs.queue,
         )?;
-        // This SPE's own arena list and node writes go on.
-        std::mem::swap(&mut b.arena, &mut self.arena);
         b.lend_node_writes(self.writes.take());
         let k = KernelRates::PS3;
         let at = self.a.sorted.offset((first * RECORD) as u64);
@@ -314,9 +314,8 @@ impl Program<'_> {
         b.drain().await?;
         self.items_partitioned += b.stats.items_partitioned;
         self.partitions += b.stats.partitions;
-        std::mem::swap(&mut b.arena, &mut self.arena);
         self.writes = b.lend_node_writes(None);
-        drop(b);
+        self.arena = Some(b.arena);
         self.spe.ls_release_to(mark);
         Ok(side)
     }
@@ -387,7 +386,7 @@ impl Program<'_> {
         // Local pairs (1, 2), (3, 4), ... take pairs of this SPE's arena.
         let mut global = vec![id; nodes.len()];
         for pair in (1..nodes.len()).step_by(2) {
-            let g = self.arena.alloc(2).await?;
+            let g = self.arena().alloc(2).await?;
             global[pair] = g;
             global[pair + 1] = g + 1;
         }

@@ -151,6 +151,21 @@ impl<'a> SpeBuilder<'a> {
         blocks: BlockSource,
         knobs: QueueKnobs,
     ) -> Result<Self, CellError> {
+        let arena = ObjectArena::new(spe, blocks)?;
+        Self::with_arena(spe, tris, (work_ppe, work_ppe_bytes), cfg, arena, knobs)
+    }
+
+    /// [`Self::new`] with the ObjectArena of a program that builds around
+    /// the loop (no second arena's buffers in the local store); the
+    /// program takes it back from [`Self::arena`] when the loop is done.
+    pub(in crate::strategy) fn with_arena(
+        spe: &'a Spe,
+        tris: Ea,
+        (work_ppe, work_ppe_bytes): ([Ea; 2], u64),
+        cfg: BihConfig,
+        arena: ObjectArena<'a>,
+        knobs: QueueKnobs,
+    ) -> Result<Self, CellError> {
         Ok(SpeBuilder {
             spe,
             tris,
@@ -163,7 +178,7 @@ impl<'a> SpeBuilder<'a> {
                 knobs.double_buffer,
                 Job::bytes(&cfg),
             )?,
-            arena: ObjectArena::new(spe, blocks)?,
+            arena,
             foreign_depth: None,
             dealt_starts: Vec::new(),
             strict_spans: false,
@@ -184,8 +199,6 @@ impl<'a> SpeBuilder<'a> {
         })
     }
 
-    /// The bounds of all `n` triangle records (one streaming pass), for
-    /// the root job.
     /// The jobs of `depth` were dealt to this SPE: their nodes' slots
     /// belong to other arenas, and a batch of agglomerated jobs never spans
     /// two of them (multi-SPE strategies).
@@ -230,6 +243,8 @@ impl<'a> SpeBuilder<'a> {
         self.coop = coop;
     }
 
+    /// The bounds of all `n` triangle records (one streaming pass), for
+    /// the root job.
     pub(in crate::strategy) async fn bounds_of_all(&self, n: usize) -> Result<Side, CellError> {
         let rate = KernelRates::PS3.spe_bounds_item;
         stream_bounds::<TriRecord>(self.spe, &self.fig1, self.tris, n as u64, rate).await
