@@ -8,7 +8,7 @@
 //! a builder does where the records are.
 
 use super::cutoff::{Clip, empty_gap};
-use super::split::{Split, choose_split_counted};
+use super::split::{Side, Split, choose_split_counted};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode};
 
@@ -41,6 +41,27 @@ pub struct NodeView {
     pub centers: Aabb,
     /// The global heuristic's candidate box.
     pub candidate: Aabb,
+}
+
+impl NodeView {
+    /// The node of `count` triangles from `first` at `depth` whose
+    /// triangles' bounds and centers' bounds `side` holds.
+    pub fn of_side(
+        (first, count, depth): (usize, usize, u32),
+        region: Aabb,
+        side: &Side,
+        candidate: Aabb,
+    ) -> Self {
+        NodeView {
+            first,
+            count,
+            depth,
+            region,
+            bounds: side.bounds(),
+            centers: side.centers(),
+            candidate,
+        }
+    }
 }
 
 /// What the node `v` becomes under `cfg`; `stalls` counts the halvings

@@ -156,15 +156,7 @@ impl<T: Item> Builder<'_, T> {
         depth: u32,
         region: Aabb,
     ) {
-        let view = NodeView {
-            first,
-            count,
-            depth,
-            region,
-            bounds: side.bounds(),
-            centers: side.centers(),
-            candidate,
-        };
+        let view = NodeView::of_side((first, count, depth), region, side, candidate);
         let split = match decide(self.cfg, &view, &mut self.stats.f32_stalls) {
             Decision::Leaf => None,
             Decision::Clip(clip) => {

@@ -271,15 +271,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         while let Some((id, first, count, mut candidate, side, depth, region)) = stack.pop() {
             ppe.compute(k.ppe_node);
             let leaf = BihNode::leaf(first as u32, count as u32);
-            let view = NodeView {
-                first,
-                count,
-                depth,
-                region,
-                bounds: side.bounds(),
-                centers: side.centers(),
-                candidate,
-            };
+            let view = NodeView::of_side((first, count, depth), region, &side, candidate);
             let split = match decide(&cfg, &view, &mut 0) {
                 Decision::Leaf => None,
                 Decision::Clip(clip) => {
