@@ -18,12 +18,17 @@ fn tradeoff_writes_every_setting_with_its_fronts() {
         "tradeoff",
         &["--scenes", "default"],
     );
+    // Every builder at its defaults and at each knob setting its registry
+    // entry sweeps.
     for b in cellbih::registry::BuilderKind::ALL {
-        assert!(
-            rows.iter()
-                .any(|r| r["builder"] == b.name() && r["setting"] == ""),
-            "{b}"
-        );
+        for knobs in b.sweeps() {
+            let setting = knobs.spelled();
+            assert!(
+                rows.iter()
+                    .any(|r| r["builder"] == b.name() && r["setting"] == setting.as_str()),
+                "{b} {setting}"
+            );
+        }
     }
     for setting in [
         "--split sah --empty-cut 10",
