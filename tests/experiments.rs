@@ -93,3 +93,48 @@ fn extremes_checks_every_case_and_builder() {
     );
     assert!(dir.join("extremes.csv").exists());
 }
+
+/// `validate`: on the measured model every published PS3 figure is
+/// reproduced within its tolerance (exit 0, each row's ratio inside it,
+/// the files written); on the legacy model — every figure before issue 26
+/// — the same probes leave their tolerances and the run fails naming
+/// them (the memory interface's ceiling, the hot spot on one local store,
+/// the lock lines).
+#[test]
+fn validate_holds_the_measured_model_to_every_published_figure() {
+    let exe = env!("CARGO_BIN_EXE_validate");
+    let dir = common::tmp("validate");
+    let out = std::process::Command::new(exe)
+        .args(["--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("validate.json")).unwrap()).unwrap();
+    let rows = doc["rows"].as_array().unwrap();
+    assert!(rows.len() >= 20, "{} figures", rows.len());
+    for r in rows {
+        let (ratio, tol) = (
+            r["ratio"].as_f64().unwrap(),
+            r["tolerance"].as_f64().unwrap(),
+        );
+        assert!((ratio - 1.0).abs() <= tol && r["pass"] == true, "{r}");
+    }
+    let csv = std::fs::read_to_string(dir.join("validate.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + rows.len());
+
+    let legacy = std::process::Command::new(exe)
+        .args(["--model", "legacy", "--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&legacy.stderr);
+    assert!(!legacy.status.success(), "the legacy model passed: {err}");
+    for figure in [
+        "16 KiB gets, 2 in flight",
+        "5 SPEs reading SPE 0's local store",
+        "putlluc on one line",
+    ] {
+        assert!(err.contains(figure), "{figure}: {err}");
+    }
+}

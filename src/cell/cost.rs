@@ -110,6 +110,67 @@ pub struct CostModel {
     /// their own (`crate::kernels::rates`, and beside each strategy);
     /// the functional mode charges none.
     pub charge_compute: bool,
+    /// The memory interface's sustained bandwidth while transfers of more
+    /// than one core share it; a lone stream still reaches
+    /// `memory_bandwidth`. Measured: 6 SPEs stream at 22.83 GB/s (16 KiB
+    /// gets, 2 or 8 in flight; puts 22.13), ≈ 22.0 flat from 256 B to
+    /// 16 KiB (cellmark §4.1, §2.3.1; SpuTest `task_largeput.c` 22.23):
+    /// DRAM refresh, bank conflicts between independent streams and the
+    /// controller's read/write turnarounds (cellmark §4.2). `ps3()` keeps
+    /// the peak here (the model every earlier figure was measured on).
+    pub memory_shared_bandwidth: Bandwidth,
+    /// A transfer to or from main memory moves whole 128-byte lines on
+    /// the interface: each element's lines, however few of their bytes it
+    /// needs (the bus and the memory controller work in 128-byte lines;
+    /// CBE handbook, "DMA transfers": best at 128-byte alignment). Off
+    /// (`ps3()`): its own bytes.
+    pub memory_whole_lines: bool,
+    /// The EIB's sustained capacity for concurrent transfers between local
+    /// stores: 3 disjoint pairs reading each other move 114.73 GB/s
+    /// together (cellmark §3.1; its PMU shows all four rings 66–77 % busy:
+    /// arbitration, not ring imbalance). `None` (`ps3()`): unlimited.
+    pub eib_total_bandwidth: Option<Bandwidth>,
+    /// One direction of a local store's port to the EIB, shared by every
+    /// transfer between local stores that reads (out) or writes (in) it:
+    /// one reader already saturates it at 23.58 GB/s and five readers
+    /// share 23.71 (cellmark §3.2–3.3; one pair over all 30: 22.97–23.60,
+    /// §3.4). `None` (`ps3()`): a transfer goes at its link's rate.
+    pub ls_port_bandwidth: Option<Bandwidth>,
+    /// A put completes when its write is acknowledged: this many cycles
+    /// after the latency a get sees (an address-only bus transaction,
+    /// costed like `atomic_hit_cycles`: half a 128-byte DMA's latency).
+    /// SpuTest's 6 SPEs putting 32 bytes and waiting see 152 ns per put
+    /// (`task_put.c`), against about 103 ns without it. 0 (`ps3()`): a put
+    /// completes like a get.
+    pub put_ack_cycles: Cycles,
+    /// How the atomic caches hold lock lines.
+    pub lock_lines: LockLines,
+    /// Extra cycles per PPE–SPE mailbox hand-off when the programs reach
+    /// the mailboxes through the operating system, not by raw MMIO: the
+    /// PS3 kernel's thread-mode SPUs take 5.8 µs one way, 11.6 µs a round
+    /// trip (cellmark §3.6: a system call on each side and the event
+    /// queue's scheduling), where the raw path is under 1 µs. 0: raw
+    /// hardware (the default: the paper's builders ran under Linux with
+    /// libspe2, whose problem-state mailbox access is raw MMIO).
+    pub mailbox_os_cycles: Cycles,
+}
+
+/// How the atomic caches hold lock lines (getllar, putllc, putlluc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum LockLines {
+    /// Every atomic command takes the line exclusively, one after another
+    /// (`ps3()`: the model every earlier figure was measured on; a
+    /// holder's putllc pays the miss cost).
+    Exclusive,
+    /// As the atomic caches share them: a getllar is a read several SPEs
+    /// hold at once (a miss costs `getllar_cycles`, waits for a claim in
+    /// progress, and a claim waits for reads in progress); a putllc or
+    /// putlluc by the only holder costs `atomic_hit_cycles`; otherwise it
+    /// claims the line — the others' copies and reservations are lost —
+    /// in `claim_cycles`, claims one after another. Measured: 6 SPEs
+    /// storing one line by putlluc take 64.2 ns a store together, 385 ns
+    /// each (SpuTest `task_putlluc.c`): 205 cycles a claim.
+    Shared { claim_cycles: Cycles },
 }
 
 impl CostModel {
@@ -137,13 +198,43 @@ impl CostModel {
             ppe_atomic_cycles: Cycles(100),
             ppe_memory_bandwidth: Bandwidth::from_gb_per_s(6.4, hz),
             charge_compute: true,
+            memory_shared_bandwidth: Bandwidth::from_gb_per_s(25.6, hz),
+            memory_whole_lines: false,
+            eib_total_bandwidth: None,
+            ls_port_bandwidth: None,
+            put_ack_cycles: Cycles::ZERO,
+            lock_lines: LockLines::Exclusive,
+            mailbox_os_cycles: Cycles::ZERO,
         }
     }
 
     /// The PS3 with the rules that hold the model against measurements of
     /// real PS3s with several SPEs (issue 26, `docs/validation.md`).
     pub fn ps3_measured() -> Self {
-        CostModel::ps3()
+        let hz = 3.2e9;
+        CostModel {
+            memory_shared_bandwidth: Bandwidth::from_gb_per_s(22.83, hz),
+            memory_whole_lines: true,
+            eib_total_bandwidth: Some(Bandwidth::from_gb_per_s(114.73, hz)),
+            ls_port_bandwidth: Some(Bandwidth::from_gb_per_s(23.6, hz)),
+            put_ack_cycles: Cycles(128),
+            lock_lines: LockLines::Shared {
+                claim_cycles: Cycles(205),
+            },
+            ..CostModel::ps3()
+        }
+    }
+
+    /// [`CostModel::ps3_measured`] with the mailboxes reached through the
+    /// PS3 kernel (thread-mode SPUs, an event queue): 11.6 µs a round
+    /// trip (cellmark §3.6).
+    pub fn with_ps3_kernel_mailboxes(self) -> Self {
+        // 5.8 µs one way, less the raw path's hand-off.
+        let one_way = (5.8e-6 * self.clock_hz) as u64;
+        CostModel {
+            mailbox_os_cycles: Cycles(one_way - self.mailbox_latency_cycles.0),
+            ..self
+        }
     }
 
     /// The functional mode: every machine operation is free, so a run
@@ -174,6 +265,13 @@ impl CostModel {
             ppe_atomic_cycles: Cycles::ZERO,
             ppe_memory_bandwidth: free,
             charge_compute: false,
+            memory_shared_bandwidth: free,
+            memory_whole_lines: false,
+            eib_total_bandwidth: None,
+            ls_port_bandwidth: None,
+            put_ack_cycles: Cycles::ZERO,
+            lock_lines: LockLines::Exclusive,
+            mailbox_os_cycles: Cycles::ZERO,
         }
     }
 }

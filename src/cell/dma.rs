@@ -7,6 +7,7 @@
 
 use super::clock::Cycles;
 use super::machine::{Dma, EventKind, Flowing, InFlight, Machine, PPE, Status, Unwaited, Wait};
+use super::memif::Resource;
 use super::mfc::{Direction, Order, Segment};
 use super::trace::SpanKind;
 use super::{CellError, LsAddr};
@@ -158,17 +159,36 @@ impl Machine {
 
     /// A command's data starts to move at `at`.
     pub(crate) fn start_flow(&mut self, dma: Box<Dma>, at: Cycles) {
-        if dma.eib {
+        let cost = &self.cfg.cost;
+        let fabric = cost.eib_total_bandwidth.is_some() || cost.ls_port_bandwidth.is_some();
+        if dma.eib && (!fabric || self.memif.is_free()) {
             // Local store to local store over the EIB: the SPEs' links set
             // the pace, the memory interface is not involved.
-            let c = self.cfg.cost.eib_bandwidth.cycles(dma.bytes());
+            let c = cost.eib_bandwidth.cycles(dma.bytes());
             return self.schedule(at + c, EventKind::EibDone(dma, at));
         }
         if self.memif.is_free() {
             return self.end_transfer(dma, at, Cycles::ZERO, at);
         }
-        let link = self.cfg.cost.spe_bandwidth;
-        let id = self.memif.start(at, dma.bytes(), link);
+        let core = dma.spe + 1;
+        let id = if dma.eib {
+            // Through the EIB, out of one local store's port and into
+            // another's.
+            let (peer, _) = dma.segments[0].ea.local_store().expect("an EIB transfer");
+            let (from, to) = match dma.dir {
+                Direction::Get => (peer, dma.spe),
+                Direction::Put => (dma.spe, peer),
+            };
+            let uses = vec![Resource::Eib, Resource::LsOut(from), Resource::LsIn(to)];
+            let link = cost.eib_bandwidth;
+            self.memif.start_through(at, core, uses, dma.bytes(), link)
+        } else {
+            let bytes = match cost.memory_whole_lines {
+                true => dma.segments.iter().map(|s| lines_of(s.ea.0, s.size)).sum(),
+                false => dma.bytes(),
+            };
+            self.memif.start(at, core, bytes, cost.spe_bandwidth)
+        };
         self.flows.push((id, Flowing::Spe(dma)));
     }
 
@@ -201,7 +221,11 @@ impl Machine {
         let spe = dma.spe;
         let shared = (at - data_start).saturating_sub(alone);
         self.cores[spe + 1].counters.memory_wait += shared;
-        let done = at + self.cfg.cost.dma_latency_cycles;
+        let ack = match dma.dir {
+            Direction::Put => self.cfg.cost.put_ack_cycles,
+            Direction::Get => Cycles::ZERO,
+        };
+        let done = at + self.cfg.cost.dma_latency_cycles + ack;
         if let Some(t) = &mut self.trace {
             let mut label = format!("{} {} B tag {}", dma.dir, dma.bytes(), dma.tag);
             if shared > Cycles::ZERO {
@@ -242,7 +266,7 @@ impl Machine {
             let c = link.cycles(bytes);
             return self.busy(PPE, c, SpanKind::Compute);
         }
-        let id = self.memif.start(now, bytes, link);
+        let id = self.memif.start(now, PPE, bytes, link);
         self.flows.push((id, Flowing::Ppe));
         self.block(PPE, Wait::Memory);
     }
@@ -374,6 +398,15 @@ fn race(spe: usize, what: String, u: &Unwaited) -> CellError {
             u.dir, u.lo, u.hi, u.tag
         ),
     }
+}
+
+/// Bytes of the whole 128-byte lines that `size` bytes at `ea` touch.
+fn lines_of(ea: u64, size: u32) -> u64 {
+    if size == 0 {
+        return 0;
+    }
+    let (first, last) = (ea / 128, (ea + size as u64 - 1) / 128);
+    (last - first + 1) * 128
 }
 
 /// Ranges in order with the touching ones merged.

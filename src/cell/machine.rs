@@ -28,7 +28,7 @@ use super::memif::MemoryInterface;
 use super::memory::MainMemory;
 use super::mfc::{Direction, Order, Segment, WaitMode};
 use super::trace::{CoreCounters, SpanKind, Trace};
-use super::{CellConfig, CellError, Ea, LsAddr, SignalMode};
+use super::{CellConfig, CellError, Ea, LockLines, LsAddr, SignalMode};
 
 pub(crate) type Task = Pin<Box<dyn Future<Output = Result<(), CellError>>>>;
 
@@ -185,11 +185,16 @@ impl Dma {
 }
 
 /// A 128-byte line as the atomic units see it: which core's atomic cache
-/// holds it, and until when an atomic command on it is under way.
+/// holds it, and until when an atomic command on it is under way; with
+/// shared lock lines (`LockLines::Shared`), every core holding a copy and
+/// until when reads of it are under way.
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct LockLine {
     pub owner: Option<usize>,
     pub busy_until: Cycles,
+    /// One bit a core (PPE 0, SPE n at n + 1).
+    pub holders: u64,
+    pub reads_until: Cycles,
 }
 
 /// What ends when a flow on the memory interface ends.
@@ -301,7 +306,12 @@ impl Machine {
         Machine {
             cost: std::rc::Rc::new(cfg.cost.clone()),
             mem: MainMemory::new(cfg.main_memory_bytes),
-            memif: MemoryInterface::new(cfg.cost.memory_bandwidth),
+            memif: MemoryInterface::new(
+                cfg.cost.memory_bandwidth,
+                cfg.cost.memory_shared_bandwidth,
+                cfg.cost.eib_total_bandwidth,
+                cfg.cost.ls_port_bandwidth,
+            ),
             flows: Vec::new(),
             resumes: 0,
             lines: Default::default(),
@@ -370,6 +380,69 @@ impl Machine {
         self.span(core, SpanKind::Atomic, now, start + cost);
     }
 
+    /// Shared lock lines: a getllar of `core` on the line holding `ea`. A
+    /// copy in its atomic cache costs `hit`; otherwise it waits for a claim
+    /// under way and brings the line over in `miss` cycles, beside any
+    /// other core's read.
+    pub fn read_line(&mut self, core: usize, ea: Ea, hit: Cycles, miss: Cycles) {
+        let now = self.cores[core].clock;
+        let line = self.lines.entry(ea.0 / 128).or_default();
+        let (start, cost) = if line.holders >> core & 1 == 1 {
+            (now, hit)
+        } else {
+            let start = now.max(line.busy_until);
+            line.reads_until = line.reads_until.max(start + miss);
+            line.holders |= 1 << core;
+            (start, miss)
+        };
+        self.charge_atomic(core, now, start, cost);
+    }
+
+    /// Shared lock lines: a store of `core` to the line holding `ea`
+    /// (putllc holding its reservation, putlluc, the PPE's own update). The
+    /// only holder stores in `hit` cycles; otherwise the store claims the
+    /// line, after any claim and read under way, in `claim` cycles. Every
+    /// other copy and reservation of the line is lost; the line is this
+    /// core's alone.
+    pub fn claim_line(&mut self, core: usize, ea: Ea, hit: Cycles, claim: Cycles) {
+        let now = self.cores[core].clock;
+        let line = self.lines.entry(ea.0 / 128).or_default();
+        let (start, cost) = if line.holders == 1 << core {
+            (now.max(line.busy_until), hit)
+        } else {
+            (now.max(line.busy_until).max(line.reads_until), claim)
+        };
+        line.busy_until = start + cost;
+        self.lose_reservations(ea, 128);
+        self.lines.entry(ea.0 / 128).or_default().holders = 1 << core;
+        self.charge_atomic(core, now, start, cost);
+    }
+
+    /// A store of `core` to the lock line holding `ea` (putllc holding its
+    /// reservation, putlluc): every reservation of the line is lost, and
+    /// the store costs what the lock-line model says (`hit` or `miss` for
+    /// exclusive lines, `hit` or the claim for shared ones).
+    pub fn store_line(&mut self, core: usize, ea: Ea, hit: Cycles, miss: Cycles) {
+        match self.cfg.cost.lock_lines {
+            LockLines::Exclusive => {
+                self.lose_reservations(ea, 128);
+                self.lock_line(core, ea, hit, miss);
+            }
+            LockLines::Shared { claim_cycles } => self.claim_line(core, ea, hit, claim_cycles),
+        }
+    }
+
+    /// `core` waited from `now` to `start` for a lock line, then worked on
+    /// it for `cost` cycles.
+    fn charge_atomic(&mut self, core: usize, now: Cycles, start: Cycles, cost: Cycles) {
+        let wait = start - now;
+        let c = &mut self.cores[core];
+        c.clock = start + cost;
+        c.counters.atomic += wait + cost;
+        c.counters.atomic_wait += wait;
+        self.span(core, SpanKind::Atomic, now, start + cost);
+    }
+
     pub fn block(&mut self, core: usize, why: Wait) {
         let since = self.cores[core].clock;
         self.cores[core].status = Status::Blocked { why, since };
@@ -416,6 +489,7 @@ impl Machine {
             for l in first..=last {
                 if let Some(line) = self.lines.get_mut(&l) {
                     line.owner = None;
+                    line.holders = 0;
                 }
             }
         }

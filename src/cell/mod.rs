@@ -73,7 +73,7 @@ use std::rc::Rc;
 use thiserror::Error;
 
 pub use clock::Cycles;
-pub use cost::{Bandwidth, CostModel};
+pub use cost::{Bandwidth, CostModel, LockLines};
 pub use local_store::LsAddr;
 pub use memory::{Allocation, Ea, Label, MainMemory};
 pub use mfc::{ListElement, MAX_LIST_ELEMENTS, MAX_TRANSFER, Order, WaitMode};

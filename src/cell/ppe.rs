@@ -127,10 +127,9 @@ impl Ppe {
         let mut m = self.m.borrow_mut();
         let old: u32 = m.mem.read_pod(ea, 1)?[0];
         m.mem.write_pod(ea, &[old.wrapping_add(delta)])?;
-        m.lose_reservations(ea, 4);
         let c = m.cfg.cost.ppe_atomic_cycles;
         // The line comes to the PPE; commands on it are served in turn.
-        m.lock_line(PPE, ea, c, c);
+        m.store_line(PPE, ea, c, c);
         Ok(old)
     }
 
@@ -149,7 +148,8 @@ impl Ppe {
         let c = m.cfg.cost.ppe_mmio_cycles;
         m.busy(PPE, c, SpanKind::Issue);
         m.cores[PPE].counters.mailbox_messages += 1;
-        let at = m.cores[PPE].clock + m.cfg.cost.mailbox_latency_cycles;
+        let at =
+            m.cores[PPE].clock + m.cfg.cost.mailbox_latency_cycles + m.cfg.cost.mailbox_os_cycles;
         m.schedule(at, EventKind::InMbox { spe, value });
         Ok(())
     }

@@ -11,7 +11,7 @@ use super::executor::Yield;
 use super::machine::{Machine, OutBox, PPE, Wait, block_on, ls_range};
 use super::mfc::{self, Direction, ListElement, Order, QUEUE_DEPTH, Segment, WaitMode};
 use super::trace::SpanKind;
-use super::{CellError, CostModel, Ea, LsAddr};
+use super::{CellError, CostModel, Ea, LockLines, LsAddr};
 
 /// The outcome of a conditional store ([`Spe::putllc`]).
 #[must_use = "a lost reservation means the store did not happen"]
@@ -416,7 +416,9 @@ impl Spe {
         let c = m.cfg.cost.channel_cycles;
         m.busy(self.core(), c, SpanKind::Issue);
         m.cores[self.core()].counters.mailbox_messages += 1;
-        let at = m.cores[self.core()].clock + m.cfg.cost.mailbox_latency_cycles;
+        let at = m.cores[self.core()].clock
+            + m.cfg.cost.mailbox_latency_cycles
+            + m.cfg.cost.mailbox_os_cycles;
         m.schedule(
             at,
             super::machine::EventKind::OutMbox {
@@ -509,7 +511,10 @@ impl Spe {
         m.spes[self.id].ls.bytes_mut()[r].copy_from_slice(&line);
         m.spes[self.id].reservation = Some(ea.0);
         let (hit, miss) = (m.cfg.cost.atomic_hit_cycles, m.cfg.cost.getllar_cycles);
-        m.lock_line(self.core(), ea, hit, miss);
+        match m.cfg.cost.lock_lines {
+            LockLines::Exclusive => m.lock_line(self.core(), ea, hit, miss),
+            LockLines::Shared { .. } => m.read_line(self.core(), ea, hit, miss),
+        }
         Ok(())
     }
 
@@ -531,8 +536,7 @@ impl Spe {
         let r = ls_range(self.id, &m, ls, 128)?;
         let data = m.spes[self.id].ls.bytes()[r].to_vec();
         m.mem.write(ea, &data)?;
-        m.lose_reservations(ea, 128);
-        m.lock_line(self.core(), ea, hit, miss);
+        m.store_line(self.core(), ea, hit, miss);
         Ok(Reservation::Stored)
     }
 
@@ -544,9 +548,8 @@ impl Spe {
         let r = ls_range(self.id, &m, ls, 128)?;
         let data = m.spes[self.id].ls.bytes()[r].to_vec();
         m.mem.write(ea, &data)?;
-        m.lose_reservations(ea, 128);
         let (hit, miss) = (m.cfg.cost.atomic_hit_cycles, m.cfg.cost.putllc_cycles);
-        m.lock_line(self.core(), ea, hit, miss);
+        m.store_line(self.core(), ea, hit, miss);
         Ok(())
     }
 
