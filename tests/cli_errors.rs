@@ -543,6 +543,21 @@ fn binned_sah_options_need_split_sah() {
     assert_ok(&out);
 }
 
+/// The functional mode has no timing: the options that choose a timing
+/// model are refused with it, by name.
+#[test]
+fn timing_models_are_refused_in_the_functional_mode() {
+    for extra in [["--model", "measured"], ["--mailboxes", "ps3-kernel"]] {
+        let mut args = vec!["build", "--builder", "spe_bfs", "--mode", "functional"];
+        args.extend(extra);
+        let out = cellbih(&args);
+        assert_fails_with(
+            &out,
+            "--mode functional has no timing: --model and --mailboxes",
+        );
+    }
+}
+
 /// Every strategy knob of the registry, given to every builder: built by
 /// the builders whose table holds it, refused by the others with an error
 /// naming the knob and the builders that take it, nothing built.

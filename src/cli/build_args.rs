@@ -96,6 +96,17 @@ pub struct BuildArgs {
     /// or functional (no timing: fastest, for correctness runs).
     #[arg(long, value_enum, default_value = "checked")]
     pub mode: Mode,
+    /// The PS3 model: legacy (every figure of the README and docs/ was
+    /// measured on it) or measured (held against real PS3s with several
+    /// SPEs: docs/validation.md; it will become the default once every
+    /// figure is re-measured on it).
+    #[arg(long, value_enum, default_value = "legacy")]
+    pub model: MachineModel,
+    /// How the PPE and the SPEs reach their mailboxes: raw (MMIO, as
+    /// libspe2 under Linux) or ps3-kernel (system calls and an event queue,
+    /// 11.6 µs a round trip: docs/validation.md).
+    #[arg(long, value_enum, default_value = "raw")]
+    pub mailboxes: Mailboxes,
     /// The strategies' knobs, as the registry's tables declare them.
     #[command(flatten)]
     pub knobs: KnobArgs,
@@ -107,6 +118,20 @@ pub enum Mode {
     Checked,
     Timed,
     Functional,
+}
+
+/// `--model`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum MachineModel {
+    Legacy,
+    Measured,
+}
+
+/// `--mailboxes`.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Mailboxes {
+    Raw,
+    Ps3Kernel,
 }
 
 /// `--split`.
@@ -154,7 +179,22 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
     let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
     cell.main_memory_bytes = args.memory_mib * 1024 * 1024;
     cell.checked = matches!(args.mode, Mode::Checked);
+    cell.cost = match args.model {
+        MachineModel::Legacy => cellbih::cell::CostModel::ps3(),
+        MachineModel::Measured => cellbih::cell::CostModel::ps3_measured(),
+    };
+    if let Mailboxes::Ps3Kernel = args.mailboxes {
+        cell.cost = cell.cost.with_ps3_kernel_mailboxes();
+    }
     if let Mode::Functional = args.mode {
+        if !matches!(
+            (args.model, args.mailboxes),
+            (MachineModel::Legacy, Mailboxes::Raw)
+        ) {
+            return Err(
+                "--mode functional has no timing: --model and --mailboxes do not apply".into(),
+            );
+        }
         cell.cost = cellbih::cell::CostModel::functional();
     }
     // A knob the builder does not take is an error, not ignored, and so
