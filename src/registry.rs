@@ -10,6 +10,7 @@ use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig};
 use crate::cell::{CellConfig, CellError};
 use crate::host::HostBuilder;
+use crate::kernels::rates::RateOverrides;
 use crate::scene::Scene;
 use crate::strategy::{self, Strategy};
 
@@ -158,6 +159,25 @@ impl BuilderKind {
         k
     }
 
+    /// Every kernel rate the builders may charge that no measurement pins,
+    /// with its plausible band: the shared kernels' and each strategy's
+    /// own (the sensitivity report moves each in turn).
+    pub fn uncertain_rates() -> Vec<crate::kernels::rates::Uncertain> {
+        let mut v: Vec<_> = crate::kernels::rates::KernelRates::UNCERTAIN.to_vec();
+        for b in Self::ALL {
+            if let Family::Cell(s) = b.0 {
+                v.extend(
+                    s.uncertain
+                        .iter()
+                        .filter(|u| !v.contains(u))
+                        .copied()
+                        .collect::<Vec<_>>(),
+                );
+            }
+        }
+        v
+    }
+
     /// Refuses a strategy knob (`--NAME`) the builder does not take,
     /// naming the builders that take it.
     pub fn check_knob(self, name: &str) -> Result<(), CellError> {
@@ -237,7 +257,7 @@ impl BuilderKind {
         self.build_with(scene, region, cfg, cell, &strategy::Knobs::default())
     }
 
-    /// [`BuilderKind::build_in`] with the multi-SPE strategies' knobs.
+    /// [`BuilderKind::build_in`] with the strategies' knobs.
     pub fn build_with(
         self,
         scene: &Scene,
@@ -245,6 +265,20 @@ impl BuilderKind {
         cfg: &BihConfig,
         cell: &CellConfig,
         knobs: &strategy::Knobs,
+    ) -> Result<BuildReport, CellError> {
+        let rates = RateOverrides::default();
+        self.build_with_rates(scene, region, cfg, cell, (knobs, &rates))
+    }
+
+    /// [`BuilderKind::build_with`] with kernel rates moved from their PS3
+    /// values (the sensitivity report); a host builder charges nothing.
+    pub fn build_with_rates(
+        self,
+        scene: &Scene,
+        region: Aabb,
+        cfg: &BihConfig,
+        cell: &CellConfig,
+        (knobs, rates): (&strategy::Knobs, &RateOverrides),
     ) -> Result<BuildReport, CellError> {
         if !self.builds(cfg) {
             let with: Vec<&str> = (Self::ALL.iter())
@@ -272,7 +306,8 @@ impl BuilderKind {
         let (bih, simulated) = match self.0 {
             Family::Host(b) => ((b.build)(scene, region, cfg), None),
             Family::Cell(s) => {
-                let (bih, simulated) = strategy::run_in(s.spawn, scene, region, cfg, cell, knobs)?;
+                let (bih, simulated) =
+                    strategy::run_in(s.spawn, scene, region, cfg, cell, (knobs, rates))?;
                 (bih, Some(simulated))
             }
         };

@@ -138,3 +138,45 @@ fn validate_holds_the_measured_model_to_every_published_figure() {
         assert!(err.contains(figure), "{figure}: {err}");
     }
 }
+
+/// `sensitivity`: a row for the rates as calibrated and one for each end
+/// of every uncertain rate's band (each machine estimate, each kernel rate
+/// the registry marks uncertain), each with a speedup per headline (every
+/// multi-SPE builder of the registry on each SPE count); the calibrated
+/// row moves nothing, and moving a rate moves some headline.
+#[test]
+fn sensitivity_moves_every_uncertain_rate_across_its_band() {
+    use cellbih::registry::BuilderKind;
+    let exe = env!("CARGO_BIN_EXE_sensitivity");
+    let dir = common::tmp("sensitivity");
+    let out = std::process::Command::new(exe)
+        .args([
+            "--scenes",
+            "default",
+            "--spes",
+            "2,6",
+            "--out",
+            dir.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("sensitivity.json")).unwrap())
+            .unwrap();
+    let rows = doc["rows"].as_array().unwrap();
+    let uncertain =
+        cellbih::cell::CostModel::ESTIMATES.len() + BuilderKind::uncertain_rates().len();
+    assert_eq!(rows.len(), 1 + 2 * uncertain);
+    let heads = 2 * BuilderKind::ALL.iter().filter(|b| b.multi_spe()).count();
+    for r in rows {
+        assert_eq!(r["speedups"].as_array().unwrap().len(), heads, "{r}");
+    }
+    assert_eq!(rows[0]["largest_move"], 0.0);
+    let moved = (rows.iter()).filter(|r| r["largest_move"].as_f64().unwrap().abs() > 0.001);
+    assert!(moved.count() > rows.len() / 4, "moving rates moved little");
+}

@@ -237,6 +237,53 @@ impl CostModel {
         }
     }
 
+    /// The machine's rates that are estimates (no published measurement
+    /// pins them), by name: what the sensitivity report moves, from half to
+    /// twice their value.
+    pub const ESTIMATES: &'static [&'static str] = &[
+        "mfc_list_element_cycles",
+        "channel_cycles",
+        "mailbox_latency_cycles",
+        "ppe_mmio_cycles",
+        "signal_latency_cycles",
+        "getllar_cycles",
+        "atomic_hit_cycles",
+        "ppe_event_cycles",
+        "ppe_alloc_cycles",
+        "ppe_atomic_cycles",
+        "put_ack_cycles",
+    ];
+
+    /// This model with the estimate `name` ([`CostModel::ESTIMATES`]) at
+    /// `value` cycles; `None` for a name that is not one.
+    pub fn with_estimate(&self, name: &str, value: Cycles) -> Option<CostModel> {
+        let mut c = self.clone();
+        *c.estimate_mut(name)? = value;
+        Some(c)
+    }
+
+    /// The value of the estimate `name`.
+    pub fn estimate(&self, name: &str) -> Option<Cycles> {
+        self.clone().estimate_mut(name).map(|v| *v)
+    }
+
+    fn estimate_mut(&mut self, name: &str) -> Option<&mut Cycles> {
+        Some(match name {
+            "mfc_list_element_cycles" => &mut self.mfc_list_element_cycles,
+            "channel_cycles" => &mut self.channel_cycles,
+            "mailbox_latency_cycles" => &mut self.mailbox_latency_cycles,
+            "ppe_mmio_cycles" => &mut self.ppe_mmio_cycles,
+            "signal_latency_cycles" => &mut self.signal_latency_cycles,
+            "getllar_cycles" => &mut self.getllar_cycles,
+            "atomic_hit_cycles" => &mut self.atomic_hit_cycles,
+            "ppe_event_cycles" => &mut self.ppe_event_cycles,
+            "ppe_alloc_cycles" => &mut self.ppe_alloc_cycles,
+            "ppe_atomic_cycles" => &mut self.ppe_atomic_cycles,
+            "put_ack_cycles" => &mut self.put_ack_cycles,
+            _ => return None,
+        })
+    }
+
     /// The functional mode: every machine operation is free, so a run
     /// checks correctness (DMA rules, synchronization, deadlocks) as fast
     /// as the host allows, and its cycle counts mean nothing.

@@ -12,7 +12,7 @@
 use crate::cell::Cycles;
 
 /// Compute rates of the shared kernels, per core type.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct KernelRates {
     /// PPE cycles per item looked at by an in-place partition (load the
     /// record, its box center, compare, swap), all cache effects included.
@@ -68,4 +68,99 @@ impl KernelRates {
         // By analogy: spe_sah_bin's count and scale.
         ppe_sah_bin: Cycles(75 * FITTED_OVER_DERIVED),
     };
+}
+
+/// A rate whose value is not pinned by a measurement, and the band it may
+/// plausibly lie in: what the sensitivity report moves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Uncertain {
+    /// The rate's name, as [`RateOverrides`] takes it.
+    pub name: &'static str,
+    pub low: Cycles,
+    pub high: Cycles,
+    /// Why the band is what it is.
+    pub why: &'static str,
+}
+
+/// Rates moved from their PS3 values for one run, by name (the
+/// sensitivity report's); empty: every rate as calibrated and derived.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RateOverrides(Vec<(&'static str, Cycles)>);
+
+impl RateOverrides {
+    /// These overrides and `name` at `value`.
+    pub fn with(mut self, name: &'static str, value: Cycles) -> Self {
+        self.0.retain(|(n, _)| *n != name);
+        self.0.push((name, value));
+        self
+    }
+
+    /// `name`'s value if it is moved.
+    pub fn get(&self, name: &str) -> Option<Cycles> {
+        self.0.iter().find(|(n, _)| *n == name).map(|&(_, v)| v)
+    }
+
+    /// The names moved.
+    pub fn names(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.0.iter().map(|(n, _)| *n)
+    }
+
+    /// The shared kernels' rates with these overrides.
+    pub fn kernels(&self) -> KernelRates {
+        let mut k = KernelRates::PS3;
+        for (name, field) in [
+            ("ppe_node", &mut k.ppe_node),
+            ("spe_bounds_item", &mut k.spe_bounds_item),
+            ("spe_job", &mut k.spe_job),
+            ("spe_bin_item", &mut k.spe_bin_item),
+            ("spe_sah_bin", &mut k.spe_sah_bin),
+            ("ppe_sah_bin", &mut k.ppe_sah_bin),
+        ] {
+            if let Some(v) = self.get(name) {
+                *field = v;
+            }
+        }
+        k
+    }
+}
+
+impl KernelRates {
+    /// The shared kernels' rates that are estimates, derived or by
+    /// analogy, with their plausible bands: an estimate from half to twice
+    /// its value; a derived rate from its value (the instruction count
+    /// scaled like the partition) to 1.6 times it (the partition's own
+    /// derived count misses its fit by that much before scaling: the
+    /// key-bit rate's 30 to 49 cycles). The two fitted rates do not move.
+    pub const UNCERTAIN: &'static [Uncertain] = &[
+        Uncertain {
+            name: "ppe_node",
+            low: Cycles(500),
+            high: Cycles(2000),
+            why: "estimate",
+        },
+        Uncertain {
+            name: "spe_bounds_item",
+            low: Cycles(10),
+            high: Cycles(40),
+            why: "estimate",
+        },
+        Uncertain {
+            name: "spe_job",
+            low: Cycles(100),
+            high: Cycles(400),
+            why: "estimate",
+        },
+        Uncertain {
+            name: "spe_bin_item",
+            low: Cycles(160),
+            high: Cycles(256),
+            why: "derived",
+        },
+        Uncertain {
+            name: "spe_sah_bin",
+            low: Cycles(300),
+            high: Cycles(480),
+            why: "derived",
+        },
+    ];
 }

@@ -20,6 +20,7 @@ use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality};
 use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport, Trace};
 pub use crate::kernels::morton::KeyOrder;
+use crate::kernels::rates::{RateOverrides, Uncertain};
 use crate::kernels::recursion::BuildStats;
 use crate::scene::Scene;
 pub use knob::{Kind, Knob, Knobs};
@@ -51,6 +52,9 @@ pub struct Strategy {
     /// Settings of several of its knobs at once that experiments and
     /// benches also try (each knob's own sweep values they try alone).
     pub combos: &'static [&'static [(&'static Knob, &'static str)]],
+    /// Its own kernels' rates that are not pinned by a measurement, with
+    /// their plausible bands (the sensitivity report moves them).
+    pub uncertain: &'static [Uncertain],
     /// Sets up its programs on the Cell.
     pub spawn: Spawn,
 }
@@ -66,6 +70,7 @@ impl Strategy {
             quality: Quality::PAPER,
             knobs: &[],
             combos: &[],
+            uncertain: &[],
             spawn,
         }
     }
@@ -88,6 +93,11 @@ impl Strategy {
         Strategy { knobs, ..self }
     }
 
+    /// Its own kernels' rates `uncertain` are not pinned by a measurement.
+    pub const fn with_uncertain_rates(self, uncertain: &'static [Uncertain]) -> Self {
+        Strategy { uncertain, ..self }
+    }
+
     /// Experiments and benches also try these settings of several knobs
     /// at once.
     pub const fn with_combos(
@@ -104,6 +114,9 @@ pub struct Setup {
     pub count: usize,
     pub region: Aabb,
     pub knobs: Knobs,
+    /// Kernel rates moved from their PS3 values (the sensitivity report);
+    /// a strategy charges `rates.kernels()` and its own rates with these.
+    pub rates: RateOverrides,
 }
 
 /// What a strategy's programs leave for reading back: the value its
@@ -262,7 +275,7 @@ pub fn run_in(
     region: Aabb,
     cfg: &BihConfig,
     cell_cfg: &CellConfig,
-    knobs: &Knobs,
+    (knobs, rates): (&Knobs, &RateOverrides),
 ) -> Result<(Bih, Simulated), CellError> {
     assert!(
         region.contains_box(&scene.bounds()),
@@ -275,6 +288,7 @@ pub fn run_in(
         count: scene.len(),
         region,
         knobs: knobs.clone(),
+        rates: rates.clone(),
     };
     let readback = spawn(&mut cell, &setup, cfg)?;
     let run = cell.run()?;

@@ -11,7 +11,6 @@
 //! scatter, gather), every bucket an upper-level partition touches, and every
 //! item of the naive finish; and at the per-node rate for every node.
 
-use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
 
 use super::machinery::layout::TriRecord;
@@ -44,11 +43,12 @@ pub const APPROX_CELLS: super::Knob = super::Knob::int(
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    let rates = setup.rates.kernels();
     let max_cells = setup.knobs.int(&APPROX_CELLS);
     let ppe = cell.spawn_ppe(move |ppe| async move {
         let items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
         let (sorted, bih, a) = build_approx(&items, region, &cfg, max_cells);
-        let k = KernelRates::PS3;
+        let k = rates;
         let touched = a.items_sorted + a.buckets_partitioned + a.naive.items_partitioned;
         ppe.compute_items(k.ppe_partition_item, touched);
         ppe.compute_items(k.ppe_node, a.nodes);

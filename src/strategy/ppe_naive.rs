@@ -9,8 +9,6 @@
 //! kernel rates of the cost model. It builds every quality knob of
 //! [`BihConfig`] (the split choice, the empty-space cut-off).
 
-use crate::kernels::rates::KernelRates;
-
 use super::machinery::layout::TriRecord;
 use super::{Output, Readback, Setup};
 use crate::bih::{BihConfig, SplitChoice};
@@ -27,10 +25,11 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    let rates = setup.rates.kernels();
     let ppe = cell.spawn_ppe(move |ppe| async move {
         let mut items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
         let (bih, stats) = build_items(&mut items, region, &cfg);
-        let k = KernelRates::PS3;
+        let k = rates;
         let BuildStats {
             items_partitioned,
             items_binned,

@@ -38,6 +38,7 @@ fn spawn(
         cell.memory_mut()
             .alloc(Purpose::WorkPpe.buffer("WorkBPPE"), work_ppe_bytes, 128)?;
     let work_ppe = [work_a_ppe, work_b_ppe];
+    let rates = setup.rates.kernels();
 
     let spe = cell.spawn_spe(0, move |spe| async move {
         let mut b = SpeBuilder::new(
@@ -46,7 +47,7 @@ fn spawn(
             (work_ppe, work_ppe_bytes),
             cfg,
             BlockSource::Mailbox,
-            QueueKnobs::PAPER,
+            (QueueKnobs::PAPER, rates),
         )?;
         let all = b.bounds_of_all(n).await?;
         b.run(Job::new(0, n, 0, 0, region, &all)).await?;

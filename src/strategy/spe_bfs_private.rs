@@ -23,7 +23,6 @@
 //! The splits are the baseline's, so the tree is the baseline's tree; only
 //! the numbering differs (nodes read back are renumbered breadth first).
 
-use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
 
 use super::machinery::breadth_first::{
@@ -96,6 +95,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         top: TopKnobs::read(&setup.knobs),
         steal: setup.knobs.flag(&STEAL),
     };
+    let rates = setup.rates.kernels();
     let common = Common::alloc(cell, tris, n)?;
     let (spes, blocks) = (cell.config().spes, common.pool.blocks);
     let mem = || cell.memory_mut();
@@ -141,7 +141,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                 ([work_ppe, work_ppe], 0),
                 cfg,
                 blocks,
-                knobs.queue,
+                (knobs.queue, rates),
             )?;
             let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
             let tag = spe.tag("deal")?;
@@ -232,7 +232,7 @@ async fn deal(
     let depth = jobs[0].depth;
     // Sorting and dealing: the per-job bookkeeping rate of the SPE loop for
     // each job (docs/cost-model.md).
-    spe.compute_items(KernelRates::PS3.spe_job, jobs.len() as u64);
+    spe.compute_items(b.rates.spe_job, jobs.len() as u64);
     let hands = largest_first(&jobs, spes);
     let mut own = None;
     let mut at = work;
@@ -302,7 +302,7 @@ async fn deal_to_lists(
 ) -> Result<(), CellError> {
     let jobs = b.queue.load(level, 0).await?;
     let depth = jobs[0].depth;
-    spe.compute_items(KernelRates::PS3.spe_job, jobs.len() as u64);
+    spe.compute_items(b.rates.spe_job, jobs.len() as u64);
     let hands = largest_first(&jobs, spes);
     let mut grouped = Vec::with_capacity(jobs.len());
     let mut ranges = Vec::with_capacity(spes);
@@ -368,7 +368,7 @@ async fn take_and_steal(
     let mut stolen = 0;
     loop {
         // Choosing where to take from: the per-job bookkeeping rate.
-        spe.compute(KernelRates::PS3.spe_job);
+        spe.compute(b.rates.spe_job);
         let Some((k, from_other)) = take(spe, record, lists, id, spes).await? else {
             break;
         };

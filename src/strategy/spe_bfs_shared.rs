@@ -132,6 +132,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             knobs.agglomerate,
         )));
     }
+    let rates = setup.rates.kernels();
     let common = Common::alloc(cell, tris, n)?;
     let spes = cell.config().spes;
     // A level's jobs: two per job of the level before with more than a
@@ -189,7 +190,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                 (queue.levels, queue.level_bytes),
                 cfg,
                 common.pool.blocks,
-                knobs.queue,
+                (knobs.queue, rates),
             )?;
             let mut helper = Coop::new(&spe, common.coop, knobs.queue.prefetch)?;
             let line = spe.ls_alloc(128, 128)?;

@@ -20,7 +20,6 @@
 //! buffers, bins it and puts the bins back; the PPE sweeps them (a job is
 //! then 64 bytes: the interval's bounds of centers travel with it).
 
-use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::footprint::Purpose;
 
 use glam::Vec3A;
@@ -119,6 +118,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
+    let rates = setup.rates.kernels();
     let job_bytes = DfsJob::bytes(&cfg);
     let job_ea = cell.memory_mut().alloc(
         Purpose::JobQueues.buffer("depth-first job"),
@@ -154,7 +154,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             None => None,
         };
         let job_tag = spe.tag("depth-first job and result")?;
-        let k = KernelRates::PS3;
+        let k = rates;
         loop {
             spe.read_signal(1).await?;
             spe.get(job_ls, job_ea, job_bytes as u32, job_tag).await?;
@@ -227,7 +227,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     });
 
     let ppe = cell.spawn_ppe(move |ppe| async move {
-        let k = KernelRates::PS3;
+        let k = rates;
         // One job on SPE 0, and its two sides.
         let send = async |job: DfsJob| -> Result<(), CellError> {
             ppe.write_pod(job_ea, &to_wire(&[job], job_bytes)).await?;

@@ -17,7 +17,6 @@ use super::work_queue::Level;
 use crate::aabb::Aabb;
 use crate::cell::Exit;
 use crate::cell::{Cell, CellError, Ea, Spe};
-use crate::kernels::rates::KernelRates;
 use crate::strategy::machinery::breadth_first::{Job, SpeBuilder};
 use crate::strategy::{Knob, Knobs, Output, Readback, SpeWork};
 
@@ -229,7 +228,7 @@ pub(in crate::strategy) async fn help_top(
     b: &SpeBuilder<'_>,
     helper: &mut Coop,
 ) -> Result<(), CellError> {
-    let rate = KernelRates::PS3.spe_partition_item;
+    let rate = b.rates.spe_partition_item;
     while spe.read_signal(1).await? == GO {
         helper.help(spe, &b.fig1, rate).await?;
     }

@@ -49,7 +49,7 @@ use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, Ea, LsAddr, Spe};
 use crate::kernels::morton::{KeyOrder, KeySpec};
 use crate::kernels::radix;
-use crate::kernels::rates::FITTED_OVER_DERIVED;
+use crate::kernels::rates::{FITTED_OVER_DERIVED, KernelRates, RateOverrides, Uncertain};
 
 /// `spe_morton` in the registry of builders.
 pub const STRATEGY: super::Strategy = super::Strategy::new(
@@ -58,6 +58,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     spawn,
 )
 .on_every_spe()
+.with_uncertain_rates(MortonRates::UNCERTAIN)
 .with_knobs(&[
     &KEY_ORDER,
     &KEY_BITS,
@@ -149,6 +150,7 @@ impl MortonKnobs {
 /// from an instruction count on the SPU's two pipelines (7.5, 3 and 5.5
 /// cycles) and scaled by the partition's fitted/derived ratio
 /// ([`crate::kernels::rates::FITTED_OVER_DERIVED`]), `docs/cost-model.md`.
+#[derive(Clone, Copy)]
 pub struct MortonRates {
     /// Per triangle per key bit of a Morton key: one halving of the
     /// candidate cell, four triangles a vector.
@@ -168,6 +170,46 @@ pub const RATES: MortonRates = MortonRates {
     radix_count: Cycles(3 * FITTED_OVER_DERIVED),
     radix_scatter: Cycles(11 * FITTED_OVER_DERIVED / 2),
 };
+
+impl MortonRates {
+    /// The PS3's rates with `overrides`.
+    fn with(overrides: &RateOverrides) -> Self {
+        let mut r = RATES;
+        for (name, field) in [
+            ("spe_morton.key_bit", &mut r.key_bit),
+            ("spe_morton.radix_count", &mut r.radix_count),
+            ("spe_morton.radix_scatter", &mut r.radix_scatter),
+        ] {
+            if let Some(v) = overrides.get(name) {
+                *field = v;
+            }
+        }
+        r
+    }
+
+    /// Its rates' plausible bands: derived, from the value to 1.6 times it
+    /// (the key-bit rate's 30 to 49 cycles; `KernelRates::UNCERTAIN`).
+    pub const UNCERTAIN: &'static [Uncertain] = &[
+        Uncertain {
+            name: "spe_morton.key_bit",
+            low: Cycles(30),
+            high: Cycles(49),
+            why: "derived",
+        },
+        Uncertain {
+            name: "spe_morton.radix_count",
+            low: Cycles(12),
+            high: Cycles(19),
+            why: "derived",
+        },
+        Uncertain {
+            name: "spe_morton.radix_scatter",
+            low: Cycles(22),
+            high: Cycles(35),
+            why: "derived",
+        },
+    ];
+}
 
 /// A key and the index of its triangle record: 16 bytes.
 #[repr(C)]
@@ -216,6 +258,7 @@ struct Areas {
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (n, knobs, cfg) = (setup.count, MortonKnobs::read(&setup.knobs), *cfg);
+    let (rates, kernels) = (MortonRates::with(&setup.rates), setup.rates.kernels());
     let spes = cell.config().spes;
     let pool = Pool::alloc(cell, n)?;
     let mut mem = cell.memory_mut();
@@ -254,7 +297,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     let exits = (0..spes)
         .map(|id| {
             cell.spawn_spe(id, move |spe| async move {
-                let mut p = Program::new(&spe, a, spec, knobs, cfg)?;
+                let mut p = Program::new(&spe, a, spec, (knobs, rates, kernels), cfg)?;
                 p.run().await
             })
         })
@@ -315,6 +358,9 @@ struct Program<'a> {
     a: Areas,
     spec: KeySpec,
     knobs: MortonKnobs,
+    /// The rates this run charges: this strategy's and the shared kernels'.
+    rates: MortonRates,
+    kernels: KernelRates,
     cfg: BihConfig,
     line: LsAddr,
     tags: u32,
@@ -363,7 +409,7 @@ impl<'a> Program<'a> {
         spe: &'a Spe,
         a: Areas,
         spec: KeySpec,
-        knobs: MortonKnobs,
+        (knobs, rates, kernels): (MortonKnobs, MortonRates, KernelRates),
         cfg: BihConfig,
     ) -> Result<Self, CellError> {
         Ok(Program {
@@ -371,6 +417,8 @@ impl<'a> Program<'a> {
             a,
             spec,
             knobs,
+            rates,
+            kernels,
             cfg,
             line: spe.ls_alloc(128, 128)?,
             tags: spe.tags("spe_morton streams", 4)?,

@@ -3,7 +3,6 @@
 //! the sorted keys on SPE 0, the regions built by every SPE alone, and
 //! the top nodes' clip planes from the regions' bounds.
 
-use crate::kernels::rates::KernelRates;
 use bytemuck::Pod;
 use glam::Vec3;
 
@@ -36,7 +35,7 @@ impl Program<'_> {
     /// Phase 4, SPE 0: the top of the tree from the sorted keys, down to
     /// regions; writes the regions largest first (and their static deal).
     pub(super) async fn top(&mut self, keys: Ea) -> Result<Vec<Top>, CellError> {
-        let k = KernelRates::PS3;
+        let k = self.kernels;
         let bits = self.spec.bits;
         let root = self.arena().alloc(1).await?;
         let mut top: Vec<Top> = Vec::new();
@@ -190,7 +189,7 @@ impl Program<'_> {
             lists[s].push(pos as u32);
         }
         self.spe
-            .compute_items(KernelRates::PS3.spe_job, regions.len() as u64);
+            .compute_items(self.kernels.spe_job, regions.len() as u64);
         let mut header = vec![0u32; 32];
         let mut all = Vec::with_capacity(regions.len());
         for (s, l) in lists.iter().enumerate() {
@@ -293,10 +292,10 @@ impl Program<'_> {
             work_ppe,
             self.cfg,
             arena,
-            self.knobs.queue,
+            (self.knobs.queue, self.kernels),
         )?;
         b.lend_node_writes(self.writes.take());
-        let k = KernelRates::PS3;
+        let k = self.kernels;
         let at = self.a.sorted.offset((first * RECORD) as u64);
         let side =
             stream_bounds::<TriRecord>(self.spe, &b.fig1, at, count as u64, k.spe_bounds_item)
@@ -355,7 +354,7 @@ impl Program<'_> {
         depth: u32,
         cand: Aabb,
     ) -> Result<Side, CellError> {
-        let k = KernelRates::PS3;
+        let k = self.kernels;
         let tag = self.tags;
         let mark = self.spe.ls_mark();
         let recs = self
@@ -445,7 +444,7 @@ impl Program<'_> {
                     let (l, r) = (of[kids[0]], of[kids[1]]);
                     self.w()
                         .push(id, BihNode::inner(children, axis, l.max[axis], r.min[axis]));
-                    self.spe.compute(KernelRates::PS3.spe_job);
+                    self.spe.compute(self.kernels.spe_job);
                     l.union(r)
                 }
             };

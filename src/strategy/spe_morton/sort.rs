@@ -85,7 +85,7 @@ impl Program<'_> {
     /// Phase 1: a key for every record of this SPE's slice, into keys A.
     pub(super) async fn keys(&mut self, bufs: [LsAddr; 4]) -> Result<(), CellError> {
         let (lo, hi) = self.slice();
-        let rate = Cycles(super::RATES.key_bit.0 * self.spec.bits as u64);
+        let rate = Cycles(self.rates.key_bit.0 * self.spec.bits as u64);
         let src = self.a.tris.offset((lo * RECORD) as u64);
         let count = hi - lo;
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
@@ -134,7 +134,7 @@ impl Program<'_> {
                 let keys: Vec<u64> = keys.iter().map(|r| r.key).collect();
                 radix::histogram(&keys, pass, d, &mut counts);
             })?;
-            self.spe.compute_items(super::RATES.radix_count, len as u64);
+            self.spe.compute_items(self.rates.radix_count, len as u64);
         }
         // This SPE's row of the table, then everyone's.
         let (row, tag) = (bufs[2], self.tags + 2);
@@ -152,7 +152,7 @@ impl Program<'_> {
             self.spe.wait_tag(tag).await?;
             rows.push(self.spe.ls_read::<u32>(row, digits)?);
             self.spe
-                .compute_items(super::RATES.radix_count, digits as u64);
+                .compute_items(self.rates.radix_count, digits as u64);
         }
         let mut offsets = radix::offsets(&rows).swap_remove(self.spe.id());
         // Scatter: each block's pairs in order of their places, one putl.
@@ -163,8 +163,7 @@ impl Program<'_> {
             let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
             let keys: Vec<u64> = recs.iter().map(|r| r.key).collect();
             let to = radix::scatter(&keys, pass, d, &mut offsets);
-            self.spe
-                .compute_items(super::RATES.radix_scatter, len as u64);
+            self.spe.compute_items(self.rates.radix_scatter, len as u64);
             let mut order: Vec<usize> = (0..len).collect();
             order.sort_by_key(|&i| to[i]);
             let staged: Vec<KeyRec> = order.iter().map(|&i| recs[i]).collect();
@@ -203,8 +202,7 @@ impl Program<'_> {
                     size: RECORD as u32,
                 })
                 .collect();
-            self.spe
-                .compute_items(super::RATES.radix_scatter, len as u64);
+            self.spe.compute_items(self.rates.radix_scatter, len as u64);
             let (obuf, tag) = self.out_buffer(b, bufs).await?;
             self.spe.getl(obuf, &list, tag).await?;
             self.spe.wait_tag(tag).await?;

@@ -10,7 +10,6 @@ use crate::bih::BihNode;
 use crate::cell::{CellError, ListElement, WaitMode};
 use crate::kernels::cutoff::Clip;
 use crate::kernels::decide::{Decision, NodeView, decide};
-use crate::kernels::rates::KernelRates;
 use crate::kernels::sah::Bins;
 use crate::kernels::split::{Split, partition};
 use crate::strategy::machinery::fig1::{partition_in_place, stream_fold};
@@ -105,7 +104,7 @@ impl SpeBuilder<'_> {
             // The jobs dealt to this SPE (one block: at most 128).
             self.dealt_starts = jobs.iter().map(|j| j.first).collect();
         }
-        let k = KernelRates::PS3;
+        let k = self.rates;
         let per_block = (crate::strategy::machinery::fig1::BLOCK_BYTES as usize
             / size_of::<TriRecord>()) as u32;
         let mut steps = Vec::new();
@@ -212,7 +211,7 @@ impl SpeBuilder<'_> {
     /// Partitions a large interval: streamed through Fig. 1's buffers, or
     /// cooperatively by every SPE.
     async fn large(&mut self, job: &Job, s: Option<Split>, cand: Aabb) -> Result<(), CellError> {
-        let k = KernelRates::PS3;
+        let k = self.rates;
         // Fig. 1 reuses the batches' buffers: their puts finish first.
         let batches = (0..self.batch_buffers()).fold(0, |m, b| m | 1 << self.fig1.tag(b));
         self.spe.wait_tags(batches, WaitMode::All).await?;
@@ -318,7 +317,7 @@ impl SpeBuilder<'_> {
         if let Some(buf) = buf {
             let (ls, tag) = (self.fig1.buffer(buf), self.fig1.tag(buf));
             self.spe.wait_tag(tag).await?;
-            let rate = KernelRates::PS3.spe_partition_item;
+            let rate = self.rates.spe_partition_item;
             // Where each run starts in the local store. Runs are in job
             // order (a job extends the last run or starts one), not in
             // address order: jobs a shared queue hands out need not be.
@@ -339,7 +338,7 @@ impl SpeBuilder<'_> {
                             let mut bins = self.new_bins(&p.job)?;
                             self.spe
                                 .with_ls(at, count, |items: &[TriRecord]| bins.add(items))?;
-                            let k = KernelRates::PS3;
+                            let k = self.rates;
                             self.spe.compute_items(k.spe_bin_item, count as u64);
                             self.sah_choose(&p.job, &bins, cand)
                         }
@@ -388,7 +387,7 @@ impl SpeBuilder<'_> {
     /// and axis); the global heuristic in `cand` where no binned plane
     /// separates in `f32`, as the host builder does.
     fn sah_choose(&mut self, job: &Job, bins: &Bins, cand: Aabb) -> (Split, Aabb) {
-        let k = KernelRates::PS3;
+        let k = self.rates;
         self.spe
             .compute_items(k.spe_sah_bin, 3 * bins.per_axis() as u64);
         self.stats.items_binned += job.count as u64;

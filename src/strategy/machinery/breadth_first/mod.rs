@@ -106,6 +106,8 @@ pub(in crate::strategy) struct SpeBuilder<'a> {
     spe: &'a Spe,
     tris: Ea,
     pub(in crate::strategy) cfg: BihConfig,
+    /// The kernels' rates this run charges.
+    pub(in crate::strategy) rates: KernelRates,
     pub(in crate::strategy) fig1: Fig1Buffers,
     /// `WorkA`/`WorkB` and their spill areas.
     pub(in crate::strategy) queue: WorkQueue<'a, Job>,
@@ -149,10 +151,17 @@ impl<'a> SpeBuilder<'a> {
         (work_ppe, work_ppe_bytes): ([Ea; 2], u64),
         cfg: BihConfig,
         blocks: BlockSource,
-        knobs: QueueKnobs,
+        (knobs, rates): (QueueKnobs, KernelRates),
     ) -> Result<Self, CellError> {
         let arena = ObjectArena::new(spe, blocks)?;
-        Self::with_arena(spe, tris, (work_ppe, work_ppe_bytes), cfg, arena, knobs)
+        Self::with_arena(
+            spe,
+            tris,
+            (work_ppe, work_ppe_bytes),
+            cfg,
+            arena,
+            (knobs, rates),
+        )
     }
 
     /// [`Self::new`] with the ObjectArena of a program that builds around
@@ -164,12 +173,13 @@ impl<'a> SpeBuilder<'a> {
         (work_ppe, work_ppe_bytes): ([Ea; 2], u64),
         cfg: BihConfig,
         arena: ObjectArena<'a>,
-        knobs: QueueKnobs,
+        (knobs, rates): (QueueKnobs, KernelRates),
     ) -> Result<Self, CellError> {
         Ok(SpeBuilder {
             spe,
             tris,
             cfg,
+            rates,
             fig1: Fig1Buffers::alloc(spe)?,
             queue: WorkQueue::new(
                 spe,
@@ -246,7 +256,7 @@ impl<'a> SpeBuilder<'a> {
     /// The bounds of all `n` triangle records (one streaming pass), for
     /// the root job.
     pub(in crate::strategy) async fn bounds_of_all(&self, n: usize) -> Result<Side, CellError> {
-        let rate = KernelRates::PS3.spe_bounds_item;
+        let rate = self.rates.spe_bounds_item;
         stream_bounds::<TriRecord>(self.spe, &self.fig1, self.tris, n as u64, rate).await
     }
 

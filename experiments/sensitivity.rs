@@ -1,0 +1,251 @@
+//! The sensitivity report (issue 26): how the headline speedups of
+//! section 5's strategies move when a rate no measurement pins moves across
+//! its plausible band — each machine estimate of `CostModel::ESTIMATES`
+//! from half to twice its value, each derived or estimated kernel rate of
+//! the registry (`BuilderKind::uncertain_rates`: the shared kernels' and
+//! each strategy's own) across its band. Every multi-SPE builder of the
+//! registry is built on each SPE count beside the baseline `spe_bfs` on the
+//! same rates; a rate under which the order of the builders, or whether
+//! more SPEs are faster, changes is reported as a flip.
+//!
+//! `cargo run --release --bin sensitivity -- --data ../shared/data [--scenes bunny,dragon] [--spes 6,8] [--model measured|legacy] [--out results]`
+
+use std::path::PathBuf;
+
+use clap::{Parser, ValueEnum};
+use serde_json::json;
+
+use cellbih::bih::BihConfig;
+use cellbih::cell::{CellConfig, CostModel, Cycles};
+use cellbih::kernels::rates::RateOverrides;
+use cellbih::registry::BuilderKind;
+use cellbih::report::{output, prepare_dir, write_csv, write_json};
+use cellbih::scene::{self, Scene};
+use cellbih::strategy::Knobs;
+
+#[derive(Parser)]
+struct Args {
+    /// Scenes, comma-separated (names, OBJ files or procedural specs).
+    #[arg(long, default_value = "bunny,dragon", value_delimiter = ',')]
+    scenes: Vec<String>,
+    /// Data directory of the real meshes (default: $CELLBIH_DATA).
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// SPE counts of the headline speedups, comma-separated (1 to 8).
+    #[arg(long, default_value = "6,8", value_delimiter = ',', value_parser = clap::value_parser!(u64).range(1..=8))]
+    spes: Vec<u64>,
+    /// The cost model the rates are moved on.
+    #[arg(long, value_enum, default_value = "measured")]
+    model: Model,
+    /// Directory for sensitivity.csv and sensitivity.json.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Model {
+    Measured,
+    Legacy,
+}
+
+/// One setting of the rates: its name, and the model and kernel rates.
+struct Variant {
+    rate: String,
+    end: &'static str,
+    value: u64,
+    cost: CostModel,
+    rates: RateOverrides,
+}
+
+/// The variants: the rates as they are, then each uncertain rate at the
+/// low and the high end of its band.
+fn variants(base: &CostModel) -> Vec<Variant> {
+    let mut v = vec![Variant {
+        rate: "(as calibrated)".into(),
+        end: "",
+        value: 0,
+        cost: base.clone(),
+        rates: RateOverrides::default(),
+    }];
+    for &name in CostModel::ESTIMATES {
+        let at = base.estimate(name).expect("a named estimate").0;
+        for (end, value) in [("low", at / 2), ("high", at * 2)] {
+            let cost = base.with_estimate(name, Cycles(value)).unwrap();
+            v.push(Variant {
+                rate: name.into(),
+                end,
+                value,
+                cost,
+                rates: RateOverrides::default(),
+            });
+        }
+    }
+    for u in BuilderKind::uncertain_rates() {
+        for (end, value) in [("low", u.low), ("high", u.high)] {
+            v.push(Variant {
+                rate: format!("{} ({})", u.name, u.why),
+                end,
+                value: value.0,
+                cost: base.clone(),
+                rates: RateOverrides::default().with(u.name, value),
+            });
+        }
+    }
+    v
+}
+
+/// The simulated ms of `b` on `s` with `spes` SPEs under variant `v`.
+fn ms(b: BuilderKind, s: &Scene, spes: usize, v: &Variant) -> Result<f64, String> {
+    let mut cell = CellConfig::ps3().with_spes(spes);
+    cell.cost = v.cost.clone();
+    cell.checked = false;
+    let r = b
+        .build_with_rates(
+            s,
+            s.bounds(),
+            &BihConfig::default(),
+            &cell,
+            (&Knobs::default(), &v.rates),
+        )
+        .map_err(|e| format!("{b} on {}: {e}", s.name))?;
+    Ok(r.simulated.expect("an emulated builder").run.ms)
+}
+
+fn main() {
+    let mut args = Args::parse();
+    if args.data.is_none() {
+        args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
+    }
+    cellbih::report::experiment_main("sensitivity", &args.out.clone(), || run(&args));
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    prepare_dir(&args.out).map_err(|e| e.to_string())?;
+    let scenes: Vec<Scene> = (args.scenes.iter())
+        .map(|n| scene::load(n, args.data.as_deref()).map_err(|e| e.to_string()))
+        .collect::<Result<_, _>>()?;
+    let base = match args.model {
+        Model::Measured => CostModel::ps3_measured(),
+        Model::Legacy => CostModel::ps3(),
+    };
+    let builders: Vec<BuilderKind> = (BuilderKind::ALL.iter().copied())
+        .filter(|b| b.multi_spe())
+        .collect();
+    let variants = variants(&base);
+    // speedups[variant][scene][spes][builder]
+    let mut speedups: Vec<Vec<Vec<Vec<f64>>>> = Vec::new();
+    for (k, v) in variants.iter().enumerate() {
+        eprintln!("[{}/{}] {} {}", k + 1, variants.len(), v.rate, v.end);
+        let mut by_scene = Vec::new();
+        for s in &scenes {
+            let baseline = ms(BuilderKind::SPE_BFS, s, 1, v)?;
+            let mut by_spes = Vec::new();
+            for &n in &args.spes {
+                let row: Vec<f64> = (builders.iter())
+                    .map(|&b| ms(b, s, n as usize, v).map(|t| baseline / t))
+                    .collect::<Result<_, _>>()?;
+                by_spes.push(row);
+            }
+            by_scene.push(by_spes);
+        }
+        speedups.push(by_scene);
+    }
+    // The order of the builders at each headline, and whether each builder
+    // is faster on more SPEs: a variant that changes either flips.
+    let order = |row: &[f64]| {
+        let mut idx: Vec<usize> = (0..row.len()).collect();
+        idx.sort_by(|&a, &b| row[b].total_cmp(&row[a]));
+        idx
+    };
+    let more_is_faster = |per_spes: &[Vec<f64>]| -> Vec<bool> {
+        (0..builders.len())
+            .map(|b| per_spes.windows(2).all(|w| w[1][b] > w[0][b]))
+            .collect()
+    };
+    let mut rows = Vec::new();
+    let mut csv = Vec::new();
+    let mut heads: Vec<String> = Vec::new();
+    for s in &scenes {
+        for n in &args.spes {
+            for b in &builders {
+                heads.push(format!("{} {b} {n}", s.name));
+            }
+        }
+    }
+    println!(
+        "Headline speedups over spe_bfs on one SPE (simulated, {} model) with each uncertain rate at the ends of its band\n",
+        match args.model {
+            Model::Measured => "measured",
+            Model::Legacy => "legacy",
+        }
+    );
+    for (k, v) in variants.iter().enumerate() {
+        let mut flips = Vec::new();
+        for (si, s) in scenes.iter().enumerate() {
+            for (ni, n) in args.spes.iter().enumerate() {
+                if order(&speedups[k][si][ni]) != order(&speedups[0][si][ni]) {
+                    flips.push(format!("order of the builders, {} on {n} SPEs", s.name));
+                }
+            }
+            let (now, then) = (
+                more_is_faster(&speedups[k][si]),
+                more_is_faster(&speedups[0][si]),
+            );
+            for (b, (x, y)) in builders.iter().zip(now.iter().zip(&then)) {
+                if x != y {
+                    flips.push(format!("{b} on more SPEs faster: {y} -> {x}, {}", s.name));
+                }
+            }
+        }
+        let flat: Vec<f64> = speedups[k].iter().flatten().flatten().copied().collect();
+        let base_flat: Vec<f64> = speedups[0].iter().flatten().flatten().copied().collect();
+        let worst = (flat.iter().zip(&base_flat))
+            .map(|(a, b)| a / b - 1.0)
+            .fold(0.0f64, |m, d| if d.abs() > m.abs() { d } else { m });
+        println!(
+            "{:<40} {:<4} {:>7}  largest move {:>+6.1} %  {}",
+            v.rate,
+            v.end,
+            if v.end.is_empty() {
+                String::new()
+            } else {
+                v.value.to_string()
+            },
+            worst * 100.0,
+            if flips.is_empty() {
+                "no flip".to_string()
+            } else {
+                format!("FLIPS: {}", flips.join("; "))
+            }
+        );
+        let speeds: Vec<String> = flat.iter().map(|x| format!("{x:.3}")).collect();
+        csv.push(format!(
+            "\"{}\",{},{},{:.4},{},{}",
+            v.rate,
+            v.end,
+            v.value,
+            worst,
+            flips.len(),
+            speeds.join(",")
+        ));
+        rows.push(json!({
+            "rate": v.rate, "end": v.end, "value": v.value,
+            "largest_move": worst, "flips": flips,
+            "speedups": heads.iter().zip(&flat).map(|(h, x)| json!({"headline": h, "speedup": x})).collect::<Vec<_>>(),
+        }));
+    }
+    println!("\nheadlines: {}", heads.join(", "));
+    let header = format!(
+        "rate,end,value,largest_move,flips,{}",
+        heads.join(",").replace(' ', "_")
+    );
+    let path = output(&args.out, "sensitivity.csv").map_err(|e| e.to_string())?;
+    write_csv(&path, &header, &csv).map_err(|e| e.to_string())?;
+    let path = output(&args.out, "sensitivity.json").map_err(|e| e.to_string())?;
+    write_json(&path, &json!({ "rows": rows })).map_err(|e| e.to_string())?;
+    println!(
+        "written: {}",
+        args.out.join("sensitivity.{csv,json}").display()
+    );
+    Ok(())
+}
