@@ -180,3 +180,31 @@ fn procedural_scenes_are_deterministic_and_sized_like_the_papers() {
     assert_eq!(d.degenerate_count(), 0);
     assert!(d.geometry_names.len() > 5);
 }
+
+/// A byte-order mark before the first line is not part of it: the first
+/// vertex is kept and the indices do not shift; an out-of-range index
+/// counts every vertex.
+#[test]
+fn a_byte_order_mark_is_skipped() {
+    let with = b"\xef\xbb\xbfv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n";
+    let s = parse_obj("t.obj", with).unwrap();
+    let plain = parse_obj("t.obj", &with[3..]).unwrap();
+    assert_eq!(s.triangles, plain.triangles);
+    assert_eq!(s.bounds(), plain.bounds());
+    let e = parse_obj("t.obj", b"\xef\xbb\xbfv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").unwrap_err();
+    assert!(e.to_string().contains("(the file has 3 vertices)"), "{e}");
+}
+
+/// Valid files tobj alone refuses: vertex colours on some vertices only,
+/// and a single-byte (Latin-1) character in a comment or a name. A NUL
+/// byte is still not text.
+#[test]
+fn colours_on_some_vertices_and_latin1_bytes_load() {
+    let coloured = parse_obj("t.obj", b"v 0 0 0 1 0 0\nv 0 1 0\nv 1 0 0\nf 1 2 3\n").unwrap();
+    let plain = parse_obj("t.obj", b"v 0 0 0\nv 0 1 0\nv 1 0 0\nf 1 2 3\n").unwrap();
+    assert_eq!(coloured.triangles, plain.triangles);
+    let latin1 = parse_obj("t.obj", b"# caf\xe9\no caf\xe9\nv 0 0 0\nv 0 1 0\nv 1 0 0\nf 1 2 3\n");
+    assert_eq!(latin1.unwrap().triangles, plain.triangles);
+    let e = parse_obj("t.obj", b"v 0 0 0\0\n").unwrap_err().to_string();
+    assert!(e.contains("not text"), "{e}");
+}

@@ -7,6 +7,7 @@
 //! name twice is the same id); faces keep file order, polygons are fanned
 //! into triangles in order.
 
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::io::Read;
 use std::path::Path;
@@ -46,13 +47,52 @@ pub fn parse_obj(name: &str, text: &[u8]) -> Result<Scene, SceneError> {
     parse_obj_named(name, name, text)
 }
 
+/// The OBJ text as tobj should read it: without a leading byte-order mark
+/// (tobj would take `\u{feff}v` for an unknown statement and drop the first
+/// vertex, shifting every index); a file in a single-byte encoding (a
+/// Latin-1 byte in a comment or a name) read as Latin-1; and vertex colours
+/// (`v x y z r g b`, which tobj refuses when only some vertices have them)
+/// dropped, since the BIH needs positions only. Lines keep their numbers.
+/// `None`: not text at all (a NUL byte).
+fn normalize(text: &[u8]) -> Option<Cow<'_, [u8]>> {
+    if text.contains(&0) {
+        return None;
+    }
+    let text = text.strip_prefix(b"\xef\xbb\xbf").unwrap_or(text);
+    let mut text: Cow<'_, [u8]> = match std::str::from_utf8(text) {
+        Ok(_) => Cow::Borrowed(text),
+        Err(_) => Cow::Owned(text.iter().map(|&b| b as char).collect::<String>().into_bytes()),
+    };
+    let coloured = |l: &&[u8]| l.starts_with(b"v ") && l.split(u8::is_ascii_whitespace).filter(|t| !t.is_empty()).count() >= 7;
+    if text.split(|&b| b == b'\n').any(|l| coloured(&l)) {
+        let mut out = Vec::with_capacity(text.len());
+        for (k, line) in text.split(|&b| b == b'\n').enumerate() {
+            if k > 0 {
+                out.push(b'\n');
+            }
+            if coloured(&line) {
+                let tokens: Vec<&[u8]> = (line.split(u8::is_ascii_whitespace))
+                    .filter(|t| !t.is_empty())
+                    .take(4)
+                    .collect();
+                out.extend_from_slice(&tokens.join(&b' '));
+            } else {
+                out.extend_from_slice(line);
+            }
+        }
+        text = Cow::Owned(out);
+    }
+    Some(text)
+}
+
 fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Scene, SceneError> {
-    if std::str::from_utf8(text).is_err() {
+    let Some(text) = normalize(text) else {
         return Err(SceneError::NotObj {
             path: path.into(),
-            why: "it is not text (invalid UTF-8)".into(),
+            why: "it is not text (a NUL byte)".into(),
         });
-    }
+    };
+    let text = &text[..];
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
