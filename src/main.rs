@@ -182,6 +182,7 @@ type Res<T> = Result<T, Box<dyn std::error::Error>>;
 
 fn main() -> ExitCode {
     cellbih::report::quiet_on_closed_pipe();
+    cellbih::report::one_line_on_failed_stdout("cellbih");
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

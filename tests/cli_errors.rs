@@ -601,3 +601,54 @@ fn a_knob_is_taken_by_the_builders_that_declare_it_and_refused_by_the_rest() {
         }
     }
 }
+
+/// A standard output that cannot be written is a one-line error with exit
+/// code 1, not a panic, for every command that prints and for an
+/// experiment.
+#[test]
+fn a_full_standard_output_is_a_one_line_error() {
+    let full = || {
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap()
+    };
+    let runs: [(&str, &[&str]); 5] = [
+        (env!("CARGO_BIN_EXE_cellbih"), &["info"]),
+        (env!("CARGO_BIN_EXE_cellbih"), &["builders"]),
+        (
+            env!("CARGO_BIN_EXE_cellbih"),
+            &["build", "--builder", "spe_bfs"],
+        ),
+        (
+            env!("CARGO_BIN_EXE_cellbih"),
+            &[
+                "update",
+                "--scene",
+                "car",
+                "--animation",
+                "car",
+                "--frames",
+                "2",
+            ],
+        ),
+        (
+            env!("CARGO_BIN_EXE_validate"),
+            &["--out", "/tmp/cellbih-full-validate"],
+        ),
+    ];
+    for (exe, args) in runs {
+        let out = std::process::Command::new(exe)
+            .args(args)
+            .stdout(full())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains("cannot write to standard output") && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+    }
+}

@@ -203,7 +203,10 @@ fn colours_on_some_vertices_and_latin1_bytes_load() {
     let coloured = parse_obj("t.obj", b"v 0 0 0 1 0 0\nv 0 1 0\nv 1 0 0\nf 1 2 3\n").unwrap();
     let plain = parse_obj("t.obj", b"v 0 0 0\nv 0 1 0\nv 1 0 0\nf 1 2 3\n").unwrap();
     assert_eq!(coloured.triangles, plain.triangles);
-    let latin1 = parse_obj("t.obj", b"# caf\xe9\no caf\xe9\nv 0 0 0\nv 0 1 0\nv 1 0 0\nf 1 2 3\n");
+    let latin1 = parse_obj(
+        "t.obj",
+        b"# caf\xe9\no caf\xe9\nv 0 0 0\nv 0 1 0\nv 1 0 0\nf 1 2 3\n",
+    );
     assert_eq!(latin1.unwrap().triangles, plain.triangles);
     let e = parse_obj("t.obj", b"v 0 0 0\0\n").unwrap_err().to_string();
     assert!(e.contains("not text"), "{e}");

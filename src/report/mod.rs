@@ -21,11 +21,30 @@ pub fn quiet_on_closed_pipe() {
     }
 }
 
+/// A standard output that cannot be written (a full disk, `> /dev/full`)
+/// ends the program `name` with a one-line error and exit code 1, not a
+/// panic: `println!` panics when a write fails, and this hook turns that
+/// panic, and only that one, into the error. Call first thing in `main`.
+pub fn one_line_on_failed_stdout(name: &'static str) {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let msg = (info.payload().downcast_ref::<String>().map(String::as_str))
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if let Some(why) = msg.strip_prefix("failed printing to stdout: ") {
+            eprintln!("{name}: cannot write to standard output: {why}");
+            std::process::exit(1);
+        }
+        default(info);
+    }));
+}
+
 /// An experiment's `main`: a closed pipe ends it quietly, its `--out`
 /// directory is checked before `run` does any work, and an error is
 /// printed as `name: error` with exit code 1.
-pub fn experiment_main(name: &str, out: &Path, run: impl FnOnce() -> Result<(), String>) {
+pub fn experiment_main(name: &'static str, out: &Path, run: impl FnOnce() -> Result<(), String>) {
     quiet_on_closed_pipe();
+    one_line_on_failed_stdout(name);
     if let Err(e) = prepare_dir(out)
         .map_err(|e| e.to_string())
         .and_then(|()| run())

@@ -61,9 +61,20 @@ fn normalize(text: &[u8]) -> Option<Cow<'_, [u8]>> {
     let text = text.strip_prefix(b"\xef\xbb\xbf").unwrap_or(text);
     let mut text: Cow<'_, [u8]> = match std::str::from_utf8(text) {
         Ok(_) => Cow::Borrowed(text),
-        Err(_) => Cow::Owned(text.iter().map(|&b| b as char).collect::<String>().into_bytes()),
+        Err(_) => Cow::Owned(
+            text.iter()
+                .map(|&b| b as char)
+                .collect::<String>()
+                .into_bytes(),
+        ),
     };
-    let coloured = |l: &&[u8]| l.starts_with(b"v ") && l.split(u8::is_ascii_whitespace).filter(|t| !t.is_empty()).count() >= 7;
+    let coloured = |l: &&[u8]| {
+        l.starts_with(b"v ")
+            && l.split(u8::is_ascii_whitespace)
+                .filter(|t| !t.is_empty())
+                .count()
+                >= 7
+    };
     if text.split(|&b| b == b'\n').any(|l| coloured(&l)) {
         let mut out = Vec::with_capacity(text.len());
         for (k, line) in text.split(|&b| b == b'\n').enumerate() {
