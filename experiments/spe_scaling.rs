@@ -183,6 +183,9 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:90}\r", "");
     }
+    if rows.is_empty() {
+        return Err("no scene could be loaded: nothing measured, nothing written".into());
+    }
     print_rows(args.format, &rows, print_table)?;
     let keys = [
         "scene",

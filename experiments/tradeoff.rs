@@ -141,6 +141,9 @@ fn run(args: &Args) -> Result<(), String> {
             Err(e) => return Err(format!("{name}: {e}")),
         }
     }
+    if scenes.is_empty() {
+        return Err("no scene could be loaded: nothing measured, nothing written".into());
+    }
     let bar = if std::io::stderr().is_terminal() {
         let bar = ProgressBar::new((scenes.len() * settings.len()) as u64);
         let style = ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} ({elapsed})");

@@ -652,3 +652,40 @@ fn a_full_standard_output_is_a_one_line_error() {
         assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
     }
 }
+
+/// An experiment none of whose scenes loads fails, says so, and leaves the
+/// results of an earlier run as they were (it wrote header-only files and
+/// exited 0).
+#[test]
+fn an_experiment_with_nothing_to_measure_fails_and_keeps_earlier_results() {
+    let runs = [
+        (
+            env!("CARGO_BIN_EXE_spe_scaling"),
+            "spe_scaling.csv",
+            "--max-spes",
+        ),
+        (env!("CARGO_BIN_EXE_tradeoff"), "tradeoff.csv", "--spes"),
+    ];
+    for (exe, file, spes) in runs {
+        let dir = tmp(&format!("nothing-{file}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join(file), "earlier results\n").unwrap();
+        let out = std::process::Command::new(exe)
+            .args([
+                "--scenes",
+                "no-such-scene",
+                spes,
+                "1",
+                "--out",
+                dir.to_str().unwrap(),
+            ])
+            .env_remove("CELLBIH_DATA")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{file}: {err}");
+        assert!(err.contains("no scene could be loaded"), "{err}");
+        let kept = std::fs::read_to_string(dir.join(file)).unwrap();
+        assert_eq!(kept, "earlier results\n", "{file}");
+    }
+}
