@@ -267,6 +267,9 @@ fn run(cli: Cli) -> Res<()> {
                     )
                     .into());
                 }
+                if path.as_os_str() == "-" {
+                    return Err("--trace -: the build's report is on the standard output; give the trace a file".into());
+                }
                 check_writable(path)?;
             }
             let s = scene.load()?;
@@ -296,9 +299,14 @@ fn run(cli: Cli) -> Res<()> {
         }) => {
             let c = parse_build(&build)?;
             check_writable(&out)?;
-            let path = rays.display().to_string();
-            let file = File::open(&rays).map_err(|e| format!("{path}: cannot open: {e}"))?;
-            let rays = rays_csv::read_rays(&path, BufReader::new(file))?;
+            // `-`: the rays come on the standard input.
+            let rays = if rays.as_os_str() == "-" {
+                rays_csv::read_rays("standard input", std::io::stdin().lock())?
+            } else {
+                let path = rays.display().to_string();
+                let file = File::open(&rays).map_err(|e| format!("{path}: cannot open: {e}"))?;
+                rays_csv::read_rays(&path, BufReader::new(file))?
+            };
             let s = scene.load()?;
             let report = c.build(&s)?;
             let tracer = Tracer::new(&report.bih, &s);
@@ -312,7 +320,7 @@ fn run(cli: Cli) -> Res<()> {
                 "{} rays, {n_hit} hits ({}), written to {}",
                 hits.len(),
                 c.describe(),
-                out.display()
+                shown(&out)
             );
             Ok(())
         }
@@ -344,7 +352,7 @@ fn run(cli: Cli) -> Res<()> {
             let st = frame.stats;
             eprintln!(
                 "{} written ({}); per ray: {:.1} nodes, {:.1} triangles{}",
-                out.display(),
+                shown(&out),
                 c.describe(),
                 st.nodes_visited as f64 / st.rays as f64,
                 st.triangles_tested as f64 / st.rays as f64,
@@ -360,10 +368,20 @@ fn run(cli: Cli) -> Res<()> {
 }
 
 /// Checks before any work that `path` names a PNG file that can be written.
+/// A path as messages name it: `-` is the standard output.
+fn shown(path: &Path) -> String {
+    match path.as_os_str() == "-" {
+        true => "the standard output".into(),
+        false => path.display().to_string(),
+    }
+}
+
 fn check_png(path: &Path) -> Res<()> {
-    let png = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    // `-`: the PNG goes to the standard output.
+    let png = path.as_os_str() == "-"
+        || path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
     if !png {
         return Err(format!(
             "{}: images are written as PNG: give a name ending in .png",

@@ -8,7 +8,9 @@
 //!   write leaves the old file (or none), never a truncated one that looks
 //!   valid. A target that is not a regular file (a device such as
 //!   `/dev/full`, a pipe) is written directly and flushed explicitly;
-//! - every error names the path.
+//! - `-` is the standard output, as command-line users expect;
+//! - an existing file keeps its permissions (a 0600 file stays 0600);
+//! - every error names the path the user gave, never the temporary file.
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
@@ -40,10 +42,15 @@ enum Target {
     Replace { dir: PathBuf, file: PathBuf },
     /// A device or pipe: opened and written in place.
     Direct,
+    /// `-`: the standard output.
+    Stdout,
 }
 
 fn target(path: &Path) -> Result<Target, OutputError> {
     let err = |what: String| OutputError::new(path, std::io::Error::other(what));
+    if path.as_os_str() == "-" {
+        return Ok(Target::Stdout);
+    }
     match std::fs::metadata(path) {
         Ok(m) if m.is_dir() => return Err(err("it is a directory".into())),
         Ok(m) if !m.is_file() => return Ok(Target::Direct),
@@ -72,6 +79,7 @@ fn target(path: &Path) -> Result<Target, OutputError> {
 /// Nothing is left behind.
 pub fn check_writable(path: &Path) -> Result<(), OutputError> {
     match target(path)? {
+        Target::Stdout => Ok(()),
         Target::Direct => OpenOptions::new()
             .write(true)
             .open(path)
@@ -92,6 +100,11 @@ pub fn write_file(
 ) -> Result<(), OutputError> {
     let fail = |e| OutputError::new(path, e);
     match target(path)? {
+        Target::Stdout => {
+            let mut w = BufWriter::new(std::io::stdout().lock());
+            write(&mut w).map_err(fail)?;
+            w.flush().map_err(fail)
+        }
         Target::Direct => {
             let f = OpenOptions::new()
                 .write(true)
@@ -103,15 +116,19 @@ pub fn write_file(
             w.flush().map_err(fail)
         }
         Target::Replace { dir, file } => {
-            let tmp = tempfile::NamedTempFile::new_in(&dir).map_err(fail)?;
-            let mut w = BufWriter::new(tmp);
-            write(&mut w).map_err(fail)?;
-            let tmp = w.into_inner().map_err(|e| fail(e.into_error()))?;
-            tmp.as_file().sync_all().map_err(fail)?;
-            // The temporary file is private (0600); give it the mode a new
-            // file would have had.
-            set_default_mode(tmp.as_file());
-            tmp.persist(&file).map_err(|e| fail(e.error))?;
+            let plain = |e: std::io::Error| fail(std::io::Error::new(e.kind(), plain_error(&e)));
+            let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(plain)?;
+            // Written through the plain file: the temporary file's own
+            // writer puts its name into errors.
+            let mut w = BufWriter::new(tmp.as_file_mut());
+            write(&mut w).map_err(plain)?;
+            w.into_inner().map_err(|e| plain(e.into_error()))?;
+            tmp.as_file().sync_all().map_err(plain)?;
+            // The temporary file is private (0600): give it the mode of the
+            // file it replaces, or the one a new file would have had.
+            let old = std::fs::metadata(&file).ok().map(|m| m.permissions());
+            set_mode(tmp.as_file(), old);
+            tmp.persist(&file).map_err(|e| plain(e.error))?;
             Ok(())
         }
     }
@@ -122,15 +139,28 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     write_file(path, |w| w.write_all(bytes))
 }
 
+/// An I/O error's words without any path the library put in them (a
+/// temporary file's name means nothing to the user).
+fn plain_error(e: &std::io::Error) -> String {
+    match e.get_ref() {
+        Some(inner) => match inner.source() {
+            Some(cause) => cause.to_string(),
+            None => inner.to_string(),
+        },
+        None => e.to_string(),
+    }
+}
+
+/// `old`, the permissions of the file being replaced, or rw-r--r--, what
+/// `File::create` gives under the usual umask.
 #[cfg(unix)]
-fn set_default_mode(f: &File) {
+fn set_mode(f: &File, old: Option<std::fs::Permissions>) {
     use std::os::unix::fs::PermissionsExt;
-    // rw-r--r--, what `File::create` gives under the usual umask.
-    let _ = f.set_permissions(std::fs::Permissions::from_mode(0o644));
+    let _ = f.set_permissions(old.unwrap_or_else(|| std::fs::Permissions::from_mode(0o644)));
 }
 
 #[cfg(not(unix))]
-fn set_default_mode(_: &File) {}
+fn set_mode(_: &File, _: Option<std::fs::Permissions>) {}
 
 #[cfg(test)]
 mod tests {
@@ -156,6 +186,49 @@ mod tests {
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
         write_bytes(&p, b"new\n").unwrap();
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "new\n");
+    }
+
+    /// Overwriting keeps the file's permissions: a private file stays
+    /// private; a new file gets rw-r--r--.
+    #[cfg(unix)]
+    #[test]
+    fn an_overwritten_file_keeps_its_permissions() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("secret.csv");
+        std::fs::write(&p, "old").unwrap();
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o600)).unwrap();
+        write_bytes(&p, b"new").unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&p), 0o600);
+        let fresh = dir.path().join("fresh.csv");
+        write_bytes(&fresh, b"x").unwrap();
+        assert_eq!(mode(&fresh), 0o644);
+    }
+
+    /// An I/O error that a library wrapped with the temporary file's path
+    /// (as `tempfile`'s writer does) is reported by its cause alone: the
+    /// error then names the file the user gave.
+    #[test]
+    fn errors_lose_the_temporary_files_name() {
+        #[derive(Debug)]
+        struct WithPath(std::io::Error);
+        impl std::fmt::Display for WithPath {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                write!(f, "{} at path \"/out/.tmpXYZ\"", self.0)
+            }
+        }
+        impl std::error::Error for WithPath {
+            fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+                Some(&self.0)
+            }
+        }
+        let disk = || std::io::Error::from_raw_os_error(28);
+        let wrapped = std::io::Error::new(std::io::ErrorKind::StorageFull, WithPath(disk()));
+        assert_eq!(plain_error(&wrapped), disk().to_string());
+        assert_eq!(plain_error(&disk()), disk().to_string());
+        let own = std::io::Error::other("disk on fire");
+        assert_eq!(plain_error(&own), "disk on fire");
     }
 
     #[test]

@@ -596,3 +596,47 @@ fn the_measured_model_and_the_kernels_mailboxes_are_options_of_a_build() {
     }
     assert!(moved > 0 && slowed > 0, "moved {moved}, slowed {slowed}");
 }
+
+/// `-` is the standard input for `--rays` and the standard output for
+/// `--out` (hits CSV, PNG); no file named `-` appears; a `--trace -` that
+/// would mix with the report, and an experiment's `--out -` (a directory
+/// of several files), are refused by name.
+#[test]
+fn a_dash_is_the_standard_input_or_output() {
+    use std::io::Write;
+    let dir = tmp("dash");
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |args: &[&str], input: &[u8]| {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_cellbih"))
+            .args(args)
+            .current_dir(&dir)
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        child.stdin.take().unwrap().write_all(input).unwrap();
+        child.wait_with_output().unwrap()
+    };
+    let rays = b"ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,5,0,0,-1,0,inf\n";
+    let out = run(&["raycast", "--rays", "-", "--out", "-"], rays);
+    assert_ok(&out);
+    let hits = String::from_utf8_lossy(&out.stdout);
+    assert!(hits.starts_with("ray,prim,t\n0,"), "{hits}");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("written to the standard output"));
+    let out = run(
+        &["render", "--out", "-", "--width", "32", "--height", "24"],
+        b"",
+    );
+    assert_ok(&out);
+    assert!(out.stdout.starts_with(b"\x89PNG"));
+    let out = run(&["build", "--builder", "spe_bfs", "--trace", "-"], b"");
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--trace -"));
+    let exp = std::process::Command::new(env!("CARGO_BIN_EXE_validate"))
+        .args(["--out", "-"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(!exp.status.success() && String::from_utf8_lossy(&exp.stderr).contains("'-'"));
+    assert!(!dir.join("-").exists(), "a file or directory named '-'");
+}

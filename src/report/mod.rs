@@ -92,6 +92,14 @@ pub struct Series {
 /// an experiment calls this before its work, so that a bad `--out` fails at
 /// once.
 pub fn prepare_dir(dir: &Path) -> Result<(), OutputError> {
+    if dir.as_os_str() == "-" {
+        return Err(OutputError {
+            path: dir.to_path_buf(),
+            source: std::io::Error::other(
+                "--out names a directory for several files; '-' (the standard output) cannot hold them",
+            ),
+        });
+    }
     std::fs::create_dir_all(dir).map_err(|source| OutputError {
         path: dir.to_path_buf(),
         source,
