@@ -93,6 +93,10 @@ enum Command {
         /// SPEs of the emulated Cell for the multi-SPE builders, 1 to 8.
         #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
         spes: u64,
+        /// Main memory of the emulated Cell, MiB (a PS3 has 256). A build
+        /// that does not fit fails alone, named; the others are compared.
+        #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u64).range(1..=4096))]
+        memory_mib: u64,
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
     },
@@ -223,14 +227,19 @@ fn run(cli: Cli) -> Res<()> {
             scene,
             tree,
             spes,
+            memory_mib,
             format,
         }) => {
             let s = scene.load()?;
-            let cell = CellConfig::ps3().with_spes(spes as usize);
+            let mut cell = CellConfig::ps3().with_spes(spes as usize);
+            cell.main_memory_bytes = memory_mib * 1024 * 1024;
             let cfg = tree.config()?;
-            let (rows, _) = compare::rows(&s, &cell, &cfg)?;
-            compare::print(&s, spes as usize, &cfg, &rows, format);
-            Ok(())
+            let c = compare::rows(&s, &cell, &cfg)?;
+            compare::print(&s, spes as usize, &cfg, &c, format);
+            match c.failed.len() {
+                0 => Ok(()),
+                n => Err(format!("{n} builder(s) failed: {}", names(&c.failed)).into()),
+            }
         }
         Some(Command::Update {
             scene,
@@ -368,6 +377,12 @@ fn run(cli: Cli) -> Res<()> {
 }
 
 /// Checks before any work that `path` names a PNG file that can be written.
+/// The builders of `failed`, by name.
+fn names(failed: &[(BuilderKind, String)]) -> String {
+    let v: Vec<&str> = failed.iter().map(|(b, _)| b.name()).collect();
+    v.join(", ")
+}
+
 /// A path as messages name it: `-` is the standard output.
 fn shown(path: &Path) -> String {
     match path.as_os_str() == "-" {
@@ -502,8 +517,12 @@ fn demo() -> Res<()> {
     );
     let cell = CellConfig::ps3();
     let cfg = cellbih::bih::BihConfig::default();
-    let (rows, r) = compare::rows(&s, &cell, &cfg)?;
-    compare::print(&s, cell.spes, &cfg, &rows, Format::Text);
+    let c = compare::rows(&s, &cell, &cfg)?;
+    compare::print(&s, cell.spes, &cfg, &c, Format::Text);
+    if !c.failed.is_empty() {
+        return Err(format!("builder(s) failed: {}", names(&c.failed)).into());
+    }
+    let r = c.last.expect("every builder built");
     let cam = Camera::framing(&s.bounds(), 640, 480);
     let tracer = Tracer::new(&r.bih, &s);
     let frame = render::trace(&tracer, &s.triangles, &cam);

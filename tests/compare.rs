@@ -88,3 +88,39 @@ fn compare_with_knobs_builds_them_where_they_are_built() {
     let base = rows.iter().find(|r| r["builder"] == "spe_bfs").unwrap();
     assert_eq!(base["speedup_over_spe_bfs"], 1.0);
 }
+
+/// A builder that fails (here: a build that does not fit 5 MiB of emulated
+/// memory) is named, with its error, beside the table of the others, and
+/// compare then exits non-zero; the JSON lists it under "failed".
+#[test]
+fn a_failing_builder_is_named_and_the_others_are_compared() {
+    let args = ["compare", "--scene", "rtperf:30000", "--memory-mib", "5"];
+    let out = common::cellbih(&args);
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(!out.status.success());
+    assert!(
+        stdout.contains("FAILED: builder ") && stdout.contains("main memory full"),
+        "{stdout}"
+    );
+    assert!(stderr.contains("builder(s) failed"), "{stderr}");
+    let mut json = args.to_vec();
+    json.extend(["--format", "json"]);
+    let out = common::cellbih(&json);
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (rows, failed) = (
+        doc["rows"].as_array().unwrap(),
+        doc["failed"].as_array().unwrap(),
+    );
+    assert!(!rows.is_empty() && !failed.is_empty(), "{doc}");
+    for f in failed {
+        let name = f["builder"].as_str().unwrap();
+        assert!(cellbih::registry::BuilderKind::from_name(name).is_some());
+        assert!(rows.iter().all(|r| r["builder"] != name));
+    }
+    let built = rows.len() + failed.len();
+    let builds = cellbih::registry::BuilderKind::ALL.len();
+    assert_eq!(built, builds, "every builder either compared or named");
+}

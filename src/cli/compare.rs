@@ -34,15 +34,24 @@ pub struct Row {
     pub main_memory: Option<u64>,
 }
 
+/// What `compare` measured: a row per builder that built the tree, each
+/// failure by builder, and the last build that succeeded.
+pub struct Compared {
+    pub rows: Vec<Row>,
+    pub failed: Vec<(BuilderKind, String)>,
+    pub last: Option<BuildReport>,
+}
+
 /// Builds `s` with `cfg` by every builder that builds it on a Cell of
 /// `cell`, checks each tree and casts the standard ray sets ([`RaySets`])
-/// through it; returns the rows and the last build. Progress on stderr
-/// when it is a terminal.
+/// through it. A builder that fails (a build that does not fit the
+/// emulated memory, say) is a failure named by builder, and the others go
+/// on. Progress on stderr when it is a terminal.
 pub fn rows(
     s: &Scene,
     cell: &CellConfig,
     cfg: &BihConfig,
-) -> Result<(Vec<Row>, BuildReport), Box<dyn std::error::Error>> {
+) -> Result<Compared, Box<dyn std::error::Error>> {
     let builders: Vec<BuilderKind> = (BuilderKind::ALL.iter().copied())
         .filter(|b| b.builds(cfg))
         .collect();
@@ -55,11 +64,18 @@ pub fn rows(
     };
     let rays = RaySets::standard(&s.bounds());
     let mut out = Vec::new();
-    let mut last = None;
+    let (mut last, mut failed) = (None, Vec::new());
     for b in builders {
         bar.set_message(b.name());
-        let r = b.build_with(s, s.bounds(), cfg, cell, &Knobs::default())?;
-        r.bih.validate(s)?;
+        let r = match b.build_with(s, s.bounds(), cfg, cell, &Knobs::default()) {
+            Ok(r) => r,
+            Err(e) => {
+                failed.push((b, e.to_string()));
+                bar.inc(1);
+                continue;
+            }
+        };
+        r.bih.validate(s).map_err(|e| format!("builder {b}: {e}"))?;
         let q = r.bih.quality();
         let tracer = Tracer::new(&r.bih, s);
         let (primary, incoherent) = rays.measure(&tracer);
@@ -79,7 +95,11 @@ pub fn rows(
         bar.inc(1);
     }
     bar.finish_and_clear();
-    Ok((out, last.expect("at least one builder")))
+    Ok(Compared {
+        rows: out,
+        failed,
+        last,
+    })
 }
 
 /// The baseline's simulated ms (with the same knobs), for speedups.
@@ -88,8 +108,12 @@ fn baseline_ms(rows: &[Row]) -> Option<f64> {
     base.simulated_ms
 }
 
-/// Prints the rows as a table or as JSON.
-pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, rows: &[Row], format: Format) {
+/// Prints the rows as a table or as JSON, and the builders that failed.
+pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Format) {
+    let rows = &c.rows[..];
+    let failed: Vec<serde_json::Value> = (c.failed.iter())
+        .map(|(b, e)| json!({"builder": b.name(), "error": e}))
+        .collect();
     let left_out: Vec<&str> = (BuilderKind::ALL.iter())
         .filter(|b| !b.builds(cfg))
         .map(|b| b.name())
@@ -111,7 +135,7 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, rows: &[Row], format: Form
             .collect();
         let doc = json!({
             "scene": s.name, "triangles": s.len(), "spes": spes, "settings": cfg.flags(),
-            "rows": rows, "not_built_by": left_out,
+            "rows": rows, "not_built_by": left_out, "failed": failed,
         });
         println!("{doc}");
         return;
@@ -162,6 +186,9 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, rows: &[Row], format: Form
             left_out.join(", "),
             cfg.flags()
         );
+    }
+    for (b, e) in &c.failed {
+        println!("\nFAILED: builder {b}: {e}");
     }
     let with = if cfg.flags().is_empty() {
         String::new()
