@@ -279,6 +279,9 @@ fn run(cli: Cli) -> Res<()> {
                 if path.as_os_str() == "-" {
                     return Err("--trace -: the build's report is on the standard output; give the trace a file".into());
                 }
+                if matches!(build.mode, build_args::Mode::Functional) {
+                    return Err("--trace: --mode functional has no timing, so no timeline; use --mode timed or checked".into());
+                }
                 check_writable(path)?;
             }
             let s = scene.load()?;

@@ -547,7 +547,7 @@ fn the_emulator_modes_agree_on_the_tree() {
     let (checked, timed, functional) = (run("checked"), run("timed"), run("functional"));
     assert!(checked["simulated_cycles"].as_u64().unwrap() > 0);
     assert_eq!(checked["simulated_cycles"], timed["simulated_cycles"]);
-    assert_eq!(functional["simulated_cycles"], 0);
+    assert!(functional["simulated_cycles"].is_null(), "no timing: {functional}");
     for m in [&timed, &functional] {
         assert_eq!(m["quality"], checked["quality"]);
     }
@@ -639,4 +639,64 @@ fn a_dash_is_the_standard_input_or_output() {
         .unwrap();
     assert!(!exp.status.success() && String::from_utf8_lossy(&exp.stderr).contains("'-'"));
     assert!(!dir.join("-").exists(), "a file or directory named '-'");
+}
+
+/// The functional mode has no timing, and says so: no simulated ms or
+/// cycles in a build's or an update's JSON (they were 0), the text says
+/// "none", and a trace (a timeline) is refused.
+#[test]
+fn the_functional_mode_reports_no_timing() {
+    let out = cellbih(&[
+        "build",
+        "--builder",
+        "spe_bfs",
+        "--mode",
+        "functional",
+        "--format",
+        "json",
+    ]);
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        v["simulated_ms"].is_null() && v["simulated_cycles"].is_null(),
+        "{v}"
+    );
+    assert_eq!(v["timing"], "none: functional mode");
+    let timed = cellbih(&["build", "--builder", "spe_bfs", "--format", "json"]);
+    let t: serde_json::Value = serde_json::from_slice(&timed.stdout).unwrap();
+    assert!(t["simulated_ms"].as_f64().unwrap() > 0.0 && t["timing"] == "simulated");
+    let out = cellbih(&[
+        "update",
+        "--scene",
+        "car",
+        "--animation",
+        "car",
+        "--frames",
+        "2",
+        "--builder",
+        "spe_bfs",
+        "--mode",
+        "functional",
+        "--format",
+        "json",
+    ]);
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for f in v["frames"].as_array().unwrap() {
+        assert!(f["simulated_ms"].is_null(), "{f}");
+    }
+    let trace = tmp("functional.trace.json");
+    let t = trace.to_str().unwrap();
+    let out = cellbih(&[
+        "build",
+        "--builder",
+        "spe_bfs",
+        "--mode",
+        "functional",
+        "--trace",
+        t,
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no timing"));
+    assert!(!trace.exists());
 }

@@ -207,6 +207,9 @@ pub struct RunReport {
     pub memory: Vec<Allocation>,
     /// Main memory in use at the end (allocations and their padding).
     pub memory_bytes: u64,
+    /// Whether the run was timed (the functional mode charges nothing:
+    /// its cycles and ms mean nothing).
+    pub timed: bool,
 }
 
 /// The machine: memory, cores, and the programs spawned on them.
@@ -301,6 +304,7 @@ impl Cell {
         let m = self.m.borrow();
         let cycles = end.saturating_sub(start);
         Ok(RunReport {
+            timed: m.cfg.cost.charge_compute,
             cycles,
             ms: cycles.ms(m.cfg.cost.clock_hz),
             cores: m

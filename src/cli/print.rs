@@ -42,6 +42,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
     let (primary, incoherent) = RaySets::standard(&s.bounds()).measure(&Tracer::new(&r.bih, s));
     let ms = r.host_time.as_secs_f64() * 1e3;
     let sim = r.simulated.as_ref();
+    let timed = sim.filter(|m| m.run.timed);
     match format {
         Format::Json => println!(
             "{}",
@@ -50,9 +51,10 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                 "host_ms": ms, "quality": q,
                 "footprint": sim.map(|m| &m.footprint),
                 "rays": { "primary": primary, "incoherent": incoherent },
-                "simulated_ms": sim.map(|m| m.run.ms),
+                "simulated_ms": timed.map(|m| m.run.ms),
                 "spes": sim.map(|m| m.run.cores.len() - 1),
-                "simulated_cycles": sim.map(|m| m.run.cycles.0),
+                "simulated_cycles": timed.map(|m| m.run.cycles.0),
+                "timing": sim.map(|m| if m.run.timed { "simulated" } else { "none: functional mode" }),
                 "cores": sim.map(|m| &m.run.cores),
                 "work": sim.map(|m| m.stats),
                 "spe_work": sim.map(|m| &m.spe_work),
@@ -65,7 +67,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
             println!("scene       {} ({} triangles)", s.name, s.len());
             println!("builder     {}", r.builder);
             match sim {
-                Some(m) if m.run.cycles.0 == 0 => println!(
+                Some(m) if !m.run.timed => println!(
                     "simulated   none: functional mode (no timing) with {} SPEs",
                     m.run.cores.len() - 1
                 ),

@@ -342,7 +342,7 @@ impl Updater {
         r.full_rebuild = true;
         r.rebuilt = self.scene.len();
         r.pieces = 1;
-        r.simulated_ms = b.simulated.map(|s| s.run.ms);
+        r.simulated_ms = b.simulated.filter(|s| s.run.timed).map(|s| s.run.ms);
         Ok(())
     }
 
@@ -425,7 +425,7 @@ impl Updater {
         for p in &mut bih.prim_ids {
             *p = ids[*p as usize];
         }
-        Ok((bih, b.simulated.map(|s| s.run.ms)))
+        Ok((bih, b.simulated.filter(|s| s.run.timed).map(|s| s.run.ms)))
     }
 
     /// Puts the descendants of `node` on the free list.
