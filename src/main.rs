@@ -380,6 +380,14 @@ fn run(cli: Cli) -> Res<()> {
 }
 
 /// Checks before any work that `path` names a PNG file that can be written.
+/// "1 SPE", "6 SPEs".
+fn spes(n: usize) -> String {
+    match n {
+        1 => "1 SPE".into(),
+        n => format!("{n} SPEs"),
+    }
+}
+
 /// The builders of `failed`, by name.
 fn names(failed: &[(BuilderKind, String)]) -> String {
     let v: Vec<&str> = failed.iter().map(|(b, _)| b.name()).collect();
@@ -428,7 +436,7 @@ fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
             u.method.name(),
             u.builder,
             if u.builder.emulated() {
-                format!(" on {} SPEs", u.cell.spes)
+                format!(" on {}", spes(u.cell.spes))
             } else {
                 String::new()
             }

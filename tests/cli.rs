@@ -547,7 +547,10 @@ fn the_emulator_modes_agree_on_the_tree() {
     let (checked, timed, functional) = (run("checked"), run("timed"), run("functional"));
     assert!(checked["simulated_cycles"].as_u64().unwrap() > 0);
     assert_eq!(checked["simulated_cycles"], timed["simulated_cycles"]);
-    assert!(functional["simulated_cycles"].is_null(), "no timing: {functional}");
+    assert!(
+        functional["simulated_cycles"].is_null(),
+        "no timing: {functional}"
+    );
     for m in [&timed, &functional] {
         assert_eq!(m["quality"], checked["quality"]);
     }
@@ -699,4 +702,38 @@ fn the_functional_mode_reports_no_timing() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no timing"));
     assert!(!trace.exists());
+}
+
+/// One SPE is "1 SPE", not "1 SPEs", wherever a command says how many.
+#[test]
+fn one_spe_is_singular() {
+    for args in [
+        &["build", "--builder", "spe_bfs", "--spes", "1"][..],
+        &[
+            "update",
+            "--scene",
+            "car",
+            "--animation",
+            "car",
+            "--frames",
+            "1",
+            "--builder",
+            "spe_bfs",
+            "--spes",
+            "1",
+        ][..],
+        &["compare", "--spes", "1"][..],
+    ] {
+        let out = cellbih(args);
+        assert_ok(&out);
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            text.contains("1 SPE") && !text.contains("1 SPEs"),
+            "{args:?}: {text}"
+        );
+    }
 }

@@ -159,7 +159,11 @@ impl Chosen {
     /// "builder B" and, for an emulated one, "on N SPEs".
     pub fn describe(&self) -> String {
         if self.builder.emulated() {
-            format!("builder {} on {} SPEs", self.builder, self.cell.spes)
+            format!(
+                "builder {} on {}",
+                self.builder,
+                super::spes(self.cell.spes)
+            )
         } else {
             format!("builder {}", self.builder)
         }

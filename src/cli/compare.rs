@@ -196,10 +196,11 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
         format!(" with {}", cfg.flags())
     };
     println!(
-        "\ntrees{with} valid; \"Cell ms\": simulated time on the PS3 model (multi-SPE builders on {spes} SPEs); \
+        "\ntrees{with} valid; \"Cell ms\": simulated time on the PS3 model (multi-SPE builders on {}); \
          speedup over spe_bfs (one SPE, the paper's baseline); primary, incoherent: nodes visited + \
          triangles tested per ray (primary rays of the render camera; 16,384 rays from random points \
          in the scene box in random directions), closest hit; host figures: this machine, one thread; \
-         tree KiB: nodes and triangle ids; Cell MiB: main memory the emulated build used (every buffer)"
+         tree KiB: nodes and triangle ids; Cell MiB: main memory the emulated build used (every buffer)",
+        super::spes(spes)
     );
 }

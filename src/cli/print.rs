@@ -68,13 +68,13 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
             println!("builder     {}", r.builder);
             match sim {
                 Some(m) if !m.run.timed => println!(
-                    "simulated   none: functional mode (no timing) with {} SPEs",
-                    m.run.cores.len() - 1
+                    "simulated   none: functional mode (no timing) with {}",
+                    super::spes(m.run.cores.len() - 1)
                 ),
                 Some(m) => println!(
-                    "simulated   {:.2} ms on the PS3 model with {} SPEs ({} cycles)",
+                    "simulated   {:.2} ms on the PS3 model with {} ({} cycles)",
                     m.run.ms,
-                    m.run.cores.len() - 1,
+                    super::spes(m.run.cores.len() - 1),
                     m.run.cycles.0
                 ),
                 None => {}

@@ -40,7 +40,7 @@ use crate::cell::{Cell, CellError, Ea, Spe};
 /// `spe_bfs_private` in the registry of builders.
 pub const STRATEGY: super::Strategy = super::Strategy::new(
     "spe_bfs_private",
-    "section 5: SPE 0 builds the top levels, deals the jobs largest first, then every SPE builds its own jobs breadth first with its own ObjectArena list (--spes)",
+    "section 5: SPE 0 builds the top levels (the other SPEs help partition them unless --no-coop-top), deals the jobs largest first, then every SPE builds its own jobs breadth first with its own ObjectArena list (--spes)",
     spawn,
 )
 .on_every_spe()
