@@ -313,12 +313,8 @@ impl CostModel {
             ppe_memory_bandwidth: free,
             charge_compute: false,
             memory_shared_bandwidth: free,
-            memory_whole_lines: false,
-            eib_total_bandwidth: None,
-            ls_port_bandwidth: None,
-            put_ack_cycles: Cycles::ZERO,
-            lock_lines: LockLines::Exclusive,
-            mailbox_os_cycles: Cycles::ZERO,
+            // The legacy rules: nothing to charge.
+            ..CostModel::ps3()
         }
     }
 }

@@ -372,12 +372,7 @@ impl Machine {
         let cost = if line.owner == Some(core) { hit } else { miss };
         line.owner = Some(core);
         line.busy_until = start + cost;
-        let wait = start - now;
-        let c = &mut self.cores[core];
-        c.clock = start + cost;
-        c.counters.atomic += wait + cost;
-        c.counters.atomic_wait += wait;
-        self.span(core, SpanKind::Atomic, now, start + cost);
+        self.charge_atomic(core, now, start, cost);
     }
 
     /// Shared lock lines: a getllar of `core` on the line holding `ea`. A
