@@ -166,13 +166,11 @@ impl BuilderKind {
         let mut v: Vec<_> = crate::kernels::rates::KernelRates::UNCERTAIN.to_vec();
         for b in Self::ALL {
             if let Family::Cell(s) = b.0 {
-                v.extend(
-                    s.uncertain
-                        .iter()
-                        .filter(|u| !v.contains(u))
-                        .copied()
-                        .collect::<Vec<_>>(),
-                );
+                for u in s.uncertain {
+                    if !v.contains(u) {
+                        v.push(*u);
+                    }
+                }
             }
         }
         v
