@@ -67,8 +67,18 @@ struct SceneArg {
 }
 
 impl SceneArg {
+    /// The scene; a built-in name that is also a file here is the built-in
+    /// scene, and the note says so (and how to read the file).
     fn load(&self) -> Res<Scene> {
-        Ok(scene::load(&self.scene, self.data.as_deref())?)
+        let s = scene::load(&self.scene, self.data.as_deref())?;
+        let path = Path::new(&self.scene);
+        if path.is_file() && s.name == self.scene && !self.scene.contains('/') {
+            eprintln!(
+                "note: '{0}' is the built-in scene {0}; the file {0} here is not read (give ./{0} to read it)",
+                self.scene
+            );
+        }
+        Ok(s)
     }
 }
 

@@ -119,10 +119,23 @@ pub fn read_rays(path: &str, input: impl BufRead) -> Result<Vec<Ray>, RaysError>
 }
 
 /// `s`, cut to 60 characters for an error message.
+/// A field as an error quotes it: at most 60 characters, control
+/// characters escaped (a binary file must not drive the terminal).
 fn short(s: &str) -> String {
-    match s.char_indices().nth(60) {
-        Some((i, _)) => format!("{}…", &s[..i]),
-        None => s.to_string(),
+    let shown = |t: &str| -> String { t.chars().flat_map(char::escape_default).collect() };
+    let plain = |t: &str| t.chars().any(char::is_control);
+    let cut = match s.char_indices().nth(60) {
+        Some((i, _)) => &s[..i],
+        None => s,
+    };
+    let text = if plain(cut) {
+        shown(cut)
+    } else {
+        cut.to_string()
+    };
+    match cut.len() < s.len() {
+        true => format!("{text}…"),
+        false => text,
     }
 }
 

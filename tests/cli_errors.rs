@@ -689,3 +689,46 @@ fn an_experiment_with_nothing_to_measure_fails_and_keeps_earlier_results() {
         assert_eq!(kept, "earlier results\n", "{file}");
     }
 }
+
+/// Small words (issue 24, item 13): a decimal cut-off says it wants a whole
+/// percentage; a rays file's control bytes are escaped, not echoed to the
+/// terminal; a file named like a built-in scene is not read silently.
+#[test]
+fn small_inputs_get_plain_answers() {
+    let out = cellbih(&["build", "--empty-cut", "2.5"]);
+    assert_fails_with(&out, "a whole percentage is wanted (1 to 99), not 2.5");
+    let rays = tmp("control.rays.csv");
+    std::fs::write(
+        &rays,
+        "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,\x1b[31m5,0,0,-1,0,inf\n",
+    )
+    .unwrap();
+    let hits = tmp("control.hits.csv");
+    let out = cellbih(&[
+        "raycast",
+        "--rays",
+        rays.to_str().unwrap(),
+        "--out",
+        hits.to_str().unwrap(),
+    ]);
+    assert_fails_with(&out, "\\u{1b}[31m5");
+    assert!(
+        !stderr(&out).contains('\x1b'),
+        "a raw escape byte in: {}",
+        stderr(&out)
+    );
+    let dir = tmp("shadow");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("car"), "not a mesh").unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cellbih"))
+        .args(["info", "--scene", "car"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(
+        stderr(&out).contains("the file car here is not read"),
+        "{}",
+        stderr(&out)
+    );
+}

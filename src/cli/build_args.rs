@@ -41,7 +41,7 @@ pub struct TreeArgs {
     /// Empty-space cut-off: a gap of more than this percentage of a node's
     /// extent beside its triangles is cut off by a clip node (1 to 99;
     /// off by default). Every builder but ppe_approx and spe_morton.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=99))]
+    #[arg(long, value_parser = percent)]
     pub empty_cut: Option<u32>,
     /// Deepest leaf (root = 0), at most 126 (the traversal stack's depth).
     #[arg(long, default_value_t = BihConfig::default().max_depth,
@@ -110,6 +110,18 @@ pub struct BuildArgs {
     /// The strategies' knobs, as the registry's tables declare them.
     #[command(flatten)]
     pub knobs: KnobArgs,
+}
+
+/// `--empty-cut`: a whole percentage, 1 to 99.
+fn percent(v: &str) -> Result<u32, String> {
+    match v.parse::<u32>() {
+        Ok(p) if (1..=99).contains(&p) => Ok(p),
+        Ok(p) => Err(format!("{p} is not in 1..=99")),
+        Err(_) if v.parse::<f64>().is_ok() => Err(format!(
+            "a whole percentage is wanted (1 to 99), not {v}: round it"
+        )),
+        Err(_) => Err(format!("a whole percentage is wanted (1 to 99), not '{v}'")),
+    }
 }
 
 /// `--mode`: the emulator's own speed/accuracy trade.
