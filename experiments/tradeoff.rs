@@ -13,7 +13,7 @@
 //! Pareto fronts (PS3 builds, host builds; build ms against nodes +
 //! triangles per primary ray) and, for a frame of R rays (10^4 to 10^8),
 //! which host setting gives the least build + trace time. Writes
-//! tradeoff.{csv,json} and tradeoff_<scene>.svg (the scatter, the fronts
+//! tradeoff.{csv,json} and `tradeoff_<scene>.svg` (the scatter, the fronts
 //! drawn).
 
 use std::io::IsTerminal;

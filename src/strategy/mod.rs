@@ -3,8 +3,9 @@
 //! ([`ppe_naive`], [`ppe_approx`], [`spe_dfs`], [`spe_bfs`], the baseline)
 //! and section 5's multi-SPE strategies ([`spe_bfs_shared`],
 //! [`spe_bfs_private`], [`spe_morton`]); what they share is in
-//! [`machinery`]. Each writes its tree into emulated main memory in the one
-//! node format; [`run_in`] reads it back as a [`Bih`].
+//! [`machinery`]; what a knob table is, in [`knob`]. Each writes its tree
+//! into emulated main memory in the one node format; [`run_in`] reads it
+//! back as a [`Bih`].
 
 pub mod knob;
 pub mod machinery;

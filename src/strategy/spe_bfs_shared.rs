@@ -66,7 +66,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 // Section 5's three queue improvements together.
 .with_combos(&[&[(&DOUBLE_BUFFER, ""), (&DMA_LISTS, ""), (&PREFETCH, "")]]);
 
-/// `--agglomerate N`: [`SharedKnobs::agglomerate`].
+/// `--agglomerate N`: `SharedKnobs::agglomerate`.
 pub const AGGLOMERATE: Knob = Knob::int(
     "agglomerate",
     "jobs taken from the shared queue per atomic operation",
@@ -74,7 +74,7 @@ pub const AGGLOMERATE: Knob = Knob::int(
     (1, 256),
     &["1", "64"],
 );
-/// `--fixed-takes`: [`SharedKnobs::guided`] off.
+/// `--fixed-takes`: `SharedKnobs::guided` off.
 pub const FIXED_TAKES: Knob = Knob::flag(
     "fixed-takes",
     "every take is --agglomerate jobs, not an SPE's share of the jobs left",

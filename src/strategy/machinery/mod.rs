@@ -1,9 +1,11 @@
 //! What the emulated strategies share: the triangle records' layout in main
 //! memory ([`layout`]), Fig. 1's five-buffer streaming partition ([`fig1`]),
-//! the ObjectArena ([`arena`]), the counting barrier ([`barrier`]), the WorkA/WorkB job queue of Fig. 2
-//! ([`work_queue`]), section 2's cooperative partition ([`coop`]), the top
-//! levels of the multi-SPE strategies ([`top`]) and the memory footprint
-//! by purpose ([`footprint`]).
+//! the ObjectArena ([`arena`]), the counting barrier ([`barrier`]), the
+//! WorkA/WorkB job queue of Fig. 2 ([`work_queue`]), the baseline's
+//! breadth-first loop over it ([`breadth_first`]), section 2's cooperative
+//! partition ([`coop`]), the top levels of the multi-SPE strategies and
+//! their ObjectArena pool ([`top`]) and the memory footprint by purpose
+//! ([`footprint`]).
 
 pub mod arena;
 pub mod barrier;

@@ -20,12 +20,12 @@ use crate::cell::{Cell, CellError, Ea, Spe};
 use crate::strategy::machinery::breadth_first::{Job, SpeBuilder};
 use crate::strategy::{Knob, Knobs, Output, Readback, SpeWork};
 
-/// `--no-coop-top`: [`TopKnobs::coop`] off.
+/// `--no-coop-top`: `TopKnobs::coop` off.
 pub const NO_COOP_TOP: Knob = Knob::flag(
     "no-coop-top",
     "the SPEs do not help partition the top levels (they wait for the deal)",
 );
-/// `--deal-per-spe N`: [`TopKnobs::deal_per_spe`].
+/// `--deal-per-spe N`: `TopKnobs::deal_per_spe`.
 pub const DEAL_PER_SPE: Knob = Knob::int(
     "deal-per-spe",
     "the top levels end at the first level with this many jobs per SPE",
@@ -189,7 +189,7 @@ impl SpeExit {
 }
 
 /// SPE 0: builds the top levels of the `n` records in `region`, helped by
-/// the others with [`TopKnobs::coop`]; returns the first level of at least
+/// the others with `TopKnobs::coop`; returns the first level of at least
 /// `deal_per_spe` jobs per SPE (in `WorkA`), or `None` if the tree ended
 /// before. The top levels' arena is closed; its blocks are counted in
 /// `work`.

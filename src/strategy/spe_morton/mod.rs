@@ -71,7 +71,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &PREFETCH,
 ]);
 
-/// `--key-order gh|xyz`: [`MortonKnobs::key_order`].
+/// `--key-order gh|xyz`: `MortonKnobs::key_order`.
 pub const KEY_ORDER: Knob = Knob::word(
     "key-order",
     "the keys' bit order: the global heuristic's halvings (gh) or round robin x, y, z (xyz)",
@@ -79,9 +79,9 @@ pub const KEY_ORDER: Knob = Knob::word(
     &["xyz"],
 )
 .changing_the_tree();
-/// `--key-bits 32|64`: [`MortonKnobs::key_bits`].
+/// `--key-bits 32|64`: `MortonKnobs::key_bits`.
 pub const KEY_BITS: Knob = Knob::word("key-bits", "key bits", &["32", "64"], &["64"]);
-/// `--digit-bits N`: [`MortonKnobs::digit_bits`].
+/// `--digit-bits N`: `MortonKnobs::digit_bits`.
 pub const DIGIT_BITS: Knob = Knob::int(
     "digit-bits",
     "bits per radix-sort pass",
@@ -89,7 +89,7 @@ pub const DIGIT_BITS: Knob = Knob::int(
     (4, 11),
     &["4", "11"],
 );
-/// `--region-size N`: [`MortonKnobs::region_size`].
+/// `--region-size N`: `MortonKnobs::region_size`.
 pub const REGION_SIZE: Knob = Knob::int(
     "region-size",
     "the largest region built by one SPE alone (triangles)",
@@ -97,7 +97,7 @@ pub const REGION_SIZE: Knob = Knob::int(
     (1, usize::MAX),
     &["256", "512", "8192"],
 );
-/// `--static-regions`: [`MortonKnobs::static_regions`].
+/// `--static-regions`: `MortonKnobs::static_regions`.
 pub const STATIC_REGIONS: Knob = Knob::flag(
     "static-regions",
     "regions dealt before the builds, not taken from an atomic counter",

@@ -11,7 +11,7 @@ use crate::strategy::machinery::work_queue::WorkQueue;
 /// One job: a node to make and its interval of the triangle array. Its
 /// first 64 bytes are the paper's job and all that travels, unless the
 /// empty-space cut-off is on: then the node's region and its triangles' box
-/// travel too, 128 bytes a job ([`Job::bytes`]).
+/// travel too, 128 bytes a job (`Job::bytes`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Job {

@@ -1,6 +1,6 @@
 //! The breadth-first loop of the paper's baseline (section 2, Fig. 2,
 //! Table 1), which `spe_bfs` runs on one SPE and section 5's multi-SPE
-//! strategies run on every SPE ([`SpeBuilder`]): the tree is built level by
+//! strategies run on every SPE (`SpeBuilder`): the tree is built level by
 //! level "almost entirely independent from the PPE".
 //!
 //! - **Jobs** (the intervals of the next tree level, 64 bytes each, [`Job`])
@@ -23,7 +23,7 @@
 //! no triangle; with binned SAH ([`crate::kernels::sah`]) a split job bins
 //! its triangles in the local store (or in one more stream through Fig. 1's
 //! buffers) before its partition. Section 5's improvements of the queue
-//! are knobs ([`QueueKnobs`]) of the strategies that take them.
+//! are knobs (`QueueKnobs`) of the strategies that take them.
 
 mod batch;
 mod job;
@@ -44,17 +44,17 @@ use crate::kernels::split::{Side, Split, clip_planes};
 use crate::strategy::{Knob, Knobs};
 pub use job::Job;
 
-/// `--double-buffer`: [`QueueKnobs::double_buffer`].
+/// `--double-buffer`: `QueueKnobs::double_buffer`.
 pub const DOUBLE_BUFFER: Knob = Knob::flag(
     "double-buffer",
     "double-buffered WorkA/WorkB: no synchronous job-queue DMA (section 5)",
 );
-/// `--dma-lists`: [`QueueKnobs::dma_lists`].
+/// `--dma-lists`: `QueueKnobs::dma_lists`.
 pub const DMA_LISTS: Knob = Knob::flag(
     "dma-lists",
     "DMA lists gather and scatter the intervals of agglomerated jobs (section 5)",
 );
-/// `--prefetch`: [`QueueKnobs::prefetch`].
+/// `--prefetch`: `QueueKnobs::prefetch`.
 pub const PREFETCH: Knob = Knob::flag(
     "prefetch",
     "the next batch's get overlaps this batch's partition",
