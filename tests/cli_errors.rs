@@ -1,56 +1,18 @@
-//! Nothing lost, nothing silent: the commands as a new user tries them.
-//! Writes that fail are errors naming the path (to `/dev/full`, to paths
-//! that cannot exist); a failed write leaves no file that looks valid; sizes
-//! past their limits are refused before any work; degenerate requests get
-//! sensible answers; traces nest; help says what each option does.
+//! Nothing lost, nothing silent: what the commands write, as a new user
+//! meets it. Writes that fail are errors naming the path (to `/dev/full`,
+//! to paths that cannot exist, a full standard output); a failed write
+//! leaves no file that looks valid; an experiment with nothing to measure
+//! keeps earlier results; degenerate requests get sensible answers; traces
+//! nest; a closed pipe ends quietly. Arguments refused before any work are
+//! in `tests/cli_refusals.rs`.
 
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Stdio};
+use std::time::Duration;
 
-use common::{assert_ok, cellbih, tmp};
-
-/// Runs `exe` with `args`, killing it after `limit`: a refusal must come
-/// at once, so a run that takes longer is a failure (a hang or a huge
-/// allocation), not a slow pass.
-fn run_limited(exe: &str, args: &[&str], limit: Duration) -> Output {
-    let mut child = Command::new(exe)
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > limit {
-            child.kill().unwrap();
-            panic!("{exe} {args:?} still ran after {limit:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn stdout(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-/// Fails unless the command failed with `msg` in its stderr.
-fn assert_fails_with(out: &Output, msg: &str) {
-    let err = stderr(out);
-    assert!(
-        !out.status.success() && err.contains(msg),
-        "expected a failure saying '{msg}', got {:?}: {err}",
-        out.status
-    );
-    assert!(!err.contains("panicked"), "{err}");
-}
+use common::{assert_fails_with, assert_ok, cellbih, run_limited, stderr, stdout, tmp};
 
 /// A link in a fresh directory that points at `/dev/full`.
 fn link_to_dev_full(dir: &Path, name: &str) -> PathBuf {
@@ -184,81 +146,6 @@ fn a_trace_nests_on_every_track_and_a_bad_trace_path_fails_first() {
     ]);
     assert_fails_with(&out, "/no/such/dir/t.json: cannot write");
     assert!(stdout(&out).is_empty(), "refused before the build ran");
-}
-
-#[test]
-fn sizes_past_their_limits_are_refused_at_once() {
-    let exe = env!("CARGO_BIN_EXE_cellbih");
-    let limit = Duration::from_secs(20);
-    for (args, msg) in [
-        (
-            &["info", "--scene", "rtperf:4000000000"][..],
-            "rtperf takes at most 50000000 triangles",
-        ),
-        (
-            &["info", "--scene", "rtperf:18446744073709551615"][..],
-            "rtperf takes at most 50000000 triangles",
-        ),
-        (
-            &[
-                "update",
-                "--scene",
-                "car",
-                "--animation",
-                "car",
-                "--frames",
-                "1000000000",
-            ][..],
-            "1000000000 is not in 0..=100000",
-        ),
-        (
-            &[
-                "update",
-                "--scene",
-                "car",
-                "--animation",
-                "car",
-                "--frames",
-                "18446744073709551615",
-            ][..],
-            "is not in 0..=100000",
-        ),
-        (
-            &["build", "--max-depth", "127"][..],
-            "127 is not in 0..=126",
-        ),
-        (&["build", "--leaf-size", "0"][..], "0 is not in 1.."),
-        (&["build", "--spes", "9"][..], "9 is not in 1..=8"),
-        // A knob's range is its table's, checked once, when it is set.
-        (
-            &[
-                "build",
-                "--builder",
-                "spe_bfs_private",
-                "--deal-per-spe",
-                "17",
-            ][..],
-            "builder spe_bfs_private: --deal-per-spe 17: 1 to 16",
-        ),
-        (
-            &["build", "--builder", "spe_morton", "--digit-bits", "3"][..],
-            "--digit-bits 3: 4 to 11",
-        ),
-        (
-            &["build", "--builder", "spe_morton", "--key-bits", "48"][..],
-            "--key-bits is 32 or 64, not '48'",
-        ),
-        (
-            &["build", "--builder", "ppe_approx", "--approx-cells", "0"][..],
-            "--approx-cells 0: 1 to 1024",
-        ),
-        (
-            &["build", "--builder", "spe_bfs_shared", "--agglomerate", "0"][..],
-            "--agglomerate 0: 1 to 256",
-        ),
-    ] {
-        assert_fails_with(&run_limited(exe, args, limit), msg);
-    }
 }
 
 #[test]
@@ -426,41 +313,6 @@ fn rays_at_the_edges_of_f64() {
     );
 }
 
-#[test]
-fn help_says_what_every_option_does() {
-    let top = stdout(&cellbih(&["--help"]));
-    assert!(
-        top.contains("With no command, runs the demo") && top.contains("cellbih-demo.png"),
-        "{top}"
-    );
-    for (cmd, options) in [
-        ("raycast", &["--rays", "--out", "--data"][..]),
-        ("render", &["--out", "--heatmap", "--width", "--height"][..]),
-        ("update", &["--frames", "--seed"][..]),
-        ("build", &["--trace", "--max-depth"][..]),
-    ] {
-        let help = stdout(&cellbih(&[cmd, "--help"]));
-        for opt in options {
-            // Each option's line is followed by words, not by the next option.
-            let line = help
-                .lines()
-                .find(|l| l.trim_start().starts_with(opt))
-                .unwrap_or_else(|| panic!("{cmd} --help has no {opt}"));
-            let described = line.split_whitespace().count() > 2
-                || help
-                    .lines()
-                    .skip_while(|l| !l.trim_start().starts_with(opt))
-                    .nth(1)
-                    .is_some_and(|next| !next.trim_start().starts_with('-'));
-            assert!(described, "{cmd} {opt} has no help text:\n{help}");
-        }
-    }
-    assert!(stdout(&cellbih(&["build", "--help"])).contains("at most 126"));
-    assert!(stdout(&cellbih(&["build", "--help"])).contains("bytes"));
-    let builders = stdout(&cellbih(&["builders", "--help"]));
-    assert!(!builders.contains("--data"), "{builders}");
-}
-
 /// Output into a pipe that closes early (`cellbih update … | head -1`)
 /// ends the command quietly, as it ends other Unix tools: no panic. (The
 /// update prints more than a pipe holds, so it writes after the close.)
@@ -487,119 +339,6 @@ fn a_closed_pipe_ends_the_command_quietly() {
     let out = child.wait_with_output().unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");
-}
-
-/// A quality knob a builder does not build is refused by name, saying which
-/// builders build it; out-of-range knob values are refused by the parser.
-#[test]
-fn quality_knobs_a_builder_does_not_build_are_refused_by_name() {
-    for knob in [&["--split", "sah"][..], &["--empty-cut", "10"]] {
-        let mut args = vec!["build", "--builder", "spe_morton"];
-        args.extend_from_slice(knob);
-        let out = cellbih(&args);
-        assert_fails_with(&out, "builder spe_morton builds the paper's split choice");
-        assert!(
-            stderr(&out).contains("host, ppe_naive,"),
-            "{}",
-            stderr(&out)
-        );
-    }
-    // Those that build them are named, the SPE builders among them.
-    let out = cellbih(&["build", "--builder", "ppe_approx", "--split", "sah"]);
-    let named = "host, ppe_naive, spe_dfs, spe_bfs, spe_bfs_shared, spe_bfs_private build";
-    assert!(stderr(&out).contains(named), "{}", stderr(&out));
-    for bad in [
-        &["--empty-cut", "100"][..],
-        &["--empty-cut", "0"],
-        &["--sah-bins", "1"],
-    ] {
-        let mut args = vec!["build"];
-        args.extend_from_slice(bad);
-        assert!(!cellbih(&args).status.success(), "{bad:?} was accepted");
-    }
-    let out = cellbih(&[
-        "build",
-        "--builder",
-        "ppe_naive",
-        "--split",
-        "sah",
-        "--empty-cut",
-        "10",
-    ]);
-    assert_ok(&out);
-    assert!(stdout(&out).contains("simulated"), "{}", stdout(&out));
-}
-
-/// Binned SAH's options without `--split sah` are refused, not ignored;
-/// with it, `--sah-above` builds (and the report names the setting).
-#[test]
-fn binned_sah_options_need_split_sah() {
-    for knob in [&["--sah-above", "64"][..], &["--sah-bins", "8"]] {
-        let mut args = vec!["build"];
-        args.extend_from_slice(knob);
-        assert_fails_with(&cellbih(&args), "apply to --split sah only");
-    }
-    let out = cellbih(&["build", "--split", "sah", "--sah-above", "64"]);
-    assert_ok(&out);
-}
-
-/// The functional mode has no timing: the options that choose a timing
-/// model are refused with it, by name.
-#[test]
-fn timing_models_are_refused_in_the_functional_mode() {
-    for extra in [["--model", "measured"], ["--mailboxes", "ps3-kernel"]] {
-        let mut args = vec!["build", "--builder", "spe_bfs", "--mode", "functional"];
-        args.extend(extra);
-        let out = cellbih(&args);
-        assert_fails_with(
-            &out,
-            "--mode functional has no timing: --model and --mailboxes",
-        );
-    }
-}
-
-/// Every strategy knob of the registry, given to every builder: built by
-/// the builders whose table holds it, refused by the others with an error
-/// naming the knob and the builders that take it, nothing built.
-#[test]
-fn a_knob_is_taken_by_the_builders_that_declare_it_and_refused_by_the_rest() {
-    use cellbih::registry::BuilderKind;
-    let mut knobs: Vec<&cellbih::strategy::Knob> = (BuilderKind::ALL.iter())
-        .flat_map(|b| b.knobs().iter().copied())
-        .collect();
-    knobs.sort_by_key(|k| k.name);
-    knobs.dedup_by_key(|k| k.name);
-    assert!(!knobs.is_empty(), "the registry declares no knob");
-    for &b in BuilderKind::ALL {
-        for k in &knobs {
-            let flag = format!("--{}", k.name);
-            let mut args = vec!["build", "--scene", "default", "--builder", b.name()];
-            args.extend(["--mode", "functional", flag.as_str()]);
-            if !k.is_flag() {
-                args.push(k.sweep[0]);
-            }
-            let out = cellbih(&args);
-            let takes = b.knobs().iter().any(|t| t.name == k.name);
-            if takes {
-                assert!(out.status.success(), "{b} {flag}: {}", stderr(&out));
-                continue;
-            }
-            let err = stderr(&out);
-            assert!(!out.status.success(), "{b} took {flag} silently");
-            assert!(
-                stdout(&out).is_empty(),
-                "{b} {flag} built: {}",
-                stdout(&out)
-            );
-            assert!(err.contains(&flag), "{b} {flag}: {err}");
-            for taker in BuilderKind::ALL.iter().filter(|t| t.knobs().contains(k)) {
-                assert!(
-                    err.contains(taker.name()),
-                    "{b} {flag} names no {taker}: {err}"
-                );
-            }
-        }
-    }
 }
 
 /// A standard output that cannot be written is a one-line error with exit
@@ -688,47 +427,4 @@ fn an_experiment_with_nothing_to_measure_fails_and_keeps_earlier_results() {
         let kept = std::fs::read_to_string(dir.join(file)).unwrap();
         assert_eq!(kept, "earlier results\n", "{file}");
     }
-}
-
-/// Small words (issue 24, item 13): a decimal cut-off says it wants a whole
-/// percentage; a rays file's control bytes are escaped, not echoed to the
-/// terminal; a file named like a built-in scene is not read silently.
-#[test]
-fn small_inputs_get_plain_answers() {
-    let out = cellbih(&["build", "--empty-cut", "2.5"]);
-    assert_fails_with(&out, "a whole percentage is wanted (1 to 99), not 2.5");
-    let rays = tmp("control.rays.csv");
-    std::fs::write(
-        &rays,
-        "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,\x1b[31m5,0,0,-1,0,inf\n",
-    )
-    .unwrap();
-    let hits = tmp("control.hits.csv");
-    let out = cellbih(&[
-        "raycast",
-        "--rays",
-        rays.to_str().unwrap(),
-        "--out",
-        hits.to_str().unwrap(),
-    ]);
-    assert_fails_with(&out, "\\u{1b}[31m5");
-    assert!(
-        !stderr(&out).contains('\x1b'),
-        "a raw escape byte in: {}",
-        stderr(&out)
-    );
-    let dir = tmp("shadow");
-    std::fs::create_dir_all(&dir).unwrap();
-    std::fs::write(dir.join("car"), "not a mesh").unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_cellbih"))
-        .args(["info", "--scene", "car"])
-        .current_dir(&dir)
-        .output()
-        .unwrap();
-    assert!(out.status.success());
-    assert!(
-        stderr(&out).contains("the file car here is not read"),
-        "{}",
-        stderr(&out)
-    );
 }

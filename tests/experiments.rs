@@ -1,11 +1,13 @@
-//! The issue-15 experiments through their binaries: `tradeoff` (its
-//! fronts are Pareto fronts of its rows, its frame reading, its files) and
-//! `extremes` (every case and builder valid and agreeing). `footprint` is
-//! in `tests/footprint.rs`, `spe_scaling` in `tests/cli.rs`.
+//! The experiments through their binaries: `tradeoff` (its fronts are
+//! Pareto fronts of its rows, its frame reading, its files), `extremes`
+//! (every case and builder valid and agreeing), `spe_scaling` (a row per
+//! setting the registry sweeps and SPE count), `validate` and
+//! `sensitivity` (the machine model against the PS3). `footprint` is in
+//! `tests/footprint.rs`.
 
 mod common;
 
-use common::run_experiment;
+use common::{assert_ok, run_experiment, tmp};
 
 /// `tradeoff`: every builder setting on a scene, each row with its build
 /// cost and measured ray cost; the fronts are Pareto fronts of the rows
@@ -179,4 +181,85 @@ fn sensitivity_moves_every_uncertain_rate_across_its_band() {
     assert_eq!(rows[0]["largest_move"], 0.0);
     let moved = (rows.iter()).filter(|r| r["largest_move"].as_f64().unwrap().abs() > 0.001);
     assert!(moved.count() > rows.len() / 4, "moving rates moved little");
+}
+
+/// The scaling experiment: every multi-SPE builder and knob setting on
+/// every SPE count up to --max-spes, each row with its speedup over the
+/// baseline and where the time went; refuses bad arguments up front.
+#[test]
+fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
+    let exe = env!("CARGO_BIN_EXE_spe_scaling");
+    let dir = tmp("scaling");
+    let out = std::process::Command::new(exe)
+        .args(["--scenes", "default", "--max-spes", "2", "--format", "json"])
+        .args(["--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    // Each variant on 1 and 2 SPEs: every multi-SPE builder with every knob
+    // setting its registry entry sweeps, named by its options.
+    let mut by_variant: std::collections::BTreeMap<&str, Vec<u64>> = Default::default();
+    for r in rows {
+        let v = by_variant
+            .entry(r["builder"].as_str().unwrap())
+            .or_default();
+        v.push(r["spes"].as_u64().unwrap());
+    }
+    assert!(by_variant.values().all(|s| s == &[1, 2]), "{by_variant:?}");
+    let mut changes_tree = std::collections::BTreeMap::new();
+    for b in cellbih::registry::BuilderKind::ALL
+        .iter()
+        .filter(|b| b.multi_spe())
+    {
+        for knobs in b.sweeps() {
+            let name = format!("{} {}", b.name(), knobs.spelled());
+            let name = name.trim_end().to_string();
+            assert!(by_variant.contains_key(name.as_str()), "{name} missing");
+            changes_tree.insert(name, knobs.change_the_tree());
+        }
+    }
+    assert_eq!(changes_tree.len(), by_variant.len(), "{by_variant:?}");
+    let speedup_of = |name: &str, spes: u64| {
+        let r = rows
+            .iter()
+            .find(|r| r["builder"] == name && r["spes"] == spes);
+        r.unwrap()["speedup"].as_f64().unwrap()
+    };
+    for r in rows {
+        let waste = r["arena_waste"].as_f64().unwrap();
+        assert!((0.0..1.0).contains(&waste), "{r}");
+        if r["builder"].as_str().unwrap().starts_with("spe_bfs_shared") {
+            assert!(r["jobs_taken"].as_u64().unwrap() > 0, "{r}");
+        }
+        let speedup = r["speedup"].as_f64().unwrap();
+        assert!(speedup > 0.0, "{r}");
+        // Two SPEs are at most twice one SPE of the same setting.
+        let name = r["builder"].as_str().unwrap();
+        assert!(
+            speedup_of(name, 2) <= 2.0 * speedup_of(name, 1) * 1.001,
+            "{name}: superlinear"
+        );
+        let shares: f64 = ["busy", "dma_wait", "sync_wait", "idle", "atomic"]
+            .iter()
+            .map(|k| r[k].as_f64().unwrap())
+            .sum();
+        // Atomic cycles include their waits; the rest partition the run.
+        assert!((0.99..1.02).contains(&shares), "{r}");
+        if !changes_tree[name] {
+            assert_eq!(r["sah_over_baseline"], 1.0, "the baseline's tree: {r}");
+        }
+    }
+    let csv = std::fs::read_to_string(dir.join("spe_scaling.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + rows.len());
+    assert!(dir.join("spe_scaling_default.svg").exists());
+    for (args, msg) in [
+        (&["--max-spes", "0"][..], "0 is not in 1..=8"),
+        (&["--out", "/proc/x"][..], "/proc/x: cannot write"),
+    ] {
+        let out = std::process::Command::new(exe).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(msg), "{err}");
+    }
 }

@@ -2,6 +2,9 @@
 //! proptest, the brute-force comparison, and the data directory.
 #![allow(dead_code)]
 
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
 use cellbih::bih::Bih;
 #[allow(unused_imports)]
 pub use cellbih::quality::agree::{T_TOLERANCE, check_ray, rays_for};
@@ -192,4 +195,44 @@ pub fn check_multi_spe_runs(
         * cellbih::strategy::machinery::arena::BLOCK_NODES as u64;
     let unused: u64 = a.spe_work.iter().map(|w| w.arena_unused).sum();
     assert_eq!(slots - unused, jobs, "{what}");
+}
+
+/// Runs `exe` with `args`, killing it after `limit`: a refusal must come
+/// at once, so a run that takes longer is a failure (a hang or a huge
+/// allocation), not a slow pass.
+pub fn run_limited(exe: &str, args: &[&str], limit: Duration) -> Output {
+    let mut child = Command::new(exe)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            child.kill().unwrap();
+            panic!("{exe} {args:?} still ran after {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+pub fn stdout(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Fails unless the command failed with `msg` in its stderr.
+pub fn assert_fails_with(out: &Output, msg: &str) {
+    let err = stderr(out);
+    assert!(
+        !out.status.success() && err.contains(msg),
+        "expected a failure saying '{msg}', got {:?}: {err}",
+        out.status
+    );
+    assert!(!err.contains("panicked"), "{err}");
 }

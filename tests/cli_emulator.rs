@@ -1,0 +1,330 @@
+//! The emulated Cell through the `cellbih` command: the registry and
+//! `--spes` in every command, `--mode` (checked, timed, functional: no
+//! timing, said so), `--model` and `--mailboxes`, and `--trace`'s Chrome
+//! JSON.
+
+mod common;
+
+use common::{assert_ok, cellbih, tmp};
+
+#[test]
+fn build_trace_writes_chrome_json() {
+    let p = tmp("trace.json");
+    let out = cellbih(&[
+        "build",
+        "--scene",
+        "cup",
+        "--builder",
+        "ppe_naive",
+        "--trace",
+        p.to_str().unwrap(),
+    ]);
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+    assert!(
+        v["traceEvents"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|e| e["ph"] == "X" && e["tid"] == 0)
+    );
+    let out = cellbih(&[
+        "build",
+        "--scene",
+        "cup",
+        "--builder",
+        "host",
+        "--trace",
+        p.to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("does not run on the emulated Cell"));
+}
+
+/// `cellbih builders` lists the registry; `--spes N` reaches every emulated
+/// builder through build, raycast, render and update and is said in each
+/// report; `build --format json` has the same keys for every builder. A
+/// builder of the paper uses one SPE and takes the same cycles whatever the
+/// SPE count (idle SPEs cost nothing); a multi-SPE builder is faster on 8.
+#[test]
+fn the_registry_and_spes_reach_every_command() {
+    let listed = String::from_utf8_lossy(&cellbih(&["builders"]).stdout).into_owned();
+    for b in cellbih::registry::BuilderKind::ALL {
+        let line = listed.lines().find(|l| l.starts_with(b.name()));
+        assert!(line.is_some(), "{b} in {listed}");
+        // Each line says whether the builder builds the quality knobs.
+        let says = line
+            .unwrap()
+            .ends_with("builds --split sah and --empty-cut");
+        assert_eq!(says, b.quality().binned_sah && b.quality().empty_cut, "{b}");
+        let json = |spes: &str| -> serde_json::Value {
+            let out = cellbih(&[
+                "build",
+                "--scene",
+                "cup",
+                "--builder",
+                b.name(),
+                "--spes",
+                spes,
+                "--format",
+                "json",
+            ]);
+            assert_ok(&out);
+            serde_json::from_slice(&out.stdout).unwrap()
+        };
+        let (one, eight) = (json("1"), json("8"));
+        for key in [
+            "scene",
+            "triangles",
+            "builder",
+            "host_ms",
+            "quality",
+            "simulated_ms",
+            "simulated_cycles",
+            "spes",
+            "cores",
+            "work",
+        ] {
+            assert!(eight.get(key).is_some(), "{b}: no '{key}'");
+        }
+        if b.emulated() {
+            assert_eq!(
+                (one["spes"].as_u64(), eight["spes"].as_u64()),
+                (Some(1), Some(8))
+            );
+            assert_eq!(eight["cores"].as_array().unwrap().len(), 9, "{b}");
+            let (c1, c8) = (
+                one["simulated_cycles"].as_u64().unwrap(),
+                eight["simulated_cycles"].as_u64().unwrap(),
+            );
+            if !b.multi_spe() {
+                // The paper's builders use one SPE: idle ones cost nothing.
+                assert_eq!(c1, c8, "{b}");
+            } else {
+                assert!(c8 < c1, "{b}: 8 SPEs {c8} cycles, 1 SPE {c1}");
+            }
+        } else {
+            assert!(eight["spes"].is_null() && eight["simulated_ms"].is_null());
+        }
+    }
+    let rays = tmp("spes.rays.csv");
+    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,5,0,0,-1,0,inf\n").unwrap();
+    let hits = tmp("spes.hits.csv");
+    let png = tmp("spes.png");
+    for (args, want) in [
+        (
+            vec![
+                "raycast",
+                "--rays",
+                rays.to_str().unwrap(),
+                "--out",
+                hits.to_str().unwrap(),
+            ],
+            "builder spe_bfs on 3 SPEs",
+        ),
+        (
+            vec![
+                "render",
+                "--width",
+                "16",
+                "--height",
+                "12",
+                "--out",
+                png.to_str().unwrap(),
+            ],
+            "builder spe_bfs on 3 SPEs",
+        ),
+    ] {
+        let mut a = args.clone();
+        a.extend(["--builder", "spe_bfs", "--spes", "3"]);
+        let out = cellbih(&a);
+        assert_ok(&out);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(want), "{err}");
+    }
+    let out = cellbih(&[
+        "update",
+        "--scene",
+        "cup",
+        "--animation",
+        "cup",
+        "--frames",
+        "1",
+        "--builder",
+        "spe_dfs",
+        "--spes",
+        "2",
+    ]);
+    assert_ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("builder spe_dfs on 2 SPEs"));
+    let out = cellbih(&["build", "--spes", "0"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("0 is not in 1..=8"));
+}
+
+/// `--mode`: checked and timed give the same cycles and tree; functional
+/// the same tree and no simulated time, said in words.
+#[test]
+fn the_emulator_modes_agree_on_the_tree() {
+    let run = |mode: &str| -> serde_json::Value {
+        let out = cellbih(&[
+            "build",
+            "--scene",
+            "car",
+            "--builder",
+            "spe_morton",
+            "--mode",
+            mode,
+            "--format",
+            "json",
+        ]);
+        assert_ok(&out);
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let (checked, timed, functional) = (run("checked"), run("timed"), run("functional"));
+    assert!(checked["simulated_cycles"].as_u64().unwrap() > 0);
+    assert_eq!(checked["simulated_cycles"], timed["simulated_cycles"]);
+    assert!(
+        functional["simulated_cycles"].is_null(),
+        "no timing: {functional}"
+    );
+    for m in [&timed, &functional] {
+        assert_eq!(m["quality"], checked["quality"]);
+    }
+    let out = cellbih(&[
+        "build",
+        "--scene",
+        "car",
+        "--builder",
+        "spe_bfs",
+        "--mode",
+        "functional",
+    ]);
+    assert_ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("functional mode (no timing)"));
+    let out = cellbih(&["build", "--mode", "fast"]);
+    assert!(!out.status.success());
+}
+
+/// `--model measured` runs the builds on the model held against real PS3s
+/// (docs/validation.md): the same trees, other cycles where the model
+/// changed (several SPEs sharing the memory interface); `--mailboxes
+/// ps3-kernel` never makes an emulated build faster and slows the builders
+/// that talk to the PPE by mailbox by at least one kernel hand-off.
+#[test]
+fn the_measured_model_and_the_kernels_mailboxes_are_options_of_a_build() {
+    use cellbih::registry::BuilderKind;
+    let run = |builder: &str, extra: &[&str]| -> serde_json::Value {
+        let mut args = vec!["build", "--builder", builder, "--format", "json"];
+        args.extend(extra);
+        let out = cellbih(&args);
+        assert_ok(&out);
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let cycles = |v: &serde_json::Value| v["simulated_cycles"].as_u64().unwrap();
+    let (mut moved, mut slowed) = (0, 0);
+    for b in BuilderKind::ALL.iter().filter(|b| b.emulated()) {
+        let legacy = run(b.name(), &[]);
+        let measured = run(b.name(), &["--model", "measured"]);
+        assert_eq!(legacy["quality"], measured["quality"], "{b}: the same tree");
+        if b.multi_spe() {
+            moved += (cycles(&legacy) != cycles(&measured)) as usize;
+        }
+        let kernel = run(b.name(), &["--mailboxes", "ps3-kernel"]);
+        assert!(cycles(&kernel) >= cycles(&legacy), "{b}");
+        slowed += (cycles(&kernel) > cycles(&legacy) + 18_000) as usize;
+    }
+    assert!(moved > 0 && slowed > 0, "moved {moved}, slowed {slowed}");
+}
+
+/// The functional mode has no timing, and says so: no simulated ms or
+/// cycles in a build's or an update's JSON (they were 0), the text says
+/// "none", and a trace (a timeline) is refused.
+#[test]
+fn the_functional_mode_reports_no_timing() {
+    let out = cellbih(&[
+        "build",
+        "--builder",
+        "spe_bfs",
+        "--mode",
+        "functional",
+        "--format",
+        "json",
+    ]);
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        v["simulated_ms"].is_null() && v["simulated_cycles"].is_null(),
+        "{v}"
+    );
+    assert_eq!(v["timing"], "none: functional mode");
+    let timed = cellbih(&["build", "--builder", "spe_bfs", "--format", "json"]);
+    let t: serde_json::Value = serde_json::from_slice(&timed.stdout).unwrap();
+    assert!(t["simulated_ms"].as_f64().unwrap() > 0.0 && t["timing"] == "simulated");
+    let out = cellbih(&[
+        "update",
+        "--scene",
+        "car",
+        "--animation",
+        "car",
+        "--frames",
+        "2",
+        "--builder",
+        "spe_bfs",
+        "--mode",
+        "functional",
+        "--format",
+        "json",
+    ]);
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for f in v["frames"].as_array().unwrap() {
+        assert!(f["simulated_ms"].is_null(), "{f}");
+    }
+    let trace = tmp("functional.trace.json");
+    let t = trace.to_str().unwrap();
+    let out = cellbih(&[
+        "build",
+        "--builder",
+        "spe_bfs",
+        "--mode",
+        "functional",
+        "--trace",
+        t,
+    ]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no timing"));
+    assert!(!trace.exists());
+}
+
+/// One SPE is "1 SPE", not "1 SPEs", wherever a command says how many.
+#[test]
+fn one_spe_is_singular() {
+    for args in [
+        &["build", "--builder", "spe_bfs", "--spes", "1"][..],
+        &[
+            "update",
+            "--scene",
+            "car",
+            "--animation",
+            "car",
+            "--frames",
+            "1",
+            "--builder",
+            "spe_bfs",
+            "--spes",
+            "1",
+        ][..],
+        &["compare", "--spes", "1"][..],
+    ] {
+        let out = cellbih(args);
+        assert_ok(&out);
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            text.contains("1 SPE") && !text.contains("1 SPEs"),
+            "{args:?}: {text}"
+        );
+    }
+}
