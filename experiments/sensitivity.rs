@@ -125,8 +125,8 @@ fn run(args: &Args) -> Result<(), String> {
         .map(|n| scene::load(n, args.data.as_deref()).map_err(|e| e.to_string()))
         .collect::<Result<_, _>>()?;
     let base = match args.model {
-        Model::Measured => CostModel::ps3_measured(),
-        Model::Legacy => CostModel::ps3(),
+        Model::Measured => CostModel::ps3(),
+        Model::Legacy => CostModel::ps3_legacy(),
     };
     let builders: Vec<BuilderKind> = (BuilderKind::ALL.iter().copied())
         .filter(|b| b.multi_spe())

@@ -17,9 +17,9 @@ use cellbih::report::{output, prepare_dir, write_csv, write_json};
 
 #[derive(Parser)]
 struct Args {
-    /// The cost model to hold against the PS3: `measured` (the rules
-    /// issue 26 adds, `CostModel::ps3_measured`) or `legacy` (the PS3
-    /// model every figure of the README was measured on, `CostModel::ps3`).
+    /// The cost model to hold against the PS3: `measured` (the default
+    /// model, `CostModel::ps3`) or `legacy` (the model before issue 26,
+    /// `CostModel::ps3_legacy`).
     #[arg(long, value_enum, default_value = "measured")]
     model: Model,
     /// Directory for validate.csv and validate.json.
@@ -36,8 +36,8 @@ enum Model {
 impl Model {
     fn cost(self) -> CostModel {
         match self {
-            Model::Measured => CostModel::ps3_measured(),
-            Model::Legacy => CostModel::ps3(),
+            Model::Measured => CostModel::ps3(),
+            Model::Legacy => CostModel::ps3_legacy(),
         }
     }
 }

@@ -176,10 +176,16 @@ fn binned_sah_options_need_split_sah() {
 }
 
 /// The functional mode has no timing: the options that choose a timing
-/// model are refused with it, by name.
+/// model are refused with it, by name, even when they give the default.
 #[test]
 fn timing_models_are_refused_in_the_functional_mode() {
-    for extra in [["--model", "measured"], ["--mailboxes", "ps3-kernel"]] {
+    let given = [
+        ["--model", "legacy"],
+        ["--model", "measured"],
+        ["--mailboxes", "ps3-kernel"],
+        ["--mailboxes", "raw"],
+    ];
+    for extra in given {
         let mut args = vec!["build", "--builder", "spe_bfs", "--mode", "functional"];
         args.extend(extra);
         let out = cellbih(&args);

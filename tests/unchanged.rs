@@ -1,17 +1,19 @@
-//! The refactorings of the layout keep every simulated cycle and every
-//! tree: each run below (every builder of the registry, with the paper's
-//! settings, the quality knobs it builds and each knob of its table
-//! moved once, on the default scene; every builder on the bunny) is
-//! compared with `tests/golden/runs.txt`, recorded before the move.
+//! Refactorings keep every simulated cycle and every tree: each run below
+//! (every builder of the registry, with the paper's settings, the quality
+//! knobs it builds and each knob of its table moved once, on the default
+//! scene; every builder on the bunny) is compared with a recording, on
+//! both machine models: `tests/golden/runs.txt` (the default, validated
+//! model) and `tests/golden/runs-legacy.txt` (the model before issue 26,
+//! recorded before issue 25's moves and unchanged since).
 //!
-//! When the machine model changes on purpose, re-record the file with
+//! When the machine model changes on purpose, re-record with
 //! `CELLBIH_RECORD=1 CELLBIH_DATA=../shared/data cargo test --release
 //! --test unchanged` and say in the commit which figures moved and why.
 
 use std::collections::BTreeMap;
 
 use cellbih::bih::{Bih, BihConfig, SplitChoice};
-use cellbih::cell::CellConfig;
+use cellbih::cell::{CellConfig, CostModel};
 use cellbih::registry::{BuildReport, BuilderKind};
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
@@ -35,7 +37,7 @@ fn line(r: &BuildReport) -> String {
 
 /// Each run's label (the `cellbih build` options it stands for) and its
 /// cycles and tree digest.
-fn runs() -> BTreeMap<String, String> {
+fn runs(cost: &CostModel) -> BTreeMap<String, String> {
     let mut out = BTreeMap::new();
     let mut record = |label: String, r: BuildReport| {
         assert!(
@@ -45,7 +47,8 @@ fn runs() -> BTreeMap<String, String> {
     };
     let default = scene::load("default", None).unwrap();
     let build = |s: &Scene, b: BuilderKind, cfg: &BihConfig, spes: usize, k: &Knobs| {
-        let cell = CellConfig::ps3().with_spes(spes);
+        let mut cell = CellConfig::ps3().with_spes(spes);
+        cell.cost = cost.clone();
         b.build_with(s, s.bounds(), cfg, &cell, k)
             .unwrap_or_else(|e| panic!("{b}: {e}"))
     };
@@ -93,8 +96,18 @@ fn runs() -> BTreeMap<String, String> {
 
 #[test]
 fn every_builder_keeps_its_cycles_and_its_tree() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/runs.txt");
-    let now = runs();
+    let golden = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/runs.txt");
+    compare_with(golden, &CostModel::ps3());
+}
+
+#[test]
+fn every_builder_keeps_its_cycles_and_its_tree_on_the_legacy_model() {
+    let golden = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/golden/runs-legacy.txt");
+    compare_with(golden, &CostModel::ps3_legacy());
+}
+
+fn compare_with(path: &str, cost: &CostModel) {
+    let now = runs(cost);
     if std::env::var_os("CELLBIH_RECORD").is_some() {
         let text: String = (now.iter()).map(|(k, v)| format!("{k}: {v}\n")).collect();
         std::fs::write(path, text).unwrap();

@@ -116,31 +116,31 @@ pub struct CostModel {
     /// gets, 2 or 8 in flight; puts 22.13), ≈ 22.0 flat from 256 B to
     /// 16 KiB (cellmark §4.1, §2.3.1; SpuTest `task_largeput.c` 22.23):
     /// DRAM refresh, bank conflicts between independent streams and the
-    /// controller's read/write turnarounds (cellmark §4.2). `ps3()` keeps
-    /// the peak here (the model every earlier figure was measured on).
+    /// controller's read/write turnarounds (cellmark §4.2). `ps3_legacy()`
+    /// keeps the peak here.
     pub memory_shared_bandwidth: Bandwidth,
     /// A transfer to or from main memory moves whole 128-byte lines on
     /// the interface: each element's lines, however few of their bytes it
     /// needs (the bus and the memory controller work in 128-byte lines;
     /// CBE handbook, "DMA transfers": best at 128-byte alignment). Off
-    /// (`ps3()`): its own bytes.
+    /// (`ps3_legacy()`): its own bytes.
     pub memory_whole_lines: bool,
     /// The EIB's sustained capacity for concurrent transfers between local
     /// stores: 3 disjoint pairs reading each other move 114.73 GB/s
     /// together (cellmark §3.1; its PMU shows all four rings 66–77 % busy:
-    /// arbitration, not ring imbalance). `None` (`ps3()`): unlimited.
+    /// arbitration, not ring imbalance). `None` (`ps3_legacy()`): unlimited.
     pub eib_total_bandwidth: Option<Bandwidth>,
     /// One direction of a local store's port to the EIB, shared by every
     /// transfer between local stores that reads (out) or writes (in) it:
     /// one reader already saturates it at 23.58 GB/s and five readers
     /// share 23.71 (cellmark §3.2–3.3; one pair over all 30: 22.97–23.60,
-    /// §3.4). `None` (`ps3()`): a transfer goes at its link's rate.
+    /// §3.4). `None` (`ps3_legacy()`): a transfer goes at its link's rate.
     pub ls_port_bandwidth: Option<Bandwidth>,
     /// A put completes when its write is acknowledged: this many cycles
     /// after the latency a get sees (an address-only bus transaction,
     /// costed like `atomic_hit_cycles`: half a 128-byte DMA's latency).
     /// SpuTest's 6 SPEs putting 32 bytes and waiting see 152 ns per put
-    /// (`task_put.c`), against about 103 ns without it. 0 (`ps3()`): a put
+    /// (`task_put.c`), against about 103 ns without it. 0 (`ps3_legacy()`): a put
     /// completes like a get.
     pub put_ack_cycles: Cycles,
     /// How the atomic caches hold lock lines.
@@ -159,7 +159,7 @@ pub struct CostModel {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum LockLines {
     /// Every atomic command takes the line exclusively, one after another
-    /// (`ps3()`: the model every earlier figure was measured on; a
+    /// (`ps3_legacy()`: the model of the figures before issue 26; a
     /// holder's putllc pays the miss cost).
     Exclusive,
     /// As the atomic caches share them: a getllar is a read several SPEs
@@ -174,8 +174,30 @@ pub enum LockLines {
 }
 
 impl CostModel {
-    /// The PlayStation 3, with the sources above.
+    /// The PlayStation 3, with the sources above: the model held against
+    /// measurements of real PS3s with several SPEs (`docs/validation.md`,
+    /// 21 of 21 figures within tolerance). The default of every command.
     pub fn ps3() -> Self {
+        let hz = 3.2e9;
+        CostModel {
+            memory_shared_bandwidth: Bandwidth::from_gb_per_s(22.83, hz),
+            memory_whole_lines: true,
+            eib_total_bandwidth: Some(Bandwidth::from_gb_per_s(114.73, hz)),
+            ls_port_bandwidth: Some(Bandwidth::from_gb_per_s(23.6, hz)),
+            put_ack_cycles: Cycles(128),
+            lock_lines: LockLines::Shared {
+                claim_cycles: Cycles(205),
+            },
+            ..CostModel::ps3_legacy()
+        }
+    }
+
+    /// The PS3 model every figure was measured on before issue 26: the
+    /// memory interface at its peak for any number of SPEs, transfers
+    /// between local stores unlimited by ports or the EIB, exclusive lock
+    /// lines, puts without a write acknowledgement (`--model legacy`,
+    /// `docs/validation.md`: 6 of its 21 figures pass).
+    pub fn ps3_legacy() -> Self {
         let hz = 3.2e9;
         CostModel {
             clock_hz: hz,
@@ -208,24 +230,7 @@ impl CostModel {
         }
     }
 
-    /// The PS3 with the rules that hold the model against measurements of
-    /// real PS3s with several SPEs (issue 26, `docs/validation.md`).
-    pub fn ps3_measured() -> Self {
-        let hz = 3.2e9;
-        CostModel {
-            memory_shared_bandwidth: Bandwidth::from_gb_per_s(22.83, hz),
-            memory_whole_lines: true,
-            eib_total_bandwidth: Some(Bandwidth::from_gb_per_s(114.73, hz)),
-            ls_port_bandwidth: Some(Bandwidth::from_gb_per_s(23.6, hz)),
-            put_ack_cycles: Cycles(128),
-            lock_lines: LockLines::Shared {
-                claim_cycles: Cycles(205),
-            },
-            ..CostModel::ps3()
-        }
-    }
-
-    /// [`CostModel::ps3_measured`] with the mailboxes reached through the
+    /// [`CostModel::ps3`] with the mailboxes reached through the
     /// PS3 kernel (thread-mode SPUs, an event queue): 11.6 µs a round
     /// trip (cellmark §3.6).
     pub fn with_ps3_kernel_mailboxes(self) -> Self {
@@ -314,7 +319,7 @@ impl CostModel {
             charge_compute: false,
             memory_shared_bandwidth: free,
             // The legacy rules: nothing to charge.
-            ..CostModel::ps3()
+            ..CostModel::ps3_legacy()
         }
     }
 }

@@ -96,17 +96,17 @@ pub struct BuildArgs {
     /// or functional (no timing: fastest, for correctness runs).
     #[arg(long, value_enum, default_value = "checked")]
     pub mode: Mode,
-    /// The PS3 model: legacy (every figure of the README and docs/ was
-    /// measured on it) or measured (held against real PS3s with several
-    /// SPEs: docs/validation.md; it will become the default once every
-    /// figure is re-measured on it).
-    #[arg(long, value_enum, default_value = "legacy")]
-    pub model: MachineModel,
+    /// The PS3 model: measured (held against real PS3s with several SPEs,
+    /// docs/validation.md; every figure of the README and docs/ is
+    /// measured on it) or legacy (the model before that validation)
+    /// [default: measured]
+    #[arg(long, value_enum)]
+    pub model: Option<MachineModel>,
     /// How the PPE and the SPEs reach their mailboxes: raw (MMIO, as
     /// libspe2 under Linux) or ps3-kernel (system calls and an event queue,
-    /// 11.6 µs a round trip: docs/validation.md).
-    #[arg(long, value_enum, default_value = "raw")]
-    pub mailboxes: Mailboxes,
+    /// 11.6 µs a round trip: docs/validation.md) [default: raw]
+    #[arg(long, value_enum)]
+    pub mailboxes: Option<Mailboxes>,
     /// The strategies' knobs, as the registry's tables declare them.
     #[command(flatten)]
     pub knobs: KnobArgs,
@@ -195,18 +195,15 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
     let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
     cell.main_memory_bytes = args.memory_mib * 1024 * 1024;
     cell.checked = matches!(args.mode, Mode::Checked);
-    cell.cost = match args.model {
-        MachineModel::Legacy => cellbih::cell::CostModel::ps3(),
-        MachineModel::Measured => cellbih::cell::CostModel::ps3_measured(),
+    cell.cost = match args.model.unwrap_or(MachineModel::Measured) {
+        MachineModel::Legacy => cellbih::cell::CostModel::ps3_legacy(),
+        MachineModel::Measured => cellbih::cell::CostModel::ps3(),
     };
-    if let Mailboxes::Ps3Kernel = args.mailboxes {
+    if let Some(Mailboxes::Ps3Kernel) = args.mailboxes {
         cell.cost = cell.cost.with_ps3_kernel_mailboxes();
     }
     if let Mode::Functional = args.mode {
-        if !matches!(
-            (args.model, args.mailboxes),
-            (MachineModel::Legacy, Mailboxes::Raw)
-        ) {
+        if args.model.is_some() || args.mailboxes.is_some() {
             return Err(
                 "--mode functional has no timing: --model and --mailboxes do not apply".into(),
             );
