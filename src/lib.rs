@@ -45,6 +45,7 @@
 
 pub mod aabb;
 pub mod bih;
+pub mod cast;
 pub mod cell;
 pub mod host;
 pub mod kernels;

@@ -12,16 +12,19 @@ use rayon::prelude::*;
 use serde_json::json;
 
 use cellbih::bih::{RayStats, Tracer};
+use cellbih::cast::cast_on_cell;
 use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
 use cellbih::registry::BuilderKind;
-use cellbih::render::{Camera, trace};
+use cellbih::render::{Camera, Frame, trace};
 use cellbih::scene::{self, Scene};
 use cellbih::update::{Animation, MAX_FRAMES, Method, Summary, Updater};
 use cellbih::{rays_csv, render};
 
 #[path = "cli/build_args.rs"]
 mod build_args;
+#[path = "cli/cast_args.rs"]
+mod cast_args;
 #[path = "cli/compare.rs"]
 mod compare;
 #[path = "cli/print.rs"]
@@ -139,6 +142,8 @@ enum Command {
         /// Where to write the hits (ray,prim,t), one line per ray.
         #[arg(long)]
         out: PathBuf,
+        #[command(flatten)]
+        cast: cast_args::CastArgs,
     },
     /// Renders a shaded PNG, or with --heatmap the traversal cost per pixel.
     Render {
@@ -159,6 +164,8 @@ enum Command {
         /// Image height in pixels (1 to 16,384).
         #[arg(long, default_value_t = 600)]
         height: u32,
+        #[command(flatten)]
+        cast: cast_args::CastArgs,
     },
     /// Moves objects frame by frame and keeps the tree up to date (the
     /// paper's local update, the deeper update, or complete rebuilds).
@@ -318,8 +325,10 @@ fn run(cli: Cli) -> Res<()> {
             build,
             rays,
             out,
+            cast,
         }) => {
             let c = parse_build(&build)?;
+            let on_cell = cast.config()?;
             check_writable(&out)?;
             // `-`: the rays come on the standard input.
             let rays = if rays.as_os_str() == "-" {
@@ -331,11 +340,20 @@ fn run(cli: Cli) -> Res<()> {
             };
             let s = scene.load()?;
             let report = c.build(&s)?;
-            let tracer = Tracer::new(&report.bih, &s);
-            let hits: Vec<_> = rays
-                .par_iter()
-                .map(|r| tracer.closest(r, &mut RayStats::default()))
-                .collect();
+            let (hits, cell_report) = match &on_cell {
+                Some(cfg) => {
+                    let r = cast_on_cell(&report.bih, &s, &rays, cfg, &c.cell)?;
+                    (r.hits.clone(), Some(r))
+                }
+                None => {
+                    let tracer = Tracer::new(&report.bih, &s);
+                    let hits: Vec<_> = rays
+                        .par_iter()
+                        .map(|r| tracer.closest(r, &mut RayStats::default()))
+                        .collect();
+                    (hits, None)
+                }
+            };
             write_file(&out, |w| rays_csv::write_hits(w, &hits))?;
             let n_hit = hits.iter().flatten().count();
             eprintln!(
@@ -344,6 +362,9 @@ fn run(cli: Cli) -> Res<()> {
                 c.describe(),
                 shown(&out)
             );
+            if let Some(r) = &cell_report {
+                eprintln!("{}", cast_args::describe(r, c.cell.spes));
+            }
             Ok(())
         }
         Some(Command::Render {
@@ -353,18 +374,26 @@ fn run(cli: Cli) -> Res<()> {
             heatmap,
             width,
             height,
+            cast,
         }) => {
             let c = parse_build(&build)?;
+            let on_cell = cast.config()?;
             render::check_size(width, height)?;
             check_png(&out)?;
             let s = scene.load()?;
             let report = c.build(&s)?;
-            let tracer = Tracer::new(&report.bih, &s);
-            let frame = trace(
-                &tracer,
-                &s.triangles,
-                &Camera::framing(&s.bounds(), width, height),
-            );
+            let cam = Camera::framing(&s.bounds(), width, height);
+            let (frame, cell_report) = match &on_cell {
+                Some(cfg) => {
+                    let r = cast_on_cell(&report.bih, &s, &cam.rays(), cfg, &c.cell)?;
+                    let f = Frame::of_hits(&cam, &s.triangles, &r.hits, &r.costs, r.stats());
+                    (f, Some(r))
+                }
+                None => (
+                    trace(&Tracer::new(&report.bih, &s), &s.triangles, &cam),
+                    None,
+                ),
+            };
             let img = if heatmap {
                 frame.heatmap()
             } else {
@@ -384,6 +413,9 @@ fn run(cli: Cli) -> Res<()> {
                     String::new()
                 }
             );
+            if let Some(r) = &cell_report {
+                eprintln!("{}", cast_args::describe(r, c.cell.spes));
+            }
             Ok(())
         }
     }

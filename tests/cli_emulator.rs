@@ -1,11 +1,11 @@
 //! The emulated Cell through the `cellbih` command: the registry and
 //! `--spes` in every command, `--mode` (checked, timed, functional: no
 //! timing, said so), `--model` and `--mailboxes`, and `--trace`'s Chrome
-//! JSON.
+//! JSON; `raycast --on-cell` and `render --on-cell` (casting on the SPEs).
 
 mod common;
 
-use common::{assert_ok, cellbih, tmp};
+use common::{assert_fails_with, assert_ok, cellbih, tmp};
 
 #[test]
 fn build_trace_writes_chrome_json() {
@@ -330,5 +330,103 @@ fn one_spe_is_singular() {
             text.contains("1 SPE") && !text.contains("1 SPEs"),
             "{args:?}: {text}"
         );
+    }
+}
+
+/// `raycast --on-cell` and `render --on-cell` cast on the emulated SPEs:
+/// the hits file and the image are byte for byte the host tracer's for the
+/// same tree, and the report says what the cast cost on the Cell; the
+/// cast's options are refused, by name, without `--on-cell`.
+#[test]
+fn casting_on_the_cell_writes_what_the_host_writes() {
+    use cellbih::rays_csv::write_rays;
+    let s = cellbih::scene::load("default", None).unwrap();
+    let rays = common::rays_for(&s, 400, 9);
+    let rays_path = tmp("on_cell.rays.csv");
+    write_rays(std::fs::File::create(&rays_path).unwrap(), &rays).unwrap();
+    for builder in ["host", "spe_morton"] {
+        let mut files = Vec::new();
+        for extra in [
+            &[][..],
+            &["--on-cell", "--spes", "3", "--cache-kib", "4"][..],
+        ] {
+            let hits = tmp(&format!("on_cell_{builder}_{}.csv", files.len()));
+            let mut args = vec![
+                "raycast",
+                "--builder",
+                builder,
+                "--rays",
+                rays_path.to_str().unwrap(),
+                "--out",
+                hits.to_str().unwrap(),
+            ];
+            args.extend(extra);
+            let out = cellbih(&args);
+            assert_ok(&out);
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(err.contains("on the Cell:"), !extra.is_empty(), "{err}");
+            if !extra.is_empty() {
+                assert!(
+                    err.contains("with 3 SPEs") && err.contains("software cache hit rate"),
+                    "{err}"
+                );
+            }
+            files.push(std::fs::read(&hits).unwrap());
+        }
+        assert_eq!(files[0], files[1], "{builder}: the hits files differ");
+    }
+    for heatmap in [false, true] {
+        let mut pngs = Vec::new();
+        for on_cell in [false, true] {
+            let p = tmp(&format!("on_cell_{heatmap}_{on_cell}.png"));
+            let mut args = vec![
+                "render",
+                "--width",
+                "48",
+                "--height",
+                "32",
+                "--out",
+                p.to_str().unwrap(),
+            ];
+            if heatmap {
+                args.push("--heatmap");
+            }
+            if on_cell {
+                args.push("--on-cell");
+            }
+            assert_ok(&cellbih(&args));
+            pngs.push(std::fs::read(&p).unwrap());
+        }
+        // The shaded image is the host's; the heat map shows the SPE
+        // caster's own cost (it tests a leaf's triangles without the host
+        // tracer's leaf boxes), so it only has the same size.
+        if heatmap {
+            let img = image::load_from_memory(&pngs[1]).unwrap();
+            assert_eq!((img.width(), img.height()), (48, 32));
+        } else {
+            assert_eq!(pngs[0], pngs[1], "the shaded images differ");
+        }
+    }
+    for option in [
+        ["--cache-kib", "8"],
+        ["--tile-rays", "16"],
+        ["--fetch-lines", "2"],
+        ["--cache-ways", "2"],
+    ] {
+        let hits = tmp("on_cell_refused.csv");
+        let _ = std::fs::remove_file(&hits);
+        let mut args = vec![
+            "raycast",
+            "--rays",
+            rays_path.to_str().unwrap(),
+            "--out",
+            hits.to_str().unwrap(),
+        ];
+        args.extend(option);
+        assert_fails_with(
+            &cellbih(&args),
+            &format!("{} applies to --on-cell only", option[0]),
+        );
+        assert!(!hits.exists(), "{option:?}: nothing is written");
     }
 }

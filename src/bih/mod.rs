@@ -10,6 +10,7 @@ mod validate;
 
 pub use node::{BihNode, MAX_INDEX};
 pub use traverse::{Hit, Ray, RayStats, Tracer, brute_force_closest, intersect_triangle};
+pub(crate) use traverse::{closer, descend, pop_bound, root_interval};
 pub use validate::Violation;
 
 use crate::aabb::Aabb;

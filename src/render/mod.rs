@@ -8,7 +8,7 @@ use image::{Rgb, RgbImage};
 use rayon::prelude::*;
 
 use crate::aabb::Aabb;
-use crate::bih::{Ray, RayStats, Tracer};
+use crate::bih::{Hit, Ray, RayStats, Tracer};
 
 /// The widest or tallest image [`trace`] makes.
 pub const MAX_SIDE: u32 = 16_384;
@@ -114,12 +114,7 @@ pub fn trace(tracer: &Tracer, scene_triangles: &[crate::scene::Triangle], cam: &
                 let ray = cam.ray(x, y);
                 let mut s = RayStats::default();
                 let hit = tracer.closest(&ray, &mut s);
-                shade.push(hit.map(|h| {
-                    let t = &scene_triangles[h.prim as usize];
-                    let [a, b, c] = t.v.map(|p| p.as_dvec3());
-                    let n = (b - a).cross(c - a).normalize_or_zero();
-                    (0.15 + 0.85 * n.dot(ray.dir.normalize()).abs()) as f32
-                }));
+                shade.push(shading(scene_triangles, &ray, hit));
                 cost.push((s.nodes_visited + s.triangles_tested) as u32);
                 row_stats += s;
             }
@@ -141,7 +136,41 @@ pub fn trace(tracer: &Tracer, scene_triangles: &[crate::scene::Triangle], cam: &
     f
 }
 
+/// A headlight Lambert gray for the ray's hit, `None` for a miss.
+fn shading(triangles: &[crate::scene::Triangle], ray: &Ray, hit: Option<Hit>) -> Option<f32> {
+    hit.map(|h| {
+        let t = &triangles[h.prim as usize];
+        let [a, b, c] = t.v.map(|p| p.as_dvec3());
+        let n = (b - a).cross(c - a).normalize_or_zero();
+        (0.15 + 0.85 * n.dot(ray.dir.normalize()).abs()) as f32
+    })
+}
+
 impl Frame {
+    /// The frame of hits cast elsewhere (on the emulated Cell,
+    /// `crate::cast`): `hits` and `costs` (nodes + triangles) are the
+    /// camera's rays' in [`Camera::rays`] order. Shaded as [`trace`]
+    /// shades, so the same hits make the same image.
+    pub fn of_hits(
+        cam: &Camera,
+        triangles: &[crate::scene::Triangle],
+        hits: &[Option<Hit>],
+        costs: &[u32],
+        stats: RayStats,
+    ) -> Frame {
+        assert_eq!(hits.len(), (cam.width * cam.height) as usize);
+        let rays = (0..cam.height).flat_map(|y| (0..cam.width).map(move |x| cam.ray(x, y)));
+        Frame {
+            width: cam.width,
+            height: cam.height,
+            shade: (rays.zip(hits))
+                .map(|(r, &h)| shading(triangles, &r, h))
+                .collect(),
+            cost: costs.to_vec(),
+            stats,
+        }
+    }
+
     /// The shaded image: gray surfaces on a dark blue background.
     pub fn shaded(&self) -> RgbImage {
         RgbImage::from_fn(self.width, self.height, |x, y| {

@@ -1,0 +1,358 @@
+//! Ray casting on the emulated Cell: the render half of DESIGN.md's "The
+//! whole frame on the Cell" (issue 27; the paper's ray tracer rendered on
+//! the SPEs between tree updates, section 4). The tree's nodes (12 bytes
+//! each), the triangle records in the tree's leaf order (48 bytes, each
+//! with its triangle id) and the rays (64 bytes) are in emulated main
+//! memory; every SPE runs [`program`]'s caster, reading nodes and
+//! triangles through a [`SoftwareCache`](cache::SoftwareCache) in its
+//! local store, and the hits (32 bytes) come back by DMA. The answers are
+//! the host tracer's (`bih::Tracer`), ray for ray; the time is simulated
+//! PS3 time, in the same currency as a build's.
+
+pub mod cache;
+mod program;
+
+pub use cache::{CacheConfig, CacheStats};
+pub use program::SpeCast;
+
+use std::rc::Rc;
+
+use glam::DVec3;
+
+use crate::aabb::Aabb;
+use crate::bih::{Bih, Hit, Ray, RayStats};
+use crate::cell::{Cell, CellConfig, CellError, Cycles, Ea, Label, RunReport};
+use crate::kernels::rates::FITTED_OVER_DERIVED;
+use crate::scene::Scene;
+use crate::strategy::machinery::layout::{self, TriRecord};
+
+/// A ray in main memory: 64 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct CellRay {
+    pub origin: [f64; 3],
+    pub dir: [f64; 3],
+    pub tmin: f64,
+    pub tmax: f64,
+}
+const _: () = assert!(size_of::<CellRay>() == 64);
+
+impl CellRay {
+    fn of(r: &Ray) -> Self {
+        CellRay {
+            origin: r.origin.to_array(),
+            dir: r.dir.to_array(),
+            tmin: r.tmin,
+            tmax: r.tmax,
+        }
+    }
+
+    fn ray(&self) -> Ray {
+        Ray {
+            origin: DVec3::from_array(self.origin),
+            dir: DVec3::from_array(self.dir),
+            tmin: self.tmin,
+            tmax: self.tmax,
+        }
+    }
+}
+
+/// A ray's answer in main memory: 32 bytes; `prim` is `u32::MAX` for a
+/// miss; `cost` is nodes visited + triangles tested.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct CellHit {
+    pub prim: u32,
+    pub cost: u32,
+    pub t: f64,
+    pub u: f64,
+    pub v: f64,
+}
+const _: () = assert!(size_of::<CellHit>() == 32);
+
+impl CellHit {
+    fn of(hit: Option<Hit>, cost: u32) -> Self {
+        match hit {
+            Some(h) => CellHit {
+                prim: h.prim,
+                cost,
+                t: h.t,
+                u: h.u,
+                v: h.v,
+            },
+            None => CellHit {
+                prim: u32::MAX,
+                cost,
+                t: 0.0,
+                u: 0.0,
+                v: 0.0,
+            },
+        }
+    }
+
+    fn hit(&self) -> Option<Hit> {
+        (self.prim != u32::MAX).then_some(Hit {
+            prim: self.prim,
+            t: self.t,
+            u: self.u,
+            v: self.v,
+        })
+    }
+}
+
+/// The caster's compute rates, per SPE. The kernels' rates are derived
+/// from SPU instruction counts (issue cycles on the two pipelines) and
+/// scaled by the partition's fitted/derived ratio like every new kernel;
+/// the cache's are a published measurement of an SPU software cache
+/// (`docs/cost-model.md`, "The ray caster's kernels").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct CastRates {
+    /// Per ray: the reciprocal direction, the signs, the slab test of the
+    /// tree's box, the hit written to the tile's buffer.
+    pub ray_setup: Cycles,
+    /// Per node visited: decode, the two plane distances, the near/far
+    /// choice and the stack.
+    pub node_step: Cycles,
+    /// Per triangle tested: Möller–Trumbore and the closest-hit update.
+    pub triangle_test: Cycles,
+    /// Per cache line an access touches: Codeplay's measured read hit, 28
+    /// cycles (a measurement: not scaled).
+    pub cache_lookup: Cycles,
+    /// Per miss, besides the lookup and the get the machine times: the
+    /// published miss (about 600 cycles with its DMA) less the lookup and
+    /// a lone 128-byte get on the model (316 cycles).
+    pub cache_miss: Cycles,
+}
+
+/// Which arithmetic the caster is charged for. The emulation computes in
+/// `f64` either way (so that it answers exactly as the host tracer, at the
+/// numerical extremes too); what changes is the SPU kernel whose time is
+/// charged.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Precision {
+    /// Single-precision SIMD, as Cell ray tracers ran (Benthin et al.
+    /// 2006): the default.
+    Single,
+    /// Double precision, as the emulated kernel computes: on the PS3's
+    /// SPU a double-precision instruction issues once every 7 cycles.
+    Double,
+}
+
+impl Precision {
+    /// The caster's rates when charged for this arithmetic.
+    pub fn rates(self) -> CastRates {
+        let cache_lookup = Cycles(28);
+        let cache_miss = Cycles(600 - 28 - 316);
+        let x = FITTED_OVER_DERIVED;
+        match self {
+            // Derived: 20, 16 and 14 SPU cycles.
+            Precision::Single => CastRates {
+                ray_setup: Cycles(20 * x),
+                node_step: Cycles(16 * x),
+                triangle_test: Cycles(14 * x),
+                cache_lookup,
+                cache_miss,
+            },
+            // Derived: 300, 100 and 230 SPU cycles.
+            Precision::Double => CastRates {
+                ray_setup: Cycles(300 * x),
+                node_step: Cycles(100 * x),
+                triangle_test: Cycles(230 * x),
+                cache_lookup,
+                cache_miss,
+            },
+        }
+    }
+}
+
+/// How the rays are cast.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct CastConfig {
+    pub cache: CacheConfig,
+    /// Rays a tile holds: an SPE takes a tile from the shared counter,
+    /// gets its rays in one DMA and puts its hits in one (1 to 256).
+    pub tile_rays: u32,
+    /// The arithmetic charged.
+    pub precision: Precision,
+}
+
+impl CastConfig {
+    pub const DEFAULT: CastConfig = CastConfig {
+        cache: CacheConfig::SDK,
+        tile_rays: 64,
+        precision: Precision::Single,
+    };
+
+    /// The most rays a tile holds: 256 rays are one 16 KiB get.
+    pub const MAX_TILE_RAYS: u32 = 256;
+}
+
+/// What the SPEs read: where everything is, and how to cast.
+pub(crate) struct Job {
+    nodes: Ea,
+    records: Ea,
+    rays: Ea,
+    hits: Ea,
+    /// The next tile's number, in its own lock line.
+    counter: Ea,
+    ray_count: u64,
+    bounds: Aabb,
+    max_depth: u32,
+    tile_rays: u32,
+    cache: CacheConfig,
+    rates: CastRates,
+}
+
+/// What casting the rays on the Cell gave and cost.
+#[derive(Clone, Debug)]
+pub struct CastReport {
+    /// Each ray's closest hit, in the rays' order.
+    pub hits: Vec<Option<Hit>>,
+    /// Each ray's nodes visited + triangles tested.
+    pub costs: Vec<u32>,
+    pub run: RunReport,
+    /// What each SPE did, by SPE.
+    pub spes: Vec<SpeCast>,
+}
+
+impl CastReport {
+    /// Every SPE's ray statistics together.
+    pub fn stats(&self) -> RayStats {
+        let mut s = RayStats::default();
+        for w in &self.spes {
+            s += w.rays;
+        }
+        s
+    }
+
+    /// Every SPE's cache together.
+    pub fn cache(&self) -> CacheStats {
+        let mut s = CacheStats::default();
+        for w in &self.spes {
+            s += w.cache;
+        }
+        s
+    }
+
+    /// Rays per second of simulated time (`None` untimed).
+    pub fn rays_per_s(&self) -> Option<f64> {
+        (self.run.timed && self.run.ms > 0.0).then(|| self.hits.len() as f64 / (self.run.ms / 1e3))
+    }
+
+    /// The SPEs' shares of the run (mean over SPEs): busy, waiting for
+    /// DMA, in the atomic unit; and the least and most busy SPE.
+    pub fn shares(&self) -> Shares {
+        let total = self.run.cycles.0.max(1) as f64;
+        let spes = &self.run.cores[1..];
+        let n = spes.len().max(1) as f64;
+        let mean = |f: &dyn Fn(&crate::cell::CoreCounters) -> u64| {
+            spes.iter().map(|(_, c)| f(c) as f64 / total).sum::<f64>() / n
+        };
+        let busy: Vec<f64> = (spes.iter())
+            .map(|(_, c)| c.busy.0 as f64 / total)
+            .collect();
+        Shares {
+            busy: mean(&|c| c.busy.0),
+            dma_wait: mean(&|c| c.dma_wait.0),
+            atomic: mean(&|c| c.atomic.0),
+            busy_min: busy.iter().copied().fold(f64::INFINITY, f64::min),
+            busy_max: busy.iter().copied().fold(0.0, f64::max),
+        }
+    }
+}
+
+/// Where the SPEs' time went ([`CastReport::shares`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Shares {
+    pub busy: f64,
+    pub dma_wait: f64,
+    pub atomic: f64,
+    pub busy_min: f64,
+    pub busy_max: f64,
+}
+
+/// Room after each array, so that a fetch of whole lines (up to one 16 KiB
+/// get) near its end stays inside it.
+const TAIL: u64 = 16 * 1024;
+
+/// Casts `rays` through `bih` (built over `scene`) on a Cell configured by
+/// `cell_cfg`, every SPE taking tiles: the closest hits, as the host
+/// tracer gives them, and what it cost in simulated time.
+pub fn cast_on_cell(
+    bih: &Bih,
+    scene: &Scene,
+    rays: &[Ray],
+    cfg: &CastConfig,
+    cell_cfg: &CellConfig,
+) -> Result<CastReport, CellError> {
+    if !(1..=CastConfig::MAX_TILE_RAYS).contains(&cfg.tile_rays) {
+        return Err(CellError::Config(format!(
+            "{} rays a tile: 1 to {}",
+            cfg.tile_rays,
+            CastConfig::MAX_TILE_RAYS
+        )));
+    }
+    cfg.cache.sets().map_err(CellError::Config)?;
+    assert_eq!(bih.prim_ids.len(), scene.len(), "tree and scene differ");
+    let cell = Cell::new(cell_cfg.clone())?;
+    let all = layout::records(scene);
+    let records: Vec<TriRecord> = bih.prim_ids.iter().map(|&p| all[p as usize]).collect();
+    let label = |name: &str| Label::new("ray casting", name);
+    let padded = |bytes: usize| bytes as u64 + TAIL;
+    let job = {
+        let mut m = cell.memory_mut();
+        let nodes = m.alloc(
+            label("nodes"),
+            padded(size_of_val(bih.nodes.as_slice())),
+            128,
+        )?;
+        m.write_pod(nodes, &bih.nodes)?;
+        let recs = m.alloc(
+            label("triangles in leaf order"),
+            padded(size_of_val(records.as_slice())),
+            128,
+        )?;
+        m.write_pod(recs, &records)?;
+        let cell_rays: Vec<CellRay> = rays.iter().map(CellRay::of).collect();
+        let ray_ea = m.alloc_pod(label("rays"), &cell_rays, 128)?;
+        let hits = m.alloc(
+            label("hits"),
+            (rays.len() * size_of::<CellHit>()) as u64,
+            128,
+        )?;
+        let counter = m.alloc(label("tile counter"), 128, 128)?;
+        Job {
+            nodes,
+            records: recs,
+            rays: ray_ea,
+            hits,
+            counter,
+            ray_count: rays.len() as u64,
+            bounds: bih.bounds,
+            max_depth: bih.config.max_depth,
+            tile_rays: cfg.tile_rays,
+            cache: cfg.cache,
+            rates: cfg.precision.rates(),
+        }
+    };
+    let (hits_ea, count) = (job.hits, rays.len());
+    let job = Rc::new(job);
+    let mut cell = cell;
+    let exits: Vec<_> = (0..cell_cfg.spes)
+        .map(|spe| {
+            let job = job.clone();
+            cell.spawn_spe(spe, move |s| program::caster(s, job))
+        })
+        .collect();
+    let run = cell.run()?;
+    let spes = (exits.iter().enumerate())
+        .map(|(i, e)| e.take(&format!("ray caster on SPE {i}")))
+        .collect::<Result<Vec<_>, _>>()?;
+    let out: Vec<CellHit> = cell.memory().read_pod(hits_ea, count)?;
+    Ok(CastReport {
+        hits: out.iter().map(CellHit::hit).collect(),
+        costs: out.iter().map(|h| h.cost).collect(),
+        run,
+        spes,
+    })
+}

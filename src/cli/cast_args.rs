@@ -1,0 +1,117 @@
+//! The options of `raycast` and `render` that cast on the emulated Cell
+//! (`--on-cell`, issue 27), and what they print.
+
+use cellbih::cast::{CacheConfig, CastConfig, CastReport, Precision};
+
+type Res<T> = Result<T, Box<dyn std::error::Error>>;
+
+#[derive(clap::Args)]
+pub struct CastArgs {
+    /// Cast the rays on the emulated Cell's SPEs (as many as --spes), each
+    /// reading the tree through a software cache in its local store: the
+    /// same hits as the host's tracer, and their simulated PS3 time.
+    #[arg(long)]
+    pub on_cell: bool,
+    /// --on-cell: the software cache's size in each local store, KiB (1
+    /// to 128) [default: 32]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=128))]
+    pub cache_kib: Option<u32>,
+    /// --on-cell: the software cache's lines per set (1 to 16) [default: 4]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub cache_ways: Option<u32>,
+    /// --on-cell: consecutive 128-byte lines one cache miss fetches in one
+    /// get (1 to 128; Bullet's SPU code fetched 2 KiB, 16 lines)
+    /// [default: 1]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=128))]
+    pub fetch_lines: Option<u32>,
+    /// --on-cell: rays an SPE takes at a time from the shared tile counter
+    /// (1 to 256) [default: 64]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub tile_rays: Option<u32>,
+    /// --on-cell: the arithmetic the SPEs are charged for: single
+    /// (single-precision SIMD, as Cell ray tracers ran) or double (what
+    /// the emulation computes; a double-precision instruction issues once
+    /// every 7 cycles on the PS3's SPU). The hits are the same
+    /// [default: single]
+    #[arg(long, value_enum)]
+    pub precision: Option<PrecisionArg>,
+}
+
+/// `--precision`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum PrecisionArg {
+    Single,
+    Double,
+}
+
+impl CastArgs {
+    /// The cast's configuration with `--on-cell`, `None` without; an
+    /// option of the Cell's cast given without `--on-cell` is an error
+    /// that names it.
+    pub fn config(&self) -> Res<Option<CastConfig>> {
+        let given = [
+            ("--cache-kib", self.cache_kib),
+            ("--cache-ways", self.cache_ways),
+            ("--fetch-lines", self.fetch_lines),
+            ("--tile-rays", self.tile_rays),
+        ];
+        if !self.on_cell {
+            if let Some((name, _)) = given.iter().find(|(_, v)| v.is_some()) {
+                return Err(format!("{name} applies to --on-cell only").into());
+            }
+            if self.precision.is_some() {
+                return Err("--precision applies to --on-cell only".into());
+            }
+            return Ok(None);
+        }
+        let d = CastConfig::DEFAULT;
+        let cfg = CastConfig {
+            cache: CacheConfig {
+                kib: self.cache_kib.unwrap_or(d.cache.kib),
+                ways: self.cache_ways.unwrap_or(d.cache.ways),
+                fetch_lines: self.fetch_lines.unwrap_or(d.cache.fetch_lines),
+            },
+            tile_rays: self.tile_rays.unwrap_or(d.tile_rays),
+            precision: match self.precision {
+                None => d.precision,
+                Some(PrecisionArg::Single) => Precision::Single,
+                Some(PrecisionArg::Double) => Precision::Double,
+            },
+        };
+        cfg.cache.sets()?;
+        Ok(Some(cfg))
+    }
+}
+
+/// One paragraph on what casting on the Cell cost: simulated time, rays
+/// per second, the cache, where the SPEs' time went.
+pub fn describe(r: &CastReport, spes: usize) -> String {
+    let st = r.stats();
+    let per = |x: u64| x as f64 / st.rays.max(1) as f64;
+    let cache = r.cache();
+    let sh = r.shares();
+    let time = match r.rays_per_s() {
+        Some(rps) => format!(
+            "{:.2} ms simulated on the PS3 model with {} ({:.2} M rays/s)",
+            r.run.ms,
+            super::spes(spes),
+            rps / 1e6
+        ),
+        None => format!(
+            "on {} in the functional mode (no timing)",
+            super::spes(spes)
+        ),
+    };
+    format!(
+        "on the Cell: {time}; per ray {:.1} nodes, {:.1} triangles; software cache hit rate {:.1} % ({} misses); SPEs busy {:.0} % (least {:.0} %, most {:.0} %), waiting for DMA {:.0} %, atomic {:.1} %",
+        per(st.nodes_visited),
+        per(st.triangles_tested),
+        cache.hit_rate() * 100.0,
+        cache.misses,
+        sh.busy * 100.0,
+        sh.busy_min * 100.0,
+        sh.busy_max * 100.0,
+        sh.dma_wait * 100.0,
+        sh.atomic * 100.0,
+    )
+}

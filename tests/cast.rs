@@ -1,0 +1,277 @@
+//! Ray casting on the emulated Cell (`cellbih::cast`, issue 27): the SPE
+//! caster answers as the host tracer does, ray for ray and bit for bit,
+//! for every builder's tree, at the numerical extremes of the property
+//! scenes, with any cache shape, tile size and SPE count; its time is
+//! simulated and deterministic, and the cache and the SPEs behave as a
+//! software cache and a shared tile counter should.
+
+mod common;
+
+use cellbih::bih::{BihConfig, Hit, Ray, RayStats, Tracer};
+use cellbih::cast::{CacheConfig, CastConfig, CastReport, Precision, cast_on_cell};
+use cellbih::cell::{CellConfig, CostModel};
+use cellbih::registry::BuilderKind;
+use cellbih::render::Camera;
+use cellbih::scene::{self, Scene};
+use common::{check_ray, rays_for, scene_strategy};
+use proptest::prelude::*;
+
+/// Bitwise the same answer (`Hit`'s f64 compared by bits, so that a NaN
+/// or a signed zero could not pass unnoticed).
+fn same(a: &Option<Hit>, b: &Option<Hit>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(x), Some(y)) => {
+            x.prim == y.prim
+                && x.t.to_bits() == y.t.to_bits()
+                && x.u.to_bits() == y.u.to_bits()
+                && x.v.to_bits() == y.v.to_bits()
+        }
+        _ => false,
+    }
+}
+
+fn cast(
+    scene: &Scene,
+    bih: &cellbih::bih::Bih,
+    rays: &[Ray],
+    cfg: &CastConfig,
+    spes: usize,
+) -> CastReport {
+    let cell = CellConfig::ps3().with_spes(spes);
+    cast_on_cell(bih, scene, rays, cfg, &cell).expect("the cast runs")
+}
+
+/// The host tracer's answers.
+fn host(scene: &Scene, bih: &cellbih::bih::Bih, rays: &[Ray]) -> Vec<Option<Hit>> {
+    let t = Tracer::new(bih, scene);
+    rays.iter()
+        .map(|r| t.closest(r, &mut RayStats::default()))
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 40, ..ProptestConfig::default() })]
+
+    /// Every builder's tree of a property scene (scales 1e-15 to 1e15,
+    /// flat, degenerate, stacks, clusters far from the rest): the SPEs'
+    /// hits are the host tracer's, which agree with brute force; with a
+    /// random cache shape, tile size and SPE count.
+    #[test]
+    fn the_spes_answer_as_the_host_tracer_and_brute_force(
+        scene in scene_strategy(),
+        kib in 1u32..=8,
+        ways in prop_oneof![Just(1u32), Just(2), Just(4)],
+        fetch_lines in 1u32..=4,
+        tile_rays in 1u32..=16,
+        spes in 1usize..=8,
+    ) {
+        let cfg = CastConfig { cache: CacheConfig { kib, ways, fetch_lines }, tile_rays, ..CastConfig::DEFAULT };
+        let rays = rays_for(&scene, 40, scene.len() as u64 + 7);
+        for &b in BuilderKind::ALL {
+            let r = b.build(&scene, &BihConfig::default())
+                .map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
+            let want = host(&scene, &r.bih, &rays);
+            let got = cast(&scene, &r.bih, &rays, &cfg, spes);
+            let tracer = Tracer::new(&r.bih, &scene);
+            for (i, ray) in rays.iter().enumerate() {
+                prop_assert!(same(&got.hits[i], &want[i]),
+                    "{b}: ray {i}: SPEs {:?}, host {:?}", got.hits[i], want[i]);
+                check_ray(&scene, &tracer, ray).map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
+            }
+        }
+    }
+}
+
+/// The default scene's camera rays and incoherent rays, every builder's
+/// tree and every quality knob it builds: the same hits on the SPEs as on
+/// the host.
+#[test]
+fn every_builders_tree_is_cast_as_the_host_casts_it() {
+    let s = scene::load("default", None).unwrap();
+    let mut rays = Camera::framing(&s.bounds(), 40, 30).rays();
+    rays.extend(rays_for(&s, 300, 3));
+    for &b in BuilderKind::ALL {
+        for cfg in [BihConfig::default(), BihConfig::SAH_CUT] {
+            if !b.builds(&cfg) {
+                continue;
+            }
+            let r = b.build(&s, &cfg).unwrap();
+            let want = host(&s, &r.bih, &rays);
+            let got = cast(&s, &r.bih, &rays, &CastConfig::DEFAULT, 6);
+            let differ = (got.hits.iter().zip(&want))
+                .filter(|(g, w)| !same(g, w))
+                .count();
+            assert_eq!(differ, 0, "{b} {cfg:?}: {differ} rays differ");
+            assert!(
+                want.iter().flatten().count() > 300,
+                "{b}: the rays hit the scene"
+            );
+            let st = got.stats();
+            assert_eq!(st.rays, rays.len() as u64);
+            let costs: u64 = got.costs.iter().map(|&c| c as u64).sum();
+            assert_eq!(costs, st.nodes_visited + st.triangles_tested);
+        }
+    }
+}
+
+/// The same input gives the same cycles; the hits do not depend on the
+/// SPE count, the tile size or the cache; six SPEs cast the frame at least
+/// 3x faster than one, every SPE takes tiles, and a miss costs a get.
+#[test]
+fn the_cast_is_deterministic_and_spreads_over_the_spes() {
+    let s = scene::load("default", None).unwrap();
+    let r = BuilderKind::from_name("spe_bfs")
+        .unwrap()
+        .build(&s, &BihConfig::default())
+        .unwrap();
+    let rays = Camera::framing(&s.bounds(), 96, 72).rays();
+    let d = CastConfig::DEFAULT;
+    let one = cast(&s, &r.bih, &rays, &d, 1);
+    let six = cast(&s, &r.bih, &rays, &d, 6);
+    let again = cast(&s, &r.bih, &rays, &d, 6);
+    assert_eq!(six.run.cycles, again.run.cycles);
+    assert_eq!(six.spes, again.spes);
+    assert!(one.hits.iter().zip(&six.hits).all(|(a, b)| same(a, b)));
+    assert!(
+        one.run.ms > 3.0 * six.run.ms,
+        "1 SPE {} ms, 6 SPEs {} ms",
+        one.run.ms,
+        six.run.ms
+    );
+    assert!(six.spes.iter().all(|w| w.tiles > 0), "{:?}", six.spes);
+    let tiles: u64 = six.spes.iter().map(|w| w.tiles).sum();
+    assert_eq!(tiles, (rays.len() as u64).div_ceil(d.tile_rays as u64));
+    // Every miss is one get of a line; the tiles' rays one get each.
+    let gets: u64 = six.run.cores[1..].iter().map(|(_, c)| c.gets).sum();
+    assert_eq!(gets, six.cache().misses + tiles);
+    assert!(
+        six.cache().hit_rate() > 0.5 && six.cache().misses > 0,
+        "{:?}",
+        six.cache()
+    );
+    assert!(six.rays_per_s().unwrap() > one.rays_per_s().unwrap() * 3.0);
+}
+
+/// The cache's knobs do what they say: a larger cache misses less than a
+/// tiny one, fetching 16 lines a miss takes fewer gets than one, and
+/// neither changes a hit.
+#[test]
+fn a_larger_cache_and_longer_fetches_miss_less() {
+    let s = scene::load("default", None).unwrap();
+    let r = BuilderKind::from_name("host")
+        .unwrap()
+        .build(&s, &BihConfig::default())
+        .unwrap();
+    let rays = Camera::framing(&s.bounds(), 64, 48).rays();
+    let with = |kib, ways, fetch_lines| CastConfig {
+        cache: CacheConfig {
+            kib,
+            ways,
+            fetch_lines,
+        },
+        ..CastConfig::DEFAULT
+    };
+    let tiny = cast(&s, &r.bih, &rays, &with(1, 2, 1), 6);
+    let big = cast(&s, &r.bih, &rays, &with(128, 4, 1), 6);
+    let long = cast(&s, &r.bih, &rays, &with(32, 4, 16), 6);
+    let sdk = cast(&s, &r.bih, &rays, &CastConfig::DEFAULT, 6);
+    assert!(
+        big.cache().misses < tiny.cache().misses / 2,
+        "{:?} vs {:?}",
+        big.cache(),
+        tiny.cache()
+    );
+    assert!(
+        long.cache().misses < sdk.cache().misses,
+        "{:?} vs {:?}",
+        long.cache(),
+        sdk.cache()
+    );
+    for other in [&big, &long, &sdk] {
+        assert!(tiny.hits.iter().zip(&other.hits).all(|(a, b)| same(a, b)));
+        // The lookups are the tracer's reads: the same whatever the cache.
+        assert_eq!(other.cache().lookups, tiny.cache().lookups);
+    }
+}
+
+/// The functional mode casts the same hits and says it kept no time;
+/// a tile or a cache that cannot be is an error that says why.
+#[test]
+fn functional_mode_and_bad_shapes() {
+    let s = scene::load("default", None).unwrap();
+    let r = BuilderKind::from_name("host")
+        .unwrap()
+        .build(&s, &BihConfig::default())
+        .unwrap();
+    let rays = rays_for(&s, 200, 1);
+    let mut cell = CellConfig::ps3();
+    cell.cost = CostModel::functional();
+    let f = cast_on_cell(&r.bih, &s, &rays, &CastConfig::DEFAULT, &cell).unwrap();
+    assert!(!f.run.timed && f.rays_per_s().is_none());
+    let want = host(&s, &r.bih, &rays);
+    assert!(f.hits.iter().zip(&want).all(|(a, b)| same(a, b)));
+    let bad = |cfg: CastConfig| {
+        cast_on_cell(&r.bih, &s, &rays, &cfg, &CellConfig::ps3())
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default()
+    };
+    let d = CastConfig::DEFAULT;
+    assert!(bad(CastConfig { tile_rays: 0, ..d }).contains("rays a tile"));
+    assert!(
+        bad(CastConfig {
+            tile_rays: 257,
+            ..d
+        })
+        .contains("rays a tile")
+    );
+    let shape = CacheConfig {
+        kib: 1,
+        ways: 16,
+        fetch_lines: 1,
+    };
+    assert!(bad(CastConfig { cache: shape, ..d }).contains("whole sets"));
+    let shape = CacheConfig {
+        kib: 4,
+        ways: 4,
+        fetch_lines: 9,
+    };
+    assert!(bad(CastConfig { cache: shape, ..d }).contains("fetching 9 lines"));
+    // No ray at all: nothing to cast, nothing fails.
+    let none = cast_on_cell(&r.bih, &s, &[], &d, &CellConfig::ps3()).unwrap();
+    assert!(none.hits.is_empty());
+}
+
+/// Charging the SPEs for double-precision arithmetic (what the emulation
+/// computes) instead of single-precision SIMD changes the time, by the
+/// rates' ratio at most, and never a hit.
+#[test]
+fn the_precision_charged_changes_the_time_not_the_hits() {
+    let s = scene::load("default", None).unwrap();
+    let r = BuilderKind::from_name("host")
+        .unwrap()
+        .build(&s, &BihConfig::default())
+        .unwrap();
+    let rays = Camera::framing(&s.bounds(), 48, 36).rays();
+    let single = cast(&s, &r.bih, &rays, &CastConfig::DEFAULT, 6);
+    let cfg = CastConfig {
+        precision: Precision::Double,
+        ..CastConfig::DEFAULT
+    };
+    let double = cast(&s, &r.bih, &rays, &cfg, 6);
+    assert!(
+        single
+            .hits
+            .iter()
+            .zip(&double.hits)
+            .all(|(a, b)| same(a, b))
+    );
+    assert_eq!(single.stats(), double.stats());
+    let (sr, dr) = (Precision::Single.rates(), Precision::Double.rates());
+    let worst = (dr.ray_setup.0 / sr.ray_setup.0)
+        .max(dr.node_step.0 / sr.node_step.0)
+        .max(dr.triangle_test.0 / sr.triangle_test.0);
+    let ratio = double.run.ms / single.run.ms;
+    assert!(ratio > 3.0 && ratio <= worst as f64, "{ratio}");
+}
