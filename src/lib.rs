@@ -47,6 +47,7 @@ pub mod aabb;
 pub mod bih;
 pub mod cast;
 pub mod cell;
+pub mod frame;
 pub mod host;
 pub mod kernels;
 pub mod output;

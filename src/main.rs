@@ -27,6 +27,8 @@ mod build_args;
 mod cast_args;
 #[path = "cli/compare.rs"]
 mod compare;
+#[path = "cli/frame.rs"]
+mod frame;
 #[path = "cli/print.rs"]
 mod print;
 
@@ -195,6 +197,45 @@ enum Command {
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
     },
+    /// The whole frame on the Cell: per frame, objects move, the tree
+    /// follows (rebuilt, or updated locally or deeply), and the primary
+    /// rays are cast on the SPEs; every time is simulated PS3 time.
+    Frame {
+        #[command(flatten)]
+        scene: SceneArg,
+        #[command(flatten)]
+        build: BuildArgs,
+        /// rtperf (one sphere nudged per frame), car (parts out and back)
+        /// or cup (the glass moved).
+        #[arg(long)]
+        animation: String,
+        /// Frames to play, 1 to 100,000.
+        #[arg(long, default_value_t = 10,
+              value_parser = clap::value_parser!(u64).range(1..=MAX_FRAMES as u64))]
+        frames: u64,
+        /// How the tree follows the moves: rebuild (every frame, with
+        /// --builder), local (Algorithm 1) or deep (section 5).
+        #[arg(long, default_value = "local")]
+        policy: String,
+        /// SPEs that update the tree; the others render meanwhile (the
+        /// paper's arrangement: 1). Default: all of --spes, which build and
+        /// then all render (section 5's).
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=8))]
+        build_spes: Option<u64>,
+        /// Image width in pixels: one primary ray each.
+        #[arg(long, default_value_t = 640)]
+        width: u32,
+        /// Image height in pixels.
+        #[arg(long, default_value_t = 480)]
+        height: u32,
+        #[command(flatten)]
+        cache: cast_args::CacheArgs,
+        /// Seed of the animation's pseudo-random moves (rtperf).
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        #[arg(long, value_enum, default_value = "text")]
+        format: Format,
+    },
     /// The names --builder accepts.
     Builders,
 }
@@ -257,6 +298,32 @@ fn run(cli: Cli) -> Res<()> {
                 0 => Ok(()),
                 n => Err(format!("{n} builder(s) failed: {}", names(&c.failed)).into()),
             }
+        }
+        Some(Command::Frame {
+            scene,
+            build,
+            animation,
+            frames,
+            policy,
+            build_spes,
+            width,
+            height,
+            cache,
+            seed,
+            format,
+        }) => {
+            let c = parse_build(&build)?;
+            let asked = frame::Asked {
+                policy: &policy,
+                build_spes,
+                width,
+                height,
+                cache: &cache,
+            };
+            let cfg = frame::config(&c, &asked)?;
+            let s = scene.load()?;
+            let anim = Animation::named(&animation, &s, frames as usize, seed)?;
+            frame::run(&s, &anim, &cfg, &c, format)
         }
         Some(Command::Update {
             scene,

@@ -12,26 +12,34 @@ pub struct CastArgs {
     /// same hits as the host's tracer, and their simulated PS3 time.
     #[arg(long)]
     pub on_cell: bool,
-    /// --on-cell: the software cache's size in each local store, KiB (1
-    /// to 128) [default: 32]
+    #[command(flatten)]
+    pub cache: CacheArgs,
+}
+
+/// How the SPEs cast: their software cache, tiles and charged arithmetic.
+#[derive(clap::Args)]
+pub struct CacheArgs {
+    /// Casting on the Cell: the software cache's size in each local store,
+    /// KiB (1 to 128) [default: 32]
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=128))]
     pub cache_kib: Option<u32>,
-    /// --on-cell: the software cache's lines per set (1 to 16) [default: 4]
+    /// Casting on the Cell: the software cache's lines per set (1 to 16)
+    /// [default: 4]
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub cache_ways: Option<u32>,
-    /// --on-cell: consecutive 128-byte lines one cache miss fetches in one
-    /// get (1 to 128; Bullet's SPU code fetched 2 KiB, 16 lines)
-    /// [default: 1]
+    /// Casting on the Cell: consecutive 128-byte lines one cache miss
+    /// fetches in one get (1 to 128; Bullet's SPU code fetched 2 KiB, 16
+    /// lines) [default: 1]
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=128))]
     pub fetch_lines: Option<u32>,
-    /// --on-cell: rays an SPE takes at a time from the shared tile counter
-    /// (1 to 256) [default: 64]
+    /// Casting on the Cell: rays an SPE takes at a time from the shared
+    /// tile counter (1 to 256) [default: 64]
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=256))]
     pub tile_rays: Option<u32>,
-    /// --on-cell: the arithmetic the SPEs are charged for: single
-    /// (single-precision SIMD, as Cell ray tracers ran) or double (what
-    /// the emulation computes; a double-precision instruction issues once
-    /// every 7 cycles on the PS3's SPU). The hits are the same
+    /// Casting on the Cell: the arithmetic the SPEs are charged for:
+    /// single (single-precision SIMD, as Cell ray tracers ran) or double
+    /// (what the emulation computes; a double-precision instruction issues
+    /// once every 7 cycles on the PS3's SPU). The hits are the same
     /// [default: single]
     #[arg(long, value_enum)]
     pub precision: Option<PrecisionArg>,
@@ -49,21 +57,33 @@ impl CastArgs {
     /// option of the Cell's cast given without `--on-cell` is an error
     /// that names it.
     pub fn config(&self) -> Res<Option<CastConfig>> {
-        let given = [
-            ("--cache-kib", self.cache_kib),
-            ("--cache-ways", self.cache_ways),
-            ("--fetch-lines", self.fetch_lines),
-            ("--tile-rays", self.tile_rays),
-        ];
-        if !self.on_cell {
-            if let Some((name, _)) = given.iter().find(|(_, v)| v.is_some()) {
-                return Err(format!("{name} applies to --on-cell only").into());
-            }
-            if self.precision.is_some() {
-                return Err("--precision applies to --on-cell only".into());
-            }
-            return Ok(None);
+        if self.on_cell {
+            return Ok(Some(self.cache.config()?));
         }
+        match self.cache.first_given() {
+            Some(name) => Err(format!("{name} applies to --on-cell only").into()),
+            None => Ok(None),
+        }
+    }
+}
+
+impl CacheArgs {
+    /// The first of these options given, by name.
+    fn first_given(&self) -> Option<&'static str> {
+        [
+            ("--cache-kib", self.cache_kib.is_some()),
+            ("--cache-ways", self.cache_ways.is_some()),
+            ("--fetch-lines", self.fetch_lines.is_some()),
+            ("--tile-rays", self.tile_rays.is_some()),
+            ("--precision", self.precision.is_some()),
+        ]
+        .into_iter()
+        .find_map(|(name, given)| given.then_some(name))
+    }
+
+    /// The cast's configuration: the defaults and what is given; a cache
+    /// shape that does not divide into whole sets is an error.
+    pub fn config(&self) -> Res<CastConfig> {
         let d = CastConfig::DEFAULT;
         let cfg = CastConfig {
             cache: CacheConfig {
@@ -79,7 +99,7 @@ impl CastArgs {
             },
         };
         cfg.cache.sets()?;
-        Ok(Some(cfg))
+        Ok(cfg)
     }
 }
 

@@ -1,0 +1,131 @@
+//! `cellbih frame`: the frame loop on the Cell (issue 27): per frame the
+//! objects move, the tree follows by the policy, the primary rays are cast
+//! on the SPEs; every time is simulated PS3 time.
+
+use std::io::IsTerminal;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+
+use cellbih::frame::{FrameConfig, FrameRun, play};
+use cellbih::scene::Scene;
+use cellbih::update::{Animation, Method};
+
+use super::Format;
+use super::build_args::Chosen;
+use super::cast_args::CacheArgs;
+
+type Res<T> = Result<T, Box<dyn std::error::Error>>;
+
+/// What `frame` was asked, checked.
+pub struct Asked<'a> {
+    pub policy: &'a str,
+    pub build_spes: Option<u64>,
+    pub width: u32,
+    pub height: u32,
+    pub cache: &'a CacheArgs,
+}
+
+/// Checks the options before any work; the frame loop's configuration.
+pub fn config(c: &Chosen, a: &Asked) -> Res<FrameConfig> {
+    let policy = Method::from_name(a.policy)
+        .ok_or_else(|| format!("unknown --policy '{}': rebuild, local or deep", a.policy))?;
+    if !c.cell.cost.charge_compute {
+        return Err("frame measures simulated time: --mode functional has none".into());
+    }
+    cellbih::render::check_size(a.width, a.height)?;
+    let spes = c.cell.spes;
+    Ok(FrameConfig {
+        builder: c.builder,
+        tree: c.cfg,
+        policy,
+        spes,
+        build_spes: a.build_spes.map_or(spes, |k| k as usize),
+        width: a.width,
+        height: a.height,
+        cast: a.cache.config()?,
+    })
+}
+
+/// Plays the animation and prints every frame and the totals.
+pub fn run(s: &Scene, anim: &Animation, cfg: &FrameConfig, c: &Chosen, format: Format) -> Res<()> {
+    let bar = if std::io::stderr().is_terminal() {
+        let b = ProgressBar::new(anim.frames.len() as u64);
+        b.set_style(ProgressStyle::with_template(
+            "frames {bar:30} {pos}/{len} {elapsed}",
+        )?);
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let run = play(s, anim, cfg, &c.cell, |_| bar.inc(1))?;
+    bar.finish_and_clear();
+    print(s, anim, cfg, &run, format);
+    Ok(())
+}
+
+fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format: Format) {
+    let arrangement = if cfg.all_spes_build() {
+        format!("all {} SPEs build, then all render", cfg.spes)
+    } else {
+        format!(
+            "{} build the next frame while {} render (the paper's arrangement)",
+            super::spes(cfg.build_spes),
+            super::spes(cfg.render_spes())
+        )
+    };
+    if let Format::Json = format {
+        let v = json!({
+            "scene": s.name,
+            "triangles": s.len(),
+            "animation": anim.name,
+            "builder": cfg.builder.name(),
+            "policy": cfg.policy.name(),
+            "spes": cfg.spes,
+            "build_spes": cfg.build_spes,
+            "width": cfg.width,
+            "height": cfg.height,
+            "frames": run.frames,
+            "total_ms": run.total_ms,
+            "fps": run.fps,
+        });
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&v).expect("plain values")
+        );
+        return;
+    }
+    println!(
+        "{} on {} ({} triangles), {} × {}, policy {}, builder {}; {arrangement}",
+        anim.name,
+        s.name,
+        s.len(),
+        cfg.width,
+        cfg.height,
+        cfg.policy.name(),
+        cfg.builder
+    );
+    println!(
+        "{:>5} {:>8} {:>8} {:>10} {:>10} {:>10} {:>9} {:>6}",
+        "frame", "choice", "rebuilt", "update ms", "render ms", "frame ms", "ray cost", "cache"
+    );
+    for f in &run.frames {
+        let choice = if f.full_rebuild { "rebuild" } else { f.choice };
+        println!(
+            "{:>5} {choice:>8} {:>8} {:>10.2} {:>10.2} {:>10.2} {:>9.1} {:>5.1}%",
+            f.frame,
+            f.rebuilt,
+            f.update_ms,
+            f.render_ms,
+            f.frame_ms,
+            f.ray_cost,
+            f.cache_hit_rate * 100.0
+        );
+    }
+    println!(
+        "total {:.2} ms for {} frames: {:.2} frames per second (simulated PS3 time; ray cost: nodes + triangles per ray; cache: the software cache's hit rate)",
+        run.total_ms,
+        run.frames.len(),
+        run.fps
+    );
+}

@@ -1,0 +1,228 @@
+//! The frame loop on the Cell (`cellbih::frame`, `cellbih frame`; issue
+//! 27): per frame the update's and the render's simulated times, combined
+//! as the arrangement says; every policy; the trees it casts are the
+//! updater's; errors before any work.
+
+mod common;
+
+use cellbih::bih::{BihConfig, RayStats, Tracer};
+use cellbih::cast::CastConfig;
+use cellbih::cell::CellConfig;
+use cellbih::frame::{FrameConfig, FrameError, play};
+use cellbih::registry::BuilderKind;
+use cellbih::render::Camera;
+use cellbih::scene;
+use cellbih::update::{Animation, Method, Updater};
+use common::{assert_fails_with, assert_ok, cellbih};
+
+fn cfg(builder: &str, policy: Method, spes: usize, build_spes: usize) -> FrameConfig {
+    FrameConfig {
+        builder: BuilderKind::from_name(builder).unwrap(),
+        tree: BihConfig::default(),
+        policy,
+        spes,
+        build_spes,
+        width: 48,
+        height: 36,
+        cast: CastConfig::DEFAULT,
+    }
+}
+
+/// Section 5's arrangement adds update and render; the paper's overlaps
+/// them; the render on fewer SPEs is slower; the update's time is the
+/// updater's own simulated time; the same run twice gives the same times.
+#[test]
+fn a_frame_is_its_update_and_its_render_as_the_arrangement_says() {
+    let s = scene::load("rtperf:5000:1", None).unwrap();
+    let anim = Animation::named("rtperf", &s, 4, 3).unwrap();
+    let cell = CellConfig::ps3();
+    for policy in [Method::Rebuild, Method::Local, Method::Deep] {
+        let all = play(
+            &s,
+            &anim,
+            &cfg("spe_bfs_private", policy, 6, 6),
+            &cell,
+            |_| {},
+        )
+        .unwrap();
+        let again = play(
+            &s,
+            &anim,
+            &cfg("spe_bfs_private", policy, 6, 6),
+            &cell,
+            |_| {},
+        )
+        .unwrap();
+        let paper = play(
+            &s,
+            &anim,
+            &cfg("spe_bfs_private", policy, 6, 1),
+            &cell,
+            |_| {},
+        )
+        .unwrap();
+        assert_eq!(all.frames.len(), 4);
+        let mut u = Updater::new_on(
+            s.clone(),
+            BuilderKind::from_name("spe_bfs_private").unwrap(),
+            &BihConfig::default(),
+            cell.clone().with_spes(6),
+            policy,
+        )
+        .unwrap();
+        for (n, ((a, b), p)) in
+            (all.frames.iter().zip(&again.frames).zip(&paper.frames)).enumerate()
+        {
+            assert_eq!(a.frame_ms, a.update_ms + a.render_ms);
+            assert_eq!(p.frame_ms, p.update_ms.max(p.render_ms));
+            assert_eq!((a.update_ms, a.render_ms), (b.update_ms, b.render_ms));
+            // Five SPEs render slower than six.
+            assert!(p.render_ms > a.render_ms, "{policy:?}: {p:?} vs {a:?}");
+            assert_eq!(a.choice, policy.name());
+            let up = u.step(&anim.frames[n]).unwrap();
+            assert_eq!(up.simulated_ms, Some(a.update_ms));
+            assert_eq!(up.rebuilt, a.rebuilt);
+            assert!(a.update_ms > 0.0 && a.render_ms > 0.0);
+        }
+        let total: f64 = all.frames.iter().map(|f| f.frame_ms).sum();
+        assert_eq!(all.total_ms, total);
+        assert!((all.fps - 4.0 / (total / 1e3)).abs() < 1e-9);
+    }
+}
+
+/// The rays the frame casts see the updated scene: after the last frame
+/// of the car, the cast's ray cost is the host tracer's nodes on the
+/// updater's tree (the same traversal, without leaf boxes: at least the
+/// host's nodes).
+#[test]
+fn the_frames_cast_the_updated_tree() {
+    let s = scene::load("car", None).unwrap();
+    let anim = Animation::named("car", &s, 3, 0).unwrap();
+    let c = cfg("spe_bfs", Method::Local, 6, 6);
+    let mut last = None;
+    let run = play(&s, &anim, &c, &CellConfig::ps3(), |f| {
+        last = Some(f.clone())
+    })
+    .unwrap();
+    assert_eq!(last.unwrap().frame, 2);
+    let (u, _) = cellbih::update::play(&s, &anim, c.builder, Method::Local).unwrap();
+    let cam = Camera::framing(&s.bounds(), c.width, c.height);
+    let t = Tracer::new(&u.bih, &u.scene);
+    let mut st = RayStats::default();
+    for r in cam.rays() {
+        t.closest(&r, &mut st);
+    }
+    let host_nodes = st.nodes_visited as f64 / st.rays as f64;
+    let f = run.frames.last().unwrap();
+    assert!(f.ray_cost >= host_nodes, "{} < {host_nodes}", f.ray_cost);
+}
+
+/// A host builder, or more building SPEs than there are, is an error that
+/// says what to do.
+#[test]
+fn a_frame_needs_an_emulated_builder_and_room_for_the_render() {
+    let s = scene::load("car", None).unwrap();
+    let anim = Animation::named("car", &s, 1, 0).unwrap();
+    let e = play(
+        &s,
+        &anim,
+        &cfg("host", Method::Local, 6, 6),
+        &CellConfig::ps3(),
+        |_| {},
+    );
+    assert!(matches!(&e, Err(FrameError::Config(m)) if m.contains("needs an emulated builder")));
+    let e = play(
+        &s,
+        &anim,
+        &cfg("spe_bfs", Method::Local, 6, 7),
+        &CellConfig::ps3(),
+        |_| {},
+    );
+    assert!(matches!(&e, Err(FrameError::Config(m)) if m.contains("--build-spes 7")));
+}
+
+/// `cellbih frame` prints each frame and the totals; its JSON has a
+/// `frames` array (choice, update, render and frame ms) and the total; a
+/// functional mode, an unknown policy and the cast's options are checked
+/// before any work.
+#[test]
+fn the_frame_command_reports_every_frame() {
+    let args = [
+        "frame",
+        "--scene",
+        "car",
+        "--animation",
+        "car",
+        "--frames",
+        "3",
+        "--builder",
+        "spe_bfs_shared",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--build-spes",
+        "2",
+    ];
+    let out = cellbih(&args);
+    assert_ok(&out);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("2 SPEs build the next frame while 4 SPEs render"),
+        "{text}"
+    );
+    assert!(text.contains("frames per second"), "{text}");
+    let mut json_args = args.to_vec();
+    json_args.extend(["--format", "json"]);
+    let out = cellbih(&json_args);
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let frames = v["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3);
+    let mut total = 0.0;
+    for f in frames {
+        for key in ["choice", "update_ms", "render_ms", "frame_ms"] {
+            assert!(!f[key].is_null(), "{key}: {f}");
+        }
+        total += f["frame_ms"].as_f64().unwrap();
+    }
+    assert!((v["total_ms"].as_f64().unwrap() - total).abs() < 1e-9);
+    assert_fails_with(
+        &cellbih(&[
+            "frame",
+            "--animation",
+            "car",
+            "--scene",
+            "car",
+            "--mode",
+            "functional",
+        ]),
+        "--mode functional has none",
+    );
+    assert_fails_with(
+        &cellbih(&[
+            "frame",
+            "--animation",
+            "car",
+            "--scene",
+            "car",
+            "--policy",
+            "auto",
+        ]),
+        "unknown --policy 'auto'",
+    );
+    assert_fails_with(
+        &cellbih(&[
+            "frame",
+            "--animation",
+            "car",
+            "--scene",
+            "car",
+            "--cache-kib",
+            "1",
+            "--cache-ways",
+            "16",
+        ]),
+        "whole sets",
+    );
+}
