@@ -214,9 +214,15 @@ enum Command {
               value_parser = clap::value_parser!(u64).range(1..=MAX_FRAMES as u64))]
         frames: u64,
         /// How the tree follows the moves: rebuild (every frame, with
-        /// --builder), local (Algorithm 1) or deep (section 5).
+        /// --builder), local (Algorithm 1), deep (section 5), or auto
+        /// (section 5's metric: each frame's options predicted from cheap
+        /// counts, the cheapest taken).
         #[arg(long, default_value = "local")]
         policy: String,
+        /// Also run every option from the same state each frame (three
+        /// times the work) and report how the policy's choices compare.
+        #[arg(long)]
+        oracle: bool,
         /// SPEs that update the tree; the others render meanwhile (the
         /// paper's arrangement: 1). Default: all of --spes, which build and
         /// then all render (section 5's).
@@ -305,6 +311,7 @@ fn run(cli: Cli) -> Res<()> {
             animation,
             frames,
             policy,
+            oracle,
             build_spes,
             width,
             height,
@@ -315,6 +322,7 @@ fn run(cli: Cli) -> Res<()> {
             let c = parse_build(&build)?;
             let asked = frame::Asked {
                 policy: &policy,
+                oracle,
                 build_spes,
                 width,
                 height,

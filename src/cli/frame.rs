@@ -7,9 +7,9 @@ use std::io::IsTerminal;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
-use cellbih::frame::{FrameConfig, FrameRun, play};
+use cellbih::frame::{FrameConfig, FrameRun, Policy, play};
 use cellbih::scene::Scene;
-use cellbih::update::{Animation, Method};
+use cellbih::update::Animation;
 
 use super::Format;
 use super::build_args::Chosen;
@@ -20,6 +20,7 @@ type Res<T> = Result<T, Box<dyn std::error::Error>>;
 /// What `frame` was asked, checked.
 pub struct Asked<'a> {
     pub policy: &'a str,
+    pub oracle: bool,
     pub build_spes: Option<u64>,
     pub width: u32,
     pub height: u32,
@@ -28,8 +29,12 @@ pub struct Asked<'a> {
 
 /// Checks the options before any work; the frame loop's configuration.
 pub fn config(c: &Chosen, a: &Asked) -> Res<FrameConfig> {
-    let policy = Method::from_name(a.policy)
-        .ok_or_else(|| format!("unknown --policy '{}': rebuild, local or deep", a.policy))?;
+    let policy = Policy::from_name(a.policy).ok_or_else(|| {
+        format!(
+            "unknown --policy '{}': rebuild, local, deep or auto",
+            a.policy
+        )
+    })?;
     if !c.cell.cost.charge_compute {
         return Err("frame measures simulated time: --mode functional has none".into());
     }
@@ -39,6 +44,7 @@ pub fn config(c: &Chosen, a: &Asked) -> Res<FrameConfig> {
         builder: c.builder,
         tree: c.cfg,
         policy,
+        oracle: a.oracle,
         spes,
         build_spes: a.build_spes.map_or(spes, |k| k as usize),
         width: a.width,
@@ -88,6 +94,9 @@ fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format:
             "frames": run.frames,
             "total_ms": run.total_ms,
             "fps": run.fps,
+            "oracle": cfg.oracle,
+            "near_best": run.near_best,
+            "oracle_total_ms": run.oracle_total_ms,
         });
         println!(
             "{}",
@@ -105,13 +114,22 @@ fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format:
         cfg.policy.name(),
         cfg.builder
     );
-    println!(
+    let oracle = run.frames.iter().any(|f| f.oracle_ms.is_some());
+    let predicted = run.frames.iter().any(|f| f.predicted.is_some());
+    print!(
         "{:>5} {:>8} {:>8} {:>10} {:>10} {:>10} {:>9} {:>6}",
         "frame", "choice", "rebuilt", "update ms", "render ms", "frame ms", "ray cost", "cache"
     );
+    if predicted {
+        print!(" {:>11} {:>11}", "pred upd ms", "pred ren ms");
+    }
+    if oracle {
+        print!(" {:>10} {:>10} {:>10}", "rebuild ms", "local ms", "deep ms");
+    }
+    println!();
     for f in &run.frames {
         let choice = if f.full_rebuild { "rebuild" } else { f.choice };
-        println!(
+        print!(
             "{:>5} {choice:>8} {:>8} {:>10.2} {:>10.2} {:>10.2} {:>9.1} {:>5.1}%",
             f.frame,
             f.rebuilt,
@@ -121,6 +139,13 @@ fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format:
             f.ray_cost,
             f.cache_hit_rate * 100.0
         );
+        if let Some(p) = f.predicted {
+            print!(" {:>11.2} {:>11.2}", p.update_ms, p.render_ms);
+        }
+        if let Some([r, l, d]) = f.oracle_ms {
+            print!(" {r:>10.2} {l:>10.2} {d:>10.2}");
+        }
+        println!();
     }
     println!(
         "total {:.2} ms for {} frames: {:.2} frames per second (simulated PS3 time; ray cost: nodes + triangles per ray; cache: the software cache's hit rate)",
@@ -128,4 +153,11 @@ fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format:
         run.frames.len(),
         run.fps
     );
+    if let (Some(near), Some(best)) = (run.near_best, run.oracle_total_ms) {
+        println!(
+            "oracle: {:.0} % of the frames within 10 % of the best option; every frame at its best: {best:.2} ms ({:+.1} %)",
+            near * 100.0,
+            (run.total_ms / best - 1.0) * 100.0
+        );
+    }
 }

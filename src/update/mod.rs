@@ -193,6 +193,28 @@ pub fn play(
     Ok((u, reports))
 }
 
+/// The objects moved by [`Updater::move_objects`].
+struct Moved {
+    moved: Vec<bool>,
+    ebb: Aabb,
+    saved: Vec<(u32, Triangle)>,
+    saved_box: Aabb,
+}
+
+/// What a local update would rebuild ([`Updater::plan`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Plan {
+    /// The scene box changes: the tree is rebuilt completely.
+    pub full_rebuild: bool,
+    /// Triangles a local update rebuilds: the enclosing node's interval
+    /// (all of them on a complete rebuild).
+    pub interval: usize,
+    /// Depth of the enclosing node.
+    pub depth: u32,
+    /// Triangles of the moved objects.
+    pub transformed: usize,
+}
+
 /// A subtree built for grafting, and its simulated time if emulated.
 struct Piece {
     bih: Bih,
@@ -200,6 +222,7 @@ struct Piece {
 }
 
 /// A scene, its tree, and how the tree follows moving objects.
+#[derive(Clone)]
 pub struct Updater {
     pub scene: Scene,
     pub bih: Bih,
@@ -209,6 +232,8 @@ pub struct Updater {
     /// Deep update: a touched subtree of at most this many triangles is
     /// rebuilt whole instead of descended into.
     pub deep_stop_below: usize,
+    /// Simulated time of the first tree's build, for an emulated builder.
+    pub first_build_ms: Option<f64>,
     /// Triangle ids of each geometry id.
     members: Vec<Vec<u32>>,
     /// First slot of each free pair of node slots.
@@ -239,7 +264,11 @@ impl Updater {
         cell: CellConfig,
         method: Method,
     ) -> Result<Self, UpdateError> {
-        let bih = builder.build_on(&scene, cfg, &cell)?.bih;
+        let first = builder.build_on(&scene, cfg, &cell)?;
+        let first_build_ms = (first.simulated.as_ref())
+            .filter(|s| s.run.timed)
+            .map(|s| s.run.ms);
+        let bih = first.bih;
         let mut members = vec![Vec::new(); scene.geometry_names.len()];
         for (i, &g) in scene.geometry_ids.iter().enumerate() {
             members[g as usize].push(i as u32);
@@ -251,6 +280,7 @@ impl Updater {
             method,
             cell,
             deep_stop_below: DEEP_STOP_BELOW,
+            first_build_ms,
             members,
             free: Vec::new(),
         })
@@ -269,29 +299,12 @@ impl Updater {
             r.host_ms = ms(start);
             return Ok(r);
         }
-        // The EBB: the moved objects' boxes before and after the moves.
-        let mut moved = vec![false; self.members.len()];
-        let mut ebb = Aabb::EMPTY;
-        for m in moves {
-            animation::check_geometry(&self.scene, m.geometry)?;
-            if !std::mem::replace(&mut moved[m.geometry as usize], true) {
-                r.transformed += self.members[m.geometry as usize].len();
-                ebb = ebb.union(self.geometry_box(m.geometry));
-            }
-        }
-        let (saved, saved_box) = (self.moved_triangles(&moved), self.scene.bounds());
-        for m in moves.iter().filter(|m| !m.is_identity()) {
-            if let Err(e) = self
-                .scene
-                .transform_triangles(&self.members[m.geometry as usize], &m.transform)
-            {
-                self.scene.restore(saved, saved_box);
-                return Err(e.into());
-            }
-        }
-        for (g, _) in moved.iter().enumerate().filter(|(_, m)| **m) {
-            ebb = ebb.union(self.geometry_box(g as u32));
-        }
+        let Moved {
+            moved,
+            ebb,
+            saved,
+            saved_box,
+        } = self.move_objects(moves, &mut r)?;
 
         let done = if self.method == Method::Rebuild || self.scene.bounds() != self.bih.bounds {
             self.full_rebuild(&mut r)
@@ -331,6 +344,71 @@ impl Updater {
         }
         r.host_ms = ms(start);
         Ok(r)
+    }
+
+    /// Moves the objects of `moves` in the scene: which geometries moved,
+    /// the EBB (their boxes before and after), and what to restore on an
+    /// error. Counts the transformed triangles into `r`.
+    fn move_objects(&mut self, moves: &[Move], r: &mut UpdateReport) -> Result<Moved, UpdateError> {
+        let mut moved = vec![false; self.members.len()];
+        let mut ebb = Aabb::EMPTY;
+        for m in moves {
+            animation::check_geometry(&self.scene, m.geometry)?;
+            if !std::mem::replace(&mut moved[m.geometry as usize], true) {
+                r.transformed += self.members[m.geometry as usize].len();
+                ebb = ebb.union(self.geometry_box(m.geometry));
+            }
+        }
+        let (saved, saved_box) = (self.moved_triangles(&moved), self.scene.bounds());
+        for m in moves.iter().filter(|m| !m.is_identity()) {
+            if let Err(e) = self
+                .scene
+                .transform_triangles(&self.members[m.geometry as usize], &m.transform)
+            {
+                self.scene.restore(saved, saved_box);
+                return Err(e.into());
+            }
+        }
+        for (g, _) in moved.iter().enumerate().filter(|(_, m)| **m) {
+            ebb = ebb.union(self.geometry_box(g as u32));
+        }
+        Ok(Moved {
+            moved,
+            ebb,
+            saved,
+            saved_box,
+        })
+    }
+
+    /// What a local update after `moves` would rebuild, counted before
+    /// any build (section 5's "metric for estimation of needed time for
+    /// reorganization steps" starts from it): whether the scene box
+    /// changes (a complete rebuild), else Algorithm 1's enclosing node and
+    /// the size of its interval. Works on a copy: the updater is not
+    /// changed. Host work only (Algorithm 1 is a few node visits).
+    pub fn plan(&self, moves: &[Move]) -> Result<Plan, UpdateError> {
+        let mut probe = self.clone();
+        let mut r = UpdateReport::default();
+        let m = probe.move_objects(moves, &mut r)?;
+        if moves.is_empty() {
+            return Ok(Plan::default());
+        }
+        if probe.scene.bounds() != probe.bih.bounds {
+            return Ok(Plan {
+                full_rebuild: true,
+                interval: probe.scene.len(),
+                depth: 0,
+                transformed: r.transformed,
+            });
+        }
+        let enc = enclosing_node(&mut probe.bih, &m.ebb);
+        let (first, end) = interval(&probe.bih, enc.node);
+        Ok(Plan {
+            full_rebuild: false,
+            interval: end - first,
+            depth: enc.depth,
+            transformed: r.transformed,
+        })
     }
 
     fn full_rebuild(&mut self, r: &mut UpdateReport) -> Result<(), UpdateError> {

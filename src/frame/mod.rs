@@ -1,0 +1,337 @@
+//! The frame loop on the Cell (DESIGN.md "The whole frame on the Cell";
+//! issue 27): per frame, the animation moves objects, the tree is brought
+//! up to date by a policy — rebuilt with a builder on the SPEs it has,
+//! locally updated (section 3, Algorithm 1) or deeply updated (section 5)
+//! — and the frame's primary rays are cast on the SPEs ([`crate::cast`]).
+//! Update and render are both simulated PS3 time, so a frame's time is
+//! their sum or, in the paper's arrangement, their overlap.
+//!
+//! Two arrangements of `spes` SPEs:
+//!
+//! - **section 5's** (`build_spes == spes`): every SPE builds, then every
+//!   SPE renders: a frame takes update + render;
+//! - **the paper's** (`build_spes < spes`, the paper used one): `build_spes`
+//!   SPEs update the tree for frame n + 1 while the other SPEs render frame
+//!   n: in steady state a frame takes the longer of the two (one frame of
+//!   latency, not counted).
+//!
+//! The policy is fixed (`rebuild`, `local`, `deep`) or section 5's metric
+//! ([`auto`]: each frame's options predicted from cheap counts, the least
+//! taken); an oracle can run every option from the same state each frame
+//! to judge it.
+//!
+//! What is charged: the rebuilds (and a local or deep update's rebuild of
+//! its interval) as their builder's programs run them on the emulated Cell;
+//! the PPE's own update work (Algorithm 1's few node visits, the scan by
+//! geometry id, the graft) is not (no rate is sourced for it: see
+//! `docs/update.md`), so an update's time is a lower bound by that much.
+
+pub mod auto;
+
+use crate::bih::BihConfig;
+use crate::cast::{CastConfig, CastReport, cast_on_cell};
+use crate::cell::CellConfig;
+use crate::registry::BuilderKind;
+use crate::render::Camera;
+use crate::scene::Scene;
+use crate::update::{Animation, Method, Move, UpdateError, UpdateReport, Updater};
+
+/// How the tree follows the moves each frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Policy {
+    /// The same method every frame.
+    Fixed(Method),
+    /// Section 5's metric chooses each frame ([`auto`]).
+    Auto,
+}
+
+impl Policy {
+    pub fn name(self) -> &'static str {
+        match self {
+            Policy::Fixed(m) => m.name(),
+            Policy::Auto => "auto",
+        }
+    }
+
+    /// `rebuild`, `local`, `deep` or `auto`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "auto" => Some(Policy::Auto),
+            _ => Method::from_name(name).map(Policy::Fixed),
+        }
+    }
+}
+
+/// How the frames are made.
+#[derive(Clone, Debug)]
+pub struct FrameConfig {
+    pub builder: BuilderKind,
+    pub tree: BihConfig,
+    /// How the tree follows the moves each frame.
+    pub policy: Policy,
+    /// Also run every option from the same state each frame (three times
+    /// the work), to judge the policy's choices.
+    pub oracle: bool,
+    /// SPEs of the Cell in all.
+    pub spes: usize,
+    /// SPEs that update the tree; the others render meanwhile (the
+    /// paper's arrangement) unless it is all of them (section 5's).
+    pub build_spes: usize,
+    pub width: u32,
+    pub height: u32,
+    pub cast: CastConfig,
+}
+
+impl FrameConfig {
+    /// Section 5's arrangement: every SPE builds, then every SPE renders.
+    pub fn all_spes_build(&self) -> bool {
+        self.build_spes == self.spes
+    }
+
+    /// A frame's time from its update's and its render's, as the
+    /// arrangement combines them.
+    pub fn frame_ms(&self, update_ms: f64, render_ms: f64) -> f64 {
+        if self.all_spes_build() {
+            update_ms + render_ms
+        } else {
+            update_ms.max(render_ms)
+        }
+    }
+
+    /// The SPEs that render.
+    pub fn render_spes(&self) -> usize {
+        if self.all_spes_build() {
+            self.spes
+        } else {
+            self.spes - self.build_spes
+        }
+    }
+}
+
+/// What one frame did and cost, in simulated PS3 ms.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FrameReport {
+    pub frame: usize,
+    /// The policy's choice for this frame: `rebuild`, `local` or `deep`
+    /// (a local or deep update that found the scene box changed rebuilt
+    /// completely: `full_rebuild`).
+    pub choice: &'static str,
+    pub full_rebuild: bool,
+    /// Triangles the frame's rebuilds sorted.
+    pub rebuilt: usize,
+    pub update_ms: f64,
+    pub render_ms: f64,
+    /// update + render (section 5's arrangement) or the longer of the two
+    /// (the paper's).
+    pub frame_ms: f64,
+    /// Nodes + triangles per ray of the frame's cast.
+    pub ray_cost: f64,
+    pub cache_hit_rate: f64,
+    /// `auto`: the chosen option's predicted update and render ms.
+    pub predicted: Option<auto::Prediction>,
+    /// With the oracle: the frame ms of rebuild, local and deep, each run
+    /// from the frame's starting state.
+    pub oracle_ms: Option<[f64; 3]>,
+}
+
+impl FrameReport {
+    /// With the oracle: this frame's time within `slack` (0.1: 10 %) of the
+    /// best option's.
+    pub fn near_best(&self, slack: f64) -> Option<bool> {
+        let best = self.oracle_ms?.into_iter().fold(f64::INFINITY, f64::min);
+        Some(self.frame_ms <= best * (1.0 + slack))
+    }
+}
+
+/// The frames of a run, and what they add up to.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FrameRun {
+    pub frames: Vec<FrameReport>,
+    pub total_ms: f64,
+    /// Frames per second of simulated time.
+    pub fps: f64,
+    /// With the oracle: the share of frames within 10 % of the best
+    /// option, and the total had every frame taken its best option.
+    pub near_best: Option<f64>,
+    pub oracle_total_ms: Option<f64>,
+}
+
+impl FrameRun {
+    fn of(frames: Vec<FrameReport>) -> FrameRun {
+        let total_ms: f64 = frames.iter().map(|f| f.frame_ms).sum();
+        let fps = if total_ms > 0.0 {
+            frames.len() as f64 / (total_ms / 1e3)
+        } else {
+            0.0
+        };
+        let near: Option<Vec<bool>> = frames.iter().map(|f| f.near_best(0.1)).collect();
+        let best: Option<f64> = (frames.iter())
+            .map(|f| Some(f.oracle_ms?.into_iter().fold(f64::INFINITY, f64::min)))
+            .sum();
+        FrameRun {
+            near_best: near
+                .filter(|v| !v.is_empty())
+                .map(|v| v.iter().filter(|&&b| b).count() as f64 / v.len() as f64),
+            oracle_total_ms: best,
+            frames,
+            total_ms,
+            fps,
+        }
+    }
+}
+
+/// Why a frame loop cannot run.
+#[derive(Debug, thiserror::Error)]
+pub enum FrameError {
+    #[error("{0}")]
+    Config(String),
+    #[error(transparent)]
+    Update(#[from] UpdateError),
+    #[error(transparent)]
+    Cell(#[from] crate::cell::CellError),
+}
+
+/// Plays `anim` on `scene`: the first tree built with the builder, then
+/// every frame updated by the policy and cast on the SPEs. `cell` is the
+/// Cell's model (its SPE count is the config's); `done` hears of each
+/// frame as it ends (a progress bar).
+pub fn play(
+    scene: &Scene,
+    anim: &Animation,
+    cfg: &FrameConfig,
+    cell: &CellConfig,
+    mut done: impl FnMut(&FrameReport),
+) -> Result<FrameRun, FrameError> {
+    if !cfg.builder.emulated() {
+        return Err(FrameError::Config(format!(
+            "builder {} runs on the host: a frame on the Cell needs an emulated builder ({})",
+            cfg.builder,
+            emulated_names()
+        )));
+    }
+    if cfg.build_spes == 0 || cfg.build_spes > cfg.spes {
+        return Err(FrameError::Config(format!(
+            "--build-spes {}: 1 to --spes ({})",
+            cfg.build_spes, cfg.spes
+        )));
+    }
+    let build_cell = cell.clone().with_spes(cfg.build_spes);
+    let render_cell = cell.clone().with_spes(cfg.render_spes());
+    // The camera frames the scene as it starts, and stays.
+    let cam = Camera::framing(&scene.bounds(), cfg.width, cfg.height);
+    let rays = cam.rays();
+    let mut u = Updater::new_on(
+        scene.clone(),
+        cfg.builder,
+        &cfg.tree,
+        build_cell,
+        Method::Rebuild,
+    )?;
+    let mut predictor = auto::Predictor::new(cfg.tree.leaf_size, scene.len(), u.first_build_ms);
+    let mut frames = Vec::with_capacity(anim.frames.len());
+    for (i, moves) in anim.frames.iter().enumerate() {
+        let (taken, plan, predicted) = match cfg.policy {
+            Policy::Fixed(m) => (m, None, None),
+            Policy::Auto => {
+                let plan = u.plan(moves)?;
+                let options = predictor.predict(&plan, u.scene.len());
+                let (m, p) = auto::choose(&options, |a, b| cfg.frame_ms(a, b));
+                (m, Some(plan), Some(p))
+            }
+        };
+        let mut tried: Vec<(Method, Attempt)> = Vec::new();
+        if cfg.oracle {
+            for m in Method::ALL {
+                tried.push((*m, attempt(&u, *m, moves, &rays, cfg, &render_cell)?));
+            }
+        }
+        let oracle_ms = cfg.oracle.then(|| {
+            let ms = |m: Method| {
+                let a = &tried
+                    .iter()
+                    .find(|(t, _)| *t == m)
+                    .expect("every option tried")
+                    .1;
+                cfg.frame_ms(a.update_ms(), a.cast.run.ms)
+            };
+            [ms(Method::Rebuild), ms(Method::Local), ms(Method::Deep)]
+        });
+        let done_now = match tried.into_iter().find(|(m, _)| *m == taken) {
+            Some((_, a)) => a,
+            None => attempt(&u, taken, moves, &rays, cfg, &render_cell)?,
+        };
+        let Attempt {
+            updater,
+            report: up,
+            cast,
+        } = done_now;
+        u = updater;
+        let (update_ms, render_ms) = (up.simulated_ms.unwrap_or(0.0), cast.run.ms);
+        if let Some(plan) = &plan {
+            predictor.observe(
+                taken,
+                plan,
+                (up.full_rebuild, up.rebuilt),
+                update_ms,
+                render_ms,
+            );
+        }
+        let st = cast.stats();
+        frames.push(FrameReport {
+            frame: i,
+            choice: taken.name(),
+            full_rebuild: up.full_rebuild,
+            rebuilt: up.rebuilt,
+            update_ms,
+            render_ms,
+            frame_ms: cfg.frame_ms(update_ms, render_ms),
+            ray_cost: (st.nodes_visited + st.triangles_tested) as f64 / st.rays.max(1) as f64,
+            cache_hit_rate: cast.cache().hit_rate(),
+            predicted,
+            oracle_ms,
+        });
+        done(frames.last().expect("pushed"));
+    }
+    Ok(FrameRun::of(frames))
+}
+
+/// One option tried on a copy of the updater: the updater after it, its
+/// update's report, and the frame's cast.
+struct Attempt {
+    updater: Updater,
+    report: UpdateReport,
+    cast: CastReport,
+}
+
+impl Attempt {
+    fn update_ms(&self) -> f64 {
+        self.report.simulated_ms.unwrap_or(0.0)
+    }
+}
+
+fn attempt(
+    u: &Updater,
+    method: Method,
+    moves: &[Move],
+    rays: &[crate::bih::Ray],
+    cfg: &FrameConfig,
+    render_cell: &CellConfig,
+) -> Result<Attempt, FrameError> {
+    let mut updater = u.clone();
+    updater.method = method;
+    let report = updater.step(moves)?;
+    let cast = cast_on_cell(&updater.bih, &updater.scene, rays, &cfg.cast, render_cell)?;
+    Ok(Attempt {
+        updater,
+        report,
+        cast,
+    })
+}
+
+fn emulated_names() -> String {
+    let v: Vec<&str> = (BuilderKind::ALL.iter())
+        .filter(|b| b.emulated())
+        .map(|b| b.name())
+        .collect();
+    v.join(", ")
+}
