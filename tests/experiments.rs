@@ -2,7 +2,8 @@
 //! Pareto fronts of its rows, its frame reading, its files), `extremes`
 //! (every case and builder valid and agreeing), `spe_scaling` (a row per
 //! setting the registry sweeps and SPE count), `validate` and
-//! `sensitivity` (the machine model against the PS3). `footprint` is in
+//! `sensitivity` (the machine model against the PS3), `frame_loop` (the
+//! whole frame on the Cell). `footprint` is in
 //! `tests/footprint.rs`.
 
 mod common;
@@ -262,4 +263,59 @@ fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && err.contains(msg), "{err}");
     }
+}
+
+/// `frame_loop`: a row for every scene, size, arrangement and policy, the
+/// frames behind each in the JSON, a plot per scene and size; `auto`
+/// judged by the oracle, the fixed policies not; a scene without an
+/// animation refused by name.
+#[test]
+fn frame_loop_plays_every_policy_in_both_arrangements() {
+    let (rows, dir) = run_experiment(
+        env!("CARGO_BIN_EXE_frame_loop"),
+        "frame_loop",
+        &[
+            "--scenes",
+            "car,rtperf:3000",
+            "--sizes",
+            "32x24",
+            "--frames",
+            "3",
+        ],
+    );
+    assert_eq!(rows.len(), 2 * 2 * 4, "scenes × arrangements × policies");
+    for r in &rows {
+        let auto = r["policy"] == "auto";
+        assert_eq!(r["near_best"].is_null(), !auto, "{r}");
+        assert_eq!(r["frames"], 3, "{r}");
+        let (u, rd, t) = (
+            r["mean_update_ms"].as_f64().unwrap(),
+            r["mean_render_ms"].as_f64().unwrap(),
+            r["total_ms"].as_f64().unwrap(),
+        );
+        // Section 5 adds update and render; the paper's overlaps them.
+        if r["arrangement"] == "section 5" {
+            assert!((t - 3.0 * (u + rd)).abs() < 1e-6 * t, "{r}");
+        } else {
+            assert!(
+                t <= 3.0 * (u + rd) + 1e-9 && t >= 3.0 * u.max(rd) - 1e-9,
+                "{r}"
+            );
+        }
+    }
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("frame_loop.json")).unwrap())
+            .unwrap();
+    let frames = doc["rows"][0]["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3);
+    assert!(dir.join("frame_loop_car_32x24.svg").exists());
+    assert!(dir.join("frame_loop_rtperf_3000_32x24.svg").exists());
+    let csv = std::fs::read_to_string(dir.join("frame_loop.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + rows.len());
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_frame_loop"))
+        .args(["--scenes", "bunny", "--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("scene 'bunny' has no animation"));
 }

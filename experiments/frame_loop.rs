@@ -1,0 +1,280 @@
+//! The whole frame on the Cell (issue 27): for each animated scene, image
+//! size and arrangement of the SPEs, every policy of the frame loop —
+//! rebuild, local, deep, and section 5's `auto` judged by the oracle —
+//! played frame by frame, every time simulated PS3 time: frames per
+//! second, where each frame's time goes, predicted against measured.
+//!
+//! `cargo run --release --bin frame_loop -- [--scenes car,cup,rtperf:100000]
+//! [--sizes 320x240,640x480] [--frames 10] [--builder spe_bfs_private]
+//! [--spes 6] [--out results]`
+//!
+//! Writes frame_loop.{csv,json} (a row per scene, size, arrangement and
+//! policy; the JSON also holds every frame) and one SVG per scene and size:
+//! frame time per frame, a line per policy and arrangement.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::{Value, json};
+
+use cellbih::bih::BihConfig;
+use cellbih::cast::CastConfig;
+use cellbih::cell::CellConfig;
+use cellbih::frame::{FrameConfig, Policy, play};
+use cellbih::registry::BuilderKind;
+use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
+use cellbih::scene;
+use cellbih::update::{Animation, Method};
+
+#[derive(Parser)]
+struct Args {
+    /// Animated scenes, comma-separated: car, cup, rtperf:N[:SEED] (each
+    /// plays its own animation).
+    #[arg(long, value_delimiter = ',', default_value = "car,cup,rtperf:100000")]
+    scenes: Vec<String>,
+    /// Image sizes, comma-separated, WIDTHxHEIGHT.
+    #[arg(long, value_delimiter = ',', default_value = "320x240,640x480")]
+    sizes: Vec<String>,
+    /// Frames per run (1 to 1,000).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    frames: u64,
+    /// The builder of every rebuild (an emulated one).
+    #[arg(long, default_value = "spe_bfs_private")]
+    builder: String,
+    /// SPEs of the Cell (2 to 8: the paper's arrangement needs one to build
+    /// and one to render).
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(2..=8))]
+    spes: u64,
+    /// Seed of the animations' pseudo-random moves.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    #[arg(long, value_enum, default_value = "text")]
+    format: Format,
+    /// Directory for frame_loop.csv, frame_loop.json and the plots.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+}
+
+fn main() {
+    let args = Args::parse();
+    cellbih::report::experiment_main("frame_loop", &args.out, || run(&args));
+}
+
+/// The animation a scene plays.
+fn animation_of(spec: &str) -> Result<&'static str, String> {
+    match spec.split(':').next() {
+        Some("car") => Ok("car"),
+        Some("cup") => Ok("cup"),
+        Some("rtperf") => Ok("rtperf"),
+        _ => Err(format!(
+            "scene '{spec}' has no animation: the frame loop plays car, cup and rtperf:N"
+        )),
+    }
+}
+
+fn size_of(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("size '{s}': WIDTHxHEIGHT, e.g. 640x480");
+    let (w, h) = s.split_once('x').ok_or_else(bad)?;
+    let (w, h) = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
+    cellbih::render::check_size(w, h)?;
+    Ok((w, h))
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let builder = BuilderKind::from_name(&args.builder)
+        .filter(|b| b.emulated())
+        .ok_or_else(|| format!("--builder {}: an emulated builder", args.builder))?;
+    let sizes: Vec<(u32, u32)> = args
+        .sizes
+        .iter()
+        .map(|s| size_of(s))
+        .collect::<Result<_, _>>()?;
+    let scenes: Vec<(String, &str)> = (args.scenes.iter())
+        .map(|s| animation_of(s).map(|a| (s.clone(), a)))
+        .collect::<Result<_, _>>()?;
+    let spes = args.spes as usize;
+    let policies = [
+        Policy::Fixed(Method::Rebuild),
+        Policy::Fixed(Method::Local),
+        Policy::Fixed(Method::Deep),
+        Policy::Auto,
+    ];
+    let arrangements = [("section 5", spes), ("paper", 1)];
+    let runs = scenes.len() * sizes.len() * arrangements.len() * policies.len();
+    let bar = if std::io::stderr().is_terminal() {
+        let b = ProgressBar::new(runs as u64);
+        b.set_style(
+            ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} {elapsed}")
+                .map_err(|e| e.to_string())?,
+        );
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let mut rows = Vec::new();
+    for (spec, anim_name) in &scenes {
+        let s = scene::load(spec, None).map_err(|e| e.to_string())?;
+        let anim = Animation::named(anim_name, &s, args.frames as usize, args.seed)?;
+        for &(w, h) in &sizes {
+            let mut series = Vec::new();
+            for (ai, &(arrangement, build_spes)) in arrangements.iter().enumerate() {
+                for (pi, &policy) in policies.iter().enumerate() {
+                    bar.set_message(format!("{spec} {w}x{h} {arrangement} {}", policy.name()));
+                    let cfg = FrameConfig {
+                        builder,
+                        tree: BihConfig::default(),
+                        policy,
+                        oracle: policy == Policy::Auto,
+                        spes,
+                        build_spes,
+                        width: w,
+                        height: h,
+                        cast: CastConfig::DEFAULT,
+                    };
+                    let r = play(&s, &anim, &cfg, &CellConfig::ps3(), |_| {})
+                        .map_err(|e| format!("{spec}: {e}"))?;
+                    let n = r.frames.len() as f64;
+                    let mean = |f: &dyn Fn(&cellbih::frame::FrameReport) -> f64| {
+                        r.frames.iter().map(f).sum::<f64>() / n
+                    };
+                    let predicted: Vec<f64> = (r.frames.iter())
+                        .filter_map(|f| f.predicted.map(|p| cfg.frame_ms(p.update_ms, p.render_ms)))
+                        .collect();
+                    let prediction_error = (!predicted.is_empty()).then(|| {
+                        (r.frames.iter().zip(&predicted))
+                            .map(|(f, p)| (p - f.frame_ms).abs() / f.frame_ms)
+                            .sum::<f64>()
+                            / predicted.len() as f64
+                    });
+                    rows.push(json!({
+                        "scene": spec,
+                        "triangles": s.len(),
+                        "animation": anim_name,
+                        "width": w,
+                        "height": h,
+                        "arrangement": arrangement,
+                        "build_spes": build_spes,
+                        "render_spes": cfg.render_spes(),
+                        "policy": policy.name(),
+                        "total_ms": r.total_ms,
+                        "fps": r.fps,
+                        "mean_update_ms": mean(&|f| f.update_ms),
+                        "mean_render_ms": mean(&|f| f.render_ms),
+                        "complete_rebuilds": r.frames.iter().filter(|f| f.full_rebuild).count(),
+                        "near_best": r.near_best,
+                        "oracle_total_ms": r.oracle_total_ms,
+                        "prediction_error": prediction_error,
+                        "frames": r.frames,
+                    }));
+                    series.push(Series {
+                        name: format!("{} ({arrangement})", policy.name()),
+                        points: (r.frames.iter())
+                            .map(|f| (f.frame as f64, f.frame_ms))
+                            .collect(),
+                        color: pi,
+                        dashed: ai == 1,
+                    });
+                    bar.inc(1);
+                }
+            }
+            let file = format!("frame_loop_{}_{w}x{h}.svg", spec.replace(':', "_"));
+            let path = output(&args.out, &file).map_err(|e| e.to_string())?;
+            line_plot(
+                &path,
+                &format!("{spec}, {w} × {h}: frame time on the PS3 model"),
+                "frame",
+                "simulated ms",
+                &series,
+                false,
+            )
+            .map_err(|e| e.to_string())?;
+        }
+    }
+    bar.finish_and_clear();
+    const KEYS: [&str; 18] = [
+        "scene",
+        "triangles",
+        "animation",
+        "width",
+        "height",
+        "arrangement",
+        "build_spes",
+        "render_spes",
+        "policy",
+        "total_ms",
+        "fps",
+        "mean_update_ms",
+        "mean_render_ms",
+        "complete_rebuilds",
+        "near_best",
+        "oracle_total_ms",
+        "prediction_error",
+        "frames",
+    ];
+    let flat: Vec<Value> = rows
+        .iter()
+        .map(|r| {
+            let mut r = r.clone();
+            r["frames"] = json!(r["frames"].as_array().map_or(0, |f| f.len()));
+            r
+        })
+        .collect();
+    write_rows_csv(
+        &output(&args.out, "frame_loop.csv").map_err(|e| e.to_string())?,
+        &KEYS,
+        &flat,
+    )
+    .map_err(|e| e.to_string())?;
+    let note = "simulated PS3 ms on the default model; section 5: every SPE builds, then every SPE renders (frame = update + render); paper: one SPE builds the next frame while the others render (frame = the longer); near_best: auto's frames within 10 % of the oracle's best option; prediction_error: auto's mean |predicted − measured| / measured frame time";
+    write_json(
+        &output(&args.out, "frame_loop.json").map_err(|e| e.to_string())?,
+        &json!({ "note": note, "builder": builder.name(), "spes": spes, "rows": rows }),
+    )
+    .map_err(|e| e.to_string())?;
+    print_rows(args.format, &flat, |rows| table(rows, note))?;
+    eprintln!(
+        "written: {}/frame_loop.{{csv,json}}, frame_loop_*.svg",
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn table(rows: &[Value], note: &str) {
+    println!(
+        "{:<16} {:>9} {:<10} {:<8} {:>10} {:>7} {:>10} {:>10} {:>9} {:>8} {:>10}",
+        "scene",
+        "size",
+        "arrange",
+        "policy",
+        "total ms",
+        "fps",
+        "update ms",
+        "render ms",
+        "rebuilds",
+        "near",
+        "pred err"
+    );
+    for r in rows {
+        let pct = |k: &str| {
+            r[k].as_f64()
+                .map_or("-".into(), |v| format!("{:.0} %", v * 100.0))
+        };
+        println!(
+            "{:<16} {:>9} {:<10} {:<8} {:>10.2} {:>7.1} {:>10.2} {:>10.2} {:>9} {:>8} {:>10}",
+            r["scene"].as_str().unwrap_or(""),
+            format!("{}x{}", r["width"], r["height"]),
+            r["arrangement"].as_str().unwrap_or(""),
+            r["policy"].as_str().unwrap_or(""),
+            r["total_ms"].as_f64().unwrap_or(0.0),
+            r["fps"].as_f64().unwrap_or(0.0),
+            r["mean_update_ms"].as_f64().unwrap_or(0.0),
+            r["mean_render_ms"].as_f64().unwrap_or(0.0),
+            r["complete_rebuilds"].as_u64().unwrap_or(0),
+            pct("near_best"),
+            pct("prediction_error"),
+        );
+    }
+    println!("{note}");
+}
