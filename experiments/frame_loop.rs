@@ -30,10 +30,14 @@ use cellbih::update::{Animation, Method};
 
 #[derive(Parser)]
 struct Args {
-    /// Animated scenes, comma-separated: car, cup, rtperf:N[:SEED] (each
-    /// plays its own animation).
+    /// Scenes, comma-separated: car, cup and rtperf:N[:SEED] play their
+    /// own animations; any other scene (a mesh of the data directory) plays
+    /// `part`: 2 % of its triangles split off as a part that moves.
     #[arg(long, value_delimiter = ',', default_value = "car,cup,rtperf:100000")]
     scenes: Vec<String>,
+    /// Data directory of the real meshes (default: $CELLBIH_DATA).
+    #[arg(long)]
+    data: Option<PathBuf>,
     /// Image sizes, comma-separated, WIDTHxHEIGHT.
     #[arg(long, value_delimiter = ',', default_value = "320x240,640x480")]
     sizes: Vec<String>,
@@ -63,14 +67,12 @@ fn main() {
 }
 
 /// The animation a scene plays.
-fn animation_of(spec: &str) -> Result<&'static str, String> {
+fn animation_of(spec: &str) -> &'static str {
     match spec.split(':').next() {
-        Some("car") => Ok("car"),
-        Some("cup") => Ok("cup"),
-        Some("rtperf") => Ok("rtperf"),
-        _ => Err(format!(
-            "scene '{spec}' has no animation: the frame loop plays car, cup and rtperf:N"
-        )),
+        Some("car") => "car",
+        Some("cup") => "cup",
+        Some("rtperf") => "rtperf",
+        _ => "part",
     }
 }
 
@@ -92,8 +94,9 @@ fn run(args: &Args) -> Result<(), String> {
         .map(|s| size_of(s))
         .collect::<Result<_, _>>()?;
     let scenes: Vec<(String, &str)> = (args.scenes.iter())
-        .map(|s| animation_of(s).map(|a| (s.clone(), a)))
-        .collect::<Result<_, _>>()?;
+        .map(|s| (s.clone(), animation_of(s)))
+        .collect();
+    let data = scene::data_dir(args.data.as_deref());
     let spes = args.spes as usize;
     let policies = [
         Policy::Fixed(Method::Rebuild),
@@ -115,7 +118,8 @@ fn run(args: &Args) -> Result<(), String> {
     };
     let mut rows = Vec::new();
     for (spec, anim_name) in &scenes {
-        let s = scene::load(spec, None).map_err(|e| e.to_string())?;
+        let s = scene::load(spec, data.as_deref()).map_err(|e| e.to_string())?;
+        let s = Animation::prepare(anim_name, s).map_err(|e| e.to_string())?;
         let anim = Animation::named(anim_name, &s, args.frames as usize, args.seed)?;
         for &(w, h) in &sizes {
             let mut series = Vec::new();

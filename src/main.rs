@@ -176,8 +176,10 @@ enum Command {
         scene: SceneArg,
         #[command(flatten)]
         build: BuildArgs,
-        /// rtperf (one sphere nudged per frame), car (parts out and back)
-        /// or cup (the glass moved: every real move grows the scene box).
+        /// rtperf (one sphere nudged per frame), car (parts out and back),
+        /// cup (the glass moved: every real move grows the scene box) or
+        /// part (any mesh: 2 % of its triangles split off as a part that
+        /// moves up and down).
         #[arg(long)]
         animation: String,
         /// Frames to play, 0 to 100,000.
@@ -205,8 +207,9 @@ enum Command {
         scene: SceneArg,
         #[command(flatten)]
         build: BuildArgs,
-        /// rtperf (one sphere nudged per frame), car (parts out and back)
-        /// or cup (the glass moved).
+        /// rtperf (one sphere nudged per frame), car (parts out and back),
+        /// cup (the glass moved) or part (any mesh: 2 % of its triangles
+        /// split off as a part that moves up and down).
         #[arg(long)]
         animation: String,
         /// Frames to play, 1 to 100,000.
@@ -329,7 +332,7 @@ fn run(cli: Cli) -> Res<()> {
                 cache: &cache,
             };
             let cfg = frame::config(&c, &asked)?;
-            let s = scene.load()?;
+            let s = Animation::prepare(&animation, scene.load()?)?;
             let anim = Animation::named(&animation, &s, frames as usize, seed)?;
             frame::run(&s, &anim, &cfg, &c, format)
         }
@@ -347,7 +350,7 @@ fn run(cli: Cli) -> Res<()> {
             let method = Method::from_name(&strategy).ok_or_else(|| {
                 format!("unknown --strategy '{strategy}': local, deep or rebuild")
             })?;
-            let s = scene.load()?;
+            let s = Animation::prepare(&animation, scene.load()?)?;
             let anim = Animation::named(&animation, &s, frames as usize, seed)?;
             let mut u = Updater::new_on(s, c.builder, &c.cfg, c.cell, method)?;
             u.deep_stop_below = deep_stop_below;

@@ -267,8 +267,8 @@ fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
 
 /// `frame_loop`: a row for every scene, size, arrangement and policy, the
 /// frames behind each in the JSON, a plot per scene and size; `auto`
-/// judged by the oracle, the fixed policies not; a scene without an
-/// animation refused by name.
+/// judged by the oracle, the fixed policies not; a scene that cannot be
+/// loaded refused by name.
 #[test]
 fn frame_loop_plays_every_policy_in_both_arrangements() {
     let (rows, dir) = run_experiment(
@@ -313,9 +313,16 @@ fn frame_loop_plays_every_policy_in_both_arrangements() {
     let csv = std::fs::read_to_string(dir.join("frame_loop.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + rows.len());
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_frame_loop"))
-        .args(["--scenes", "bunny", "--out", dir.to_str().unwrap()])
+        .args([
+            "--scenes",
+            "no-such-mesh",
+            "--data",
+            "/nonexistent",
+            "--out",
+            dir.to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("scene 'bunny' has no animation"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-mesh"));
 }

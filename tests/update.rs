@@ -350,3 +350,47 @@ fn a_builder_error_puts_the_scene_back_and_keeps_a_valid_tree() {
         check(&u, method.name()).unwrap();
     }
 }
+
+/// The `part` animation plays on any mesh: `Animation::prepare` splits 2 %
+/// of its triangles (those nearest one point) off as the `moving part`,
+/// leaves every other animation's scene as it is, and every method keeps
+/// the tree valid and equal to brute force while the part moves; a plan
+/// counts before the update what the local update then rebuilds.
+#[test]
+fn a_mesh_with_a_moving_part_plays_and_plans_ahead() {
+    let s = scene::load("rtperf:4000:3", None).unwrap();
+    let same = Animation::prepare("rtperf", s.clone()).unwrap();
+    assert_eq!(same.geometry_ids, s.geometry_ids);
+    let p = Animation::prepare("part", s.clone()).unwrap();
+    assert_eq!(p.triangles, s.triangles);
+    let part = p
+        .geometry_names
+        .iter()
+        .position(|n| n == "moving part")
+        .unwrap() as u32;
+    let members = p.geometry_ids.iter().filter(|&&g| g == part).count();
+    assert_eq!(members, s.len() / 50);
+    // Without the split the animation has nothing to move, and says how.
+    let e = Animation::named("part", &s, 2, 0).unwrap_err();
+    assert!(e.contains("Animation::prepare"), "{e}");
+    let anim = Animation::named("part", &p, 6, 0).unwrap();
+    for &method in Method::ALL {
+        let mut u =
+            Updater::new(p.clone(), BuilderKind::HOST, &BihConfig::default(), method).unwrap();
+        for (f, moves) in anim.frames.iter().enumerate() {
+            let plan = u.plan(moves).unwrap();
+            let before = (u.scene.triangles.clone(), u.bih.nodes.clone());
+            // Planning changes nothing.
+            let again = u.plan(moves).unwrap();
+            assert_eq!(plan, again);
+            assert_eq!((u.scene.triangles.clone(), u.bih.nodes.clone()), before);
+            let r = u.step(moves).unwrap();
+            assert_eq!(plan.transformed, r.transformed, "{method:?} frame {f}");
+            if method == Method::Local {
+                assert_eq!(plan.full_rebuild, r.full_rebuild);
+                assert_eq!(plan.interval, r.rebuilt, "frame {f}");
+            }
+            check(&u, &format!("part, {} frame {f}", method.name())).unwrap();
+        }
+    }
+}
