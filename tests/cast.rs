@@ -66,6 +66,9 @@ proptest! {
         tile_rays in 1u32..=16,
         spes in 1usize..=8,
     ) {
+        // At most as many lines a miss as a way has sets.
+        let sets = kib * 1024 / 128 / ways;
+        let fetch_lines = 1 + (fetch_lines - 1) % sets;
         let cfg = CastConfig { cache: CacheConfig { kib, ways, fetch_lines }, tile_rays, ..CastConfig::DEFAULT };
         let rays = rays_for(&scene, 40, scene.len() as u64 + 7);
         for &b in BuilderKind::ALL {
