@@ -9,7 +9,6 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use rayon::prelude::*;
-use serde_json::json;
 
 use cellbih::bih::{RayStats, Tracer};
 use cellbih::cast::cast_on_cell;
@@ -18,7 +17,7 @@ use cellbih::output::{check_writable, write_file};
 use cellbih::registry::BuilderKind;
 use cellbih::render::{Camera, Frame, trace};
 use cellbih::scene::{self, Scene};
-use cellbih::update::{Animation, MAX_FRAMES, Method, Summary, Updater};
+use cellbih::update::{MAX_FRAMES, Method, Updater};
 use cellbih::{rays_csv, render};
 
 #[path = "cli/build_args.rs"]
@@ -31,10 +30,13 @@ mod compare;
 mod frame;
 #[path = "cli/print.rs"]
 mod print;
+#[path = "cli/update.rs"]
+mod update;
 
 use build_args::{BuildArgs, TreeArgs, parse_build};
 
 use print::{info, print_build};
+use update::{AnimationArg, update};
 
 /// Where the demo writes its image: the current directory.
 const DEMO_PNG: &str = "cellbih-demo.png";
@@ -176,12 +178,8 @@ enum Command {
         scene: SceneArg,
         #[command(flatten)]
         build: BuildArgs,
-        /// rtperf (one sphere nudged per frame), car (parts out and back),
-        /// cup (the glass moved: every real move grows the scene box) or
-        /// part (any mesh: 2 % of its triangles split off as a part that
-        /// moves up and down).
-        #[arg(long)]
-        animation: String,
+        #[command(flatten)]
+        anim: AnimationArg,
         /// Frames to play, 0 to 100,000.
         #[arg(long, default_value_t = 20,
               value_parser = clap::value_parser!(u64).range(0..=MAX_FRAMES as u64))]
@@ -193,9 +191,6 @@ enum Command {
         /// most this many triangles.
         #[arg(long, default_value_t = cellbih::update::DEEP_STOP_BELOW)]
         deep_stop_below: usize,
-        /// Seed of the animation's pseudo-random moves (rtperf).
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
     },
@@ -207,11 +202,8 @@ enum Command {
         scene: SceneArg,
         #[command(flatten)]
         build: BuildArgs,
-        /// rtperf (one sphere nudged per frame), car (parts out and back),
-        /// cup (the glass moved) or part (any mesh: 2 % of its triangles
-        /// split off as a part that moves up and down).
-        #[arg(long)]
-        animation: String,
+        #[command(flatten)]
+        anim: AnimationArg,
         /// Frames to play, 1 to 100,000.
         #[arg(long, default_value_t = 10,
               value_parser = clap::value_parser!(u64).range(1..=MAX_FRAMES as u64))]
@@ -239,9 +231,6 @@ enum Command {
         height: u32,
         #[command(flatten)]
         cache: cast_args::CacheArgs,
-        /// Seed of the animation's pseudo-random moves (rtperf).
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
     },
@@ -311,7 +300,7 @@ fn run(cli: Cli) -> Res<()> {
         Some(Command::Frame {
             scene,
             build,
-            animation,
+            anim,
             frames,
             policy,
             oracle,
@@ -319,7 +308,6 @@ fn run(cli: Cli) -> Res<()> {
             width,
             height,
             cache,
-            seed,
             format,
         }) => {
             let c = parse_build(&build)?;
@@ -332,26 +320,23 @@ fn run(cli: Cli) -> Res<()> {
                 cache: &cache,
             };
             let cfg = frame::config(&c, &asked)?;
-            let s = Animation::prepare(&animation, scene.load()?)?;
-            let anim = Animation::named(&animation, &s, frames as usize, seed)?;
+            let (s, anim) = anim.load(&scene, frames)?;
             frame::run(&s, &anim, &cfg, &c, format)
         }
         Some(Command::Update {
             scene,
             build,
-            animation,
+            anim,
             frames,
             strategy,
             deep_stop_below,
-            seed,
             format,
         }) => {
             let c = parse_build(&build)?;
             let method = Method::from_name(&strategy).ok_or_else(|| {
                 format!("unknown --strategy '{strategy}': local, deep or rebuild")
             })?;
-            let s = Animation::prepare(&animation, scene.load()?)?;
-            let anim = Animation::named(&animation, &s, frames as usize, seed)?;
+            let (s, anim) = anim.load(&scene, frames)?;
             let mut u = Updater::new_on(s, c.builder, &c.cfg, c.cell, method)?;
             u.deep_stop_below = deep_stop_below;
             update(&mut u, &anim, format)
@@ -499,7 +484,6 @@ fn run(cli: Cli) -> Res<()> {
     }
 }
 
-/// Checks before any work that `path` names a PNG file that can be written.
 /// "1 SPE", "6 SPEs".
 fn spes(n: usize) -> String {
     match n {
@@ -522,6 +506,7 @@ fn shown(path: &Path) -> String {
     }
 }
 
+/// Checks before any work that `path` names a PNG file that can be written.
 fn check_png(path: &Path) -> Res<()> {
     // `-`: the PNG goes to the standard output.
     let png = path.as_os_str() == "-"
@@ -543,96 +528,6 @@ fn write_png(path: &Path, img: &image::RgbImage) -> Res<()> {
     let mut png = Vec::new();
     img.write_with_encoder(image::codecs::png::PngEncoder::new(&mut png))?;
     Ok(cellbih::output::write_bytes(path, &png)?)
-}
-
-fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
-    let text = matches!(format, Format::Text);
-    if text {
-        println!(
-            "{} on {} ({} triangles), {} update, builder {}{}",
-            anim.name,
-            u.scene.name,
-            u.scene.len(),
-            u.method.name(),
-            u.builder,
-            if u.builder.emulated() {
-                format!(" on {}", spes(u.cell.spes))
-            } else {
-                String::new()
-            }
-        );
-        println!(
-            "{:>5} {:>5} {:>8} {:>5} {:>13} {:>7} {:>7} {:>7} {:>9} {:>9}",
-            "frame", "moves", "kind", "depth", "stop", "trans", "rec", "kept", "host ms", "sim ms"
-        );
-    }
-    let mut reports = Vec::with_capacity(anim.frames.len());
-    for (f, moves) in anim.frames.iter().enumerate() {
-        let r = u.step(moves)?;
-        if text {
-            let kind = match (r.full_rebuild, moves.iter().all(|m| m.is_identity())) {
-                (true, _) => "rebuild",
-                (false, true) => "marked",
-                (false, false) => "partial",
-            };
-            let stop = r.stop.map_or("-".to_string(), |s| format!("{s:?}"));
-            let sim = r.simulated_ms.map_or("-".into(), |ms| format!("{ms:.3}"));
-            println!(
-                "{f:>5} {:>5} {kind:>8} {:>5} {stop:>13} {:>7} {:>7} {:>7} {:>9.3} {sim:>9}",
-                r.moves, r.depth, r.transformed, r.rebuilt, r.kept, r.host_ms
-            );
-        }
-        reports.push(r);
-    }
-    let sum = Summary::of(&reports);
-    let sah = u.bih.quality().sah_cost;
-    // A fresh build by the update's own builder, so that the comparison
-    // shows what the update did to the tree, not how builders differ.
-    let fresh = u
-        .builder
-        .build_on(&u.scene, &u.bih.config, &u.cell)?
-        .bih
-        .quality()
-        .sah_cost;
-    if text {
-        let Some(sum) = sum else {
-            println!("\nno frames ran (--frames 0): nothing to sum up");
-            println!("SAH cost of the tree {sah:.2}");
-            return Ok(());
-        };
-        let ratio = sum.ratio.map_or("no complete rebuilds".to_string(), |r| {
-            format!("ratio {r:.2}")
-        });
-        println!(
-            "\nupdates {} · complete rebuilds {} · {ratio}",
-            sum.updates, sum.rebuilds
-        );
-        let [lo, hi, avg] = sum.host_ms;
-        println!("host ms per frame: min {lo:.3} · max {hi:.3} · mean {avg:.3}");
-        if let Some([lo, hi, avg]) = sum.simulated_ms {
-            println!("simulated ms per frame: min {lo:.3} · max {hi:.3} · mean {avg:.3}");
-        }
-        println!(
-            "mean triangles: transformed {:.1} · rebuilt {:.1} · difference {:.1} · kept {:.1}; mean depth {:.2}",
-            sum.transformed, sum.rebuilt, sum.delta, sum.kept, sum.depth
-        );
-        println!(
-            "SAH cost after the last frame {sah:.2}, of a fresh build by {} {fresh:.2} ({:+.1}%)",
-            u.builder,
-            (sah / fresh - 1.0) * 100.0
-        );
-    } else {
-        println!(
-            "{}",
-            json!({
-                "scene": u.scene.name, "triangles": u.scene.len(), "animation": anim.name,
-                "method": u.method, "builder": u.builder.name(),
-                "spes": u.builder.emulated().then_some(u.cell.spes), "frames": reports,
-                "summary": sum, "sah_after": sah, "sah_fresh_build": fresh,
-            })
-        );
-    }
-    Ok(())
 }
 
 /// `cargo run --release`: every builder on the default scene, then primary

@@ -38,30 +38,11 @@ fn a_frame_is_its_update_and_its_render_as_the_arrangement_says() {
     let anim = Animation::named("rtperf", &s, 4, 3).unwrap();
     let cell = CellConfig::ps3();
     for policy in [Method::Rebuild, Method::Local, Method::Deep] {
-        let all = play(
-            &s,
-            &anim,
-            &cfg("spe_bfs_private", policy, 6, 6),
-            &cell,
-            |_| {},
-        )
-        .unwrap();
-        let again = play(
-            &s,
-            &anim,
-            &cfg("spe_bfs_private", policy, 6, 6),
-            &cell,
-            |_| {},
-        )
-        .unwrap();
-        let paper = play(
-            &s,
-            &anim,
-            &cfg("spe_bfs_private", policy, 6, 1),
-            &cell,
-            |_| {},
-        )
-        .unwrap();
+        let run = |build_spes| {
+            let c = cfg("spe_bfs_private", policy, 6, build_spes);
+            play(&s, &anim, &c, &cell, |_| {}).unwrap()
+        };
+        let (all, again, paper) = (run(6), run(6), run(1));
         assert_eq!(all.frames.len(), 4);
         let mut u = Updater::new_on(
             s.clone(),

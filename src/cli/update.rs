@@ -1,0 +1,122 @@
+//! `cellbih update`'s printing and the animation options `update` and
+//! `frame` share.
+
+use serde_json::json;
+
+use cellbih::update::{Animation, Summary, Updater};
+
+use super::{Format, Res, SceneArg};
+use cellbih::scene::Scene;
+
+/// `--animation` and `--seed` of `update` and `frame`.
+#[derive(clap::Args)]
+pub struct AnimationArg {
+    /// rtperf (one sphere nudged per frame), car (parts out and back), cup
+    /// (the glass moved: every real move grows the scene box) or part (any
+    /// mesh: 2 % of its triangles split off as a part that moves up and
+    /// down).
+    #[arg(long)]
+    animation: String,
+    /// Seed of the animation's pseudo-random moves (rtperf).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+impl AnimationArg {
+    /// The scene as the animation plays it, and its frames.
+    pub fn load(&self, scene: &SceneArg, frames: u64) -> Res<(Scene, Animation)> {
+        let s = Animation::prepare(&self.animation, scene.load()?)?;
+        let anim = Animation::named(&self.animation, &s, frames as usize, self.seed)?;
+        Ok((s, anim))
+    }
+}
+
+pub fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
+    let text = matches!(format, Format::Text);
+    if text {
+        println!(
+            "{} on {} ({} triangles), {} update, builder {}{}",
+            anim.name,
+            u.scene.name,
+            u.scene.len(),
+            u.method.name(),
+            u.builder,
+            if u.builder.emulated() {
+                format!(" on {}", super::spes(u.cell.spes))
+            } else {
+                String::new()
+            }
+        );
+        println!(
+            "{:>5} {:>5} {:>8} {:>5} {:>13} {:>7} {:>7} {:>7} {:>9} {:>9}",
+            "frame", "moves", "kind", "depth", "stop", "trans", "rec", "kept", "host ms", "sim ms"
+        );
+    }
+    let mut reports = Vec::with_capacity(anim.frames.len());
+    for (f, moves) in anim.frames.iter().enumerate() {
+        let r = u.step(moves)?;
+        if text {
+            let kind = match (r.full_rebuild, moves.iter().all(|m| m.is_identity())) {
+                (true, _) => "rebuild",
+                (false, true) => "marked",
+                (false, false) => "partial",
+            };
+            let stop = r.stop.map_or("-".to_string(), |s| format!("{s:?}"));
+            let sim = r.simulated_ms.map_or("-".into(), |ms| format!("{ms:.3}"));
+            println!(
+                "{f:>5} {:>5} {kind:>8} {:>5} {stop:>13} {:>7} {:>7} {:>7} {:>9.3} {sim:>9}",
+                r.moves, r.depth, r.transformed, r.rebuilt, r.kept, r.host_ms
+            );
+        }
+        reports.push(r);
+    }
+    let sum = Summary::of(&reports);
+    let sah = u.bih.quality().sah_cost;
+    // A fresh build by the update's own builder, so that the comparison
+    // shows what the update did to the tree, not how builders differ.
+    let fresh = u
+        .builder
+        .build_on(&u.scene, &u.bih.config, &u.cell)?
+        .bih
+        .quality()
+        .sah_cost;
+    if text {
+        let Some(sum) = sum else {
+            println!("\nno frames ran (--frames 0): nothing to sum up");
+            println!("SAH cost of the tree {sah:.2}");
+            return Ok(());
+        };
+        let ratio = sum.ratio.map_or("no complete rebuilds".to_string(), |r| {
+            format!("ratio {r:.2}")
+        });
+        println!(
+            "\nupdates {} · complete rebuilds {} · {ratio}",
+            sum.updates, sum.rebuilds
+        );
+        let [lo, hi, avg] = sum.host_ms;
+        println!("host ms per frame: min {lo:.3} · max {hi:.3} · mean {avg:.3}");
+        if let Some([lo, hi, avg]) = sum.simulated_ms {
+            println!("simulated ms per frame: min {lo:.3} · max {hi:.3} · mean {avg:.3}");
+        }
+        println!(
+            "mean triangles: transformed {:.1} · rebuilt {:.1} · difference {:.1} · kept {:.1}; mean depth {:.2}",
+            sum.transformed, sum.rebuilt, sum.delta, sum.kept, sum.depth
+        );
+        println!(
+            "SAH cost after the last frame {sah:.2}, of a fresh build by {} {fresh:.2} ({:+.1}%)",
+            u.builder,
+            (sah / fresh - 1.0) * 100.0
+        );
+    } else {
+        println!(
+            "{}",
+            json!({
+                "scene": u.scene.name, "triangles": u.scene.len(), "animation": anim.name,
+                "method": u.method, "builder": u.builder.name(),
+                "spes": u.builder.emulated().then_some(u.cell.spes), "frames": reports,
+                "summary": sum, "sah_after": sah, "sah_fresh_build": fresh,
+            })
+        );
+    }
+    Ok(())
+}
