@@ -27,10 +27,12 @@ use cellbih::bih::{BihConfig, SplitChoice, Tracer};
 
 /// The `--sah-above` setting the grid tries beside binning every node.
 const SAH_ABOVE: u32 = 4096;
+use cellbih::cast::{CastConfig, cast_on_cell};
 use cellbih::cell::CellConfig;
 use cellbih::quality::pareto_front;
 use cellbih::quality::rays::RaySets;
 use cellbih::registry::{BuilderKind, Quality};
+use cellbih::render::Camera;
 use cellbih::report::{
     Format, Series, output, print_rows, scatter_plot, write_json, write_rows_csv,
 };
@@ -157,12 +159,14 @@ fn run(args: &Args) -> Result<(), String> {
     let mut rows: Vec<Value> = Vec::new();
     for s in &scenes {
         let rays = RaySets::standard(&s.bounds());
+        let cam = Camera::framing(&s.bounds(), CAST_SIZE.0, CAST_SIZE.1).rays();
         let first = rows.len();
         for st in &settings {
             let label = format!("{} {}", st.builder, st.flags);
             bar.set_message(format!("{}: {}", s.name, label.trim()));
             rows.push(
-                measure(s, st, &cell, &rays).map_err(|e| format!("{}, {label}: {e}", s.name))?,
+                measure(s, st, &cell, (&rays, &cam))
+                    .map_err(|e| format!("{}, {label}: {e}", s.name))?,
             );
             bar.inc(1);
         }
@@ -188,6 +192,7 @@ fn run(args: &Args) -> Result<(), String> {
         "incoherent_triangles",
         "incoherent_cost",
         "incoherent_mrays_per_s",
+        "cell_render_ms",
         "front_ps3",
         "front_host",
     ];
@@ -202,7 +207,7 @@ fn run(args: &Args) -> Result<(), String> {
         "rows": rows,
         "frames": frames(&rows),
         "spes": args.spes,
-        "note": "simulated_ms: PS3 model (timed mode), multi-SPE builders on `spes` SPEs; host_ms: this machine, one thread (median of 3 for the host builder, the emulation's time for the others); *_cost: nodes visited + triangles tested per ray, closest hit; fronts: Pareto fronts of build ms against primary cost",
+        "note": "simulated_ms: PS3 model (timed mode), multi-SPE builders on `spes` SPEs; host_ms: this machine, one thread (median of 3 for the host builder, the emulation's time for the others); *_cost: nodes visited + triangles tested per ray, closest hit; cell_render_ms: simulated PS3 ms to cast the camera's 320 x 240 primary rays on `spes` SPEs (emulated builders' rows); fronts: Pareto fronts of build ms against primary cost; frames: for R rays a frame, the host setting with the least build + trace ms (one thread) and the emulated setting with the least simulated build + cast ms (ps3)",
     });
     write_json(&output(&args.out, "tradeoff.json").map_err(io)?, &doc).map_err(io)?;
     plots(&args.out, &rows).map_err(|e| e.to_string())?;
@@ -213,8 +218,19 @@ fn run(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
-/// Builds `s` with one setting, checks the tree, measures its rays.
-fn measure(s: &Scene, st: &Setting, cell: &CellConfig, rays: &RaySets) -> Result<Value, String> {
+/// The camera image whose primary rays each emulated setting's tree is
+/// cast with on the SPEs: the render in PS3 time, per ray.
+const CAST_SIZE: (u32, u32) = (320, 240);
+
+/// Builds `s` with one setting, checks the tree, measures its rays on the
+/// host and, for an emulated builder, casts the camera's rays `cam` on the
+/// SPEs: build and render in one currency.
+fn measure(
+    s: &Scene,
+    st: &Setting,
+    cell: &CellConfig,
+    (rays, cam): (&RaySets, &[cellbih::bih::Ray]),
+) -> Result<Value, String> {
     let build = || {
         (st.builder
             .build_with(s, s.bounds(), &st.cfg, cell, &st.knobs))
@@ -241,6 +257,13 @@ fn measure(s: &Scene, st: &Setting, cell: &CellConfig, rays: &RaySets) -> Result
     let p = runs[1].0;
     runs.sort_by(|a, b| a.1.mrays_per_s.total_cmp(&b.1.mrays_per_s));
     let i = runs[1].1;
+    let cell_render_ms = if st.builder.emulated() {
+        let c =
+            cast_on_cell(&r.bih, s, cam, &CastConfig::DEFAULT, cell).map_err(|e| e.to_string())?;
+        Some(c.run.ms)
+    } else {
+        None
+    };
     Ok(json!({
         "scene": s.name, "triangles": s.len(), "builder": st.builder.name(), "setting": st.flags,
         "emulated": st.builder.emulated(),
@@ -250,6 +273,8 @@ fn measure(s: &Scene, st: &Setting, cell: &CellConfig, rays: &RaySets) -> Result
         "primary_mrays_per_s": p.mrays_per_s,
         "incoherent_nodes": i.nodes, "incoherent_triangles": i.triangles,
         "incoherent_cost": i.per_ray(), "incoherent_mrays_per_s": i.mrays_per_s,
+        "cell_render_ms": cell_render_ms,
+        "cell_ms_per_ray": cell_render_ms.map(|ms| ms / cam.len() as f64),
     }))
 }
 
@@ -291,15 +316,29 @@ fn label(r: &Value) -> String {
 const FRAME_RAYS: [f64; 5] = [1e4, 1e5, 1e6, 1e7, 1e8];
 
 /// For each scene and each frame of R rays, the host setting with the least
-/// build + trace time (one thread), for primary and for incoherent rays.
+/// build + trace time (one thread), for primary and for incoherent rays;
+/// and the emulated setting with the least simulated build + cast of R
+/// primary rays on the SPEs (`ps3`: the cast's time per ray of the
+/// camera's rays, times R).
 fn frames(rows: &[Value]) -> Vec<Value> {
     let mut out = Vec::new();
     for scene in scene_names(rows) {
         let host: Vec<&Value> = (rows.iter())
             .filter(|r| r["scene"] == scene && r["emulated"] == false)
             .collect();
+        let ps3: Vec<&Value> = (rows.iter())
+            .filter(|r| r["scene"] == scene && r["cell_ms_per_ray"].is_f64())
+            .collect();
         for r_rays in FRAME_RAYS {
             let mut row = json!({ "scene": scene, "rays": r_rays });
+            let total = |r: &Value| num(&r["simulated_ms"]) + r_rays * num(&r["cell_ms_per_ray"]);
+            if let Some(best) = ps3.iter().min_by(|a, b| total(a).total_cmp(&total(b))) {
+                row["ps3"] = json!({
+                    "setting": label(best), "total_ms": total(best),
+                    "build_ms": num(&best["simulated_ms"]),
+                    "render_ms": r_rays * num(&best["cell_ms_per_ray"]),
+                });
+            }
             for set in ["primary", "incoherent"] {
                 let total = |r: &Value| {
                     num(&r["host_ms"]) + r_rays / (num(&r[format!("{set}_mrays_per_s")]) * 1e3)
@@ -391,6 +430,20 @@ fn print_tables(rows: &[Value]) {
                 num(&f["rays"]),
                 cell("primary"),
                 cell("incoherent")
+            );
+        }
+        println!(
+            "frame of R primary rays on the PS3 (simulated): the setting with the least build + cast on the SPEs"
+        );
+        for f in frames(rows).iter().filter(|f| f["scene"] == scene.as_str()) {
+            let b = &f["ps3"];
+            println!(
+                "  R = {:>9.0e}: {} ({:.1} ms: build {:.1} + render {:.1})",
+                num(&f["rays"]),
+                b["setting"].as_str().unwrap_or("-"),
+                num(&b["total_ms"]),
+                num(&b["build_ms"]),
+                num(&b["render_ms"])
             );
         }
     }

@@ -70,6 +70,27 @@ fn tradeoff_writes_every_setting_with_its_fronts() {
             .unwrap()
             .starts_with("host")
     );
+    // Build and render in one currency: every emulated row's tree cast on
+    // the SPEs, and for each frame size the PS3 setting with the least
+    // build + render, which no other emulated row beats.
+    for r in &rows {
+        assert_eq!(r["cell_render_ms"].is_f64(), r["emulated"] == true, "{r}");
+    }
+    for f in doc["frames"].as_array().unwrap() {
+        let rays = f["rays"].as_f64().unwrap();
+        let best = f["ps3"]["total_ms"].as_f64().unwrap();
+        for r in rows.iter().filter(|r| r["emulated"] == true) {
+            let t =
+                r["simulated_ms"].as_f64().unwrap() + rays * r["cell_ms_per_ray"].as_f64().unwrap();
+            assert!(t >= best - 1e-9, "{r} beats {f}");
+        }
+    }
+    let small = &doc["frames"][0]["ps3"];
+    let large = &doc["frames"][4]["ps3"];
+    assert!(
+        small["build_ms"].as_f64() <= large["build_ms"].as_f64(),
+        "{small} {large}"
+    );
     let csv = std::fs::read_to_string(dir.join("tradeoff.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + rows.len());
     assert!(dir.join("tradeoff_default.svg").exists());
