@@ -28,7 +28,25 @@ fn compare_puts_every_builder_side_by_side() {
             "{name}"
         );
     }
+    // The render in the build's currency: every emulated builder's tree
+    // cast on the SPEs; the same tree numbered alike casts in the same
+    // simulated time (ppe_naive and spe_dfs number nodes depth first, the
+    // breadth-first builders level by level).
+    assert!(row("host")["cell_render_ms"].is_null());
+    assert_eq!(
+        row("ppe_naive")["cell_render_ms"],
+        row("spe_dfs")["cell_render_ms"]
+    );
+    assert_eq!(
+        row("spe_bfs")["cell_render_ms"],
+        row("spe_bfs_private")["cell_render_ms"]
+    );
     for r in rows {
+        assert_eq!(
+            r["cell_render_ms"].is_f64(),
+            !r["simulated_ms"].is_null(),
+            "{r}"
+        );
         assert!(r["ray_nodes"].as_f64().unwrap() > 0.0, "{r}");
         assert!(r["incoherent"]["nodes"].as_f64().unwrap() > 0.0, "{r}");
         assert!(r["tree_bytes"].as_u64().unwrap() > 0, "{r}");
@@ -37,7 +55,7 @@ fn compare_puts_every_builder_side_by_side() {
     assert_ok(&text);
     let text = String::from_utf8_lossy(&text.stdout);
     assert!(
-        text.contains("speedup") && text.contains("spe_morton"),
+        text.contains("speedup") && text.contains("spe_morton") && text.contains("Cell render"),
         "{text}"
     );
 }
@@ -106,6 +124,8 @@ fn a_failing_builder_is_named_and_the_others_are_compared() {
         "{stdout}"
     );
     assert!(stderr.contains("builder(s) failed"), "{stderr}");
+    // The cast on the SPEs does not fit 5 MiB either: said, not fatal.
+    assert!(stdout.contains("not cast on the SPEs, builder"), "{stdout}");
     let mut json = args.to_vec();
     json.extend(["--format", "json"]);
     let out = common::cellbih(&json);

@@ -10,19 +10,32 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use cellbih::bih::{BihConfig, Tracer};
+use cellbih::cast::{CastConfig, cast_on_cell};
 use cellbih::cell::CellConfig;
 use cellbih::quality::rays::{RayCost, RaySets};
 use cellbih::registry::{BuildReport, BuilderKind};
+use cellbih::render::Camera;
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
 
 use super::Format;
+
+/// The camera image whose primary rays `compare` casts on the SPEs
+/// through each emulated builder's tree: the render, in the build's
+/// currency.
+pub const CAST_SIZE: (u32, u32) = (320, 240);
 
 /// One builder's row.
 pub struct Row {
     pub builder: BuilderKind,
     pub host_ms: f64,
     pub simulated_ms: Option<f64>,
+    /// Emulated builders: simulated ms to cast the camera's
+    /// [`CAST_SIZE`] primary rays through the tree on the SPEs.
+    pub render_ms: Option<f64>,
+    /// Why the cast on the SPEs could not run (it needs the tree, the
+    /// triangles and the rays in the emulated memory), if it could not.
+    pub render_error: Option<String>,
     pub nodes: usize,
     pub depth: u32,
     pub sah: f64,
@@ -63,6 +76,7 @@ pub fn rows(
         ProgressBar::hidden()
     };
     let rays = RaySets::standard(&s.bounds());
+    let cam = Camera::framing(&s.bounds(), CAST_SIZE.0, CAST_SIZE.1).rays();
     let mut out = Vec::new();
     let (mut last, mut failed) = (None, Vec::new());
     for b in builders {
@@ -79,10 +93,19 @@ pub fn rows(
         let q = r.bih.quality();
         let tracer = Tracer::new(&r.bih, s);
         let (primary, incoherent) = rays.measure(&tracer);
+        let (mut render_ms, mut render_error) = (None, None);
+        if r.simulated.as_ref().is_some_and(|m| m.run.timed) {
+            match cast_on_cell(&r.bih, s, &cam, &CastConfig::DEFAULT, cell) {
+                Ok(c) => render_ms = Some(c.run.ms),
+                Err(e) => render_error = Some(e.to_string()),
+            }
+        }
         out.push(Row {
             builder: b,
             host_ms: r.host_time.as_secs_f64() * 1e3,
             simulated_ms: r.simulated.as_ref().map(|m| m.run.ms),
+            render_ms,
+            render_error,
             nodes: q.nodes,
             depth: q.max_depth,
             sah: q.sah_cost,
@@ -126,6 +149,7 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
                 json!({
                     "builder": r.builder.name(), "host_ms": r.host_ms,
                     "simulated_ms": r.simulated_ms, "speedup_over_spe_bfs": speedup(r),
+                    "cell_render_ms": r.render_ms, "cell_render_error": r.render_error,
                     "nodes": r.nodes, "depth": r.depth, "sah_cost": r.sah,
                     "ray_nodes": r.primary.nodes, "ray_triangles": r.primary.triangles,
                     "mrays_per_s": r.primary.mrays_per_s, "incoherent": r.incoherent,
@@ -146,10 +170,11 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
         .max()
         .unwrap_or(0);
     println!(
-        "{:<w$} {:>9} {:>8} {:>8} {:>8} {:>6} {:>9} {:>11} {:>8} {:>11} {:>8} {:>9} {:>9}",
+        "{:<w$} {:>9} {:>8} {:>11} {:>8} {:>8} {:>6} {:>9} {:>11} {:>8} {:>11} {:>8} {:>9} {:>9}",
         "builder",
         "Cell ms",
         "speedup",
+        "Cell render",
         "host ms",
         "nodes",
         "depth",
@@ -164,10 +189,11 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
     for r in rows {
         let opt = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |v| format!("{v:.d$}"));
         println!(
-            "{:<w$} {:>9} {:>8} {:>8.2} {:>8} {:>6} {:>9.2} {:>11} {:>8.2} {:>11} {:>8.2} {:>9.1} {:>9}",
+            "{:<w$} {:>9} {:>8} {:>11} {:>8.2} {:>8} {:>6} {:>9.2} {:>11} {:>8.2} {:>11} {:>8.2} {:>9.1} {:>9}",
             r.builder.name(),
             opt(r.simulated_ms, 2),
             opt(speedup(r), 2),
+            opt(r.render_ms, 2),
             r.host_ms,
             r.nodes,
             r.depth,
@@ -187,6 +213,11 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
             cfg.flags()
         );
     }
+    for r in rows {
+        if let Some(e) = &r.render_error {
+            println!("\nnot cast on the SPEs, builder {}: {e}", r.builder);
+        }
+    }
     for (b, e) in &c.failed {
         println!("\nFAILED: builder {b}: {e}");
     }
@@ -197,10 +228,13 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
     };
     println!(
         "\ntrees{with} valid; \"Cell ms\": simulated time on the PS3 model (multi-SPE builders on {}); \
-         speedup over spe_bfs (one SPE, the paper's baseline); primary, incoherent: nodes visited + \
+         speedup over spe_bfs (one SPE, the paper's baseline); \"Cell render\": simulated ms to cast \
+         the camera's {}×{} primary rays through the tree on the SPEs; primary, incoherent: nodes visited + \
          triangles tested per ray (primary rays of the render camera; 16,384 rays from random points \
          in the scene box in random directions), closest hit; host figures: this machine, one thread; \
          tree KiB: nodes and triangle ids; Cell MiB: main memory the emulated build used (every buffer)",
-        super::spes(spes)
+        super::spes(spes),
+        CAST_SIZE.0,
+        CAST_SIZE.1
     );
 }
