@@ -17,7 +17,7 @@
 //! - **render**: the render the tree would give — after a rebuild, the
 //!   render measured after the last complete rebuild; after an update, the
 //!   last render (an update keeps the tree as it is around the moved
-//!   objects).
+//!   objects); before the first frame, the first tree's render.
 //!
 //! A frame's predicted time combines the two as the arrangement does (sum,
 //! or the longer); the least wins, ties going to the lower sum, then to
@@ -70,6 +70,13 @@ impl Predictor {
             p.learn_build(triangles, ms);
         }
         p
+    }
+
+    /// The render of the first tree, before any frame: what a fresh
+    /// tree and an unchanged one cost to cast.
+    pub fn seed_render(&mut self, render_ms: f64) {
+        self.render_fresh = Some(render_ms);
+        self.render_now = Some(render_ms);
     }
 
     /// A build's work: `n·log2(n / leaf size)` (at least one level).

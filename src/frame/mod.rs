@@ -228,6 +228,13 @@ pub fn play(
         Method::Rebuild,
     )?;
     let mut predictor = auto::Predictor::new(cfg.tree.leaf_size, scene.len(), u.first_build_ms);
+    if cfg.policy == Policy::Auto {
+        // The frame before the first, as a running renderer has it: the
+        // first tree's render, so that the first prediction has one (not
+        // counted in the frames).
+        let before = cast_on_cell(&u.bih, &u.scene, &rays, &cfg.cast, &render_cell)?;
+        predictor.seed_render(before.run.ms);
+    }
     let mut frames = Vec::with_capacity(anim.frames.len());
     for (i, moves) in anim.frames.iter().enumerate() {
         let (taken, plan, predicted) = match cfg.policy {
