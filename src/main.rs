@@ -391,7 +391,7 @@ fn run(cli: Cli) -> Res<()> {
             cast,
         }) => {
             let c = parse_build(&build)?;
-            let on_cell = cast.config()?;
+            let on_cell = cast.config(c.cell.cost.charge_compute)?;
             check_writable(&out)?;
             // `-`: the rays come on the standard input.
             let rays = if rays.as_os_str() == "-" {
@@ -405,7 +405,9 @@ fn run(cli: Cli) -> Res<()> {
             let report = c.build(&s)?;
             let (hits, cell_report) = match &on_cell {
                 Some(cfg) => {
-                    let r = cast_on_cell(&report.bih, &s, &rays, cfg, &c.cell)?;
+                    let mut cell = c.cell.clone();
+                    cell.trace = cast.trace.is_some();
+                    let r = cast_on_cell(&report.bih, &s, &rays, cfg, &cell)?;
                     (r.hits.clone(), Some(r))
                 }
                 None => {
@@ -427,6 +429,7 @@ fn run(cli: Cli) -> Res<()> {
             );
             if let Some(r) = &cell_report {
                 eprintln!("{}", cast_args::describe(r, c.cell.spes));
+                cast_args::write_trace(&cast, r)?;
             }
             Ok(())
         }
@@ -440,7 +443,7 @@ fn run(cli: Cli) -> Res<()> {
             cast,
         }) => {
             let c = parse_build(&build)?;
-            let on_cell = cast.config()?;
+            let on_cell = cast.config(c.cell.cost.charge_compute)?;
             render::check_size(width, height)?;
             check_png(&out)?;
             let s = scene.load()?;
@@ -448,7 +451,9 @@ fn run(cli: Cli) -> Res<()> {
             let cam = Camera::framing(&s.bounds(), width, height);
             let (frame, cell_report) = match &on_cell {
                 Some(cfg) => {
-                    let r = cast_on_cell(&report.bih, &s, &cam.rays(), cfg, &c.cell)?;
+                    let mut cell = c.cell.clone();
+                    cell.trace = cast.trace.is_some();
+                    let r = cast_on_cell(&report.bih, &s, &cam.rays(), cfg, &cell)?;
                     let f = Frame::of_hits(&cam, &s.triangles, &r.hits, &r.costs, r.stats());
                     (f, Some(r))
                 }
@@ -478,6 +483,7 @@ fn run(cli: Cli) -> Res<()> {
             );
             if let Some(r) = &cell_report {
                 eprintln!("{}", cast_args::describe(r, c.cell.spes));
+                cast_args::write_trace(&cast, r)?;
             }
             Ok(())
         }

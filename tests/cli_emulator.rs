@@ -407,6 +407,55 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
             assert_eq!(pngs[0], pngs[1], "the shaded images differ");
         }
     }
+    // The cast's timeline: every SPE on it; refused without --on-cell and
+    // in the functional mode, before any work.
+    let trace = tmp("on_cell_trace.json");
+    let png = tmp("on_cell_traced.png");
+    let (t, p) = (trace.to_str().unwrap(), png.to_str().unwrap());
+    let args = [
+        "render",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--out",
+        p,
+        "--on-cell",
+        "--spes",
+        "2",
+        "--trace",
+        t,
+    ];
+    assert_ok(&cellbih(&args));
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
+    let names: std::collections::BTreeSet<String> = (doc["traceEvents"].as_array().unwrap().iter())
+        .filter(|e| e["ph"] == "M")
+        .filter_map(|e| e["args"]["name"].as_str().map(String::from))
+        .collect();
+    assert!(
+        names.contains("SPE 0") && names.contains("SPE 1"),
+        "{names:?}"
+    );
+    let _ = std::fs::remove_file(&png);
+    assert_fails_with(
+        &cellbih(&["render", "--out", p, "--trace", t]),
+        "--trace applies to --on-cell only",
+    );
+    assert_fails_with(
+        &cellbih(&[
+            "render",
+            "--out",
+            p,
+            "--on-cell",
+            "--trace",
+            t,
+            "--mode",
+            "functional",
+        ]),
+        "keeps no timeline",
+    );
+    assert!(!png.exists(), "nothing rendered");
     for option in [
         ["--cache-kib", "8"],
         ["--tile-rays", "16"],

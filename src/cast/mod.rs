@@ -21,7 +21,7 @@ use glam::DVec3;
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, Hit, Ray, RayStats};
-use crate::cell::{Cell, CellConfig, CellError, Cycles, Ea, Label, RunReport};
+use crate::cell::{Cell, CellConfig, CellError, Cycles, Ea, Label, RunReport, Trace};
 use crate::kernels::rates::FITTED_OVER_DERIVED;
 use crate::scene::Scene;
 use crate::strategy::machinery::layout::{self, TriRecord};
@@ -213,6 +213,8 @@ pub struct CastReport {
     pub run: RunReport,
     /// What each SPE did, by SPE.
     pub spes: Vec<SpeCast>,
+    /// The timeline, if the Cell's config asked for it.
+    pub trace: Option<Trace>,
 }
 
 impl CastReport {
@@ -354,5 +356,6 @@ pub fn cast_on_cell(
         costs: out.iter().map(|h| h.cost).collect(),
         run,
         spes,
+        trace: cell.take_trace(),
     })
 }

@@ -12,6 +12,10 @@ pub struct CastArgs {
     /// same hits as the host's tracer, and their simulated PS3 time.
     #[arg(long)]
     pub on_cell: bool,
+    /// --on-cell: write the cast's timeline here as Chrome trace JSON (open
+    /// it in ui.perfetto.dev): every SPE's tiles, cache misses and waits.
+    #[arg(long)]
+    pub trace: Option<std::path::PathBuf>,
     #[command(flatten)]
     pub cache: CacheArgs,
 }
@@ -55,10 +59,22 @@ pub enum PrecisionArg {
 impl CastArgs {
     /// The cast's configuration with `--on-cell`, `None` without; an
     /// option of the Cell's cast given without `--on-cell` is an error
-    /// that names it.
-    pub fn config(&self) -> Res<Option<CastConfig>> {
+    /// that names it, and so is a trace of an untimed cast (`timed`:
+    /// whether the Cell's mode keeps time) or one that cannot be written.
+    pub fn config(&self, timed: bool) -> Res<Option<CastConfig>> {
         if self.on_cell {
+            if let Some(path) = &self.trace {
+                if !timed {
+                    return Err("--trace: --mode functional keeps no timeline".into());
+                }
+                cellbih::output::check_writable(path)?;
+            }
             return Ok(Some(self.cache.config()?));
+        }
+        if self.trace.is_some() {
+            return Err(
+                "--trace applies to --on-cell only (a build's trace: cellbih build --trace)".into(),
+            );
         }
         match self.cache.first_given() {
             Some(name) => Err(format!("{name} applies to --on-cell only").into()),
@@ -134,4 +150,22 @@ pub fn describe(r: &CastReport, spes: usize) -> String {
         sh.dma_wait * 100.0,
         sh.atomic * 100.0,
     )
+}
+
+/// Writes the cast's timeline to `path` if one was asked for, and says so.
+pub fn write_trace(args: &CastArgs, r: &CastReport) -> Res<()> {
+    let Some(path) = &args.trace else {
+        return Ok(());
+    };
+    let timeline = r
+        .trace
+        .as_ref()
+        .ok_or("--trace: the cast kept no timeline")?;
+    cellbih::output::write_file(path, |w| timeline.write_chrome(w))?;
+    eprintln!(
+        "trace written to {} ({} spans)",
+        path.display(),
+        timeline.spans.len()
+    );
+    Ok(())
 }
