@@ -105,22 +105,16 @@ fn the_frames_cast_the_updated_tree() {
 fn a_frame_needs_an_emulated_builder_and_room_for_the_render() {
     let s = scene::load("car", None).unwrap();
     let anim = Animation::named("car", &s, 1, 0).unwrap();
-    let e = play(
-        &s,
-        &anim,
-        &cfg("host", Method::Local, 6, 6),
-        &CellConfig::ps3(),
-        |_| {},
-    );
-    assert!(matches!(&e, Err(FrameError::Config(m)) if m.contains("needs an emulated builder")));
-    let e = play(
-        &s,
-        &anim,
-        &cfg("spe_bfs", Method::Local, 6, 7),
-        &CellConfig::ps3(),
-        |_| {},
-    );
-    assert!(matches!(&e, Err(FrameError::Config(m)) if m.contains("--build-spes 7")));
+    let refused = |builder: &str, build_spes: usize, says: &str| {
+        let c = cfg(builder, Method::Local, 6, build_spes);
+        let e = play(&s, &anim, &c, &CellConfig::ps3(), |_| {});
+        assert!(
+            matches!(&e, Err(FrameError::Config(m)) if m.contains(says)),
+            "{builder}"
+        );
+    };
+    refused("host", 6, "needs an emulated builder");
+    refused("spe_bfs", 7, "--build-spes 7");
 }
 
 /// `cellbih frame` prints each frame and the totals; its JSON has a
