@@ -561,7 +561,7 @@ fn demo() -> Res<()> {
     write_png(Path::new(DEMO_PNG), &frame.shaded())?;
     println!("image written to {DEMO_PNG} (in the current directory)");
     println!(
-        "next: `cellbih --help`, `cellbih compare --scene rtperf:100000`, `cellbih build --scene rtperf:100000`, `cellbih update --scene car --animation car`, `cargo test --release`"
+        "next: `cellbih --help`, `cellbih compare --scene rtperf:100000`, `cellbih build --scene rtperf:100000`, `cellbih update --scene car --animation car`, `cellbih frame --scene car --animation car --builder spe_bfs_private --policy auto`, `cargo test --release`"
     );
     Ok(())
 }
