@@ -74,6 +74,27 @@ struct SceneArg {
 }
 
 impl SceneArg {
+    /// Before any work: an `rtperf:N` scene whose triangle records alone
+    /// (48 bytes each, every emulated build uploads them) exceed the
+    /// emulated Cell's main memory is refused at once, not after the scene
+    /// is made and the build has run out of room.
+    fn check_fits(&self, c: &build_args::Chosen) -> Res<()> {
+        let Some(n) = scene::procedural::rtperf_triangles(&self.scene) else {
+            return Ok(());
+        };
+        let need = n as u64 * size_of::<cellbih::strategy::machinery::layout::TriRecord>() as u64;
+        if c.builder.emulated() && need > c.cell.main_memory_bytes {
+            return Err(format!(
+                "{}: its {n} triangle records alone take {:.0} MiB, more than the emulated Cell's {} MiB (--memory-mib): nothing built",
+                self.scene,
+                need as f64 / (1 << 20) as f64,
+                c.cell.main_memory_bytes >> 20
+            )
+            .into());
+        }
+        Ok(())
+    }
+
     /// The scene; a built-in name that is also a file here is the built-in
     /// scene, and the note says so (and how to read the file).
     fn load(&self) -> Res<Scene> {
@@ -320,6 +341,7 @@ fn run(cli: Cli) -> Res<()> {
                 cache: &cache,
             };
             let cfg = frame::config(&c, &asked)?;
+            scene.check_fits(&c)?;
             let (s, anim) = anim.load(&scene, frames)?;
             frame::run(&s, &anim, &cfg, &c, format)
         }
@@ -336,6 +358,7 @@ fn run(cli: Cli) -> Res<()> {
             let method = Method::from_name(&strategy).ok_or_else(|| {
                 format!("unknown --strategy '{strategy}': local, deep or rebuild")
             })?;
+            scene.check_fits(&c)?;
             let (s, anim) = anim.load(&scene, frames)?;
             let mut u = Updater::new_on(s, c.builder, &c.cfg, c.cell, method)?;
             u.deep_stop_below = deep_stop_below;
@@ -364,6 +387,7 @@ fn run(cli: Cli) -> Res<()> {
                 }
                 check_writable(path)?;
             }
+            scene.check_fits(&c)?;
             let s = scene.load()?;
             c.cell.trace = trace.is_some();
             let mut report = c.build(&s)?;
@@ -401,6 +425,7 @@ fn run(cli: Cli) -> Res<()> {
                 let file = File::open(&rays).map_err(|e| format!("{path}: cannot open: {e}"))?;
                 rays_csv::read_rays(&path, BufReader::new(file))?
             };
+            scene.check_fits(&c)?;
             let s = scene.load()?;
             let report = c.build(&s)?;
             let (hits, cell_report) = match &on_cell {
@@ -446,6 +471,7 @@ fn run(cli: Cli) -> Res<()> {
             let on_cell = cast.config(c.cell.cost.charge_compute)?;
             render::check_size(width, height)?;
             check_png(&out)?;
+            scene.check_fits(&c)?;
             let s = scene.load()?;
             let report = c.build(&s)?;
             let cam = Camera::framing(&s.bounds(), width, height);

@@ -282,3 +282,40 @@ fn small_inputs_get_plain_answers() {
         stderr(&out)
     );
 }
+
+/// An `rtperf:N` scene whose triangle records alone do not fit the
+/// emulated memory is refused before the scene is made (issue 24 item 6),
+/// by every command that builds on the Cell; one that fits is not.
+#[test]
+fn a_procedural_scene_too_big_for_the_emulated_memory_is_refused_up_front() {
+    let too_big = [
+        "--scene",
+        "rtperf:5000000",
+        "--builder",
+        "spe_bfs",
+        "--memory-mib",
+        "64",
+    ];
+    for cmd in [
+        &["build"][..],
+        &["render", "--out", "never.png"][..],
+        &["frame", "--animation", "rtperf"][..],
+    ] {
+        let mut args = cmd.to_vec();
+        args.extend(too_big);
+        assert_fails_with(
+            &cellbih(&args),
+            "rtperf:5000000: its 5000000 triangle records alone take 229 MiB, more than the emulated Cell's 64 MiB (--memory-mib): nothing built",
+        );
+    }
+    let fits = cellbih(&[
+        "build",
+        "--scene",
+        "rtperf:1000",
+        "--builder",
+        "spe_bfs",
+        "--memory-mib",
+        "1",
+    ]);
+    assert_ok(&fits);
+}

@@ -21,6 +21,17 @@ pub const RTPERF_SPHERE_TRIANGLES: usize = 200;
 /// is allocated.
 pub const MAX_RTPERF_TRIANGLES: usize = 50_000_000;
 
+/// The triangle count `rtperf:N[:SEED]` names, read without making the
+/// scene (`None` for any other spec, or one `by_name` would refuse): what
+/// a command can check against the emulated memory before any work.
+pub fn rtperf_triangles(spec: &str) -> Option<usize> {
+    let mut parts = spec.split(':');
+    (parts.next() == Some("rtperf"))
+        .then(|| parts.next()?.parse().ok())
+        .flatten()
+        .filter(|&n| (1..=MAX_RTPERF_TRIANGLES).contains(&n))
+}
+
 /// The procedural scene named by `spec`, `None` if `spec` names none.
 pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
     let mut parts = spec.split(':');
