@@ -65,11 +65,12 @@ proptest! {
         fetch_lines in 1u32..=4,
         tile_rays in 1u32..=16,
         spes in 1usize..=8,
+        rays_in_flight in 1u32..=6,
     ) {
         // At most as many lines a miss as a way has sets.
         let sets = kib * 1024 / 128 / ways;
         let fetch_lines = 1 + (fetch_lines - 1) % sets;
-        let cfg = CastConfig { cache: CacheConfig { kib, ways, fetch_lines }, tile_rays, ..CastConfig::DEFAULT };
+        let cfg = CastConfig { cache: CacheConfig { kib, ways, fetch_lines }, tile_rays, rays_in_flight, ..CastConfig::DEFAULT };
         let rays = rays_for(&scene, 40, scene.len() as u64 + 7);
         for &b in BuilderKind::ALL {
             let r = b.build(&scene, &BihConfig::default())
@@ -241,6 +242,13 @@ fn functional_mode_and_bad_shapes() {
         fetch_lines: 9,
     };
     assert!(bad(CastConfig { cache: shape, ..d }).contains("fetching 9 lines"));
+    for k in [0, 17] {
+        let e = bad(CastConfig {
+            rays_in_flight: k,
+            ..d
+        });
+        assert!(e.contains(&format!("{k} rays in flight")), "{e}");
+    }
     // No ray at all: nothing to cast, nothing fails.
     let none = cast_on_cell(&r.bih, &s, &[], &d, &CellConfig::ps3()).unwrap();
     assert!(none.hits.is_empty());
@@ -277,4 +285,56 @@ fn the_precision_charged_changes_the_time_not_the_hits() {
         .max(dr.triangle_test.0 / sr.triangle_test.0);
     let ratio = double.run.ms / single.run.ms;
     assert!(ratio > 3.0 && ratio <= worst as f64, "{ratio}");
+}
+
+/// Rays in flight (software hyperthreading): with a cache that misses
+/// often, keeping 2 or 4 rays in flight hides the misses — less time
+/// waiting for DMA and a faster frame, though each switch costs — and
+/// never changes a hit; one ray in flight never switches. With a tiny
+/// cache whose every set is soon in use by the rays in flight, rays wait
+/// for a way and still answer the same.
+#[test]
+fn rays_in_flight_hide_the_misses_and_keep_the_hits() {
+    let s = scene::load("default", None).unwrap();
+    let r = BuilderKind::from_name("host")
+        .unwrap()
+        .build(&s, &BihConfig::default())
+        .unwrap();
+    let rays = Camera::framing(&s.bounds(), 64, 48).rays();
+    let with = |kib, ways, fetch_lines, rays_in_flight| CastConfig {
+        cache: CacheConfig {
+            kib,
+            ways,
+            fetch_lines,
+        },
+        rays_in_flight,
+        ..CastConfig::DEFAULT
+    };
+    let one = cast(&s, &r.bih, &rays, &with(4, 2, 1, 1), 6);
+    let switches = |c: &CastReport| c.spes.iter().map(|w| w.switches).sum::<u64>();
+    assert_eq!(switches(&one), 0);
+    for k in [2, 4] {
+        let many = cast(&s, &r.bih, &rays, &with(4, 2, 1, k), 6);
+        assert!(one.hits.iter().zip(&many.hits).all(|(a, b)| same(a, b)));
+        assert!(switches(&many) > 0);
+        assert!(
+            many.shares().dma_wait < one.shares().dma_wait / 2.0,
+            "{k} in flight: DMA wait {:.3} vs {:.3}",
+            many.shares().dma_wait,
+            one.shares().dma_wait
+        );
+        assert!(
+            many.run.cycles < one.run.cycles,
+            "{k} in flight: {} vs {} cycles",
+            many.run.cycles.0,
+            one.run.cycles.0
+        );
+        assert_eq!(many.stats(), one.stats());
+    }
+    // 16 rays in flight through one set of 8 ways, and through 8 sets of
+    // one way with 4 lines a miss: rays wait for a way, and still answer.
+    let cramped = cast(&s, &r.bih, &rays, &with(1, 8, 1, 16), 2);
+    assert!(one.hits.iter().zip(&cramped.hits).all(|(a, b)| same(a, b)));
+    let sixteen = cast(&s, &r.bih, &rays, &with(1, 1, 4, 16), 3);
+    assert!(one.hits.iter().zip(&sixteen.hits).all(|(a, b)| same(a, b)));
 }

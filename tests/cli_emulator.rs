@@ -461,6 +461,8 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
         ["--tile-rays", "16"],
         ["--fetch-lines", "2"],
         ["--cache-ways", "2"],
+        ["--rays-in-flight", "4"],
+        ["--precision", "double"],
     ] {
         let hits = tmp("on_cell_refused.csv");
         let _ = std::fs::remove_file(&hits);

@@ -257,6 +257,58 @@ fn a_take_larger_than_work_a_is_refused() {
     assert!(checked > 0);
 }
 
+/// Section 5's software cache for the job queue (`--job-cache`): the same
+/// tree as the explicit gets; each SPE empties its cache at every level's
+/// barrier (so every SPE the same number of times); each job record is
+/// read once, so lines are reused only where two takes of one SPE share
+/// one: most lookups miss. A cache the local store has no room for is
+/// refused, naming the knob.
+#[test]
+fn the_job_queue_cache_reads_the_same_jobs_and_is_emptied_every_level() {
+    let s = scene::load("rtperf:30000:3", None).unwrap();
+    let cfg = BihConfig::default();
+    let cell = CellConfig::ps3().with_spes(3);
+    let users = (BuilderKind::ALL.iter()).filter(|b| b.knob("job-cache").is_ok());
+    let mut checked = 0;
+    for &b in users {
+        let plain = b
+            .build_with(&s, s.bounds(), &cfg, &cell, &Knobs::default())
+            .unwrap();
+        let mut knobs = Knobs::default();
+        b.set_knob(&mut knobs, "job-cache", "4").unwrap();
+        let cached = b.build_with(&s, s.bounds(), &cfg, &cell, &knobs).unwrap();
+        assert_eq!(plain.bih.nodes, cached.bih.nodes, "{b}");
+        assert_eq!(plain.bih.prim_ids, cached.bih.prim_ids, "{b}");
+        let work = &cached.simulated.as_ref().unwrap().spe_work;
+        assert_eq!(work.len(), 3);
+        let emptied = work[0].job_cache.invalidations;
+        assert!(emptied > 2, "{b}: emptied {emptied} times");
+        for w in work {
+            assert_eq!(w.job_cache.invalidations, emptied, "{b}: {work:?}");
+            assert!(w.job_cache.lookups >= w.taken, "{b}: {w:?}");
+            assert!(w.job_cache.hit_rate() < 0.5, "{b}: {w:?}");
+        }
+        assert!(
+            plain
+                .simulated
+                .as_ref()
+                .unwrap()
+                .spe_work
+                .iter()
+                .all(|w| w.job_cache.lookups == 0),
+            "{b}: no cache, no lookups"
+        );
+        b.set_knob(&mut knobs, "job-cache", "32").unwrap();
+        b.set_knob(&mut knobs, "double-buffer", "").unwrap();
+        let e = b
+            .build_with(&s, s.bounds(), &cfg, &cell, &knobs)
+            .unwrap_err();
+        assert!(e.to_string().contains("--job-cache 32"), "{b}: {e}");
+        checked += 1;
+    }
+    assert!(checked > 0);
+}
+
 /// Knobs for `b`: each knob of its table at its default, its least value,
 /// one of its sweep values, or a value in its range (up to four times its
 /// default), as `picks` say.

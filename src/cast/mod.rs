@@ -4,15 +4,15 @@
 //! each), the triangle records in the tree's leaf order (48 bytes, each
 //! with its triangle id) and the rays (64 bytes) are in emulated main
 //! memory; every SPE runs [`program`]'s caster, reading nodes and
-//! triangles through a [`SoftwareCache`](cache::SoftwareCache) in its
+//! triangles through a
+//! [`SoftwareCache`](crate::strategy::machinery::software_cache::SoftwareCache) in its
 //! local store, and the hits (32 bytes) come back by DMA. The answers are
 //! the host tracer's (`bih::Tracer`), ray for ray; the time is simulated
 //! PS3 time, in the same currency as a build's.
 
-pub mod cache;
 mod program;
 
-pub use cache::{CacheConfig, CacheStats};
+pub use crate::strategy::machinery::software_cache::{CacheConfig, CacheRates, CacheStats};
 pub use program::SpeCast;
 
 use std::rc::Rc;
@@ -115,13 +115,12 @@ pub struct CastRates {
     pub node_step: Cycles,
     /// Per triangle tested: Möller–Trumbore and the closest-hit update.
     pub triangle_test: Cycles,
-    /// Per cache line an access touches: Codeplay's measured read hit, 28
-    /// cycles (a measurement: not scaled).
-    pub cache_lookup: Cycles,
-    /// Per miss, besides the lookup and the get the machine times: the
-    /// published miss (about 600 cycles with its DMA) less the lookup and
-    /// a lone 128-byte get on the model (316 cycles).
-    pub cache_miss: Cycles,
+    /// The software cache's own code (Codeplay's measured cache).
+    pub cache: CacheRates,
+    /// Per switch to another ray while a miss is under way (rays in
+    /// flight): the running ray's state stored, the next one's loaded,
+    /// the unhinted branch to where it stopped.
+    pub ray_switch: Cycles,
 }
 
 /// Which arithmetic the caster is charged for. The emulation computes in
@@ -141,25 +140,27 @@ pub enum Precision {
 impl Precision {
     /// The caster's rates when charged for this arithmetic.
     pub fn rates(self) -> CastRates {
-        let cache_lookup = Cycles(28);
-        let cache_miss = Cycles(600 - 28 - 316);
+        let cache = CacheRates::MEASURED;
         let x = FITTED_OVER_DERIVED;
+        // Derived: 4 quadword stores and 4 loads (odd pipe), the loads'
+        // 6-cycle latency, the SPU's 18-cycle branch-miss penalty: 32.
+        let ray_switch = Cycles(32 * x);
         match self {
             // Derived: 20, 16 and 14 SPU cycles.
             Precision::Single => CastRates {
                 ray_setup: Cycles(20 * x),
                 node_step: Cycles(16 * x),
                 triangle_test: Cycles(14 * x),
-                cache_lookup,
-                cache_miss,
+                cache,
+                ray_switch,
             },
             // Derived: 300, 100 and 230 SPU cycles.
             Precision::Double => CastRates {
                 ray_setup: Cycles(300 * x),
                 node_step: Cycles(100 * x),
                 triangle_test: Cycles(230 * x),
-                cache_lookup,
-                cache_miss,
+                cache,
+                ray_switch,
             },
         }
     }
@@ -174,6 +175,10 @@ pub struct CastConfig {
     pub tile_rays: u32,
     /// The arithmetic charged.
     pub precision: Precision,
+    /// Rays an SPE keeps in flight (1 to 16): with more than one, a ray
+    /// whose line is on its way yields to another (Benthin et al.'s
+    /// "software hyperthreading"); with one, the SPE waits for each miss.
+    pub rays_in_flight: u32,
 }
 
 impl CastConfig {
@@ -181,10 +186,15 @@ impl CastConfig {
         cache: CacheConfig::SDK,
         tile_rays: 64,
         precision: Precision::Single,
+        rays_in_flight: 1,
     };
 
     /// The most rays a tile holds: 256 rays are one 16 KiB get.
     pub const MAX_TILE_RAYS: u32 = 256;
+
+    /// The most rays in flight: one tag group each, and an MFC queue
+    /// holds 16 commands.
+    pub const MAX_RAYS_IN_FLIGHT: u32 = 16;
 }
 
 /// What the SPEs read: where everything is, and how to cast.
@@ -199,6 +209,7 @@ pub(crate) struct Job {
     bounds: Aabb,
     max_depth: u32,
     tile_rays: u32,
+    rays_in_flight: u32,
     cache: CacheConfig,
     rates: CastRates,
 }
@@ -294,6 +305,13 @@ pub fn cast_on_cell(
             CastConfig::MAX_TILE_RAYS
         )));
     }
+    if !(1..=CastConfig::MAX_RAYS_IN_FLIGHT).contains(&cfg.rays_in_flight) {
+        return Err(CellError::Config(format!(
+            "{} rays in flight: 1 to {}",
+            cfg.rays_in_flight,
+            CastConfig::MAX_RAYS_IN_FLIGHT
+        )));
+    }
     cfg.cache.sets().map_err(CellError::Config)?;
     assert_eq!(bih.prim_ids.len(), scene.len(), "tree and scene differ");
     let cell = Cell::new(cell_cfg.clone())?;
@@ -333,6 +351,7 @@ pub fn cast_on_cell(
             bounds: bih.bounds,
             max_depth: bih.config.max_depth,
             tile_rays: cfg.tile_rays,
+            rays_in_flight: cfg.rays_in_flight,
             cache: cfg.cache,
             rates: cfg.precision.rates(),
         }

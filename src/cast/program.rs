@@ -5,19 +5,25 @@
 //! back. The traversal is the host tracer's, step for step (the same
 //! `bih::traverse` node step, culling and tie rule), so it answers as the
 //! host tracer and brute force do.
+//!
+//! Each ray's traversal is a [`Walk`] that stops where it reads memory.
+//! With one ray in flight an SPE waits for each miss; with several
+//! (`rays_in_flight`, Benthin et al. 2006's "software hyperthreading") a
+//! ray whose line is on its way yields to the next ray of the tile that
+//! can go on, and the SPE waits only when none can.
 
 use std::rc::Rc;
 
 use glam::{DVec3, Vec3};
 
-use super::cache::{CacheStats, SoftwareCache};
 use super::{CastRates, CellHit, CellRay, Job};
 use crate::bih::{
     BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
 };
-use crate::cell::{CellError, Spe};
+use crate::cell::{CellError, Ea, Spe, WaitMode};
 use crate::scene::Triangle;
 use crate::strategy::machinery::layout::TriRecord;
+use crate::strategy::machinery::software_cache::{CacheStats, LINE, Lookup, SoftwareCache};
 
 /// What one SPE did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -26,15 +32,20 @@ pub struct SpeCast {
     pub tiles: u64,
     pub rays: RayStats,
     pub cache: CacheStats,
+    /// Times it went on with another ray while a miss was under way.
+    pub switches: u64,
 }
 
 /// The caster's program on one SPE.
 pub(super) async fn caster(spe: Spe, job: Rc<Job>) -> Result<SpeCast, CellError> {
-    let mut cache = SoftwareCache::new(&spe, job.cache, job.rates)?;
+    let in_flight = job.rays_in_flight;
+    let mut cache = SoftwareCache::new(&spe, job.cache, job.rates.cache, in_flight)?;
     let line = spe.ls_alloc(128, 128)?;
     let tile = job.tile_rays;
     let rays_ls = spe.ls_alloc(tile * size_of::<CellRay>() as u32, 128)?;
     let hits_ls = spe.ls_alloc(tile * size_of::<CellHit>() as u32, 128)?;
+    // Each ray in flight keeps its traversal stack (16 bytes an entry).
+    spe.ls_alloc(in_flight * (job.max_depth + 2) * 16, 16)?;
     let tag = spe.tag("ray tiles")?;
     let mut done = SpeCast::default();
     loop {
@@ -50,14 +61,7 @@ pub(super) async fn caster(spe: Spe, job: Rc<Job>) -> Result<SpeCast, CellError>
         spe.get(rays_ls, ray_ea, ray_bytes, tag).await?;
         spe.wait_tag(tag).await?;
         let rays: Vec<CellRay> = spe.ls_read(rays_ls, n)?;
-        let mut hits = Vec::with_capacity(n);
-        for r in &rays {
-            let mut stats = RayStats::default();
-            let hit = cast(&spe, &mut cache, &job, &r.ray(), &mut stats).await?;
-            let cost = (stats.nodes_visited + stats.triangles_tested) as u32;
-            hits.push(CellHit::of(hit, cost));
-            done.rays += stats;
-        }
+        let hits = cast_tile(&spe, &mut cache, &job, &rays, &mut done).await?;
         spe.ls_write(hits_ls, &hits)?;
         let hit_bytes = (n * size_of::<CellHit>()) as u32;
         let hit_ea = job.hits.offset(first * size_of::<CellHit>() as u64);
@@ -69,86 +73,312 @@ pub(super) async fn caster(spe: Spe, job: Rc<Job>) -> Result<SpeCast, CellError>
     Ok(done)
 }
 
-/// The closest hit of `ray`: `Tracer::closest`'s traversal over the tree
-/// in main memory, through the cache.
-async fn cast(
+/// Where a ray in flight stands.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum State {
+    /// It can go on (or start the tile's next ray).
+    Ready,
+    /// Its line is on its way by this tag group.
+    Waiting(u32),
+    /// Its line's set had no way to take it: it looks again after a fetch.
+    Full,
+    /// No ray left in the tile for it.
+    Idle,
+}
+
+/// Casts one tile's rays, `job.rays_in_flight` at a time: the hits in the
+/// rays' order.
+async fn cast_tile(
     spe: &Spe,
     cache: &mut SoftwareCache,
     job: &Job,
-    ray: &Ray,
-    stats: &mut RayStats,
-) -> Result<Option<Hit>, CellError> {
-    let r: &CastRates = &job.rates;
-    spe.compute(r.ray_setup);
-    stats.rays += 1;
-    let inv = DVec3::ONE / ray.dir;
-    let Some((t0, t1)) = root_interval(&job.bounds, ray, inv) else {
-        return Ok(None);
-    };
-    let neg = [
-        ray.dir.x.is_sign_negative(),
-        ray.dir.y.is_sign_negative(),
-        ray.dir.z.is_sign_negative(),
-    ];
-    let mut stack: Vec<(u32, f64, f64)> = Vec::with_capacity(job.max_depth as usize + 2);
-    let mut best: Option<Hit> = None;
-    let mut best_t = ray.tmax;
-    let (mut node, mut tn, mut tf) = (0u32, t0, t1);
-    let mut buf = [0u8; size_of::<TriRecord>()];
+    rays: &[CellRay],
+    done: &mut SpeCast,
+) -> Result<Vec<CellHit>, CellError> {
+    let k = job.rays_in_flight as usize;
+    let mut hits = vec![CellHit::of(None, 0); rays.len()];
+    let mut walks: Vec<Option<Walk>> = (0..k).map(|_| None).collect();
+    let mut state = vec![State::Ready; k];
+    let (mut next, mut last) = (0usize, 0usize);
     loop {
-        stats.nodes_visited += 1;
-        spe.compute(r.node_step);
-        let nd: BihNode = {
-            let at = job.nodes.offset(node as u64 * size_of::<BihNode>() as u64);
-            cache.read(spe, at, &mut buf[..12]).await?;
-            bytemuck::pod_read_unaligned(&buf[..12])
+        // The ray that ran last goes on if it can; else the next one that
+        // can, in turn.
+        let Some(c) = (0..k)
+            .map(|i| (last + i) % k)
+            .find(|&c| state[c] == State::Ready)
+        else {
+            if state.iter().all(|&s| s == State::Idle) {
+                return Ok(hits);
+            }
+            let outstanding = cache.outstanding();
+            if outstanding != 0 {
+                let arrived = spe.wait_tags(outstanding, WaitMode::Any).await?;
+                cache.arrived(arrived);
+                for s in &mut state {
+                    if matches!(*s, State::Waiting(t) if arrived >> t & 1 == 1) {
+                        *s = State::Ready;
+                    }
+                }
+            }
+            for s in &mut state {
+                if *s == State::Full {
+                    *s = State::Ready;
+                }
+            }
+            continue;
         };
-        if nd.is_leaf() {
-            let (first, count) = nd.leaf_range();
-            for k in first..first + count {
-                let at = job.records.offset(k as u64 * size_of::<TriRecord>() as u64);
-                cache.read(spe, at, &mut buf).await?;
-                let rec: TriRecord = bytemuck::pod_read_unaligned(&buf);
-                spe.compute(r.triangle_test);
-                stats.triangles_tested += 1;
-                let tri = Triangle {
-                    v: rec.v.map(Vec3::from_array),
-                };
-                if let Some((t, u, v)) = intersect_triangle(&tri, ray, ray.tmin, best_t)
-                    && closer(t, rec.id, best)
-                {
-                    best = Some(Hit {
-                        prim: rec.id,
-                        t,
-                        u,
-                        v,
-                    });
-                    best_t = t;
-                }
-            }
-        } else {
-            let s = descend(&nd, ray, inv, neg, tn, tf);
-            if s.go_near {
-                if s.go_far {
-                    stack.push((s.far, s.far_tn, tf));
-                }
-                (node, tf) = (s.near, s.near_tf);
-                continue;
-            } else if s.go_far {
-                (node, tn) = (s.far, s.far_tn);
-                continue;
-            }
+        if c != last {
+            spe.compute(job.rates.ray_switch);
+            done.switches += 1;
+            last = c;
         }
-        // Pop the next node that may still hold a closer hit.
+        let walk = match &mut walks[c] {
+            Some(w) => w,
+            slot => {
+                if next == rays.len() {
+                    state[c] = State::Idle;
+                    continue;
+                }
+                next += 1;
+                slot.insert(Walk::new(next - 1, rays[next - 1].ray(), job.max_depth))
+            }
+        };
+        state[c] = match walk.run(spe, cache, job, c as u32).await? {
+            Step::Done(hit) => {
+                let cost = (walk.stats.nodes_visited + walk.stats.triangles_tested) as u32;
+                hits[walk.index] = CellHit::of(hit, cost);
+                done.rays += walk.stats;
+                walks[c] = None;
+                State::Ready
+            }
+            Step::Wait(tag) => State::Waiting(tag),
+            Step::Full => State::Full,
+        };
+    }
+}
+
+/// Where a ray's traversal stopped.
+enum Step {
+    /// Its closest hit.
+    Done(Option<Hit>),
+    /// Waiting for a line that tag group `.0` brings.
+    Wait(u32),
+    /// Its line's set is full of lines in use.
+    Full,
+}
+
+/// Where a [`Walk`] resumes.
+#[derive(Clone, Copy)]
+enum At {
+    Setup,
+    Node,
+    NodeRead,
+    Leaf { k: u32, end: u32 },
+    RecordRead { k: u32, end: u32 },
+}
+
+/// The bytes a walk reads: a node or a triangle record, line by line.
+struct Read {
+    ea: u64,
+    len: usize,
+    done: usize,
+    /// The slot whose line it waits for.
+    waiting: Option<u32>,
+    buf: [u8; size_of::<TriRecord>()],
+}
+
+/// One ray's traversal: `Tracer::closest`'s, over the tree in main memory
+/// through the cache, resumable where it reads memory.
+struct Walk {
+    /// The ray's place in its tile.
+    index: usize,
+    ray: Ray,
+    inv: DVec3,
+    neg: [bool; 3],
+    stack: Vec<(u32, f64, f64)>,
+    best: Option<Hit>,
+    best_t: f64,
+    node: u32,
+    tn: f64,
+    tf: f64,
+    at: At,
+    read: Read,
+    stats: RayStats,
+}
+
+impl Walk {
+    fn new(index: usize, ray: Ray, max_depth: u32) -> Self {
+        Walk {
+            index,
+            inv: DVec3::ONE / ray.dir,
+            neg: [
+                ray.dir.x.is_sign_negative(),
+                ray.dir.y.is_sign_negative(),
+                ray.dir.z.is_sign_negative(),
+            ],
+            best_t: ray.tmax,
+            ray,
+            stack: Vec::with_capacity(max_depth as usize + 2),
+            best: None,
+            node: 0,
+            tn: 0.0,
+            tf: 0.0,
+            at: At::Setup,
+            read: Read {
+                ea: 0,
+                len: 0,
+                done: 0,
+                waiting: None,
+                buf: [0; size_of::<TriRecord>()],
+            },
+            stats: RayStats::default(),
+        }
+    }
+
+    /// Goes on until the ray is done or waits for memory; a miss's get
+    /// is started with the cache's tag group `group`.
+    async fn run(
+        &mut self,
+        spe: &Spe,
+        cache: &mut SoftwareCache,
+        job: &Job,
+        group: u32,
+    ) -> Result<Step, CellError> {
+        let r: &CastRates = &job.rates;
         loop {
-            let Some((n, a, b)) = stack.pop() else {
-                return Ok(best);
-            };
-            let bound = pop_bound(best_t);
-            if a <= bound {
-                (node, tn, tf) = (n, a, b.min(bound));
-                break;
+            match self.at {
+                At::Setup => {
+                    spe.compute(r.ray_setup);
+                    self.stats.rays += 1;
+                    let Some((t0, t1)) = root_interval(&job.bounds, &self.ray, self.inv) else {
+                        return Ok(Step::Done(None));
+                    };
+                    (self.node, self.tn, self.tf) = (0, t0, t1);
+                    self.at = At::Node;
+                }
+                At::Node => {
+                    self.stats.nodes_visited += 1;
+                    spe.compute(r.node_step);
+                    let at = job
+                        .nodes
+                        .offset(self.node as u64 * size_of::<BihNode>() as u64);
+                    self.start_read(at, size_of::<BihNode>());
+                    self.at = At::NodeRead;
+                }
+                At::NodeRead => {
+                    if let Some(stop) = self.read(spe, cache, group).await? {
+                        return Ok(stop);
+                    }
+                    let nd: BihNode = bytemuck::pod_read_unaligned(&self.read.buf[..12]);
+                    if nd.is_leaf() {
+                        let (first, count) = nd.leaf_range();
+                        self.at = At::Leaf {
+                            k: first,
+                            end: first + count,
+                        };
+                        continue;
+                    }
+                    let s = descend(&nd, &self.ray, self.inv, self.neg, self.tn, self.tf);
+                    if s.go_near {
+                        if s.go_far {
+                            self.stack.push((s.far, s.far_tn, self.tf));
+                        }
+                        (self.node, self.tf) = (s.near, s.near_tf);
+                        self.at = At::Node;
+                    } else if s.go_far {
+                        (self.node, self.tn) = (s.far, s.far_tn);
+                        self.at = At::Node;
+                    } else if !self.pop() {
+                        return Ok(Step::Done(self.best));
+                    }
+                }
+                At::Leaf { k, end } => {
+                    if k == end {
+                        if !self.pop() {
+                            return Ok(Step::Done(self.best));
+                        }
+                        continue;
+                    }
+                    let at = job.records.offset(k as u64 * size_of::<TriRecord>() as u64);
+                    self.start_read(at, size_of::<TriRecord>());
+                    self.at = At::RecordRead { k, end };
+                }
+                At::RecordRead { k, end } => {
+                    if let Some(stop) = self.read(spe, cache, group).await? {
+                        return Ok(stop);
+                    }
+                    let rec: TriRecord = bytemuck::pod_read_unaligned(&self.read.buf);
+                    spe.compute(r.triangle_test);
+                    self.stats.triangles_tested += 1;
+                    let tri = Triangle {
+                        v: rec.v.map(Vec3::from_array),
+                    };
+                    let ray = &self.ray;
+                    if let Some((t, u, v)) = intersect_triangle(&tri, ray, ray.tmin, self.best_t)
+                        && closer(t, rec.id, self.best)
+                    {
+                        self.best = Some(Hit {
+                            prim: rec.id,
+                            t,
+                            u,
+                            v,
+                        });
+                        self.best_t = t;
+                    }
+                    self.at = At::Leaf { k: k + 1, end };
+                }
             }
         }
+    }
+
+    /// Pops the next node that may still hold a closer hit; `false` when
+    /// none is left.
+    fn pop(&mut self) -> bool {
+        while let Some((n, a, b)) = self.stack.pop() {
+            let bound = pop_bound(self.best_t);
+            if a <= bound {
+                (self.node, self.tn, self.tf) = (n, a, b.min(bound));
+                self.at = At::Node;
+                return true;
+            }
+        }
+        false
+    }
+
+    fn start_read(&mut self, at: Ea, len: usize) {
+        (self.read.ea, self.read.len, self.read.done) = (at.0, len, 0);
+    }
+
+    /// Reads the bytes of `self.read` through the cache, line by line; a
+    /// line on its way stops it (`Some`), to resume at that line.
+    async fn read(
+        &mut self,
+        spe: &Spe,
+        cache: &mut SoftwareCache,
+        group: u32,
+    ) -> Result<Option<Step>, CellError> {
+        let rd = &mut self.read;
+        while rd.done < rd.len {
+            let at = rd.ea + rd.done as u64;
+            let n = ((LINE - at % LINE) as usize).min(rd.len - rd.done);
+            let slot = match rd.waiting.take() {
+                Some(slot) => {
+                    cache.unpin(slot);
+                    slot
+                }
+                None => match cache.lookup(spe, at / LINE, group).await? {
+                    Lookup::Ready(slot) => slot,
+                    Lookup::Fetching { slot, tag } => {
+                        cache.pin(slot);
+                        rd.waiting = Some(slot);
+                        return Ok(Some(Step::Wait(tag)));
+                    }
+                    Lookup::Full => return Ok(Some(Step::Full)),
+                },
+            };
+            cache.copy(spe, slot, at, &mut rd.buf[rd.done..rd.done + n])?;
+            rd.done += n;
+        }
+        Ok(None)
     }
 }

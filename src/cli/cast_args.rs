@@ -47,6 +47,12 @@ pub struct CacheArgs {
     /// [default: single]
     #[arg(long, value_enum)]
     pub precision: Option<PrecisionArg>,
+    /// Casting on the Cell: rays each SPE keeps in flight (1 to 16): with
+    /// more than one, a ray whose cache line is on its way yields to
+    /// another (Benthin et al. 2006's "software hyperthreading"); with
+    /// one, the SPE waits for each miss [default: 1]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub rays_in_flight: Option<u32>,
 }
 
 /// `--precision`.
@@ -92,6 +98,7 @@ impl CacheArgs {
             ("--fetch-lines", self.fetch_lines.is_some()),
             ("--tile-rays", self.tile_rays.is_some()),
             ("--precision", self.precision.is_some()),
+            ("--rays-in-flight", self.rays_in_flight.is_some()),
         ]
         .into_iter()
         .find_map(|(name, given)| given.then_some(name))
@@ -113,6 +120,7 @@ impl CacheArgs {
                 Some(PrecisionArg::Single) => Precision::Single,
                 Some(PrecisionArg::Double) => Precision::Double,
             },
+            rays_in_flight: self.rays_in_flight.unwrap_or(d.rays_in_flight),
         };
         cfg.cache.sets()?;
         Ok(cfg)
@@ -126,6 +134,12 @@ pub fn describe(r: &CastReport, spes: usize) -> String {
     let per = |x: u64| x as f64 / st.rays.max(1) as f64;
     let cache = r.cache();
     let sh = r.shares();
+    let switches: u64 = r.spes.iter().map(|s| s.switches).sum();
+    let switched = if switches > 0 {
+        format!(" ({switches} switches to another ray on a miss)")
+    } else {
+        String::new()
+    };
     let time = match r.rays_per_s() {
         Some(rps) => format!(
             "{:.2} ms simulated on the PS3 model with {} ({:.2} M rays/s)",
@@ -139,7 +153,7 @@ pub fn describe(r: &CastReport, spes: usize) -> String {
         ),
     };
     format!(
-        "on the Cell: {time}; per ray {:.1} nodes, {:.1} triangles; software cache hit rate {:.1} % ({} misses); SPEs busy {:.0} % (least {:.0} %, most {:.0} %), waiting for DMA {:.0} %, atomic {:.1} %",
+        "on the Cell: {time}; per ray {:.1} nodes, {:.1} triangles; software cache hit rate {:.1} % ({} misses); SPEs busy {:.0} % (least {:.0} %, most {:.0} %), waiting for DMA {:.0} %{switched}, atomic {:.1} %",
         per(st.nodes_visited),
         per(st.triangles_tested),
         cache.hit_rate() * 100.0,

@@ -214,4 +214,17 @@ fn print_cores(m: &cellbih::registry::Simulated) {
             ""
         }
     );
+    let mut cache = cellbih::cast::CacheStats::default();
+    for w in &m.spe_work {
+        cache += w.job_cache;
+    }
+    if cache.lookups > 0 {
+        println!(
+            "job-queue software cache (--job-cache): {} line lookups, {} misses (hit rate {:.1} %), emptied {} times",
+            cache.lookups,
+            cache.misses,
+            cache.hit_rate() * 100.0,
+            cache.invalidations
+        );
+    }
 }

@@ -155,6 +155,8 @@ pub struct SpeWork {
     /// (skipped to keep a pair in one block, or never reached at the end).
     pub arena_blocks: u64,
     pub arena_unused: u64,
+    /// Its job-queue software cache (`spe_bfs_shared --job-cache`).
+    pub job_cache: machinery::software_cache::CacheStats,
 }
 
 /// The PPE allocates a node array in main memory and writes `nodes` into

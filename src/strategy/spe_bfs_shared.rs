@@ -23,6 +23,14 @@
 //!    straight into that slot, computing the address itself
 //!    ([`NodeWrites`]: one `putl` per batch with `--dma-lists`).
 //!
+//! 4. **Section 5's software cache for the job queue** (`--job-cache KiB`):
+//!    a take's jobs are read through a [`SoftwareCache`] in the local
+//!    store instead of one explicit get. Safe without coherence: a level's
+//!    array is written only during the level before (every SPE's puts
+//!    done before it arrives at the barrier) and only read during its own,
+//!    and each SPE empties its cache after every barrier, so no line of an
+//!    array is kept into the level that rewrites it.
+//!
 //! A batch of agglomerated jobs moves only records of jobs this SPE took:
 //! two jobs adjacent in the queue need not be adjacent in the triangle
 //! array, and the records between may be another SPE's.
@@ -38,10 +46,11 @@ use super::machinery::breadth_first::{
     DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, QueueKnobs, SpeBuilder,
 };
 use super::machinery::coop::Coop;
+use super::machinery::software_cache::{CacheConfig, CacheRates, LINE, SoftwareCache};
 use super::machinery::top::{
     Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TopKnobs, build_top, help_top,
 };
-use super::machinery::work_queue::{SharedSpill, WorkQueue};
+use super::machinery::work_queue::{SharedSpill, WorkQueue, from_wire};
 use super::{Knob, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
@@ -62,6 +71,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &DEAL_PER_SPE,
     &AGGLOMERATE,
     &FIXED_TAKES,
+    &JOB_CACHE,
 ])
 // Section 5's three queue improvements together.
 .with_combos(&[&[(&DOUBLE_BUFFER, ""), (&DMA_LISTS, ""), (&PREFETCH, "")]]);
@@ -80,6 +90,15 @@ pub const FIXED_TAKES: Knob = Knob::flag(
     "every take is --agglomerate jobs, not an SPE's share of the jobs left",
 );
 
+/// `--job-cache KiB`: `SharedKnobs::job_cache`.
+pub const JOB_CACHE: Knob = Knob::int(
+    "job-cache",
+    "KiB of software cache (4-way, 128-byte lines) each SPE reads the level's jobs through, instead of one get a take (section 5); 0: off",
+    0,
+    (0, 32),
+    &["4"],
+);
+
 /// This strategy's knobs, read from those given.
 #[derive(Clone, Copy)]
 struct SharedKnobs {
@@ -96,6 +115,11 @@ struct SharedKnobs {
     /// shared levels and at each level's end. Costs: more takes (lock-line
     /// updates) near each level's end.
     guided: bool,
+    /// KiB of software cache the jobs are read through (0: explicit gets,
+    /// the default; section 5's proposal). Buys: a line shared by two
+    /// takes of one SPE is read once. Costs: a lookup per line and a get
+    /// per missed line, where a take was one get.
+    job_cache: usize,
 }
 
 /// The queue's lock lines in main memory.
@@ -123,6 +147,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         top: TopKnobs::read(&setup.knobs),
         agglomerate: setup.knobs.int(&AGGLOMERATE),
         guided: !setup.knobs.flag(&FIXED_TAKES),
+        job_cache: setup.knobs.int(&JOB_CACHE),
     };
     let job_bytes = Job::bytes(&cfg);
     let per_buffer = WorkQueue::<Job>::per_buffer(job_bytes);
@@ -145,7 +170,11 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             "spe_bfs_shared: {n} triangles are too many for one queue"
         ))
     })?;
-    let level_bytes = (jobs * job_bytes) as u64;
+    let mut level_bytes = (jobs * job_bytes) as u64;
+    if knobs.job_cache > 0 {
+        // The cache reads whole lines: the arrays end on one.
+        level_bytes = level_bytes.next_multiple_of(LINE);
+    }
     let mem = || cell.memory_mut();
     let level_a = mem().alloc(
         Purpose::JobQueues.buffer("shared job queue: level A"),
@@ -226,8 +255,14 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                 common.pool.base,
                 knobs.queue.dma_lists,
             )?);
-            let taken =
-                shared_levels(&spe, &mut b, queue, knobs.agglomerate, knobs.guided, line).await?;
+            let mut cache = match knobs.job_cache {
+                0 => None,
+                kib => Some(job_cache(&spe, kib as u32)?),
+            };
+            let taken = shared_levels(&spe, &mut b, queue, knobs, line, cache.as_mut()).await?;
+            if let Some(c) = cache {
+                work.job_cache += c.stats;
+            }
             let count = b.arena.allocated();
             b.arena.close(count).await?;
             work.taken = taken;
@@ -239,16 +274,35 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     Ok(common.pool.readback(exits, None))
 }
 
+/// The job queue's software cache of `kib` KiB in `spe`'s local store
+/// (4-way); an error says how much room the other buffers left.
+fn job_cache(spe: &Spe, kib: u32) -> Result<SoftwareCache, CellError> {
+    let shape = CacheConfig {
+        kib,
+        ways: 4,
+        fetch_lines: 1,
+    };
+    let free = spe.ls_free_bytes();
+    if shape.ls_bytes() > free {
+        return Err(CellError::Config(format!(
+            "spe_bfs_shared: --job-cache {kib}: the cache takes {} bytes of local store, and {free} are left beside this build's other buffers",
+            shape.ls_bytes()
+        )));
+    }
+    SoftwareCache::new(spe, shape, CacheRates::MEASURED, 1)
+}
+
 /// Every SPE: takes jobs from the shared queue level by level until a
 /// level is empty; returns how many takes found jobs.
 async fn shared_levels(
     spe: &Spe,
     b: &mut SpeBuilder<'_>,
     q: Queue,
-    agglomerate: usize,
-    guided: bool,
+    knobs: SharedKnobs,
     line: LsAddr,
+    mut cache: Option<&mut SoftwareCache>,
 ) -> Result<u64, CellError> {
+    let (agglomerate, guided) = (knobs.agglomerate, knobs.guided);
     let job_bytes = b.queue.stride() as u64;
     let mut taken = 0u64;
     let mut level = 0usize;
@@ -281,10 +335,15 @@ async fn shared_levels(
                 break;
             }
             let count = (len - first).min(size) as usize;
-            let jobs = b
-                .queue
-                .read_jobs(this.offset(first as u64 * job_bytes), count)
-                .await?;
+            let at = this.offset(first as u64 * job_bytes);
+            let jobs = match cache.as_deref_mut() {
+                Some(c) => {
+                    let mut bytes = vec![0u8; count * job_bytes as usize];
+                    c.read(spe, at, &mut bytes).await?;
+                    from_wire(&bytes, job_bytes as usize)
+                }
+                None => b.queue.read_jobs(at, count).await?,
+            };
             b.process(&jobs).await?;
             taken += 1;
         }
@@ -294,6 +353,10 @@ async fn shared_levels(
         b.drain().await?;
         level += 1;
         level_end(spe, q, &mut barrier, line).await?;
+        // The next level but one rewrites this level's array.
+        if let Some(c) = cache.as_deref_mut() {
+            c.invalidate(spe);
+        }
     }
 }
 

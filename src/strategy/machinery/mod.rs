@@ -4,8 +4,10 @@
 //! WorkA/WorkB job queue of Fig. 2 ([`work_queue`]), the baseline's
 //! breadth-first loop over it ([`breadth_first`]), section 2's cooperative
 //! partition ([`coop`]), the top levels of the multi-SPE strategies and
-//! their ObjectArena pool ([`top`]) and the memory footprint by purpose
-//! ([`footprint`]).
+//! their ObjectArena pool ([`top`]), the memory footprint by purpose
+//! ([`footprint`]) and the software cache an SPE reads main memory through
+//! ([`software_cache`]: the ray caster's, and `spe_bfs_shared`'s job
+//! queue's as a knob).
 
 pub mod arena;
 pub mod barrier;
@@ -14,5 +16,6 @@ pub mod coop;
 pub mod fig1;
 pub mod footprint;
 pub mod layout;
+pub mod software_cache;
 pub mod top;
 pub mod work_queue;
