@@ -29,9 +29,9 @@ struct Args {
     /// a steady-state rate.
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u64).range(1..=1024))]
     mib: u64,
-    /// Most SPEs to stream through (1 to 8): the runs use 1, 2, 3, 4, 6
-    /// and 8 SPEs up to this many.
-    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..=8))]
+    /// Most SPEs to stream through (1 to 16; above 8 a what-if): the runs
+    /// use 1, 2, 3, 4, 6, 8, 12 and 16 SPEs up to this many.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..=16))]
     max_spes: u64,
 }
 
@@ -112,7 +112,7 @@ fn main() {
 fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
     prepare_dir(&args.out)?;
     let sizes: Vec<u32> = (4..=14).map(|p| 1u32 << p).collect();
-    let spe_counts: Vec<usize> = [1, 2, 3, 4, 6, 8]
+    let spe_counts: Vec<usize> = [1, 2, 3, 4, 6, 8, 12, 16]
         .into_iter()
         .filter(|&n| n as u64 <= args.max_spes)
         .collect();

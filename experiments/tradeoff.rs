@@ -51,8 +51,9 @@ struct Args {
         default_value = "bunny,dragon,sponza-dabrovic,sibenik,rtperf:200000"
     )]
     scenes: Vec<String>,
-    /// SPEs of the emulated Cell for the multi-SPE builders (1 to 8).
-    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
+    /// SPEs of the emulated Cell for the multi-SPE builders (1 to 16; above
+    /// 8 a what-if).
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=16))]
     spes: u64,
     /// text (tables) or json (the rows).
     #[arg(long, value_enum, default_value = "text")]

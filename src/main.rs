@@ -128,8 +128,9 @@ enum Command {
         /// knobs are left out, and named).
         #[command(flatten)]
         tree: TreeArgs,
-        /// SPEs of the emulated Cell for the multi-SPE builders, 1 to 8.
-        #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
+        /// SPEs of the emulated Cell for the multi-SPE builders, 1 to 16
+        /// (9 to 16: a what-if).
+        #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=16))]
         spes: u64,
         /// Main memory of the emulated Cell, MiB (a PS3 has 256). A build
         /// that does not fit fails alone, named; the others are compared.
@@ -242,7 +243,7 @@ enum Command {
         /// SPEs that update the tree; the others render meanwhile (the
         /// paper's arrangement: 1). Default: all of --spes, which build and
         /// then all render (section 5's).
-        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=8))]
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=16))]
         build_spes: Option<u64>,
         /// Image width in pixels: one primary ray each.
         #[arg(long, default_value_t = 640)]

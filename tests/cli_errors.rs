@@ -156,8 +156,8 @@ fn experiments_check_their_arguments_and_output_before_the_work() {
     let o = out.to_str().unwrap();
     for (args, msg) in [
         (&["--mib", "0", "--out", o][..], "0 is not in 1..=1024"),
-        (&["--max-spes", "0", "--out", o][..], "0 is not in 1..=8"),
-        (&["--max-spes", "9", "--out", o][..], "9 is not in 1..=8"),
+        (&["--max-spes", "0", "--out", o][..], "0 is not in 1..=16"),
+        (&["--max-spes", "17", "--out", o][..], "17 is not in 1..=16"),
         (&["--out", "/proc/x"][..], "/proc/x: cannot write"),
     ] {
         assert_fails_with(&run_limited(dma, args, limit), msg);

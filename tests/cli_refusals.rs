@@ -53,7 +53,7 @@ fn sizes_past_their_limits_are_refused_at_once() {
             "127 is not in 0..=126",
         ),
         (&["build", "--leaf-size", "0"][..], "0 is not in 1.."),
-        (&["build", "--spes", "9"][..], "9 is not in 1..=8"),
+        (&["build", "--spes", "17"][..], "17 is not in 1..=16"),
         // A knob's range is its table's, checked once, when it is set.
         (
             &[

@@ -276,8 +276,36 @@ fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
     let csv = std::fs::read_to_string(dir.join("spe_scaling.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + rows.len());
     assert!(dir.join("spe_scaling_default.svg").exists());
+    // The what-if beyond 8 SPEs, each builder's defaults only: one row a
+    // builder and count, 16 SPEs included.
+    let out = std::process::Command::new(exe)
+        .args([
+            "--scenes",
+            "rtperf:3000",
+            "--max-spes",
+            "16",
+            "--defaults-only",
+        ])
+        .args(["--format", "json", "--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = rows.as_array().unwrap();
+    let builders: Vec<_> = (cellbih::registry::BuilderKind::ALL.iter())
+        .filter(|b| b.multi_spe())
+        .collect();
+    assert_eq!(rows.len(), builders.len() * 16);
+    for b in builders {
+        let counts: Vec<u64> = (rows.iter())
+            .filter(|r| r["builder"] == b.name())
+            .map(|r| r["spes"].as_u64().unwrap())
+            .collect();
+        assert_eq!(counts, (1..=16).collect::<Vec<u64>>(), "{b}");
+    }
     for (args, msg) in [
-        (&["--max-spes", "0"][..], "0 is not in 1..=8"),
+        (&["--max-spes", "0"][..], "0 is not in 1..=16"),
+        (&["--max-spes", "17"][..], "17 is not in 1..=16"),
         (&["--out", "/proc/x"][..], "/proc/x: cannot write"),
     ] {
         let out = std::process::Command::new(exe).args(args).output().unwrap();

@@ -130,3 +130,32 @@ fn footprint_brackets_the_largest_scene_each_builder_fits() {
     }
     assert!(dir.join("footprint.csv").exists());
 }
+
+/// A prediction whose verification builds would need more host memory
+/// than `--host-memory-mib` allows is reported, not verified, saying how
+/// much it would need: nothing is built past the budget (the run is quick
+/// and every row is there).
+#[test]
+fn footprint_does_not_run_the_host_out_of_memory() {
+    let (rows, _) = run_experiment(
+        env!("CARGO_BIN_EXE_footprint"),
+        "footprint-host",
+        &["--memory-mib", "4096", "--host-memory-mib", "1"],
+    );
+    assert_eq!(
+        rows.len(),
+        BuilderKind::ALL.iter().filter(|b| b.emulated()).count()
+    );
+    for r in rows {
+        assert!(r["fits_n"].is_null() && r["fails_n"].is_null(), "{r}");
+        let need = r["verify_host_mib"].as_u64().unwrap();
+        // Over 4 GiB of emulated memory filled: more than 4096 MiB.
+        assert!(need > 4096, "{r}");
+        let why = r["not_verified"].as_str().unwrap();
+        assert!(
+            why.contains(&format!("{need} MiB")) && why.contains("--host-memory-mib"),
+            "{why}"
+        );
+        assert!(r["predicted_n"].as_u64().unwrap() > 10_000_000, "{r}");
+    }
+}

@@ -128,6 +128,50 @@ fn every_multi_spe_builder_builds_the_baseline_tree_on_1_to_8_spes_with_every_kn
         .for_each(every_setting_gives_the_baseline_tree);
 }
 
+/// The what-if beyond a Cell's 8 SPEs (`--spes` up to 16, one memory
+/// interface as on 8): every multi-SPE builder with its defaults and its
+/// most knobs at once builds the baseline's tree on 12 and 16 SPEs, every
+/// SPE works, the run is the same twice, and 16 SPEs share the memory
+/// interface: the transfers of the run wait for it more than on 8.
+#[test]
+fn twelve_and_sixteen_spes_build_the_baseline_tree() {
+    let s = scene::load("rtperf:60000:2", None).unwrap();
+    let cfg = BihConfig::default();
+    let base = BuilderKind::SPE_BFS.build(&s, &cfg).unwrap();
+    for b in multi_spe() {
+        for knobs in [Knobs::default(), b.sweeps().pop().unwrap()] {
+            let mut mem_wait = Vec::new();
+            for spes in [8, 12, 16] {
+                let what = format!("{b} {} on {spes} SPEs", knobs.spelled());
+                let cell = CellConfig::ps3().with_spes(spes);
+                let build = || b.build_with(&s, s.bounds(), &cfg, &cell, &knobs).unwrap();
+                let r = build();
+                r.bih.validate(&s).unwrap_or_else(|v| panic!("{what}: {v}"));
+                if !knobs.change_the_tree() {
+                    same_tree_structure(&base.bih, &r.bih)
+                        .unwrap_or_else(|e| panic!("{what}: {e}"));
+                }
+                common::check_multi_spe_runs(&r, &build(), &what);
+                let sim = r.simulated.unwrap();
+                assert_eq!(sim.run.cores.len(), spes + 1, "{what}");
+                for (name, c) in &sim.run.cores[1..] {
+                    assert!(c.busy.0 > 0, "{what}: {name} did nothing");
+                }
+                mem_wait.push(
+                    sim.run.cores[1..]
+                        .iter()
+                        .map(|(_, c)| c.memory_wait.0)
+                        .sum::<u64>(),
+                );
+            }
+            assert!(
+                mem_wait[2] > mem_wait[0],
+                "{b}: memory-interface wait {mem_wait:?}"
+            );
+        }
+    }
+}
+
 /// The same cycles, counters and tree whatever the host does: builds run
 /// side by side in rayon pools of one and two threads agree with a lone
 /// build.

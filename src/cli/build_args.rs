@@ -83,9 +83,11 @@ pub struct BuildArgs {
     pub builder: String,
     #[command(flatten)]
     pub tree: TreeArgs,
-    /// SPEs of the emulated Cell, 1 to 8 (a PS3 program gets 6; 8 is a
-    /// whole Cell). Builders that use fewer leave the others idle.
-    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=8))]
+    /// SPEs of the emulated Cell, 1 to 16 (a PS3 program gets 6; 8 is a
+    /// whole Cell; 9 to 16 is a what-if: more SPEs on the same memory
+    /// interface, docs/many-spes.md). Builders that use fewer leave the
+    /// others idle.
+    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=16))]
     pub spes: u64,
     /// Main memory of the emulated Cell, MiB (a PS3 has 256). A build
     /// that does not fit fails, naming the buffer.
