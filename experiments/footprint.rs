@@ -15,7 +15,7 @@
 //! `ppe_naive`'s 5.35 M triangles at 51 bytes each in 256 MiB; 2 M
 //! triangles: `spe_bfs` 166 bytes a triangle in all, `spe_bfs_shared` 228,
 //! `spe_morton` 240, each under its footprint + 115). A prediction whose builds would need more
-//! than `--host-memory-mib` (default: three quarters of what the host has
+//! than `--host-memory-mib` (default: half of what the host has
 //! available) is reported unverified, and says why, instead of running
 //! the host out of memory.
 
@@ -36,8 +36,8 @@ struct Args {
     /// Main memory of the emulated Cell, MiB (the PS3 model has 256).
     #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u64).range(1..=4096))]
     memory_mib: u64,
-    /// Host memory the verification builds may use, MiB (default: three
-    /// quarters of the host's available memory, /proc/meminfo).
+    /// Host memory the verification builds may use, MiB (default:
+    /// half the host's available memory, /proc/meminfo).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     host_memory_mib: Option<u64>,
     /// text (a table) or json (the rows).
@@ -52,12 +52,12 @@ struct Args {
 /// the emulated memory it fills (the module's note).
 const HOST_BYTES_PER_TRIANGLE: f64 = 115.0;
 
-/// Three quarters of the host's available memory, MiB, if the host says.
+/// Half the host's available memory, MiB, if the host says.
 fn host_budget_mib() -> Option<u64> {
     let info = std::fs::read_to_string("/proc/meminfo").ok()?;
     let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib / 1024 * 3 / 4)
+    Some(kib / 1024 / 2)
 }
 
 /// The two sizes the prediction is fitted on.
