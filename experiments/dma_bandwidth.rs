@@ -102,6 +102,7 @@ fn stream(spes: usize, size: u32, double: bool, bytes: u64) -> Run {
 
 fn main() {
     cellbih::report::quiet_on_closed_pipe();
+    cellbih::output::clean_up_on_interrupt();
     let args = Args::parse();
     if let Err(e) = run(&args) {
         eprintln!("dma_bandwidth: {e}");

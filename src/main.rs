@@ -265,6 +265,7 @@ type Res<T> = Result<T, Box<dyn std::error::Error>>;
 fn main() -> ExitCode {
     cellbih::report::quiet_on_closed_pipe();
     cellbih::report::one_line_on_failed_stdout("cellbih");
+    cellbih::output::clean_up_on_interrupt();
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

@@ -10,11 +10,14 @@
 //!   `/dev/full`, a pipe) is written directly and flushed explicitly;
 //! - `-` is the standard output, as command-line users expect;
 //! - an existing file keeps its permissions (a 0600 file stays 0600);
-//! - every error names the path the user gave, never the temporary file.
+//! - every error names the path the user gave, never the temporary file;
+//! - an interrupt (Ctrl-C) while a file is being written removes its
+//!   temporary file before the process ends ([`clean_up_on_interrupt`]).
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use thiserror::Error;
 
@@ -118,6 +121,7 @@ pub fn write_file(
         Target::Replace { dir, file } => {
             let plain = |e: std::io::Error| fail(std::io::Error::new(e.kind(), plain_error(&e)));
             let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(plain)?;
+            let _listed = Listed::new(tmp.path());
             // Written through the plain file: the temporary file's own
             // writer puts its name into errors.
             let mut w = BufWriter::new(tmp.as_file_mut());
@@ -132,6 +136,66 @@ pub fn write_file(
             Ok(())
         }
     }
+}
+
+/// The temporary files being written now.
+static IN_FLIGHT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// A temporary file listed in [`IN_FLIGHT`] while it lives.
+struct Listed(PathBuf);
+
+impl Listed {
+    fn new(path: &Path) -> Self {
+        lock_in_flight().push(path.to_path_buf());
+        Listed(path.to_path_buf())
+    }
+}
+
+impl Drop for Listed {
+    fn drop(&mut self) {
+        lock_in_flight().retain(|p| p != &self.0);
+    }
+}
+
+fn lock_in_flight() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// The temporary files of the writes under way.
+pub fn in_flight() -> Vec<PathBuf> {
+    lock_in_flight().clone()
+}
+
+/// Removes the temporary files of the writes under way (what an interrupt
+/// does before the process ends); returns how many.
+pub fn remove_in_flight() -> usize {
+    let files = lock_in_flight();
+    (files.iter())
+        .filter(|p| std::fs::remove_file(p).is_ok())
+        .count()
+}
+
+/// On Ctrl-C (SIGINT), remove the temporary files of the writes under way,
+/// say so, and exit with status 130, as a shell reports an interrupt: an
+/// interrupted run leaves the old files, never a hidden `.tmp` one. Once
+/// per process; the commands and experiments call it first thing.
+pub fn clean_up_on_interrupt() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // A second handler cannot be set (someone else set one): then
+        // the default, ending the process, stays.
+        let _ = ctrlc::set_handler(|| {
+            let removed = remove_in_flight();
+            eprintln!(
+                "interrupted{}",
+                match removed {
+                    0 => String::new(),
+                    n => format!(": {n} unfinished file(s) removed, the old ones kept"),
+                }
+            );
+            std::process::exit(130);
+        });
+    });
 }
 
 /// [`write_file`] of a byte buffer.
@@ -165,6 +229,31 @@ fn set_mode(_: &File, _: Option<std::fs::Permissions>) {}
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// While a file is written its temporary file is listed for an
+    /// interrupt to remove, and only while: after the rename (or a failed
+    /// write) nothing of it is listed.
+    #[test]
+    fn a_write_under_way_is_listed_for_an_interrupt() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("out.csv");
+        let mine = || -> Vec<PathBuf> {
+            (in_flight().into_iter())
+                .filter(|f| f.parent() == Some(dir.path()))
+                .collect()
+        };
+        write_file(&p, |w| {
+            let listed = mine();
+            assert_eq!(listed.len(), 1, "{listed:?}");
+            assert!(listed[0].exists() && listed[0] != p);
+            w.write_all(b"x")
+        })
+        .unwrap();
+        assert!(mine().is_empty());
+        let failed = write_file(&p, |_| Err(std::io::Error::other("no")));
+        assert!(failed.is_err() && mine().is_empty());
+        assert_eq!(std::fs::read(&p).unwrap(), b"x");
+    }
 
     #[test]
     fn a_failed_write_leaves_the_old_file_and_names_the_path() {

@@ -428,3 +428,35 @@ fn an_experiment_with_nothing_to_measure_fails_and_keeps_earlier_results() {
         assert_eq!(kept, "earlier results\n", "{file}");
     }
 }
+
+/// Ctrl-C (SIGINT) in the middle of a run: the command says it was
+/// interrupted, exits with 130 as a shell reports an interrupt, and leaves
+/// nothing in the output's directory — no half-written file and no hidden
+/// temporary one (an interrupt during a write removes it: `output`'s
+/// tests list it while it is written).
+#[test]
+fn an_interrupt_leaves_no_file_behind() {
+    let dir = tmp("interrupted");
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("frame.png");
+    let child = Command::new(env!("CARGO_BIN_EXE_cellbih"))
+        .args(["render", "--on-cell", "--width", "1280", "--height", "960"])
+        .arg("--out")
+        .arg(&out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert!(left.is_empty(), "{left:?}");
+}

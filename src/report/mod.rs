@@ -45,6 +45,7 @@ pub fn one_line_on_failed_stdout(name: &'static str) {
 pub fn experiment_main(name: &'static str, out: &Path, run: impl FnOnce() -> Result<(), String>) {
     quiet_on_closed_pipe();
     one_line_on_failed_stdout(name);
+    crate::output::clean_up_on_interrupt();
     if let Err(e) = prepare_dir(out)
         .map_err(|e| e.to_string())
         .and_then(|()| run())
