@@ -39,7 +39,6 @@ use print::{info, print_build};
 use update::{AnimationArg, update};
 
 /// Where the demo writes its image: the current directory.
-const DEMO_PNG: &str = "cellbih-demo.png";
 
 #[derive(Parser)]
 #[command(
@@ -278,7 +277,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Res<()> {
     match cli.command {
-        None => demo(),
+        None => compare::demo(),
         Some(Command::Builders) => {
             for b in BuilderKind::ALL {
                 let width = BuilderKind::ALL.iter().map(|b| b.name().len()).max();
@@ -562,34 +561,4 @@ fn write_png(path: &Path, img: &image::RgbImage) -> Res<()> {
     let mut png = Vec::new();
     img.write_with_encoder(image::codecs::png::PngEncoder::new(&mut png))?;
     Ok(cellbih::output::write_bytes(path, &png)?)
-}
-
-/// `cargo run --release`: every builder on the default scene, then primary
-/// rays and a rendered image.
-fn demo() -> Res<()> {
-    check_writable(Path::new(DEMO_PNG))?;
-    let s = scene::load("default", None)?;
-    println!(
-        "cellbih demo: `cellbih compare` on scene '{}', {} triangles in {} objects\n",
-        s.name,
-        s.len(),
-        s.geometry_names.len()
-    );
-    let cell = CellConfig::ps3();
-    let cfg = cellbih::bih::BihConfig::default();
-    let c = compare::rows(&s, &cell, &cfg)?;
-    compare::print(&s, cell.spes, &cfg, &c, Format::Text);
-    if !c.failed.is_empty() {
-        return Err(format!("builder(s) failed: {}", names(&c.failed)).into());
-    }
-    let r = c.last.expect("every builder built");
-    let cam = Camera::framing(&s.bounds(), 640, 480);
-    let tracer = Tracer::new(&r.bih, &s);
-    let frame = render::trace(&tracer, &s.triangles, &cam);
-    write_png(Path::new(DEMO_PNG), &frame.shaded())?;
-    println!("image written to {DEMO_PNG} (in the current directory)");
-    println!(
-        "next: `cellbih --help`, `cellbih compare --scene rtperf:100000`, `cellbih build --scene rtperf:100000`, `cellbih update --scene car --animation car`, `cellbih frame --scene car --animation car --builder spe_bfs_private --policy auto`, `cargo test --release`"
-    );
-    Ok(())
 }

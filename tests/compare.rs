@@ -144,3 +144,37 @@ fn a_failing_builder_is_named_and_the_others_are_compared() {
     let builds = cellbih::registry::BuilderKind::ALL.len();
     assert_eq!(built, builds, "every builder either compared or named");
 }
+
+/// The demo (`cellbih` with no command) and `compare` print for an
+/// 80-column terminal: every line of their tables and notes fits, the
+/// demo writes its image, and its table has every builder of the
+/// registry, in both halves (the build, then the tree's worth).
+#[test]
+fn the_demo_and_compare_fit_80_columns() {
+    let dir = common::tmp("demo");
+    std::fs::create_dir_all(&dir).unwrap();
+    let demo = std::process::Command::new(env!("CARGO_BIN_EXE_cellbih"))
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert_ok(&demo);
+    assert!(dir.join("cellbih-demo.png").exists());
+    let compare = cellbih(&["compare", "--scene", "car", "--spes", "2"]);
+    assert_ok(&compare);
+    for out in [&demo, &compare] {
+        let text = String::from_utf8_lossy(&out.stdout);
+        for line in text.lines() {
+            assert!(
+                line.chars().count() <= 80,
+                "{} columns: {line}",
+                line.chars().count()
+            );
+        }
+        for b in BuilderKind::ALL {
+            let rows = text
+                .lines()
+                .filter(|l| l.split_whitespace().next() == Some(b.name()));
+            assert_eq!(rows.count(), 2, "{b}: {text}");
+        }
+    }
+}

@@ -5,6 +5,7 @@
 //! no arguments) is this on the embedded default scene.
 
 use std::io::IsTerminal;
+use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
@@ -169,41 +170,40 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
         .map(|b| b.name().len())
         .max()
         .unwrap_or(0);
+    // Two tables of at most 80 columns: what the build cost, what the
+    // tree is worth.
+    let opt = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |v| format!("{v:.d$}"));
     println!(
-        "{:<w$} {:>9} {:>8} {:>11} {:>8} {:>8} {:>6} {:>9} {:>11} {:>8} {:>11} {:>8} {:>9} {:>9}",
-        "builder",
-        "Cell ms",
-        "speedup",
-        "Cell render",
-        "host ms",
-        "nodes",
-        "depth",
-        "SAH",
-        "primary",
-        "Mrays/s",
-        "incoherent",
-        "Mrays/s",
-        "tree KiB",
-        "Cell MiB"
+        "{:<w$} {:>9} {:>8} {:>8} {:>8} {:>6} {:>9} {:>9}",
+        "builder", "Cell ms", "speedup", "host ms", "nodes", "depth", "tree KiB", "Cell MiB"
     );
     for r in rows {
-        let opt = |v: Option<f64>, d: usize| v.map_or("-".to_string(), |v| format!("{v:.d$}"));
         println!(
-            "{:<w$} {:>9} {:>8} {:>11} {:>8.2} {:>8} {:>6} {:>9.2} {:>11} {:>8.2} {:>11} {:>8.2} {:>9.1} {:>9}",
+            "{:<w$} {:>9} {:>8} {:>8.2} {:>8} {:>6} {:>9.1} {:>9}",
             r.builder.name(),
             opt(r.simulated_ms, 2),
             opt(speedup(r), 2),
-            opt(r.render_ms, 2),
             r.host_ms,
             r.nodes,
             r.depth,
+            r.tree_bytes as f64 / 1024.0,
+            opt(r.main_memory.map(|b| b as f64 / (1024.0 * 1024.0)), 2),
+        );
+    }
+    println!(
+        "\n{:<w$} {:>9} {:>11} {:>8} {:>11} {:>8} {:>11}",
+        "builder", "SAH", "primary", "Mrays/s", "incoherent", "Mrays/s", "Cell render"
+    );
+    for r in rows {
+        println!(
+            "{:<w$} {:>9.2} {:>11} {:>8.2} {:>11} {:>8.2} {:>11}",
+            r.builder.name(),
             r.sah,
             format!("{:.1}+{:.1}", r.primary.nodes, r.primary.triangles),
             r.primary.mrays_per_s,
             format!("{:.1}+{:.1}", r.incoherent.nodes, r.incoherent.triangles),
             r.incoherent.mrays_per_s,
-            r.tree_bytes as f64 / 1024.0,
-            opt(r.main_memory.map(|b| b as f64 / (1024.0 * 1024.0)), 2),
+            opt(r.render_ms, 2),
         );
     }
     if !left_out.is_empty() {
@@ -226,15 +226,58 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
     } else {
         format!(" with {}", cfg.flags())
     };
-    println!(
-        "\ntrees{with} valid; \"Cell ms\": simulated time on the PS3 model (multi-SPE builders on {}); \
-         speedup over spe_bfs (one SPE, the paper's baseline); \"Cell render\": simulated ms to cast \
-         the camera's {}×{} primary rays through the tree on the SPEs; primary, incoherent: nodes visited + \
-         triangles tested per ray (primary rays of the render camera; 16,384 rays from random points \
-         in the scene box in random directions), closest hit; host figures: this machine, one thread; \
-         tree KiB: nodes and triangle ids; Cell MiB: main memory the emulated build used (every buffer)",
+    let note = format!(
+        "trees{with} valid. Cell ms: simulated time on the PS3 model (multi-SPE builders on {}); \
+         speedup: over spe_bfs (one SPE, the paper's baseline); host figures: this machine, one \
+         thread; tree KiB: nodes and triangle ids; Cell MiB: main memory the emulated build used \
+         (every buffer). primary, incoherent: nodes visited + triangles tested per ray, closest \
+         hit (the render camera's primary rays; 16,384 rays from random points in the scene box \
+         in random directions); Cell render: simulated ms to cast the camera's {}×{} primary rays \
+         through the tree on the SPEs.",
         super::spes(spes),
         CAST_SIZE.0,
         CAST_SIZE.1
     );
+    println!("\n{}", cellbih::report::wrap(&note, 80));
+}
+
+/// Where the demo writes its image (the current directory).
+const DEMO_PNG: &str = "cellbih-demo.png";
+
+/// `cargo run --release`: every builder on the default scene, then primary
+/// rays and a rendered image.
+pub fn demo() -> super::Res<()> {
+    cellbih::output::check_writable(Path::new(DEMO_PNG))?;
+    let s = cellbih::scene::load("default", None)?;
+    println!(
+        "cellbih demo: `cellbih compare` on scene '{}', {} triangles in {} objects\n",
+        s.name,
+        s.len(),
+        s.geometry_names.len()
+    );
+    let cell = CellConfig::ps3();
+    let cfg = cellbih::bih::BihConfig::default();
+    let c = rows(&s, &cell, &cfg)?;
+    print(&s, cell.spes, &cfg, &c, Format::Text);
+    if !c.failed.is_empty() {
+        return Err(format!("builder(s) failed: {}", super::names(&c.failed)).into());
+    }
+    let r = c.last.expect("every builder built");
+    let cam = Camera::framing(&s.bounds(), 640, 480);
+    let tracer = Tracer::new(&r.bih, &s);
+    let frame = cellbih::render::trace(&tracer, &s.triangles, &cam);
+    super::write_png(Path::new(DEMO_PNG), &frame.shaded())?;
+    println!("image written to {DEMO_PNG} (in the current directory)");
+    println!("next:");
+    for cmd in [
+        "cellbih --help",
+        "cellbih compare --scene rtperf:100000",
+        "cellbih build --scene rtperf:100000",
+        "cellbih update --scene car --animation car",
+        "cellbih frame --scene car --animation car --builder spe_bfs --policy auto",
+        "cargo test --release",
+    ] {
+        println!("  {cmd}");
+    }
+    Ok(())
 }

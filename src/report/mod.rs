@@ -39,6 +39,26 @@ pub fn one_line_on_failed_stdout(name: &'static str) {
     }));
 }
 
+/// `text` wrapped at spaces into lines of at most `width` characters (a
+/// word longer than that stands alone on its line).
+pub fn wrap(text: &str, width: usize) -> String {
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines.join("\n")
+}
+
 /// An experiment's `main`: a closed pipe ends it quietly, its `--out`
 /// directory is checked before `run` does any work, and an error is
 /// printed as `name: error` with exit code 1.
