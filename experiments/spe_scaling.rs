@@ -6,9 +6,10 @@
 //! `cargo run --release --bin spe_scaling -- --data DIR [--scenes default,bunny] [--max-spes 8] [--defaults-only] [--out results]`
 //!
 //! Scenes (default): default, bunny, dragon, sponza-dabrovic, sibenik,
-//! rtperf:1000000 (those that need the data directory are skipped, said so,
-//! when it is missing). Writes spe_scaling.{csv,json}, one SVG per scene of
-//! speedup against SPEs (with the ideal line) and one of where the SPEs'
+//! rtperf:1000000 and the held-out meshes teapot, iss-nasa, homer,
+//! rocker-arm, beast, nefertiti, ogre (those that need the data directory
+//! are skipped, said so, when it is missing). Writes
+//! spe_scaling.{csv,json}, one SVG per scene of speedup against SPEs (with the ideal line) and one of where the SPEs'
 //! time goes on the largest scene.
 
 use std::io::IsTerminal;
@@ -33,7 +34,7 @@ struct Args {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "default,bunny,dragon,sponza-dabrovic,sibenik,rtperf:1000000"
+        default_value = "default,bunny,dragon,sponza-dabrovic,sibenik,rtperf:1000000,teapot,iss-nasa,homer,rocker-arm,beast,nefertiti,ogre"
     )]
     scenes: Vec<String>,
     /// Most SPEs (1 to 16; above 8 a what-if: more SPEs on the one memory
