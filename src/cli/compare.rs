@@ -234,11 +234,13 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
          hit (the render camera's primary rays; 16,384 rays from random points in the scene box \
          in random directions); Cell render: simulated ms to cast the camera's {}×{} primary rays \
          through the tree on the SPEs.",
-        super::spes(spes),
+        // Kept on one line: "6 SPEs" is one phrase.
+        super::spes(spes).replace(' ', "\u{1}"),
         CAST_SIZE.0,
         CAST_SIZE.1
     );
-    println!("\n{}", cellbih::report::wrap(&note, 80));
+    let note = cellbih::report::wrap(&note, 80).replace('\u{1}', " ");
+    println!("\n{note}");
 }
 
 /// Where the demo writes its image (the current directory).

@@ -147,16 +147,22 @@ impl MortonKnobs {
 }
 
 /// The rates of this strategy's own kernels, SPE cycles: each derived
-/// from an instruction count on the SPU's two pipelines (7.5, 3 and 5.5
-/// cycles) and scaled by the partition's fitted/derived ratio
+/// from an instruction count on the SPU's two pipelines (7.5, 7.5, 3 and
+/// 5.5 cycles) and scaled by the partition's fitted/derived ratio
 /// ([`crate::kernels::rates::FITTED_OVER_DERIVED`]), `docs/cost-model.md`.
 #[derive(Clone, Copy)]
 pub struct MortonRates {
+    /// Per triangle, once per key: its record loaded and its center made
+    /// (four triangles a vector), the key's cell started, the key pair
+    /// stored.
+    pub key_setup: Cycles,
     /// Per triangle per key bit of a Morton key: one halving of the
     /// candidate cell, four triangles a vector.
     pub key_bit: Cycles,
     /// Per key of a radix-sort histogram step (digit, count update), and
-    /// per entry of the prefix sum over the counts.
+    /// per entry of the prefix sum over the counts; the scatter pays it
+    /// again per key and per digit of each block, for the block's own
+    /// histogram and prefix (its pairs staged in order of their places).
     pub radix_count: Cycles,
     /// Per key of a radix-sort scatter step (digit, offset update, the
     /// pair copied to its place in the staging buffer, a DMA-list element
@@ -166,6 +172,7 @@ pub struct MortonRates {
 
 /// The PS3's [`MortonRates`].
 pub const RATES: MortonRates = MortonRates {
+    key_setup: Cycles(15 * FITTED_OVER_DERIVED / 2),
     key_bit: Cycles(15 * FITTED_OVER_DERIVED / 2),
     radix_count: Cycles(3 * FITTED_OVER_DERIVED),
     radix_scatter: Cycles(11 * FITTED_OVER_DERIVED / 2),
@@ -176,6 +183,7 @@ impl MortonRates {
     fn with(overrides: &RateOverrides) -> Self {
         let mut r = RATES;
         for (name, field) in [
+            ("spe_morton.key_setup", &mut r.key_setup),
             ("spe_morton.key_bit", &mut r.key_bit),
             ("spe_morton.radix_count", &mut r.radix_count),
             ("spe_morton.radix_scatter", &mut r.radix_scatter),
@@ -190,6 +198,12 @@ impl MortonRates {
     /// Its rates' plausible bands: derived, from the value to 1.6 times it
     /// (the key-bit rate's 30 to 49 cycles; `KernelRates::UNCERTAIN`).
     pub const UNCERTAIN: &'static [Uncertain] = &[
+        Uncertain {
+            name: "spe_morton.key_setup",
+            low: Cycles(30),
+            high: Cycles(49),
+            why: "derived",
+        },
         Uncertain {
             name: "spe_morton.key_bit",
             low: Cycles(30),

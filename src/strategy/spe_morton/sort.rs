@@ -85,7 +85,7 @@ impl Program<'_> {
     /// Phase 1: a key for every record of this SPE's slice, into keys A.
     pub(super) async fn keys(&mut self, bufs: [LsAddr; 4]) -> Result<(), CellError> {
         let (lo, hi) = self.slice();
-        let rate = Cycles(self.rates.key_bit.0 * self.spec.bits as u64);
+        let rate = Cycles(self.rates.key_setup.0 + self.rates.key_bit.0 * self.spec.bits as u64);
         let src = self.a.tris.offset((lo * RECORD) as u64);
         let count = hi - lo;
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
@@ -163,6 +163,9 @@ impl Program<'_> {
             let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
             let keys: Vec<u64> = recs.iter().map(|r| r.key).collect();
             let to = radix::scatter(&keys, pass, d, &mut offsets);
+            // The block's own histogram and prefix sum, which stage its
+            // pairs in order of their places, then the scatter.
+            (self.spe).compute_items(self.rates.radix_count, (len + digits) as u64);
             self.spe.compute_items(self.rates.radix_scatter, len as u64);
             let mut order: Vec<usize> = (0..len).collect();
             order.sort_by_key(|&i| to[i]);
