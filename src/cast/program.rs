@@ -111,6 +111,14 @@ async fn cast_tile(
                 return Ok(hits);
             }
             let outstanding = cache.outstanding();
+            if outstanding == 0 && !state.contains(&State::Full) {
+                // Every waiting ray waits for a get under way: a ray
+                // waiting for none would wait for ever.
+                return Err(CellError::Program {
+                    core: format!("SPE {}", spe.id()),
+                    msg: "ray caster: rays wait, but no cache fetch is under way".into(),
+                });
+            }
             if outstanding != 0 {
                 let arrived = spe.wait_tags(outstanding, WaitMode::Any).await?;
                 cache.arrived(arrived);
