@@ -79,8 +79,8 @@ pub const KEY_ORDER: Knob = Knob::word(
     &["xyz"],
 )
 .changing_the_tree();
-/// `--key-bits 32|64`: `MortonKnobs::key_bits`.
-pub const KEY_BITS: Knob = Knob::word("key-bits", "key bits", &["32", "64"], &["64"]);
+/// `--key-bits 32|64|16`: `MortonKnobs::key_bits`.
+pub const KEY_BITS: Knob = Knob::word("key-bits", "key bits", &["32", "64", "16"], &["64", "16"]);
 /// `--digit-bits N`: `MortonKnobs::digit_bits`.
 pub const DIGIT_BITS: Knob = Knob::int(
     "digit-bits",
@@ -110,8 +110,11 @@ struct MortonKnobs {
     /// baseline's tree; round robin (LBVH) another tree, its keys cheaper
     /// to reason about, its quality the cost.
     key_order: KeyOrder,
-    /// Key bits, 32 or 64. Buys: fewer ranges left to the global heuristic
-    /// (64). Costs: key time per bit, radix passes.
+    /// Key bits, 16, 32 or 64. Buys: fewer ranges left to the global
+    /// heuristic (64); fewer bits, less key time and fewer radix passes
+    /// (16: the dragon's regions are reached within 16 halvings). Costs:
+    /// key time per bit, radix passes; too few bits leave ranges larger
+    /// than a region, which the breadth-first loop builds (the same tree).
     key_bits: u32,
     /// Bits per radix pass (4 to 11). Buys: fewer passes over the keys.
     /// Costs: larger count tables (2^bits per SPE) and more scattered runs
@@ -137,7 +140,7 @@ impl MortonKnobs {
                 "xyz" => KeyOrder::RoundRobin,
                 _ => KeyOrder::GlobalHeuristic,
             },
-            key_bits: if k.word(&KEY_BITS) == "64" { 64 } else { 32 },
+            key_bits: k.word(&KEY_BITS).parse().expect("a key width of the table"),
             digit_bits: k.int(&DIGIT_BITS) as u32,
             region_size: k.int(&REGION_SIZE),
             static_regions: k.flag(&STATIC_REGIONS),
