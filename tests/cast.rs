@@ -42,6 +42,26 @@ fn cast(
     cast_on_cell(bih, scene, rays, cfg, &cell).expect("the cast runs")
 }
 
+/// The default scene and `b`'s tree of it (the paper's settings).
+fn default_scene_tree(b: BuilderKind) -> (Scene, cellbih::registry::BuildReport) {
+    let s = scene::load("default", None).unwrap();
+    let r = b.build(&s, &BihConfig::default()).unwrap();
+    (s, r)
+}
+
+/// The default cast with this cache shape and rays in flight.
+fn shaped(kib: u32, ways: u32, fetch_lines: u32, rays_in_flight: u32) -> CastConfig {
+    CastConfig {
+        cache: CacheConfig {
+            kib,
+            ways,
+            fetch_lines,
+        },
+        rays_in_flight,
+        ..CastConfig::DEFAULT
+    }
+}
+
 /// The host tracer's answers.
 fn host(scene: &Scene, bih: &cellbih::bih::Bih, rays: &[Ray]) -> Vec<Option<Hit>> {
     let t = Tracer::new(bih, scene);
@@ -71,7 +91,7 @@ proptest! {
         // At most as many lines a miss as a way has sets.
         let sets = kib * 1024 / 128 / ways;
         let fetch_lines = 1 + (fetch_lines - 1) % sets;
-        let cfg = CastConfig { cache: CacheConfig { kib, ways, fetch_lines }, tile_rays, rays_in_flight, ..CastConfig::DEFAULT };
+        let cfg = CastConfig { tile_rays, ..shaped(kib, ways, fetch_lines, rays_in_flight) };
         let rays = rays_for(&scene, 40, scene.len() as u64 + 7);
         for &b in BuilderKind::ALL {
             let r = b.build(&scene, &BihConfig::default())
@@ -125,11 +145,7 @@ fn every_builders_tree_is_cast_as_the_host_casts_it() {
 /// 3x faster than one, every SPE takes tiles, and a miss costs a get.
 #[test]
 fn the_cast_is_deterministic_and_spreads_over_the_spes() {
-    let s = scene::load("default", None).unwrap();
-    let r = BuilderKind::from_name("spe_bfs")
-        .unwrap()
-        .build(&s, &BihConfig::default())
-        .unwrap();
+    let (s, r) = default_scene_tree(BuilderKind::SPE_BFS);
     let rays = Camera::framing(&s.bounds(), 96, 72).rays();
     let d = CastConfig::DEFAULT;
     let one = cast(&s, &r.bih, &rays, &d, 1);
@@ -163,20 +179,9 @@ fn the_cast_is_deterministic_and_spreads_over_the_spes() {
 /// neither changes a hit.
 #[test]
 fn a_larger_cache_and_longer_fetches_miss_less() {
-    let s = scene::load("default", None).unwrap();
-    let r = BuilderKind::from_name("host")
-        .unwrap()
-        .build(&s, &BihConfig::default())
-        .unwrap();
+    let (s, r) = default_scene_tree(BuilderKind::HOST);
     let rays = Camera::framing(&s.bounds(), 64, 48).rays();
-    let with = |kib, ways, fetch_lines| CastConfig {
-        cache: CacheConfig {
-            kib,
-            ways,
-            fetch_lines,
-        },
-        ..CastConfig::DEFAULT
-    };
+    let with = |kib, ways, fetch_lines| shaped(kib, ways, fetch_lines, 1);
     let tiny = cast(&s, &r.bih, &rays, &with(1, 2, 1), 6);
     let big = cast(&s, &r.bih, &rays, &with(128, 4, 1), 6);
     let long = cast(&s, &r.bih, &rays, &with(32, 4, 16), 6);
@@ -204,11 +209,7 @@ fn a_larger_cache_and_longer_fetches_miss_less() {
 /// a tile or a cache that cannot be is an error that says why.
 #[test]
 fn functional_mode_and_bad_shapes() {
-    let s = scene::load("default", None).unwrap();
-    let r = BuilderKind::from_name("host")
-        .unwrap()
-        .build(&s, &BihConfig::default())
-        .unwrap();
+    let (s, r) = default_scene_tree(BuilderKind::HOST);
     let rays = rays_for(&s, 200, 1);
     let mut cell = CellConfig::ps3();
     cell.cost = CostModel::functional();
@@ -260,11 +261,7 @@ fn functional_mode_and_bad_shapes() {
 /// rates' ratio at most, and never a hit.
 #[test]
 fn the_precision_charged_changes_the_time_not_the_hits() {
-    let s = scene::load("default", None).unwrap();
-    let r = BuilderKind::from_name("host")
-        .unwrap()
-        .build(&s, &BihConfig::default())
-        .unwrap();
+    let (s, r) = default_scene_tree(BuilderKind::HOST);
     let rays = Camera::framing(&s.bounds(), 48, 36).rays();
     let single = cast(&s, &r.bih, &rays, &CastConfig::DEFAULT, 6);
     let cfg = CastConfig {
@@ -296,21 +293,9 @@ fn the_precision_charged_changes_the_time_not_the_hits() {
 /// for a way and still answer the same.
 #[test]
 fn rays_in_flight_hide_the_misses_and_keep_the_hits() {
-    let s = scene::load("default", None).unwrap();
-    let r = BuilderKind::from_name("host")
-        .unwrap()
-        .build(&s, &BihConfig::default())
-        .unwrap();
+    let (s, r) = default_scene_tree(BuilderKind::HOST);
     let rays = Camera::framing(&s.bounds(), 64, 48).rays();
-    let with = |kib, ways, fetch_lines, rays_in_flight| CastConfig {
-        cache: CacheConfig {
-            kib,
-            ways,
-            fetch_lines,
-        },
-        rays_in_flight,
-        ..CastConfig::DEFAULT
-    };
+    let with = shaped;
     let one = cast(&s, &r.bih, &rays, &with(4, 2, 1, 1), 6);
     let switches = |c: &CastReport| c.spes.iter().map(|w| w.switches).sum::<u64>();
     assert_eq!(switches(&one), 0);
