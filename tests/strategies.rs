@@ -308,6 +308,7 @@ fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
                 base,
                 blocks: 4,
                 counter,
+                grows: false,
             }
         } else {
             BlockSource::Mailbox
@@ -363,6 +364,77 @@ fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
         assert_eq!(*n, want, "slot {i}");
     }
     assert_eq!(ppe_messages, 0, "the pool needs no PPE");
+}
+
+/// A pool that grows: past its blocks, the SPE asks the PPE for overflow
+/// blocks (`PoolServer`), which lie a whole number of nodes past the pool's
+/// base, so each node id is still its slot: node `id` is at base + 12 id.
+#[test]
+fn a_growing_object_arena_pool_keeps_ids_as_slots() {
+    use cellbih::bih::BihNode;
+    use cellbih::cell::{Cell, CellConfig, Ea};
+    use cellbih::strategy::machinery::arena::{
+        BLOCK_BYTES, BLOCK_NODES, BlockSource, ObjectArena, PoolServer,
+    };
+    use std::cell::RefCell;
+    use std::rc::Rc;
+
+    const PAIRS: usize = 4_999; // 9,999 slots: one pool block, two overflow
+    let mut cell = Cell::new(CellConfig::ps3().with_spes(1)).unwrap();
+    let base = cell.memory_mut().alloc("pool", BLOCK_BYTES, 128).unwrap();
+    let counter = cell.memory_mut().alloc("pool counter", 128, 128).unwrap();
+    // Something else between the pool and its overflow blocks.
+    cell.memory_mut().alloc("other", 1000, 128).unwrap();
+    let source = BlockSource::Pool {
+        base,
+        blocks: 1,
+        counter,
+        grows: true,
+    };
+    let ids: Rc<RefCell<Vec<u32>>> = Rc::default();
+    let i = ids.clone();
+    cell.spawn_spe(0, move |spe| async move {
+        let mut arena = ObjectArena::new(&spe, source)?;
+        let root = arena.alloc(1).await?;
+        arena.emit(root, BihNode::leaf(root, 1)).await?;
+        i.borrow_mut().push(root);
+        for _ in 0..PAIRS {
+            let id = arena.alloc(2).await?;
+            arena.emit(id, BihNode::leaf(id, 1)).await?;
+            arena.emit(id + 1, BihNode::leaf(id + 1, 1)).await?;
+            i.borrow_mut().extend([id, id + 1]);
+        }
+        let count = arena.allocated();
+        arena.close(count).await?;
+        assert_eq!(arena.stats.overflow, 2);
+        Ok(())
+    });
+    let reach =
+        cell.spawn_ppe(move |ppe| async move { PoolServer::new(base, 1, 1).serve(&ppe).await });
+    let r = cell.run().unwrap();
+    let reach = reach.take("PPE").unwrap();
+    assert_eq!(
+        r.cores[0].1.mailbox_messages, 2,
+        "one answer per overflow block"
+    );
+    let ids = ids.borrow();
+    assert_eq!(ids.len(), 1 + 2 * PAIRS);
+    assert!(
+        ids[..BLOCK_NODES - 1]
+            .iter()
+            .copied()
+            .eq(0..BLOCK_NODES as u32 - 1)
+    );
+    assert!(
+        ids.iter().any(|&id| id as usize > 2 * BLOCK_NODES),
+        "past the pool"
+    );
+    for &id in ids.iter() {
+        let at = Ea(base.0 + id as u64 * 12);
+        assert!(at.0 + 12 <= reach.0, "node {id} past the reach");
+        let got = cell.memory().read_pod::<BihNode>(at, 1).unwrap();
+        assert_eq!(got[0], BihNode::leaf(id, 1), "node {id}");
+    }
 }
 
 /// Each knob of the registry's tables: its default is in its own range,

@@ -14,7 +14,7 @@ use std::task::{Context, Poll, Waker};
 
 use super::CellError;
 use super::clock::Cycles;
-use super::machine::{Machine, Status, Task};
+use super::machine::{Machine, Status, Task, Wait};
 
 impl Machine {
     /// The ready core with the smallest clock. Equal clocks are broken in
@@ -112,7 +112,16 @@ pub(crate) fn execute(
                 slots[core] = None;
                 let mut mm = m.borrow_mut();
                 mm.cores[core].status = Status::Done;
-                end = end.max(mm.cores[core].clock);
+                let clock = mm.cores[core].clock;
+                end = end.max(clock);
+                if let Some(spe) = core.checked_sub(1) {
+                    // A PPE serving this SPE until it stops looks again.
+                    mm.wake_if(
+                        super::machine::PPE,
+                        clock,
+                        |w| matches!(*w, Wait::AnyOutMbox(mask) if mask >> spe & 1 == 1),
+                    );
+                }
                 result?;
             }
         }

@@ -216,6 +216,49 @@ impl Ppe {
         Ok((spe, v))
     }
 
+    /// As [`Ppe::wait_any_out_mbox`], for a PPE thread that serves `spes`
+    /// until they stop (libspe2's event handler also reports
+    /// SPE_EVENT_SPE_STOPPED): `None` once every SPE of `spes` has ended
+    /// and no value is left. That last wake-up is not charged: it is the
+    /// end of the run, which ends when its last core does.
+    pub async fn wait_any_out_mbox_or_stop(
+        &self,
+        spes: &[usize],
+    ) -> Result<Option<(usize, u32)>, CellError> {
+        let mut mask = 0u64;
+        for &s in spes {
+            self.check_spe(&self.m.borrow(), s)?;
+            mask |= 1 << s;
+        }
+        self.sync().await;
+        let got = block_on(&self.m, PPE, Wait::AnyOutMbox(mask), |m| {
+            let first = (0..m.spes.len())
+                .filter(|&k| mask >> k & 1 == 1)
+                .filter_map(|k| m.spes[k].out_mbox[0].front().map(|&(_, at)| (at, k)))
+                .min();
+            match first {
+                Some((_, k)) => {
+                    let (v, _) = m.spes[k].out_mbox[0].pop_front().expect("a value");
+                    Some(Some((k, v)))
+                }
+                None => (0..m.spes.len())
+                    .filter(|&k| mask >> k & 1 == 1)
+                    .all(|k| m.cores[k + 1].status == super::machine::Status::Done)
+                    .then_some(None),
+            }
+        })
+        .await;
+        if let Some((spe, _)) = got {
+            {
+                let mut m = self.m.borrow_mut();
+                let c = m.cfg.cost.ppe_event_cycles;
+                m.busy(PPE, c, SpanKind::Issue);
+            }
+            self.after_out_read(spe, OutBox::Out);
+        }
+        Ok(got)
+    }
+
     /// `spe_out_mbox_status`: values waiting in SPE `spe`'s outbound
     /// mailbox (0 or 1), without blocking; one MMIO read.
     pub async fn out_mbox_count(&self, spe: usize) -> Result<u32, CellError> {

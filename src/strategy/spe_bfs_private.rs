@@ -96,7 +96,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         steal: setup.knobs.flag(&STEAL),
     };
     let rates = setup.rates.kernels();
-    let common = Common::alloc(cell, tris, n)?;
+    let common = Common::alloc(cell, tris, n, &cfg)?;
     let (spes, blocks) = (cell.config().spes, common.pool.blocks);
     let mem = || cell.memory_mut();
     // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
@@ -210,7 +210,8 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             Ok(SpeExit::of(&b, work))
         }));
     }
-    Ok(common.pool.readback(exits, None))
+    let reach = common.pool.spawn_server(cell);
+    Ok(common.pool.readback(exits, reach, None))
 }
 
 /// SPE 0 deals the jobs of `level` (in `WorkA`): largest first, each to the

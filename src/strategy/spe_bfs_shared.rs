@@ -158,7 +158,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         )));
     }
     let rates = setup.rates.kernels();
-    let common = Common::alloc(cell, tris, n)?;
+    let common = Common::alloc(cell, tris, n, &cfg)?;
     let spes = cell.config().spes;
     // A level's jobs: two per job of the level before with more than a
     // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1)
@@ -271,7 +271,8 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             Ok(SpeExit::of(&b, work))
         }));
     }
-    Ok(common.pool.readback(exits, None))
+    let reach = common.pool.spawn_server(cell);
+    Ok(common.pool.readback(exits, reach, None))
 }
 
 /// The job queue's software cache of `kib` KiB in `spe`'s local store

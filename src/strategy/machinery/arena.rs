@@ -16,10 +16,16 @@
 //!   from it by fetch-and-add on a counter (the atomic unit): no PPE work
 //!   and no mailbox per block, and several SPEs never queue behind one PPE.
 //!   All SPEs' arenas then share one index space (section 5's per-SPE
-//!   ObjectArena lists): a node's id is its slot in the pool, so each SPE
-//!   computes the ids of the nodes it allocates alone. A pair of children
-//!   never straddles two blocks (the slot it would leave is wasted), so the
-//!   two stay adjacent as the node format requires.
+//!   ObjectArena lists): a node's id is its slot in the pool (its address
+//!   is the pool's base + id × 12 bytes), so each SPE computes the ids of
+//!   the nodes it allocates alone. A pair of children never straddles two
+//!   blocks (the slot it would leave is wasted), so the two stay adjacent
+//!   as the node format requires. The pool is sized for the 2n + 1 nodes of
+//!   a tree of the paper's settings; an SPE that finds it used up (the
+//!   empty-space cut-off's clip nodes) asks the PPE for an overflow block
+//!   by mailbox, as the paper's arena does, and the PPE places it at a
+//!   whole number of nodes from the base ([`PoolServer`]), so ids stay
+//!   slots.
 //!
 //! Ids are handed out by [`ObjectArena::alloc`] and nodes must be emitted
 //! in the order their ids were handed out. A node whose id another arena
@@ -38,7 +44,8 @@ pub const BLOCK_NODES: usize = 3 * NODES_PER_PUT;
 /// Bytes of one block.
 pub const BLOCK_BYTES: u64 = (BLOCK_NODES * size_of::<BihNode>()) as u64;
 
-/// Outbound-mailbox words from the SPE to the PPE (`Mailbox` source).
+/// Outbound-mailbox words from the SPE to the PPE (`Mailbox` source, and
+/// a pool's overflow blocks).
 pub const REQUEST_BLOCK: u32 = 1;
 pub const DONE: u32 = 2;
 
@@ -48,8 +55,14 @@ pub enum BlockSource {
     /// The PPE allocates each block on request ([`serve_blocks`]).
     Mailbox,
     /// Blocks `0..blocks` of a pool at `base`, taken by fetch-and-add on
-    /// the `u32` counter at `counter` (128-byte aligned line).
-    Pool { base: Ea, blocks: u32, counter: Ea },
+    /// the `u32` counter at `counter` (128-byte aligned line); past them,
+    /// overflow blocks from the PPE ([`PoolServer`]) if it `grows`.
+    Pool {
+        base: Ea,
+        blocks: u32,
+        counter: Ea,
+        grows: bool,
+    },
 }
 
 /// What an arena used.
@@ -63,6 +76,8 @@ pub struct ArenaStats {
     pub skipped: u64,
     /// Nodes written into other arenas' slots (lock-line updates).
     pub foreign: u64,
+    /// Blocks asked of the PPE once the pool was used up.
+    pub overflow: u64,
 }
 
 /// One SPE's ObjectArena: its node buffers and its list of blocks.
@@ -77,7 +92,7 @@ pub struct ObjectArena<'a> {
     nodes_first: usize,
     /// This SPE's blocks, in the order of the node ids they hold.
     blocks: Vec<Ea>,
-    /// Pool source: each block's index in the pool.
+    /// Pool source: the id of each block's first slot.
     pool_blocks: Vec<u32>,
     /// The next slot of this arena's sequence to hand out.
     alloc_seq: usize,
@@ -176,8 +191,7 @@ impl<'a> ObjectArena<'a> {
         match self.source {
             BlockSource::Mailbox => seq as u32,
             BlockSource::Pool { .. } => {
-                (self.pool_blocks[seq / BLOCK_NODES] as usize * BLOCK_NODES + seq % BLOCK_NODES)
-                    as u32
+                self.pool_blocks[seq / BLOCK_NODES] + (seq % BLOCK_NODES) as u32
             }
         }
     }
@@ -255,30 +269,39 @@ impl<'a> ObjectArena<'a> {
         *self = Self::in_buffers(self.spe, source, self.bufs, self.line, self.tags);
     }
 
-    /// A block of the pool, by fetch-and-add: its index and address.
+    /// A block of the pool, by fetch-and-add, or once the pool is used up
+    /// an overflow block from the PPE: the id of its first slot and its
+    /// address.
     async fn take_pool_block(&mut self) -> Result<(u32, Ea), CellError> {
         let BlockSource::Pool {
             base,
             blocks,
             counter,
+            grows,
         } = self.source
         else {
             unreachable!("only a pool has blocks to take");
         };
         let line = self.line.expect("a line buffer");
         let k = self.spe.atomic_fetch_add_u32(line, counter, 1).await?;
-        if k >= blocks {
+        self.stats.blocks += 1;
+        if k < blocks {
+            let first = k as usize * BLOCK_NODES;
+            return Ok((first as u32, base.offset(k as u64 * BLOCK_BYTES)));
+        }
+        if !grows {
             return Err(CellError::Program {
                 core: format!("SPE {}", self.spe.id()),
                 msg: format!(
-                    "the ObjectArena pool of {blocks} blocks is used up (it holds 2n + 1 nodes, \
-                     every node a tree of the paper's settings can have; the empty-space cut-off \
-                     adds two per clip node: use larger leaves or a larger --empty-cut)"
+                    "the ObjectArena pool of {blocks} blocks is used up (it holds 2n + 1 \
+                     nodes, every node a tree without the empty-space cut-off can have)"
                 ),
             });
         }
-        self.stats.blocks += 1;
-        Ok((k, base.offset(k as u64 * BLOCK_BYTES)))
+        self.spe.write_out_mbox(REQUEST_BLOCK).await;
+        let ea = Ea(self.spe.read_in_mbox().await as u64);
+        self.stats.overflow += 1;
+        Ok((PoolServer::slot_of(base, ea), ea))
     }
 
     /// The next block of a `Mailbox` arena: the one asked for ahead
@@ -344,6 +367,75 @@ pub async fn serve_blocks(ppe: &Ppe, spe: usize) -> Result<(Vec<Ea>, usize), Cel
                 });
             }
         }
+    }
+}
+
+/// The PPE's side of a pool's growth: allocates an overflow block for each
+/// SPE that asks, at a whole number of nodes (and 128 bytes) past the
+/// pool's base so that the SPE computes its ids from its address, until
+/// every SPE has stopped. It waits as a PPE thread serving several SPEs
+/// does (`Ppe::wait_any_out_mbox_or_stop`).
+pub struct PoolServer {
+    base: Ea,
+    /// The end of the highest block: the pool's reach.
+    end: Ea,
+    spes: usize,
+}
+
+/// Bytes between overflow blocks' starts and the pool's base are a
+/// multiple of this: whole nodes (12 bytes) and whole lines (128).
+const NODE_LINE: u64 = 384;
+
+impl PoolServer {
+    /// Serving `spes` SPEs, for the pool of `blocks` blocks at `base`.
+    pub fn new(base: Ea, blocks: u32, spes: usize) -> Self {
+        PoolServer {
+            base,
+            end: base.offset(blocks as u64 * BLOCK_BYTES),
+            spes,
+        }
+    }
+
+    /// The slot (node id) at address `ea` of the pool at `base`.
+    fn slot_of(base: Ea, ea: Ea) -> u32 {
+        debug_assert!(ea.0 >= base.0 && (ea.0 - base.0).is_multiple_of(NODE_LINE));
+        ((ea.0 - base.0) / size_of::<BihNode>() as u64) as u32
+    }
+
+    /// Serves block requests until a word it does not know (returned with
+    /// its SPE, for the strategy's own protocol) or until every SPE has
+    /// stopped (`None`).
+    pub async fn next(&mut self, ppe: &Ppe) -> Result<Option<(usize, u32)>, CellError> {
+        let all: Vec<usize> = (0..self.spes).collect();
+        while let Some((spe, w)) = ppe.wait_any_out_mbox_or_stop(&all).await? {
+            if w != REQUEST_BLOCK {
+                return Ok(Some((spe, w)));
+            }
+            let what = Purpose::Nodes.buffer("ObjectArena overflow block");
+            let ea = ppe.alloc(what, BLOCK_BYTES + NODE_LINE, 128).await?;
+            let pad = (NODE_LINE - (ea.0 - self.base.0) % NODE_LINE) % NODE_LINE;
+            let block = ea.offset(pad);
+            self.end = self.end.max(block.offset(BLOCK_BYTES));
+            ppe.write_in_mbox(spe, ea_word(block)?).await?;
+        }
+        Ok(None)
+    }
+
+    /// Serves a strategy that has no protocol of its own: a word other than
+    /// a request is an error. Returns the pool's reach.
+    pub async fn serve(mut self, ppe: &Ppe) -> Result<Ea, CellError> {
+        match self.next(ppe).await? {
+            None => Ok(self.end),
+            Some((spe, w)) => Err(CellError::Program {
+                core: "PPE".into(),
+                msg: format!("ObjectArena pool: unknown request {w} from SPE {spe}"),
+            }),
+        }
+    }
+
+    /// The end of the highest block handed out so far.
+    pub fn end(&self) -> Ea {
+        self.end
     }
 }
 

@@ -9,12 +9,13 @@
 //! wait. Then `spe_bfs_private` deals that level and `spe_bfs_shared` puts
 //! it in its shared queue.
 
-use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource};
+use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource, PoolServer};
 use super::coop::{Coop, CoopArea, GO};
 use super::footprint::Purpose;
 use super::layout::TriRecord;
 use super::work_queue::Level;
 use crate::aabb::Aabb;
+use crate::bih::BihConfig;
 use crate::cell::Exit;
 use crate::cell::{Cell, CellError, Ea, Spe};
 use crate::strategy::machinery::breadth_first::{Job, SpeBuilder};
@@ -67,10 +68,12 @@ pub(in crate::strategy) struct Common {
 }
 
 impl Common {
-    /// Allocates them for `n` triangle records at `tris`.
-    pub fn alloc(cell: &mut Cell, tris: Ea, n: usize) -> Result<Self, CellError> {
+    /// Allocates them for `n` triangle records at `tris`; the pool grows if
+    /// the tree can have more than 2n + 1 nodes (`cfg`'s empty-space
+    /// cut-off adds clip nodes).
+    pub fn alloc(cell: &mut Cell, tris: Ea, n: usize, cfg: &BihConfig) -> Result<Self, CellError> {
         let spes = cell.config().spes;
-        let pool = Pool::alloc(cell, n)?;
+        let pool = Pool::alloc(cell, n, cfg.empty_cut.is_some())?;
         let mut mem = cell.memory_mut();
         let scratch = mem.alloc(
             Purpose::TriangleRecords.buffer("cooperative partition scratch"),
@@ -101,20 +104,24 @@ impl Common {
     }
 }
 
-/// One ObjectArena pool in main memory for every SPE's arena.
+/// One ObjectArena pool in main memory for every SPE's arena; past it, the
+/// PPE's overflow blocks ([`PoolServer`]).
 #[derive(Clone, Copy)]
 pub(in crate::strategy) struct Pool {
     pub base: Ea,
-    /// Node slots in the pool.
-    pub slots: usize,
+    /// Blocks in the pool.
+    pub pool_blocks: u32,
     /// Where the SPEs' arenas take their blocks.
     pub blocks: BlockSource,
 }
 
 impl Pool {
-    /// The pool for `n` triangles: every node, plus a pair skipped and a
-    /// part-filled block per SPE and phase.
-    pub fn alloc(cell: &mut Cell, n: usize) -> Result<Self, CellError> {
+    /// The pool for `n` triangles: every node of a tree without the
+    /// empty-space cut-off, plus a pair skipped and a part-filled block per
+    /// SPE and phase; if it `grows`, the PPE's overflow blocks after it
+    /// (the PPE's program must then be [`Pool::spawn_server`] or use
+    /// [`Pool::server`]).
+    pub fn alloc(cell: &mut Cell, n: usize, grows: bool) -> Result<Self, CellError> {
         let spes = cell.config().spes;
         let mut mem = cell.memory_mut();
         let pool_blocks = (2 * n + 1).div_ceil(BLOCK_NODES) + 2 * spes + 2;
@@ -132,22 +139,50 @@ impl Pool {
             base,
             blocks: pool_blocks as u32,
             counter,
+            grows,
         };
         Ok(Pool {
             base,
-            slots: pool_blocks * BLOCK_NODES,
+            pool_blocks: pool_blocks as u32,
             blocks,
         })
     }
 
-    /// How a build whose SPEs return `exits` (in SPE order) is read back:
-    /// the pool, compacted (the arenas' unused slots dropped), what each
-    /// SPE did, and the triangle records at `records` if the strategy
-    /// moved them.
-    pub fn readback(self, exits: Vec<Exit<SpeExit>>, records: Option<Ea>) -> Readback {
+    /// The PPE's side of the pool's growth for `spes` SPEs.
+    pub fn server(&self, spes: usize) -> PoolServer {
+        PoolServer::new(self.base, self.pool_blocks, spes)
+    }
+
+    /// The PPE program of a strategy whose PPE only serves the pool, if the
+    /// pool grows (a pool that cannot needs no PPE): it returns the pool's
+    /// reach.
+    pub fn spawn_server(&self, cell: &mut Cell) -> Option<Exit<Ea>> {
+        let BlockSource::Pool { grows: true, .. } = self.blocks else {
+            return None;
+        };
+        let server = self.server(cell.config().spes);
+        Some(cell.spawn_ppe(move |ppe| async move { server.serve(&ppe).await }))
+    }
+
+    /// How a build whose SPEs return `exits` (in SPE order) and whose PPE
+    /// returns the pool's reach is read back: the pool and its overflow
+    /// blocks, compacted (the arenas' unused slots and whatever lies
+    /// between the blocks dropped), what each SPE did, and the triangle
+    /// records at `records` if the strategy moved them.
+    pub fn readback(
+        self,
+        exits: Vec<Exit<SpeExit>>,
+        reach: Option<Exit<Ea>>,
+        records: Option<Ea>,
+    ) -> Readback {
         Box::new(move || {
+            let end = match reach {
+                Some(reach) => reach.take("PPE")?,
+                None => self.base.offset(self.pool_blocks as u64 * BLOCK_BYTES),
+            };
+            let slots = ((end.0 - self.base.0) / size_of::<crate::bih::BihNode>() as u64) as usize;
             let mut o = Output {
-                nodes: vec![(self.base, self.slots)],
+                nodes: vec![(self.base, slots)],
                 compact: true,
                 records,
                 ..Output::default()

@@ -277,7 +277,8 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     let (n, knobs, cfg) = (setup.count, MortonKnobs::read(&setup.knobs), *cfg);
     let (rates, kernels) = (MortonRates::with(&setup.rates), setup.rates.kernels());
     let spes = cell.config().spes;
-    let pool = Pool::alloc(cell, n)?;
+    // No empty-space cut-off: the pool's 2n + 1 nodes always suffice.
+    let pool = Pool::alloc(cell, n, false)?;
     let mut mem = cell.memory_mut();
     let n64 = n as u64;
     let line = 128;
@@ -353,7 +354,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         }
         Ok::<(), CellError>(())
     });
-    Ok(pool.readback(exits, Some(a.sorted)))
+    Ok(pool.readback(exits, None, Some(a.sorted)))
 }
 
 /// One node of the top of the tree, as SPE 0 keeps it until the regions'
