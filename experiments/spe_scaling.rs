@@ -265,7 +265,8 @@ fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error
             "--key-order xyz",
         ]
         .contains(&flags)
-            || flags.starts_with("--double-buffer --dma-lists --prefetch")
+            || flags.starts_with("--double-buffer --dma-lists")
+            || flags.starts_with("--no-double-buffer --no-dma-lists --no-prefetch")
     };
     let mut names: Vec<String> = Vec::new();
     for r in rows {

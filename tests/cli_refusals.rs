@@ -63,7 +63,7 @@ fn sizes_past_their_limits_are_refused_at_once() {
                 "--deal-per-spe",
                 "17",
             ][..],
-            "builder spe_bfs_private: --deal-per-spe 17: 1 to 16",
+            "builder spe_bfs_private: --deal-per-spe 17: auto or 1 to 16",
         ),
         (
             &["build", "--builder", "spe_morton", "--digit-bits", "3"][..],
@@ -71,7 +71,7 @@ fn sizes_past_their_limits_are_refused_at_once() {
         ),
         (
             &["build", "--builder", "spe_morton", "--key-bits", "48"][..],
-            "--key-bits is 32, 64 or 16, not '48'",
+            "--key-bits is auto, 16, 24, 32 or 64, not '48'",
         ),
         (
             &["build", "--builder", "ppe_approx", "--approx-cells", "0"][..],

@@ -331,7 +331,10 @@ fn the_job_queue_cache_reads_the_same_jobs_and_is_emptied_every_level() {
             "{b}: no cache, no lookups"
         );
         b.set_knob(&mut knobs, "job-cache", "32").unwrap();
-        b.set_knob(&mut knobs, "double-buffer", "").unwrap();
+        // Double buffers (on by default or by a knob) take local store too.
+        if b.knob("double-buffer").is_ok() {
+            b.set_knob(&mut knobs, "double-buffer", "").unwrap();
+        }
         let e = b
             .build_with(&s, s.bounds(), &cfg, &cell, &knobs)
             .unwrap_err();
@@ -352,11 +355,12 @@ fn knobs_from(b: BuilderKind, picks: &[(u32, f64)]) -> Knobs {
             Kind::Flag => continue,
             Kind::Word(words) => words[pick as usize % words.len()].to_string(),
             Kind::Int { default, min, max } => match pick % 4 {
-                0 => default.to_string(),
+                0 => k.default_text(),
                 1 => min.to_string(),
                 2 => k.sweep[(pick / 4) as usize % k.sweep.len()].to_string(),
                 _ => {
-                    let hi = max.min(4 * default);
+                    // An `auto` default (0) reads as its least value here.
+                    let hi = max.min(4 * default.max(min));
                     (min + (frac * (hi - min) as f64) as usize).to_string()
                 }
             },

@@ -11,7 +11,8 @@
 pub enum Kind {
     /// A flag: off unless given (`--NAME`).
     Flag,
-    /// A whole number in `min..=max`.
+    /// A whole number in `min..=max`; a `default` of 0 (outside the
+    /// range) is `auto`: the strategy's own choice.
     Int {
         default: usize,
         min: usize,
@@ -72,6 +73,23 @@ impl Knob {
         }
     }
 
+    /// A whole number in `min..=max` (`min` at least 1), or `auto` (read
+    /// as 0): the strategy chooses unless given.
+    pub const fn int_or_auto(
+        name: &'static str,
+        help: &'static str,
+        (min, max): (usize, usize),
+        sweep: &'static [&'static str],
+    ) -> Knob {
+        assert!(min >= 1, "0 reads as auto");
+        Knob::int(name, help, 0, (min, max), sweep)
+    }
+
+    /// Whether it takes `auto` (and reads it as 0).
+    fn takes_auto(&self) -> bool {
+        matches!(self.kind, Kind::Int { default: 0, min, .. } if min > 0)
+    }
+
     /// One of `words`, the first unless given.
     pub const fn word(
         name: &'static str,
@@ -104,6 +122,7 @@ impl Knob {
     pub fn default_text(&self) -> String {
         match self.kind {
             Kind::Flag => "off".into(),
+            _ if self.takes_auto() => "auto".into(),
             Kind::Int { default, .. } => default.to_string(),
             Kind::Word(words) => words[0].into(),
         }
@@ -116,6 +135,7 @@ impl Knob {
         match self.kind {
             Kind::Flag if value.is_empty() => Ok(Value::On),
             Kind::Flag => Err(format!("--{name} is a flag: it takes no value ('{value}')")),
+            _ if value == "auto" && self.takes_auto() => Ok(Value::Int(0)),
             Kind::Int { min, max, .. } => {
                 let v: usize = (value.parse())
                     .map_err(|_| format!("--{name} takes a whole number, not '{value}'"))?;
@@ -135,14 +155,24 @@ impl Knob {
     pub fn range(&self) -> String {
         match self.kind {
             Kind::Flag => "a flag".into(),
-            Kind::Int { min, max, .. } if max == usize::MAX => format!("at least {min}"),
-            Kind::Int { min, max, .. } => format!("{min} to {max}"),
+            Kind::Int { min, max, .. } => {
+                let auto = if self.takes_auto() { "auto or " } else { "" };
+                match max {
+                    usize::MAX => format!("{auto}at least {min}"),
+                    _ => format!("{auto}{min} to {max}"),
+                }
+            }
             Kind::Word(words) => match words {
                 [one] => (*one).into(),
                 [rest @ .., last] => format!("{} or {last}", rest.join(", ")),
                 [] => "nothing".into(),
             },
         }
+    }
+
+    #[cfg(test)]
+    fn set_auto_is_refused(&'static self) -> bool {
+        Knobs::default().set(self, "auto").is_err()
     }
 
     /// The option as the command line spells it with `value`: `--NAME` for
@@ -199,7 +229,7 @@ impl Knobs {
         self.get(knob) == Some(Value::On)
     }
 
-    /// A whole-number knob's value.
+    /// A whole-number knob's value (0: `auto`).
     pub fn int(&self, knob: &Knob) -> usize {
         match (self.get(knob), knob.kind) {
             (Some(Value::Int(v)), _) => v,
@@ -244,6 +274,20 @@ mod tests {
     static FLAG: Knob = Knob::flag("f", "a flag");
     static INT: Knob = Knob::int("n", "a number", 4, (1, 16), &["2"]);
     static WORD: Knob = Knob::word("w", "a word", &["gh", "xyz"], &["xyz"]);
+    static AUTO: Knob = Knob::int_or_auto("a", "a number or auto", (1, 16), &["2"]);
+
+    #[test]
+    fn an_auto_knob_reads_auto_as_zero_and_refuses_zero() {
+        let mut k = Knobs::default();
+        assert_eq!((k.int(&AUTO), AUTO.default_text()), (0, "auto".to_string()));
+        k.set(&AUTO, "3").unwrap();
+        assert_eq!(k.int(&AUTO), 3);
+        k.set(&AUTO, "auto").unwrap();
+        assert_eq!(k.int(&AUTO), 0);
+        let e = k.set(&AUTO, "0").unwrap_err();
+        assert!(e.contains("--a 0: auto or 1 to 16"), "{e}");
+        assert!(INT.set_auto_is_refused());
+    }
 
     #[test]
     fn a_knob_not_given_reads_as_its_default() {

@@ -26,11 +26,11 @@
 use crate::strategy::machinery::footprint::Purpose;
 
 use super::machinery::breadth_first::{
-    DMA_LISTS, DOUBLE_BUFFER, Job, PREFETCH, QueueKnobs, SpeBuilder,
+    Job, NO_DMA_LISTS, NO_DOUBLE_BUFFER, NO_PREFETCH, QueueKnobs, SpeBuilder,
 };
 use super::machinery::coop::Coop;
 use super::machinery::top::{
-    Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TopKnobs, build_top, help_top,
+    Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TOP_END, TopKnobs, build_top, help_top,
 };
 use super::machinery::work_queue::{Level, WORK_BYTES};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -46,24 +46,42 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 .on_every_spe()
 .with_quality(crate::bih::Quality::ALL)
 .with_knobs(&[
-    &DOUBLE_BUFFER,
-    &DMA_LISTS,
-    &PREFETCH,
+    &NO_DOUBLE_BUFFER,
+    &NO_DMA_LISTS,
+    &NO_PREFETCH,
     &NO_COOP_TOP,
     &DEAL_PER_SPE,
+    &TOP_END,
     &STEAL,
 ])
-// Section 5's three queue improvements together, and with a deal of two
-// jobs per SPE.
+// The paper's queue (none of section 5's three improvements), and the
+// defaults before issue 28 (docs/many-spes.md).
 .with_combos(&[
-    &[(&DOUBLE_BUFFER, ""), (&DMA_LISTS, ""), (&PREFETCH, "")],
+    &[(&NO_DOUBLE_BUFFER, ""), (&NO_DMA_LISTS, ""), (&NO_PREFETCH, "")],
     &[
-        (&DOUBLE_BUFFER, ""),
-        (&DMA_LISTS, ""),
-        (&PREFETCH, ""),
-        (&DEAL_PER_SPE, "2"),
+        (&NO_DOUBLE_BUFFER, ""),
+        (&NO_DMA_LISTS, ""),
+        (&NO_PREFETCH, ""),
+        (&DEAL_PER_SPE, "4"),
+        (&TOP_END, "count"),
     ],
 ]);
+
+/// The queue's defaults, the best measured (docs/many-spes.md,
+/// "Defaults"): section 5's three improvements together.
+const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
+    double_buffer: true,
+    dma_lists: true,
+    prefetch: true,
+};
+/// The top's defaults: the deal at two jobs per SPE, at the first level
+/// where no job holds more than one SPE's share (or the jobs are small):
+/// a dealt job is never split, so the deal must be balanced.
+const DEFAULT_TOP: TopKnobs = TopKnobs {
+    coop: true,
+    deal_per_spe: 2,
+    balanced: true,
+};
 
 /// `--steal`: the dealt jobs stay in per-SPE lists in main memory; each
 /// SPE takes its next one when it has built the last, and when its list is
@@ -91,8 +109,8 @@ const RECORD_BYTES: u64 = 128;
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let knobs = PrivateKnobs {
-        queue: QueueKnobs::read(&setup.knobs),
-        top: TopKnobs::read(&setup.knobs),
+        queue: QueueKnobs::read(&setup.knobs, DEFAULT_QUEUE),
+        top: TopKnobs::read(&setup.knobs, DEFAULT_TOP),
         steal: setup.knobs.flag(&STEAL),
     };
     let rates = setup.rates.kernels();

@@ -1,6 +1,7 @@
 //! What the emulated strategies share: the triangle records' layout in main
 //! memory ([`layout`]), Fig. 1's five-buffer streaming partition ([`fig1`]),
-//! the ObjectArena ([`arena`]), the counting barrier ([`barrier`]), the
+//! the ObjectArena ([`arena`]; the PPE side of a pool that grows:
+//! [`pool_server`]), the counting barrier ([`barrier`]), the
 //! WorkA/WorkB job queue of Fig. 2 ([`work_queue`]), the baseline's
 //! breadth-first loop over it ([`breadth_first`]), section 2's cooperative
 //! partition ([`coop`]), the top levels of the multi-SPE strategies and
@@ -16,6 +17,7 @@ pub mod coop;
 pub mod fig1;
 pub mod footprint;
 pub mod layout;
+pub mod pool_server;
 pub mod software_cache;
 pub mod top;
 pub mod work_queue;

@@ -18,7 +18,7 @@ use crate::aabb::Aabb;
 use crate::bih::BihConfig;
 use crate::cell::Exit;
 use crate::cell::{Cell, CellError, Ea, Spe};
-use crate::strategy::machinery::breadth_first::{Job, SpeBuilder};
+use crate::strategy::machinery::breadth_first::{Job, SpeBuilder, TopEnd};
 use crate::strategy::{Knob, Knobs, Output, Readback, SpeWork};
 
 /// `--no-coop-top`: `TopKnobs::coop` off.
@@ -26,13 +26,19 @@ pub const NO_COOP_TOP: Knob = Knob::flag(
     "no-coop-top",
     "the SPEs do not help partition the top levels (they wait for the deal)",
 );
-/// `--deal-per-spe N`: `TopKnobs::deal_per_spe`.
-pub const DEAL_PER_SPE: Knob = Knob::int(
+/// `--deal-per-spe N|auto`: `TopKnobs::deal_per_spe`.
+pub const DEAL_PER_SPE: Knob = Knob::int_or_auto(
     "deal-per-spe",
-    "the top levels end at the first level with this many jobs per SPE",
-    4,
+    "the top levels end at the first level with this many jobs per SPE (auto: the strategy's measured best, 1 for the shared queue, 2 for private deques)",
     (1, 16),
-    &["1", "2", "16"],
+    &["4", "16"],
+);
+/// `--top-end count|balanced|auto`: `TopKnobs::balanced`.
+pub const TOP_END: Knob = Knob::word(
+    "top-end",
+    "where the top levels end: at the first level of --deal-per-spe jobs per SPE (count), or the first such level where no job holds more than one SPE's share of the triangles or the jobs average under 1,024 (balanced); auto: count for the shared queue, balanced for private deques",
+    &["auto", "count", "balanced"],
+    &["count", "balanced"],
 );
 
 /// How the top levels are built.
@@ -49,13 +55,24 @@ pub(in crate::strategy) struct TopKnobs {
     /// largest-first deal more room to balance, but more levels are built
     /// before it.
     pub deal_per_spe: usize,
+    /// The top levels also go on until no job of the level holds more than
+    /// one SPE's share of its triangles (at most 16 jobs per SPE).
+    pub balanced: bool,
 }
 
 impl TopKnobs {
-    pub fn read(knobs: &Knobs) -> Self {
+    /// The values `knobs` gives them; `auto` is the strategy's default.
+    pub fn read(knobs: &Knobs, auto: TopKnobs) -> Self {
         TopKnobs {
             coop: !knobs.flag(&NO_COOP_TOP),
-            deal_per_spe: knobs.int(&DEAL_PER_SPE),
+            deal_per_spe: match knobs.int(&DEAL_PER_SPE) {
+                0 => auto.deal_per_spe,
+                n => n,
+            },
+            balanced: match knobs.word(&TOP_END) {
+                "auto" => auto.balanced,
+                w => w == "balanced",
+            },
         }
     }
 }
@@ -246,7 +263,14 @@ pub(in crate::strategy) async fn build_top(
     let level = b
         .queue
         .start(Job::new(0, n, root_id as usize, 0, region, &all))?;
-    let top = b.levels(level, Some(knobs.deal_per_spe * spes)).await?;
+    let jobs = knobs.deal_per_spe * spes;
+    let end = TopEnd {
+        jobs,
+        cap: jobs.max((16 * spes).min(128)),
+        spes,
+        balanced: knobs.balanced,
+    };
+    let top = b.levels(level, Some(end)).await?;
     // From here on, every SPE works on whole jobs.
     b.help_with(None);
     let top_nodes = b.arena.allocated();

@@ -41,7 +41,7 @@ use bytemuck::{Pod, Zeroable};
 
 use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
 use super::machinery::barrier::Barrier;
-use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, PREFETCH, QueueKnobs};
+use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, NO_PREFETCH, QueueKnobs};
 use super::machinery::layout::TriRecord;
 use super::machinery::top::{Pool, SpeExit};
 use super::{Knob, Knobs, Readback, Setup, SpeWork};
@@ -68,7 +68,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     // Regions too large for a local store run the breadth-first loop.
     &DOUBLE_BUFFER,
     &DMA_LISTS,
-    &PREFETCH,
+    &NO_PREFETCH,
 ]);
 
 /// `--key-order gh|xyz`: `MortonKnobs::key_order`.
@@ -79,8 +79,13 @@ pub const KEY_ORDER: Knob = Knob::word(
     &["xyz"],
 )
 .changing_the_tree();
-/// `--key-bits 32|64|16`: `MortonKnobs::key_bits`.
-pub const KEY_BITS: Knob = Knob::word("key-bits", "key bits", &["32", "64", "16"], &["64", "16"]);
+/// `--key-bits auto|16|24|32|64`: `MortonKnobs::key_bits`.
+pub const KEY_BITS: Knob = Knob::word(
+    "key-bits",
+    "key bits (auto: from the scene, the halvings its regions need: 16 up to about a million triangles)",
+    &["auto", "16", "24", "32", "64"],
+    &["32", "64"],
+);
 /// `--digit-bits N`: `MortonKnobs::digit_bits`.
 pub const DIGIT_BITS: Knob = Knob::int(
     "digit-bits",
@@ -93,15 +98,39 @@ pub const DIGIT_BITS: Knob = Knob::int(
 pub const REGION_SIZE: Knob = Knob::int(
     "region-size",
     "the largest region built by one SPE alone (triangles)",
-    2048,
+    256,
     (1, usize::MAX),
-    &["256", "512", "8192"],
+    &["128", "2048", "8192"],
 );
 /// `--static-regions`: `MortonKnobs::static_regions`.
 pub const STATIC_REGIONS: Knob = Knob::flag(
     "static-regions",
     "regions dealt before the builds, not taken from an atomic counter",
 );
+
+/// The queue knobs of regions too large for a local store: the next
+/// batch's get overlaps the partition, as the breadth-first strategies'.
+const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
+    double_buffer: false,
+    dma_lists: false,
+    prefetch: true,
+};
+
+/// `--key-bits auto`: the halvings the scene's regions need, a whole number
+/// of radix digits. A region of `region_size` triangles is reached after
+/// about log2(n / region_size) halvings where triangles spread evenly;
+/// four bits more for the halvings a real scene spends on empty space and
+/// uneven density. Measured (docs/morton.md, "Defaults"): on every scene up
+/// to rtPerf 1M (16 bits by this rule) 16 bits were the fastest width with
+/// regions of 256, and the tree is the baseline's at any width (ranges
+/// that share their whole key are built by the breadth-first loop).
+pub fn auto_key_bits(n: usize, region_size: usize, digit_bits: u32) -> u32 {
+    let halvings = (n as f64 / region_size.max(1) as f64)
+        .log2()
+        .ceil()
+        .max(0.0) as u32;
+    (halvings + 4).next_multiple_of(digit_bits).clamp(16, 64)
+}
 
 /// This strategy's knobs, read from those given.
 #[derive(Clone, Copy)]
@@ -110,7 +139,7 @@ struct MortonKnobs {
     /// baseline's tree; round robin (LBVH) another tree, its keys cheaper
     /// to reason about, its quality the cost.
     key_order: KeyOrder,
-    /// Key bits, 16, 32 or 64. Buys: fewer ranges left to the global
+    /// Key bits, 16 to 64 (0 until `auto` is resolved). Buys: fewer ranges left to the global
     /// heuristic (64); fewer bits, less key time and fewer radix passes
     /// (16: the dragon's regions are reached within 16 halvings). Costs:
     /// key time per bit, radix passes; too few bits leave ranges larger
@@ -140,11 +169,14 @@ impl MortonKnobs {
                 "xyz" => KeyOrder::RoundRobin,
                 _ => KeyOrder::GlobalHeuristic,
             },
-            key_bits: k.word(&KEY_BITS).parse().expect("a key width of the table"),
+            key_bits: match k.word(&KEY_BITS) {
+                "auto" => 0,
+                w => w.parse().expect("a key width of the table"),
+            },
             digit_bits: k.int(&DIGIT_BITS) as u32,
             region_size: k.int(&REGION_SIZE),
             static_regions: k.flag(&STATIC_REGIONS),
-            queue: QueueKnobs::read(k),
+            queue: QueueKnobs::read(k, DEFAULT_QUEUE),
         }
     }
 }
@@ -274,7 +306,10 @@ struct Areas {
 }
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
-    let (n, knobs, cfg) = (setup.count, MortonKnobs::read(&setup.knobs), *cfg);
+    let (n, mut knobs, cfg) = (setup.count, MortonKnobs::read(&setup.knobs), *cfg);
+    if knobs.key_bits == 0 {
+        knobs.key_bits = auto_key_bits(n, knobs.region_size, knobs.digit_bits);
+    }
     let (rates, kernels) = (MortonRates::with(&setup.rates), setup.rates.kernels());
     let spes = cell.config().spes;
     // No empty-space cut-off: the pool's 2n + 1 nodes always suffice.
@@ -533,5 +568,24 @@ impl<'a> Program<'a> {
             partitions: self.partitions,
             phases: std::mem::take(&mut self.phases),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::auto_key_bits;
+
+    /// `--key-bits auto`: the halvings to regions of 256 plus four, whole
+    /// 8-bit digits, at least 16 (every scene up to rtPerf 1M: 16 bits).
+    #[test]
+    fn auto_key_bits_follow_the_halvings_the_regions_need() {
+        assert_eq!(auto_key_bits(6_320, 256, 8), 16);
+        assert_eq!(auto_key_bits(871_306, 256, 8), 16);
+        assert_eq!(auto_key_bits(1_000_000, 256, 8), 16);
+        assert_eq!(auto_key_bits(4_000_000, 256, 8), 24);
+        assert_eq!(auto_key_bits(4_000_000, 2048, 8), 16);
+        assert_eq!(auto_key_bits(871_306, 1, 11), 33);
+        assert_eq!(auto_key_bits(0, 256, 8), 16);
+        assert_eq!(auto_key_bits(usize::MAX, 1, 8), 64);
     }
 }

@@ -36,7 +36,7 @@ use super::layout::TriRecord;
 use super::work_queue::{Level, WorkQueue};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
-use crate::cell::{CellError, Ea, LsAddr, Spe, WaitMode};
+use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe, WaitMode};
 use crate::kernels::cutoff::{Clip, child_regions};
 use crate::kernels::recursion::BuildStats;
 use crate::kernels::sah::Bins;
@@ -54,10 +54,26 @@ pub const DMA_LISTS: Knob = Knob::flag(
     "dma-lists",
     "DMA lists gather and scatter the intervals of agglomerated jobs (section 5)",
 );
-/// `--prefetch`: `QueueKnobs::prefetch`.
+/// `--prefetch`: `QueueKnobs::prefetch` where it is off by default.
 pub const PREFETCH: Knob = Knob::flag(
     "prefetch",
     "the next batch's get overlaps this batch's partition",
+);
+/// `--no-prefetch`: `QueueKnobs::prefetch` off where it is on by default.
+pub const NO_PREFETCH: Knob = Knob::flag(
+    "no-prefetch",
+    "each batch's get is waited for before its partition, as in the paper (default: the next batch's get overlaps this batch's partition)",
+);
+/// `--no-double-buffer`: `QueueKnobs::double_buffer` off where it is on by
+/// default.
+pub const NO_DOUBLE_BUFFER: Knob = Knob::flag(
+    "no-double-buffer",
+    "one WorkA/WorkB, synchronous job-queue DMA, as in the paper (default: double-buffered, section 5)",
+);
+/// `--no-dma-lists`: `QueueKnobs::dma_lists` off where it is on by default.
+pub const NO_DMA_LISTS: Knob = Knob::flag(
+    "no-dma-lists",
+    "no DMA lists for agglomerated jobs, as in the paper (default: one getl/putl per batch, section 5)",
 );
 
 /// Section 5's improvements of the job queue, which the multi-SPE
@@ -90,13 +106,52 @@ impl QueueKnobs {
         prefetch: false,
     };
 
-    /// The values `knobs` gives them.
-    pub fn read(knobs: &Knobs) -> Self {
+    /// The values `knobs` gives them, each improvement on by default where
+    /// `on` has it (then its `--no-…` knob turns it off) and off otherwise
+    /// (then its knob turns it on).
+    pub fn read(knobs: &Knobs, on: QueueKnobs) -> Self {
+        let pick = |default: bool, yes: &Knob, no: &Knob| match default {
+            true => !knobs.flag(no),
+            false => knobs.flag(yes),
+        };
         QueueKnobs {
-            double_buffer: knobs.flag(&DOUBLE_BUFFER),
-            dma_lists: knobs.flag(&DMA_LISTS),
-            prefetch: knobs.flag(&PREFETCH),
+            double_buffer: pick(on.double_buffer, &DOUBLE_BUFFER, &NO_DOUBLE_BUFFER),
+            dma_lists: pick(on.dma_lists, &DMA_LISTS, &NO_DMA_LISTS),
+            prefetch: pick(on.prefetch, &PREFETCH, &NO_PREFETCH),
         }
+    }
+}
+
+/// Where the top levels end (`machinery::top`): at the first level in
+/// `WorkA` of at least `jobs` jobs, or if `balanced` the first such level
+/// where also no job holds more than one SPE's share of the level's
+/// triangles (each SPE can get a fair share of whole jobs) or the jobs
+/// average under [`COOP_MIN_MEAN`] triangles; at the latest at `cap` jobs
+/// (the most `WorkA` keeps at the top).
+#[derive(Clone, Copy, Debug)]
+pub(in crate::strategy) struct TopEnd {
+    pub jobs: usize,
+    pub cap: usize,
+    pub spes: usize,
+    pub balanced: bool,
+}
+
+/// Cycles a job to look at a level's jobs for [`TopEnd`]: a load, a
+/// compare and an add, about 2 cycles pipelined, scaled ×4 as the
+/// partition's rates are (docs/cost-model.md).
+const TOP_END_SCAN: Cycles = Cycles(8);
+
+/// Below this many triangles a job on average, a balanced top ends: the
+/// cooperative partition of so few does not pay for its barriers
+/// (measured: homer and the teapot on 8 SPEs, docs/many-spes.md).
+const COOP_MIN_MEAN: u64 = 1024;
+
+impl TopEnd {
+    /// Whether a balanced top ends before `jobs`.
+    pub fn ends(&self, jobs: &[Job]) -> bool {
+        let total: u64 = jobs.iter().map(|j| j.count as u64).sum();
+        let largest = jobs.iter().map(|j| j.count as u64).max().unwrap_or(0);
+        largest * self.spes as u64 <= total || total < COOP_MIN_MEAN * jobs.len() as u64
     }
 }
 
@@ -275,22 +330,33 @@ impl<'a> SpeBuilder<'a> {
     }
 
     /// Builds level by level from `level`. With `stop_at`, stops before the
-    /// first level of at least that many jobs (at most 128, so that it is
-    /// still in `WorkA`) and returns it; otherwise runs to the end.
+    /// first level where it [`TopEnd::ends`] (still in `WorkA`) and returns
+    /// it; otherwise runs to the end.
     pub(in crate::strategy) async fn levels(
         &mut self,
         mut level: Level,
-        stop_at: Option<usize>,
+        stop_at: Option<TopEnd>,
     ) -> Result<Option<Level>, CellError> {
-        debug_assert!(stop_at.is_none_or(|s| s <= 128));
         loop {
             for k in 0..self.queue.blocks(level) {
                 let jobs = self.queue.load(level, k).await?;
                 self.process(&jobs).await?;
             }
             match self.queue.end_level().await? {
-                Some(Level::Local(len)) if stop_at.is_some_and(|s| len >= s) => {
-                    return Ok(Some(Level::Local(len)));
+                Some(Level::Local(len)) if stop_at.is_some_and(|s| len >= s.jobs) => {
+                    let end = stop_at.expect("checked");
+                    let local = Level::Local(len);
+                    if len >= end.cap || !end.balanced {
+                        return Ok(Some(local));
+                    }
+                    // Look at the level's jobs in WorkA: a load, a
+                    // compare and an add per job.
+                    let jobs = self.queue.load(local, 0).await?;
+                    self.spe.compute_items(TOP_END_SCAN, jobs.len() as u64);
+                    if end.ends(&jobs) {
+                        return Ok(Some(local));
+                    }
+                    level = local;
                 }
                 Some(next) => level = next,
                 None => return Ok(None),
