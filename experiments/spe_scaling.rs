@@ -122,6 +122,7 @@ fn row(
     let ms = sim.run.ms;
     let row = json!({
         "scene": scene.name, "triangles": scene.len(), "builder": v.name, "spes": spes,
+        "spes_used": sim.spe_work.len(),
         "simulated_ms": ms, "baseline_ms": base_ms,
         "speedup": base_ms / ms, "efficiency": base_ms / ms / spes as f64,
         "busy": share(&|c| c.busy.0), "dma_wait": share(&|c| c.dma_wait.0),
@@ -201,6 +202,7 @@ fn run(args: &Args) -> Result<(), String> {
         "triangles",
         "builder",
         "spes",
+        "spes_used",
         "simulated_ms",
         "baseline_ms",
         "speedup",
@@ -336,7 +338,7 @@ fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error
 
 fn print_table(rows: &[Value]) {
     println!(
-        "{:<18} {:<58} {:>4} {:>10} {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8} {:>7}",
+        "{:<18} {:<58} {:>5} {:>10} {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8} {:>7}",
         "scene",
         "builder",
         "SPEs",
@@ -356,10 +358,14 @@ fn print_table(rows: &[Value]) {
     let pct = |v: &Value| format!("{:.0}%", v.as_f64().unwrap_or(0.0) * 100.0);
     for r in rows {
         println!(
-            "{:<18} {:<58} {:>4} {:>10.2} {:>8.2} {:>6.2} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8.0} {:>7.1}",
+            "{:<18} {:<58} {:>5} {:>10.2} {:>8.2} {:>6.2} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8.0} {:>7.1}",
             r["scene"].as_str().unwrap_or(""),
             r["builder"].as_str().unwrap_or(""),
-            r["spes"],
+            // SPEs used of those given, where a small scene used fewer.
+            match (r["spes_used"].as_u64(), r["spes"].as_u64()) {
+                (Some(u), Some(s)) if u < s => format!("{u}/{s}"),
+                (_, s) => s.unwrap_or(0).to_string(),
+            },
             r["simulated_ms"].as_f64().unwrap_or(0.0),
             r["speedup"].as_f64().unwrap_or(0.0),
             r["efficiency"].as_f64().unwrap_or(0.0),

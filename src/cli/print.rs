@@ -37,6 +37,19 @@ pub fn info(s: &Scene, format: Format) -> Res<()> {
     Ok(())
 }
 
+/// The SPEs a build ran programs on: those that report work (a
+/// multi-SPE builder on a small scene uses fewer), else every SPE that
+/// was busy.
+fn spes_used(m: &cellbih::strategy::Simulated) -> usize {
+    match m.spe_work.len() {
+        0 => m.run.cores[1..]
+            .iter()
+            .filter(|(_, c)| c.busy.0 > 0)
+            .count(),
+        k => k,
+    }
+}
+
 pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
     let q = r.bih.quality();
     let (primary, incoherent) = RaySets::standard(&s.bounds()).measure(&Tracer::new(&r.bih, s));
@@ -53,6 +66,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                 "rays": { "primary": primary, "incoherent": incoherent },
                 "simulated_ms": timed.map(|m| m.run.ms),
                 "spes": sim.map(|m| m.run.cores.len() - 1),
+                "spes_used": sim.map(spes_used),
                 "simulated_cycles": timed.map(|m| m.run.cycles.0),
                 "timing": sim.map(|m| if m.run.timed { "simulated" } else { "none: functional mode" }),
                 "cores": sim.map(|m| &m.run.cores),
@@ -78,6 +92,13 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                     m.run.cycles.0
                 ),
                 None => {}
+            }
+            if let Some(m) = sim.filter(|m| spes_used(m) < m.run.cores.len() - 1) {
+                println!(
+                    "SPEs used   {} of {}: a small scene runs on fewer (--tris-per-spe 1 uses every SPE)",
+                    spes_used(m),
+                    m.run.cores.len() - 1
+                );
             }
             if sim.is_some() {
                 println!("host time   {ms:.2} ms (the emulation)");

@@ -30,7 +30,8 @@ use super::machinery::breadth_first::{
 };
 use super::machinery::coop::Coop;
 use super::machinery::top::{
-    Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TOP_END, TopKnobs, build_top, help_top,
+    Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE, TopKnobs, build_top,
+    help_top, spes_used,
 };
 use super::machinery::work_queue::{Level, WORK_BYTES};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -52,6 +53,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &NO_COOP_TOP,
     &DEAL_PER_SPE,
     &TOP_END,
+    &TRIS_PER_SPE,
     &STEAL,
 ])
 // The paper's queue (none of section 5's three improvements), and the
@@ -66,6 +68,13 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
         (&TOP_END, "count"),
     ],
 ]);
+
+/// `--tris-per-spe auto`: each SPE used gets at least 1,500 triangles.
+/// Measured on 1–8 SPEs (docs/many-spes.md, "Small scenes"): the teapot
+/// (6,320 triangles) and iss-nasa (6,642) are fastest on 4 SPEs, slower on
+/// 5–8 (a deal of whole jobs too few to balance); scenes of 13,000 and
+/// more are fastest on 8 or within 15 % of it.
+const AUTO_TRIS_PER_SPE: usize = 1500;
 
 /// The queue's defaults, the best measured (docs/many-spes.md,
 /// "Defaults"): section 5's three improvements together.
@@ -114,15 +123,16 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         steal: setup.knobs.flag(&STEAL),
     };
     let rates = setup.rates.kernels();
-    let common = Common::alloc(cell, tris, n, &cfg)?;
-    let (spes, blocks) = (cell.config().spes, common.pool.blocks);
+    let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
+    let common = Common::alloc(cell, tris, n, &cfg, spes)?;
+    let blocks = common.pool.blocks;
     let mem = || cell.memory_mut();
     // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
     // triangles: room for one level of as many jobs as triangles each.
     // (With stealing, areas go with the dealt jobs: fewer than twice the
     // deal level's size of them.)
     let parts = if knobs.steal {
-        2 * knobs.top.deal_per_spe * spes
+        knobs.top.max_deal(spes)
     } else {
         spes
     };

@@ -48,7 +48,8 @@ use super::machinery::breadth_first::{
 use super::machinery::coop::Coop;
 use super::machinery::software_cache::{CacheConfig, CacheRates, LINE, SoftwareCache};
 use super::machinery::top::{
-    Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TOP_END, TopKnobs, build_top, help_top,
+    Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE, TopKnobs, build_top,
+    help_top, spes_used,
 };
 use super::machinery::work_queue::{SharedSpill, WorkQueue, from_wire};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -70,6 +71,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &NO_COOP_TOP,
     &DEAL_PER_SPE,
     &TOP_END,
+    &TRIS_PER_SPE,
     &AGGLOMERATE,
     &FIXED_TAKES,
     &JOB_CACHE,
@@ -96,6 +98,12 @@ const DEFAULT_TOP: TopKnobs = TopKnobs {
     deal_per_spe: 1,
     balanced: false,
 };
+
+/// `--tris-per-spe auto`: each SPE used gets at least 800 triangles.
+/// Measured on 1–8 SPEs (docs/many-spes.md, "Small scenes"): the default
+/// scene (5,472 triangles) is fastest on 6 SPEs, the teapot (6,320) on 7;
+/// every scene of 6,600 triangles and more on 8.
+const AUTO_TRIS_PER_SPE: usize = 800;
 
 /// `--agglomerate N`: `SharedKnobs::agglomerate`.
 pub const AGGLOMERATE: Knob = Knob::int(
@@ -179,8 +187,8 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         )));
     }
     let rates = setup.rates.kernels();
-    let common = Common::alloc(cell, tris, n, &cfg)?;
-    let spes = cell.config().spes;
+    let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
+    let common = Common::alloc(cell, tris, n, &cfg, spes)?;
     // A level's jobs: two per job of the level before with more than a
     // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1)
     // (footprint::work_ppe_jobs); the level handed over from the top is

@@ -41,6 +41,32 @@ pub const TOP_END: Knob = Knob::word(
     &["count", "balanced"],
 );
 
+/// `--tris-per-spe N|auto`: [`spes_used`].
+pub const TRIS_PER_SPE: Knob = Knob::int_or_auto(
+    "tris-per-spe",
+    "each SPE used gets at least this many triangles: a small scene runs on fewer SPEs than given (auto: the strategy's measured threshold; 1: every SPE)",
+    (1, usize::MAX),
+    &["1", "4000"],
+);
+
+/// The SPEs a strategy runs on for `n` triangles when `available` are
+/// given: each gets at least `--tris-per-spe` triangles (`auto`: the
+/// strategy's threshold), at least one runs. Below that, more SPEs were
+/// measured slower (the top levels and the barriers cost more than the
+/// extra SPE buys; docs/many-spes.md, "Small scenes").
+pub(in crate::strategy) fn spes_used(
+    available: usize,
+    n: usize,
+    knobs: &Knobs,
+    auto: usize,
+) -> usize {
+    let per = match knobs.int(&TRIS_PER_SPE) {
+        0 => auto,
+        t => t,
+    };
+    available.min((n / per.max(1)).max(1))
+}
+
 /// How the top levels are built.
 #[derive(Clone, Copy, Debug)]
 pub(in crate::strategy) struct TopKnobs {
@@ -61,6 +87,24 @@ pub(in crate::strategy) struct TopKnobs {
 }
 
 impl TopKnobs {
+    /// Where the top ends on `spes` SPEs.
+    pub fn end(&self, spes: usize) -> TopEnd {
+        let jobs = self.deal_per_spe * spes;
+        TopEnd {
+            jobs,
+            cap: jobs.max((16 * spes).min(128)),
+            spes,
+            balanced: self.balanced,
+        }
+    }
+
+    /// The most jobs the level the top hands over can hold on `spes` SPEs:
+    /// under twice the level it ends at (a level at most doubles).
+    pub fn max_deal(&self, spes: usize) -> usize {
+        let end = self.end(spes);
+        2 * if end.balanced { end.cap } else { end.jobs }
+    }
+
     /// The values `knobs` gives them; `auto` is the strategy's default.
     pub fn read(knobs: &Knobs, auto: TopKnobs) -> Self {
         TopKnobs {
@@ -85,12 +129,16 @@ pub(in crate::strategy) struct Common {
 }
 
 impl Common {
-    /// Allocates them for `n` triangle records at `tris`; the pool grows if
-    /// the tree can have more than 2n + 1 nodes (`cfg`'s empty-space
-    /// cut-off adds clip nodes).
-    pub fn alloc(cell: &mut Cell, tris: Ea, n: usize, cfg: &BihConfig) -> Result<Self, CellError> {
-        let spes = cell.config().spes;
-        let pool = Pool::alloc(cell, n, cfg.empty_cut.is_some())?;
+    /// Allocates them for `n` triangle records at `tris` built with `cfg`
+    /// on `spes` SPEs.
+    pub fn alloc(
+        cell: &mut Cell,
+        tris: Ea,
+        n: usize,
+        cfg: &BihConfig,
+        spes: usize,
+    ) -> Result<Self, CellError> {
+        let pool = Pool::alloc(cell, n, cfg, spes)?;
         let mut mem = cell.memory_mut();
         let scratch = mem.alloc(
             Purpose::TriangleRecords.buffer("cooperative partition scratch"),
@@ -121,6 +169,22 @@ impl Common {
     }
 }
 
+/// Nodes a tree of `n` triangles built with `cfg` is expected to have, an
+/// upper estimate: a BIH of leaves of up to L triangles has about 0.27 n
+/// nodes at L = 12 on every scene measured (0.25–0.29: the default scene,
+/// the teapot, homer, iss-nasa, the bunny, Sibenik, Sponza, the ogre, the
+/// beast, the dragon, rtPerf), about 3.3 n / L; 4 n / L leaves a margin.
+/// The empty-space cut-off's clip nodes add up to as many again (0.4–0.55
+/// n on the dragon at thresholds of 10–30 %). Never more than the 2n + 1
+/// nodes a tree without the cut-off can have. More than expected (a scene
+/// of stacks, the cut-off at tiny thresholds) takes overflow blocks.
+pub(in crate::strategy) fn expected_nodes(n: usize, cfg: &BihConfig) -> usize {
+    let per_leaf = if cfg.empty_cut.is_some() { 8 } else { 4 };
+    (per_leaf * n)
+        .div_ceil(cfg.leaf_size.max(1) as usize)
+        .min(2 * n + 1)
+}
+
 /// One ObjectArena pool in main memory for every SPE's arena; past it, the
 /// PPE's overflow blocks ([`PoolServer`]).
 #[derive(Clone, Copy)]
@@ -128,20 +192,26 @@ pub(in crate::strategy) struct Pool {
     pub base: Ea,
     /// Blocks in the pool.
     pub pool_blocks: u32,
+    /// The SPEs whose arenas take blocks from it.
+    pub spes: usize,
     /// Where the SPEs' arenas take their blocks.
     pub blocks: BlockSource,
 }
 
 impl Pool {
-    /// The pool for `n` triangles: every node of a tree without the
-    /// empty-space cut-off, plus a pair skipped and a part-filled block per
-    /// SPE and phase; if it `grows`, the PPE's overflow blocks after it
-    /// (the PPE's program must then be [`Pool::spawn_server`] or use
+    /// The pool for `n` triangles built with `cfg`, sized to the tree
+    /// expected ([`expected_nodes`]) plus a part-filled block per SPE; an
+    /// SPE that finds it used up takes the PPE's overflow blocks after it
+    /// (the PPE's program must be [`Pool::spawn_server`] or use
     /// [`Pool::server`]).
-    pub fn alloc(cell: &mut Cell, n: usize, grows: bool) -> Result<Self, CellError> {
-        let spes = cell.config().spes;
+    pub fn alloc(
+        cell: &mut Cell,
+        n: usize,
+        cfg: &BihConfig,
+        spes: usize,
+    ) -> Result<Self, CellError> {
         let mut mem = cell.memory_mut();
-        let pool_blocks = (2 * n + 1).div_ceil(BLOCK_NODES) + 2 * spes + 2;
+        let pool_blocks = expected_nodes(n, cfg).div_ceil(BLOCK_NODES) + spes;
         let base = mem.alloc(
             Purpose::Nodes.buffer("ObjectArena pool"),
             pool_blocks as u64 * BLOCK_BYTES,
@@ -156,29 +226,26 @@ impl Pool {
             base,
             blocks: pool_blocks as u32,
             counter,
-            grows,
+            grows: true,
         };
         Ok(Pool {
             base,
             pool_blocks: pool_blocks as u32,
+            spes,
             blocks,
         })
     }
 
-    /// The PPE's side of the pool's growth for `spes` SPEs.
-    pub fn server(&self, spes: usize) -> PoolServer {
-        PoolServer::new(self.base, self.pool_blocks, spes)
+    /// The PPE's side of the pool's growth.
+    pub fn server(&self) -> PoolServer {
+        PoolServer::new(self.base, self.pool_blocks, self.spes)
     }
 
-    /// The PPE program of a strategy whose PPE only serves the pool, if the
-    /// pool grows (a pool that cannot needs no PPE): it returns the pool's
-    /// reach.
-    pub fn spawn_server(&self, cell: &mut Cell) -> Option<Exit<Ea>> {
-        let BlockSource::Pool { grows: true, .. } = self.blocks else {
-            return None;
-        };
-        let server = self.server(cell.config().spes);
-        Some(cell.spawn_ppe(move |ppe| async move { server.serve(&ppe).await }))
+    /// The PPE program of a strategy whose PPE only serves the pool: it
+    /// returns the pool's reach.
+    pub fn spawn_server(&self, cell: &mut Cell) -> Exit<Ea> {
+        let server = self.server();
+        cell.spawn_ppe(move |ppe| async move { server.serve(&ppe).await })
     }
 
     /// How a build whose SPEs return `exits` (in SPE order) and whose PPE
@@ -189,14 +256,11 @@ impl Pool {
     pub fn readback(
         self,
         exits: Vec<Exit<SpeExit>>,
-        reach: Option<Exit<Ea>>,
+        reach: Exit<Ea>,
         records: Option<Ea>,
     ) -> Readback {
         Box::new(move || {
-            let end = match reach {
-                Some(reach) => reach.take("PPE")?,
-                None => self.base.offset(self.pool_blocks as u64 * BLOCK_BYTES),
-            };
+            let end = reach.take("PPE")?;
             let slots = ((end.0 - self.base.0) / size_of::<crate::bih::BihNode>() as u64) as usize;
             let mut o = Output {
                 nodes: vec![(self.base, slots)],
@@ -263,14 +327,7 @@ pub(in crate::strategy) async fn build_top(
     let level = b
         .queue
         .start(Job::new(0, n, root_id as usize, 0, region, &all))?;
-    let jobs = knobs.deal_per_spe * spes;
-    let end = TopEnd {
-        jobs,
-        cap: jobs.max((16 * spes).min(128)),
-        spes,
-        balanced: knobs.balanced,
-    };
-    let top = b.levels(level, Some(end)).await?;
+    let top = b.levels(level, Some(knobs.end(spes))).await?;
     // From here on, every SPE works on whole jobs.
     b.help_with(None);
     let top_nodes = b.arena.allocated();

@@ -43,7 +43,7 @@ use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
 use super::machinery::barrier::Barrier;
 use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, NO_PREFETCH, QueueKnobs};
 use super::machinery::layout::TriRecord;
-use super::machinery::top::{Pool, SpeExit};
+use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, spes_used};
 use super::{Knob, Knobs, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, Ea, LsAddr, Spe};
@@ -65,6 +65,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &DIGIT_BITS,
     &REGION_SIZE,
     &STATIC_REGIONS,
+    &TRIS_PER_SPE,
     // Regions too large for a local store run the breadth-first loop.
     &DOUBLE_BUFFER,
     &DMA_LISTS,
@@ -131,6 +132,15 @@ pub fn auto_key_bits(n: usize, region_size: usize, digit_bits: u32) -> u32 {
         .max(0.0) as u32;
     (halvings + 4).next_multiple_of(digit_bits).clamp(16, 64)
 }
+
+/// `--tris-per-spe auto`: every SPE (a threshold of 1 triangle): on 1–8
+/// SPEs every scene measured, down to the default scene's 5,472
+/// triangles, was fastest on 8 (docs/many-spes.md, "Small scenes").
+const AUTO_TRIS_PER_SPE: usize = 1;
+
+/// SPE 0's outbound-mailbox word before the region count and spill size
+/// (the pool's block requests share the mailbox: `arena::REQUEST_BLOCK`).
+const REGIONS: u32 = 3;
 
 /// This strategy's knobs, read from those given.
 #[derive(Clone, Copy)]
@@ -311,9 +321,8 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         knobs.key_bits = auto_key_bits(n, knobs.region_size, knobs.digit_bits);
     }
     let (rates, kernels) = (MortonRates::with(&setup.rates), setup.rates.kernels());
-    let spes = cell.config().spes;
-    // No empty-space cut-off: the pool's 2n + 1 nodes always suffice.
-    let pool = Pool::alloc(cell, n, false)?;
+    let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
+    let pool = Pool::alloc(cell, n, &cfg, spes)?;
     let mut mem = cell.memory_mut();
     let n64 = n as u64;
     let line = 128;
@@ -355,41 +364,51 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             })
         })
         .collect();
-    // The PPE only allocates: the region tables, once SPE 0 knows how many
-    // regions the top of the tree made (memory to what the scene needs).
-    cell.spawn_ppe(move |ppe| async move {
-        let regions = ppe.read_out_mbox(0).await? as u64;
-        // Per SPE: room for the largest region's two levels of jobs.
-        let spill = ppe.read_out_mbox(0).await? as u64 * SPILL_UNIT * spes as u64;
-        use Purpose::{JobQueues, WorkPpe};
-        for (purpose, what, bytes) in [
-            (JobQueues, "spe_morton: region jobs", regions * 64),
-            (JobQueues, "spe_morton: region bounds", regions * 32),
-            (
-                JobQueues,
-                "spe_morton: region deal",
-                (regions * 4).next_multiple_of(16),
-            ),
-            (
-                WorkPpe,
-                "spe_morton: WorkAPPE/WorkBPPE of large regions",
-                spill,
-            ),
-        ] {
-            if bytes == 0 {
-                ppe.write_in_mbox(0, 0).await?;
-                continue;
+    // The PPE only allocates: the pool's overflow blocks, and the region
+    // tables once SPE 0 knows how many regions the top of the tree made
+    // (memory to what the scene needs).
+    let mut server = pool.server();
+    let reach = cell.spawn_ppe(move |ppe| async move {
+        while let Some((spe, word)) = server.next(&ppe).await? {
+            if (spe, word) != (0, REGIONS) {
+                return Err(CellError::Program {
+                    core: "PPE".into(),
+                    msg: format!("spe_morton: unknown request {word} from SPE {spe}"),
+                });
             }
-            let ea = ppe.alloc(purpose.buffer(what), bytes, 128).await?;
-            let word = u32::try_from(ea.0).map_err(|_| CellError::Program {
-                core: "PPE".into(),
-                msg: format!("{what} at {ea} does not fit a mailbox word"),
-            })?;
-            ppe.write_in_mbox(0, word).await?;
+            let regions = ppe.read_out_mbox(0).await? as u64;
+            // Per SPE: room for the largest region's two levels of jobs.
+            let spill = ppe.read_out_mbox(0).await? as u64 * SPILL_UNIT * spes as u64;
+            use Purpose::{JobQueues, WorkPpe};
+            for (purpose, what, bytes) in [
+                (JobQueues, "spe_morton: region jobs", regions * 64),
+                (JobQueues, "spe_morton: region bounds", regions * 32),
+                (
+                    JobQueues,
+                    "spe_morton: region deal",
+                    (regions * 4).next_multiple_of(16),
+                ),
+                (
+                    WorkPpe,
+                    "spe_morton: WorkAPPE/WorkBPPE of large regions",
+                    spill,
+                ),
+            ] {
+                if bytes == 0 {
+                    ppe.write_in_mbox(0, 0).await?;
+                    continue;
+                }
+                let ea = ppe.alloc(purpose.buffer(what), bytes, 128).await?;
+                let word = u32::try_from(ea.0).map_err(|_| CellError::Program {
+                    core: "PPE".into(),
+                    msg: format!("{what} at {ea} does not fit a mailbox word"),
+                })?;
+                ppe.write_in_mbox(0, word).await?;
+            }
         }
-        Ok::<(), CellError>(())
+        Ok(server.end())
     });
-    Ok(pool.readback(exits, None, Some(a.sorted)))
+    Ok(pool.readback(exits, reach, Some(a.sorted)))
 }
 
 /// One node of the top of the tree, as SPE 0 keeps it until the regions'

@@ -128,6 +128,7 @@ impl Program<'_> {
             true => (2 * Job::spill_bytes_for(largest, &self.cfg)).next_multiple_of(SPILL_UNIT),
             false => 0,
         };
+        self.spe.write_out_mbox(super::REGIONS).await;
         self.spe.write_out_mbox(sorted.len() as u32).await;
         self.spe
             .write_out_mbox((self.spill_per_spe / SPILL_UNIT) as u32)
