@@ -30,8 +30,8 @@ use super::machinery::breadth_first::{
 };
 use super::machinery::coop::Coop;
 use super::machinery::top::{
-    Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE, TopKnobs, build_top,
-    help_top, spes_used,
+    COOP_PARTITION, Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE, TopKnobs,
+    build_top, help_top, spes_used,
 };
 use super::machinery::work_queue::{Level, WORK_BYTES};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -51,6 +51,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &NO_DMA_LISTS,
     &NO_PREFETCH,
     &NO_COOP_TOP,
+    &COOP_PARTITION,
     &DEAL_PER_SPE,
     &TOP_END,
     &TRIS_PER_SPE,
@@ -66,6 +67,8 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
         (&NO_PREFETCH, ""),
         (&DEAL_PER_SPE, "4"),
         (&TOP_END, "count"),
+        (&COOP_PARTITION, "scratch"),
+        (&TRIS_PER_SPE, "1"),
     ],
 ]);
 
@@ -90,6 +93,7 @@ const DEFAULT_TOP: TopKnobs = TopKnobs {
     coop: true,
     deal_per_spe: 2,
     balanced: true,
+    in_place: true,
 };
 
 /// `--steal`: the dealt jobs stay in per-SPE lists in main memory; each
@@ -124,7 +128,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     };
     let rates = setup.rates.kernels();
     let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
-    let common = Common::alloc(cell, tris, n, &cfg, spes)?;
+    let common = Common::alloc(cell, tris, n, (&cfg, &knobs.top), spes)?;
     let blocks = common.pool.blocks;
     let mem = || cell.memory_mut();
     // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its

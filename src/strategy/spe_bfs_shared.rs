@@ -48,8 +48,8 @@ use super::machinery::breadth_first::{
 use super::machinery::coop::Coop;
 use super::machinery::software_cache::{CacheConfig, CacheRates, LINE, SoftwareCache};
 use super::machinery::top::{
-    Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE, TopKnobs, build_top,
-    help_top, spes_used,
+    COOP_PARTITION, Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE, TopKnobs,
+    build_top, help_top, spes_used,
 };
 use super::machinery::work_queue::{SharedSpill, WorkQueue, from_wire};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -69,6 +69,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &DMA_LISTS,
     &NO_PREFETCH,
     &NO_COOP_TOP,
+    &COOP_PARTITION,
     &DEAL_PER_SPE,
     &TOP_END,
     &TRIS_PER_SPE,
@@ -80,7 +81,12 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 // issue 28 (docs/many-spes.md).
 .with_combos(&[
     &[(&DOUBLE_BUFFER, ""), (&DMA_LISTS, "")],
-    &[(&NO_PREFETCH, ""), (&DEAL_PER_SPE, "4")],
+    &[
+        (&NO_PREFETCH, ""),
+        (&DEAL_PER_SPE, "4"),
+        (&COOP_PARTITION, "scratch"),
+        (&TRIS_PER_SPE, "1"),
+    ],
 ]);
 
 /// The queue's defaults, the best measured (docs/many-spes.md, "Defaults"):
@@ -97,6 +103,7 @@ const DEFAULT_TOP: TopKnobs = TopKnobs {
     coop: true,
     deal_per_spe: 1,
     balanced: false,
+    in_place: true,
 };
 
 /// `--tris-per-spe auto`: each SPE used gets at least 800 triangles.
@@ -188,7 +195,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     }
     let rates = setup.rates.kernels();
     let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
-    let common = Common::alloc(cell, tris, n, &cfg, spes)?;
+    let common = Common::alloc(cell, tris, n, (&cfg, &knobs.top), spes)?;
     // A level's jobs: two per job of the level before with more than a
     // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1)
     // (footprint::work_ppe_jobs); the level handed over from the top is

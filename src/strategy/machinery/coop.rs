@@ -18,12 +18,22 @@
 //! hands out each interval by a descriptor line and signal register 1.
 //! Traffic: every record is read twice and written twice, against once
 //! and once for Fig. 1 — the price of the parallelism, charged as DMA.
+//!
+//! In place (`CoopArea::scratch` `None`, issue 28's `--coop-partition
+//! in-place`): step 1 is Fig. 1's own in-place partition of the chunk
+//! (buffers A–D and OUT, [`partition_in_place`]), which leaves each chunk
+//! as its left part then its right part; step 3 then moves only the
+//! records on the wrong side of the interval's final boundary: the i-th
+//! right record left of it swaps with the i-th left record right of it,
+//! each SPE an equal share of the swaps (a get of both, a put of both).
+//! Traffic: every record read and written once, and the misplaced ones
+//! (at most half) once more; no scratch array.
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3A;
 
 use super::barrier::Barrier;
-use super::fig1::{BLOCK_BYTES, Fig1Buffers};
+use super::fig1::{BLOCK_BYTES, Fig1Buffers, partition_in_place};
 use super::layout::TriRecord;
 use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe, WaitMode};
 use crate::kernels::split::{Side, Split, partition};
@@ -83,8 +93,9 @@ const DESCRIPTOR_WORDS: usize = 32;
 pub struct CoopArea {
     pub spes: usize,
     pub tris: Ea,
-    /// A scratch array as large as the triangle records.
-    pub scratch: Ea,
+    /// A scratch array as large as the triangle records; `None`: the
+    /// partition is done in place.
+    pub scratch: Option<Ea>,
     /// The descriptor line, the table (one line per SPE), the arrival
     /// counter line.
     pub descriptor: Ea,
@@ -175,6 +186,11 @@ impl Coop {
         let hi = first as u64 + count as u64 * (k + 1) / n;
         let size = size_of::<TriRecord>() as u64;
         let per_block = BLOCK_BYTES as u64 / size;
+        let Some(scratch) = self.area.scratch else {
+            return self
+                .share_in_place(spe, bufs, (first, count), split, rate)
+                .await;
+        };
         let rec = |base: Ea, i: u64| base.offset(i * size);
         // 1. Partition the chunk block by block into the scratch array
         //    (prefetching: the next block's get is issued before this one
@@ -211,13 +227,13 @@ impl Coop {
             spe.compute_items(rate, len);
             let (lc, rc) = (l.count as u64, r.count as u64);
             if lc > 0 {
-                spe.put(buf, rec(self.area.scratch, up), (lc * size) as u32, tag)
+                spe.put(buf, rec(scratch, up), (lc * size) as u32, tag)
                     .await?;
             }
             if rc > 0 {
                 let from = buf.offset((lc * size) as u32);
                 down -= rc;
-                spe.put(from, rec(self.area.scratch, down), (rc * size) as u32, tag)
+                spe.put(from, rec(scratch, down), (rc * size) as u32, tag)
                     .await?;
             }
             up += lc;
@@ -226,21 +242,7 @@ impl Coop {
         }
         spe.wait_tags(self.all_tags(bufs), WaitMode::All).await?;
         // 2. The table, a barrier, the prefix sums.
-        let entry = Entry {
-            left: SideRec::of(&left),
-            right: SideRec::of(&right),
-            _pad: [0; 6],
-        };
-        spe.ls_write(self.line, &[entry])?;
-        let mine = self.area.table.offset(k * 128);
-        spe.put(self.line, mine, 128, self.tag).await?;
-        spe.wait_tag(self.tag).await?;
-        self.barrier(spe).await?;
-        let bytes = (128 * n) as u32;
-        spe.get(self.table_ls, self.area.table, bytes, self.tag)
-            .await?;
-        spe.wait_tag(self.tag).await?;
-        let entries: Vec<Entry> = spe.ls_read(self.table_ls, n as usize)?;
+        let entries = self.exchange_table(spe, &left, &right).await?;
         let total_left: u64 = entries.iter().map(|e| e.left.count as u64).sum();
         let left_at: u64 = entries[..k as usize]
             .iter()
@@ -254,35 +256,142 @@ impl Coop {
         let (lc, rc) = (up - lo, hi - down);
         let dst_left = first as u64 + left_at;
         let dst_right = first as u64 + total_left + right_at;
-        self.copy(spe, bufs, lo, dst_left, lc, per_block).await?;
-        self.copy(spe, bufs, down, dst_right, rc, per_block).await?;
+        self.copy(spe, bufs, scratch, (lo, dst_left, lc), per_block)
+            .await?;
+        self.copy(spe, bufs, scratch, (down, dst_right, rc), per_block)
+            .await?;
         self.barrier(spe).await?;
-        let whole = |f: fn(&Entry) -> Side| {
-            entries
-                .iter()
-                .map(f)
-                .fold(Side::EMPTY, |a: Side, s| a.merge(s))
-        };
-        Ok((whole(|e| e.left.side()), whole(|e| e.right.side())))
+        Ok(both_sides(&entries))
     }
 
-    /// Copies `count` records from scratch `from` to the records at `to`
-    /// (prefetching: the next block's get is issued before this one's
-    /// put).
+    /// Writes this SPE's two sides to its line of the table, waits for
+    /// every SPE, and reads the whole table.
+    async fn exchange_table(
+        &mut self,
+        spe: &Spe,
+        left: &Side,
+        right: &Side,
+    ) -> Result<Vec<Entry>, CellError> {
+        let n = self.area.spes;
+        let entry = Entry {
+            left: SideRec::of(left),
+            right: SideRec::of(right),
+            _pad: [0; 6],
+        };
+        spe.ls_write(self.line, &[entry])?;
+        let mine = self.area.table.offset(spe.id() as u64 * 128);
+        spe.put(self.line, mine, 128, self.tag).await?;
+        spe.wait_tag(self.tag).await?;
+        self.barrier(spe).await?;
+        let bytes = (128 * n) as u32;
+        spe.get(self.table_ls, self.area.table, bytes, self.tag)
+            .await?;
+        spe.wait_tag(self.tag).await?;
+        spe.ls_read(self.table_ls, n)
+    }
+
+    /// This SPE's share in place: Fig. 1's partition of its chunk, the
+    /// table, then its share of the swaps across the final boundary.
+    async fn share_in_place(
+        &mut self,
+        spe: &Spe,
+        bufs: &Fig1Buffers,
+        (first, count): (u32, u32),
+        split: Split,
+        rate: Cycles,
+    ) -> Result<(Side, Side), CellError> {
+        let (n, k) = (self.area.spes as u64, spe.id() as u64);
+        let chunk = |j: u64| {
+            let lo = first as u64 + count as u64 * j / n;
+            (lo, first as u64 + count as u64 * (j + 1) / n)
+        };
+        let size = size_of::<TriRecord>() as u64;
+        let (lo, hi) = chunk(k);
+        // 1. Fig. 1 in place: the chunk becomes its left part, then its right.
+        let tris = self.area.tris;
+        let part = partition_in_place::<TriRecord>(
+            spe,
+            bufs,
+            tris.offset(lo * size),
+            hi - lo,
+            split,
+            rate,
+        )
+        .await?;
+        // 2. The table, a barrier.
+        let entries = self.exchange_table(spe, &part.left, &part.right).await?;
+        // 3. The swaps: right records left of the boundary (`a`) with left
+        //    records right of it (`b`), in order, each SPE an equal share.
+        let total_left: u64 = entries.iter().map(|e| e.left.count as u64).sum();
+        let boundary = first as u64 + total_left;
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        for (j, e) in entries.iter().enumerate() {
+            let (lo, hi) = chunk(j as u64);
+            let mid = lo + e.left.count as u64;
+            push_range(&mut a, mid, hi.min(boundary));
+            push_range(&mut b, lo.max(boundary), mid);
+        }
+        let misplaced: u64 = a.iter().map(|r| r.1).sum();
+        debug_assert_eq!(misplaced, b.iter().map(|r| r.1).sum::<u64>());
+        let (from, to) = (misplaced * k / n, misplaced * (k + 1) / n);
+        let per_swap = BLOCK_BYTES as u64 / size;
+        let mut step = 0usize;
+        let mut at = from;
+        while at < to {
+            let end = (at + per_swap).min(to);
+            // Two buffers a step, two steps in turn: a step's gets go out
+            // while the step before puts.
+            let (x, y) = (2 * (step % 2), 2 * (step % 2) + 1);
+            let (pa, pb) = (pieces(&a, at, end), pieces(&b, at, end));
+            for (buf, ps) in [(x, &pa), (y, &pb)] {
+                let (ls, tag) = (bufs.buffer(buf), bufs.tag(buf));
+                spe.wait_tag(tag).await?; // its puts of two steps ago
+                let mut off = 0u32;
+                for &(i, len) in ps.iter() {
+                    let bytes = (len * size) as u32;
+                    spe.get(ls.offset(off), tris.offset(i * size), bytes, tag)
+                        .await?;
+                    off += bytes;
+                }
+            }
+            // Both gets are in before either side is overwritten; then each
+            // buffer's records go to the other side's places.
+            let both = 1 << bufs.tag(x) | 1 << bufs.tag(y);
+            spe.wait_tags(both, WaitMode::All).await?;
+            for (buf, ps) in [(x, &pb), (y, &pa)] {
+                let (ls, tag) = (bufs.buffer(buf), bufs.tag(buf));
+                let mut off = 0u32;
+                for &(i, len) in ps.iter() {
+                    let bytes = (len * size) as u32;
+                    spe.put(ls.offset(off), tris.offset(i * size), bytes, tag)
+                        .await?;
+                    off += bytes;
+                }
+            }
+            at = end;
+            step += 1;
+        }
+        let all = (0..4).fold(0, |m, b| m | 1 << bufs.tag(b));
+        spe.wait_tags(all, WaitMode::All).await?;
+        self.barrier(spe).await?;
+        Ok(both_sides(&entries))
+    }
+
+    /// Copies `count` records from `scratch` record `from` to the records
+    /// at `to` (prefetching: the next block's get is issued before this
+    /// one's put).
     async fn copy(
         &self,
         spe: &Spe,
         bufs: &Fig1Buffers,
-        from: u64,
-        to: u64,
-        count: u64,
+        scratch: Ea,
+        (from, to, count): (u64, u64, u64),
         per_block: u64,
     ) -> Result<(), CellError> {
         let size = size_of::<TriRecord>() as u64;
         let nbuf = self.buffers();
         let blocks = count.div_ceil(per_block);
         let len = |i: u64| per_block.min(count - i * per_block);
-        let scratch = self.area.scratch;
         let get = |i: u64| {
             let b = i as usize % nbuf;
             let (buf, tag) = (bufs.buffer(b), bufs.tag(b));
@@ -335,5 +444,51 @@ impl Coop {
     /// others.
     async fn barrier(&mut self, spe: &Spe) -> Result<(), CellError> {
         self.barrier.wait(spe, self.line).await
+    }
+}
+
+/// Both whole sides of the interval: every SPE's, merged.
+fn both_sides(entries: &[Entry]) -> (Side, Side) {
+    let whole = |f: fn(&Entry) -> Side| {
+        (entries.iter())
+            .map(f)
+            .fold(Side::EMPTY, |a: Side, s| a.merge(s))
+    };
+    (whole(|e| e.left.side()), whole(|e| e.right.side()))
+}
+
+/// Adds the records `from..to` (if any) to a list of (first, count) ranges.
+fn push_range(list: &mut Vec<(u64, u64)>, from: u64, to: u64) {
+    if to > from {
+        list.push((from, to - from));
+    }
+}
+
+/// The pieces (first record, count) of positions `from..to` of the
+/// sequence the ranges `list` make, in order.
+fn pieces(list: &[(u64, u64)], from: u64, to: u64) -> Vec<(u64, u64)> {
+    let mut out = Vec::new();
+    let mut seen = 0u64;
+    for &(first, len) in list {
+        let (lo, hi) = (from.max(seen), to.min(seen + len));
+        if lo < hi {
+            out.push((first + lo - seen, hi - lo));
+        }
+        seen += len;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pieces;
+
+    #[test]
+    fn pieces_cut_a_sequence_of_ranges() {
+        let list = [(10, 3), (20, 2), (30, 4)];
+        assert_eq!(pieces(&list, 0, 9), vec![(10, 3), (20, 2), (30, 4)]);
+        assert_eq!(pieces(&list, 2, 6), vec![(12, 1), (20, 2), (30, 1)]);
+        assert_eq!(pieces(&list, 5, 6), vec![(30, 1)]);
+        assert_eq!(pieces(&list, 4, 4), vec![]);
     }
 }

@@ -41,6 +41,16 @@ pub const TOP_END: Knob = Knob::word(
     &["count", "balanced"],
 );
 
+/// `--coop-partition in-place|scratch`: `TopKnobs::in_place`. In place is
+/// the default: faster on every scene and SPE count measured (1–10 %,
+/// docs/many-spes.md) and no scratch array (48 bytes a triangle).
+pub const COOP_PARTITION: Knob = Knob::word(
+    "coop-partition",
+    "how the SPEs partition a top level's interval together: Fig. 1 in place on each chunk, then only the misplaced records swapped (in-place), or each chunk through a scratch array and back (scratch, before issue 28)",
+    &["in-place", "scratch"],
+    &["scratch"],
+);
+
 /// `--tris-per-spe N|auto`: [`spes_used`].
 pub const TRIS_PER_SPE: Knob = Knob::int_or_auto(
     "tris-per-spe",
@@ -74,7 +84,8 @@ pub(in crate::strategy) struct TopKnobs {
     /// the top levels (the cooperative partition, `coop.rs`). Buys: the
     /// other SPEs work instead of waiting for the deal (dragon on 6 SPEs:
     /// 342 → 186 ms). Costs: every record of those levels travels twice
-    /// (through a scratch array) and two barriers per interval.
+    /// (through a scratch array; in place, only the misplaced ones) and two
+    /// barriers per interval.
     pub coop: bool,
     /// The top levels end at the first level with this many jobs per SPE
     /// (1 to 16: the level must fit `WorkA`). More jobs give the
@@ -84,6 +95,8 @@ pub(in crate::strategy) struct TopKnobs {
     /// The top levels also go on until no job of the level holds more than
     /// one SPE's share of its triangles (at most 16 jobs per SPE).
     pub balanced: bool,
+    /// The cooperative partition works in place (no scratch array).
+    pub in_place: bool,
 }
 
 impl TopKnobs {
@@ -117,6 +130,7 @@ impl TopKnobs {
                 "auto" => auto.balanced,
                 w => w == "balanced",
             },
+            in_place: knobs.word(&COOP_PARTITION) == "in-place",
         }
     }
 }
@@ -130,21 +144,24 @@ pub(in crate::strategy) struct Common {
 
 impl Common {
     /// Allocates them for `n` triangle records at `tris` built with `cfg`
-    /// on `spes` SPEs.
+    /// on `spes` SPEs (a scratch array unless the top partitions in place).
     pub fn alloc(
         cell: &mut Cell,
         tris: Ea,
         n: usize,
-        cfg: &BihConfig,
+        (cfg, top): (&BihConfig, &TopKnobs),
         spes: usize,
     ) -> Result<Self, CellError> {
         let pool = Pool::alloc(cell, n, cfg, spes)?;
         let mut mem = cell.memory_mut();
-        let scratch = mem.alloc(
-            Purpose::TriangleRecords.buffer("cooperative partition scratch"),
-            (n * size_of::<TriRecord>()) as u64,
-            128,
-        )?;
+        let scratch = match top.in_place || !top.coop || spes == 1 {
+            true => None,
+            false => Some(mem.alloc(
+                Purpose::TriangleRecords.buffer("cooperative partition scratch"),
+                (n * size_of::<TriRecord>()) as u64,
+                128,
+            )?),
+        };
         let coop = CoopArea {
             spes,
             tris,
