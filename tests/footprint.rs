@@ -10,6 +10,7 @@ use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::BuilderKind;
 use cellbih::scene;
+use cellbih::strategy::Knobs;
 use cellbih::strategy::machinery::footprint::{Purpose, widest_level, work_ppe_jobs};
 use common::{assert_ok, cellbih, run_experiment};
 
@@ -158,4 +159,40 @@ fn footprint_does_not_run_the_host_out_of_memory() {
         );
         assert!(r["predicted_n"].as_u64().unwrap() > 10_000_000, "{r}");
     }
+}
+
+/// Issue 28: the cooperative top partitions in place, so a builder that
+/// offers `--coop-partition` keeps one array of triangle records by
+/// default (as the baseline does) and two only with `scratch`; and the
+/// ObjectArena pool is sized to the tree (under a node a triangle here,
+/// six SPEs' part-filled blocks included, against the 2n + 1 slots it
+/// used to hold).
+#[test]
+fn the_in_place_top_keeps_one_record_array_and_the_pool_fits_the_tree() {
+    let s = scene::load("rtperf:200000", None).unwrap();
+    let cell = CellConfig {
+        cost: cellbih::cell::CostModel::functional(),
+        checked: false,
+        ..CellConfig::ps3()
+    };
+    let record = 48 * s.len() as u64;
+    let mut checked = 0;
+    for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
+        let f = |knobs: &Knobs| {
+            let r = b.build_with(&s, s.bounds(), &BihConfig::default(), &cell, knobs);
+            r.unwrap().simulated.unwrap().footprint
+        };
+        let nodes = f(&Knobs::default()).bytes(Purpose::Nodes);
+        assert!(nodes < 12 * s.len() as u64, "{b}: {nodes} bytes of nodes");
+        if b.knob("coop-partition").is_err() {
+            continue;
+        }
+        let records = |k: &Knobs| f(k).bytes(Purpose::TriangleRecords);
+        assert_eq!(records(&Knobs::default()), record, "{b}: in place");
+        let mut scratch = Knobs::default();
+        b.set_knob(&mut scratch, "coop-partition", "scratch").unwrap();
+        assert_eq!(records(&scratch), 2 * record, "{b}: scratch");
+        checked += 1;
+    }
+    assert!(checked > 0, "no builder offers --coop-partition");
 }
