@@ -641,3 +641,32 @@ fn compare_and_swap_stores_only_on_a_match() {
     c.run().unwrap();
     assert_eq!(c.memory().read_pod::<u32>(ea, 3).unwrap(), vec![5, 9, 5]);
 }
+
+/// A PPE serving SPEs until they stop (libspe2's event handler with
+/// SPE_EVENT_SPE_STOPPED): it reads each word as it arrives, then learns
+/// that every SPE has ended, and that last wake-up costs nothing: the run
+/// ends with the last SPE, not after it.
+#[test]
+fn a_ppe_serves_until_every_spe_has_stopped_without_lengthening_the_run() {
+    let mut c = cell(2);
+    c.spawn_spe(0, |spe| async move {
+        spe.compute(Cycles(1000));
+        spe.write_out_mbox(7).await;
+        Ok(())
+    });
+    c.spawn_spe(1, |spe| async move {
+        spe.compute(Cycles(50_000));
+        Ok(())
+    });
+    let served = c.spawn_ppe(|ppe| async move {
+        let mut words = Vec::new();
+        while let Some(got) = ppe.wait_any_out_mbox_or_stop(&[0, 1]).await? {
+            words.push(got);
+        }
+        Ok(words)
+    });
+    let r = c.run().unwrap();
+    assert_eq!(served.take("PPE").unwrap(), vec![(0, 7)]);
+    let spe1_end = r.cores[2].1.busy;
+    assert_eq!(r.cycles, spe1_end, "the run ends with SPE 1");
+}

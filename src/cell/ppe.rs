@@ -241,9 +241,13 @@ impl Ppe {
                     let (v, _) = m.spes[k].out_mbox[0].pop_front().expect("a value");
                     Some(Some((k, v)))
                 }
+                // Stopped, and no word of theirs still on its way.
                 None => (0..m.spes.len())
                     .filter(|&k| mask >> k & 1 == 1)
-                    .all(|k| m.cores[k + 1].status == super::machine::Status::Done)
+                    .all(|k| {
+                        m.cores[k + 1].status == super::machine::Status::Done
+                            && m.spes[k].out_arriving[0] == 0
+                    })
                     .then_some(None),
             }
         })
