@@ -190,7 +190,8 @@ fn the_in_place_top_keeps_one_record_array_and_the_pool_fits_the_tree() {
         let records = |k: &Knobs| f(k).bytes(Purpose::TriangleRecords);
         assert_eq!(records(&Knobs::default()), record, "{b}: in place");
         let mut scratch = Knobs::default();
-        b.set_knob(&mut scratch, "coop-partition", "scratch").unwrap();
+        b.set_knob(&mut scratch, "coop-partition", "scratch")
+            .unwrap();
         assert_eq!(records(&scratch), 2 * record, "{b}: scratch");
         checked += 1;
     }
