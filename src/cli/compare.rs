@@ -227,7 +227,8 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
         format!(" with {}", cfg.flags())
     };
     let note = format!(
-        "trees{with} valid. Cell ms: simulated time on the PS3 model (multi-SPE builders on {}); \
+        "trees{with} valid. Cell ms: simulated time on the PS3 model (multi-SPE builders on up to \
+         {}: a small scene runs on fewer, --tris-per-spe); \
          speedup: over spe_bfs (one SPE, the paper's baseline); host figures: this machine, one \
          thread; tree KiB: nodes and triangle ids; Cell MiB: main memory the emulated build used \
          (every buffer). primary, incoherent: nodes visited + triangles tested per ray, closest \
