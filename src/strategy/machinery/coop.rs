@@ -344,29 +344,15 @@ impl Coop {
             let (x, y) = (2 * (step % 2), 2 * (step % 2) + 1);
             let (pa, pb) = (pieces(&a, at, end), pieces(&b, at, end));
             for (buf, ps) in [(x, &pa), (y, &pb)] {
-                let (ls, tag) = (bufs.buffer(buf), bufs.tag(buf));
-                spe.wait_tag(tag).await?; // its puts of two steps ago
-                let mut off = 0u32;
-                for &(i, len) in ps.iter() {
-                    let bytes = (len * size) as u32;
-                    spe.get(ls.offset(off), tris.offset(i * size), bytes, tag)
-                        .await?;
-                    off += bytes;
-                }
+                spe.wait_tag(bufs.tag(buf)).await?; // its puts of two steps ago
+                transfer(spe, (bufs.buffer(buf), bufs.tag(buf)), tris, ps, Dir::Get).await?;
             }
             // Both gets are in before either side is overwritten; then each
             // buffer's records go to the other side's places.
             let both = 1 << bufs.tag(x) | 1 << bufs.tag(y);
             spe.wait_tags(both, WaitMode::All).await?;
             for (buf, ps) in [(x, &pb), (y, &pa)] {
-                let (ls, tag) = (bufs.buffer(buf), bufs.tag(buf));
-                let mut off = 0u32;
-                for &(i, len) in ps.iter() {
-                    let bytes = (len * size) as u32;
-                    spe.put(ls.offset(off), tris.offset(i * size), bytes, tag)
-                        .await?;
-                    off += bytes;
-                }
+                transfer(spe, (bufs.buffer(buf), bufs.tag(buf)), tris, ps, Dir::Put).await?;
             }
             at = end;
             step += 1;
@@ -445,6 +431,35 @@ impl Coop {
     async fn barrier(&mut self, spe: &Spe) -> Result<(), CellError> {
         self.barrier.wait(spe, self.line).await
     }
+}
+
+enum Dir {
+    Get,
+    Put,
+}
+
+/// Gets the records of `pieces` (first record, count) of the array at
+/// `tris` one after another into the buffer `ls`, or puts them from it,
+/// under `tag`.
+async fn transfer(
+    spe: &Spe,
+    (ls, tag): (LsAddr, u32),
+    tris: Ea,
+    pieces: &[(u64, u64)],
+    dir: Dir,
+) -> Result<(), CellError> {
+    let size = size_of::<TriRecord>() as u64;
+    let mut off = 0u32;
+    for &(i, len) in pieces {
+        let bytes = (len * size) as u32;
+        let (at, ea) = (ls.offset(off), tris.offset(i * size));
+        match dir {
+            Dir::Get => spe.get(at, ea, bytes, tag).await?,
+            Dir::Put => spe.put(at, ea, bytes, tag).await?,
+        }
+        off += bytes;
+    }
+    Ok(())
 }
 
 /// Both whole sides of the interval: every SPE's, merged.
