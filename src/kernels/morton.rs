@@ -314,6 +314,22 @@ impl<T: Item> FromKeys<'_, T> {
     }
 }
 
+/// `--key-bits auto`: the halvings the scene's regions need, a whole number
+/// of radix digits. A region of `region_size` triangles is reached after
+/// about log2(n / region_size) halvings where triangles spread evenly;
+/// four bits more for the halvings a real scene spends on empty space and
+/// uneven density. Measured (docs/morton.md, "Defaults"): on every scene up
+/// to rtPerf 1M (16 bits by this rule) 16 bits were the fastest width with
+/// regions of 256, and the tree is the baseline's at any width (ranges
+/// that share their whole key are built by the breadth-first loop).
+pub fn auto_key_bits(n: usize, region_size: usize, digit_bits: u32) -> u32 {
+    let halvings = (n as f64 / region_size.max(1) as f64)
+        .log2()
+        .ceil()
+        .max(0.0) as u32;
+    (halvings + 4).next_multiple_of(digit_bits).clamp(16, 64)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -377,5 +393,19 @@ mod tests {
         assert_eq!(split_of(&keys, 4), Some((1, 2)));
         assert_eq!(split_of(&keys[..2], 4), Some((2, 1)));
         assert_eq!(split_of(&[5, 5], 4), None);
+    }
+
+    /// `--key-bits auto`: the halvings to regions of 256 plus four, whole
+    /// 8-bit digits, at least 16 (every scene up to rtPerf 1M: 16 bits).
+    #[test]
+    fn auto_key_bits_follow_the_halvings_the_regions_need() {
+        assert_eq!(auto_key_bits(6_320, 256, 8), 16);
+        assert_eq!(auto_key_bits(871_306, 256, 8), 16);
+        assert_eq!(auto_key_bits(1_000_000, 256, 8), 16);
+        assert_eq!(auto_key_bits(4_000_000, 256, 8), 24);
+        assert_eq!(auto_key_bits(4_000_000, 2048, 8), 16);
+        assert_eq!(auto_key_bits(871_306, 1, 11), 33);
+        assert_eq!(auto_key_bits(0, 256, 8), 16);
+        assert_eq!(auto_key_bits(usize::MAX, 1, 8), 64);
     }
 }

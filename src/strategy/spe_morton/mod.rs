@@ -47,7 +47,7 @@ use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, spes_used};
 use super::{Knob, Knobs, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, Ea, LsAddr, Spe};
-use crate::kernels::morton::{KeyOrder, KeySpec};
+use crate::kernels::morton::{KeyOrder, KeySpec, auto_key_bits};
 use crate::kernels::radix;
 use crate::kernels::rates::{FITTED_OVER_DERIVED, KernelRates, RateOverrides, Uncertain};
 
@@ -116,22 +116,6 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
     dma_lists: false,
     prefetch: true,
 };
-
-/// `--key-bits auto`: the halvings the scene's regions need, a whole number
-/// of radix digits. A region of `region_size` triangles is reached after
-/// about log2(n / region_size) halvings where triangles spread evenly;
-/// four bits more for the halvings a real scene spends on empty space and
-/// uneven density. Measured (docs/morton.md, "Defaults"): on every scene up
-/// to rtPerf 1M (16 bits by this rule) 16 bits were the fastest width with
-/// regions of 256, and the tree is the baseline's at any width (ranges
-/// that share their whole key are built by the breadth-first loop).
-pub fn auto_key_bits(n: usize, region_size: usize, digit_bits: u32) -> u32 {
-    let halvings = (n as f64 / region_size.max(1) as f64)
-        .log2()
-        .ceil()
-        .max(0.0) as u32;
-    (halvings + 4).next_multiple_of(digit_bits).clamp(16, 64)
-}
 
 /// `--tris-per-spe auto`: every SPE (a threshold of 1 triangle): on 1–8
 /// SPEs every scene measured, down to the default scene's 5,472
@@ -587,24 +571,5 @@ impl<'a> Program<'a> {
             partitions: self.partitions,
             phases: std::mem::take(&mut self.phases),
         })
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::auto_key_bits;
-
-    /// `--key-bits auto`: the halvings to regions of 256 plus four, whole
-    /// 8-bit digits, at least 16 (every scene up to rtPerf 1M: 16 bits).
-    #[test]
-    fn auto_key_bits_follow_the_halvings_the_regions_need() {
-        assert_eq!(auto_key_bits(6_320, 256, 8), 16);
-        assert_eq!(auto_key_bits(871_306, 256, 8), 16);
-        assert_eq!(auto_key_bits(1_000_000, 256, 8), 16);
-        assert_eq!(auto_key_bits(4_000_000, 256, 8), 24);
-        assert_eq!(auto_key_bits(4_000_000, 2048, 8), 16);
-        assert_eq!(auto_key_bits(871_306, 1, 11), 33);
-        assert_eq!(auto_key_bits(0, 256, 8), 16);
-        assert_eq!(auto_key_bits(usize::MAX, 1, 8), 64);
     }
 }
