@@ -2,13 +2,16 @@
 //! `experiments/extremes.rs`) as a test: every builder with the paper's
 //! settings, and the builders that build the quality knobs with binned SAH
 //! and the empty-space cut-off, give a valid tree whose every ray agrees
-//! with brute force.
+//! with brute force; the multi-SPE builders also on 1 and on 8 SPEs with
+//! every SPE at work (`--tris-per-spe 1`: the cases are small scenes,
+//! which they would otherwise run on fewer).
 
 use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
-use cellbih::quality::agree::{examine, rays_for};
+use cellbih::quality::agree::{examine, examine_with, rays_for};
 use cellbih::registry::BuilderKind;
 use cellbih::scene::extremes;
+use cellbih::strategy::Knobs;
 
 fn check_case(name: &str) {
     let scene = extremes::case(name).unwrap();
@@ -21,6 +24,15 @@ fn check_case(name: &str) {
             e.depth <= cfg.max_depth && e.largest_leaf >= 1,
             "{name}, {b}: {e:?}"
         );
+        if b.multi_spe() {
+            let mut every = Knobs::default();
+            b.set_knob(&mut every, "tris-per-spe", "1").unwrap();
+            for spes in [1, 8] {
+                let cell = CellConfig::ps3().with_spes(spes);
+                let e = examine_with(b, (&cfg, &every), &cell, &scene, &rays);
+                assert!(e.ok(), "{name}, {b} {cfg:?} on {spes} SPEs: {e:?}");
+            }
+        }
     }
 }
 

@@ -46,6 +46,11 @@ pub struct KernelRates {
     /// sweep, whose dependent double-precision operations the PPE's scalar
     /// FPU issues at a latency close to the SPU's.
     pub ppe_sah_bin: Cycles,
+    /// SPE cycles per job looked at when the multi-SPE strategies' top
+    /// levels decide whether a level is balanced enough to deal (a load of
+    /// the job's count from `WorkA`, a compare and an add: about 2 SPU
+    /// cycles pipelined). Derived and scaled the same way.
+    pub spe_level_scan: Cycles,
 }
 
 /// The partition's fitted SPE rate over its derived one (161 fitted, 40
@@ -67,6 +72,8 @@ impl KernelRates {
         spe_sah_bin: Cycles(75 * FITTED_OVER_DERIVED),
         // By analogy: spe_sah_bin's count and scale.
         ppe_sah_bin: Cycles(75 * FITTED_OVER_DERIVED),
+        // Derived: 2 SPU cycles a job; x4 the same way.
+        spe_level_scan: Cycles(2 * FITTED_OVER_DERIVED),
     };
 }
 
@@ -115,6 +122,7 @@ impl RateOverrides {
             ("spe_bin_item", &mut k.spe_bin_item),
             ("spe_sah_bin", &mut k.spe_sah_bin),
             ("ppe_sah_bin", &mut k.ppe_sah_bin),
+            ("spe_level_scan", &mut k.spe_level_scan),
         ] {
             if let Some(v) = self.get(name) {
                 *field = v;
@@ -160,6 +168,12 @@ impl KernelRates {
             name: "spe_sah_bin",
             low: Cycles(300),
             high: Cycles(480),
+            why: "derived",
+        },
+        Uncertain {
+            name: "spe_level_scan",
+            low: Cycles(8),
+            high: Cycles(13),
             why: "derived",
         },
     ];

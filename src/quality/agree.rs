@@ -124,8 +124,24 @@ pub fn examine(
     scene: &Scene,
     rays: &[Ray],
 ) -> Examined {
-    let knobs = crate::strategy::Knobs::default();
-    let r = match builder.build_with(scene, scene.bounds(), cfg, cell, &knobs) {
+    examine_with(
+        builder,
+        (cfg, &crate::strategy::Knobs::default()),
+        cell,
+        scene,
+        rays,
+    )
+}
+
+/// [`examine`] with knobs.
+pub fn examine_with(
+    builder: crate::registry::BuilderKind,
+    (cfg, knobs): (&crate::bih::BihConfig, &crate::strategy::Knobs),
+    cell: &crate::cell::CellConfig,
+    scene: &Scene,
+    rays: &[Ray],
+) -> Examined {
+    let r = match builder.build_with(scene, scene.bounds(), cfg, cell, knobs) {
         Ok(r) => r,
         Err(e) => {
             return Examined {

@@ -36,7 +36,7 @@ use super::layout::TriRecord;
 use super::work_queue::{Level, WorkQueue};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
-use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe, WaitMode};
+use crate::cell::{CellError, Ea, LsAddr, Spe, WaitMode};
 use crate::kernels::cutoff::{Clip, child_regions};
 use crate::kernels::recursion::BuildStats;
 use crate::kernels::sah::Bins;
@@ -135,11 +135,6 @@ pub(in crate::strategy) struct TopEnd {
     pub spes: usize,
     pub balanced: bool,
 }
-
-/// Cycles a job to look at a level's jobs for [`TopEnd`]: a load, a
-/// compare and an add, about 2 cycles pipelined, scaled ×4 as the
-/// partition's rates are (docs/cost-model.md).
-const TOP_END_SCAN: Cycles = Cycles(8);
 
 /// Below this many triangles a job on average, a balanced top ends: the
 /// cooperative partition of so few does not pay for its barriers
@@ -349,10 +344,11 @@ impl<'a> SpeBuilder<'a> {
                     if len >= end.cap || !end.balanced {
                         return Ok(Some(local));
                     }
-                    // Look at the level's jobs in WorkA: a load, a
-                    // compare and an add per job.
+                    // Look at the level's jobs in WorkA
+                    // (`KernelRates::spe_level_scan` a job).
                     let jobs = self.queue.load(local, 0).await?;
-                    self.spe.compute_items(TOP_END_SCAN, jobs.len() as u64);
+                    self.spe
+                        .compute_items(self.rates.spe_level_scan, jobs.len() as u64);
                     if end.ends(&jobs) {
                         return Ok(Some(local));
                     }
