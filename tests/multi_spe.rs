@@ -413,3 +413,39 @@ proptest! {
         }
     }
 }
+
+/// A strategy made of phases runs every phase on every SPE: on 8 SPEs
+/// each phase takes at most two thirds of its simulated time on one SPE
+/// (the memory-bound permutation about a half; a phase left to SPE 0
+/// alone, as spe_morton's top of the tree was before issue 28, about all
+/// of it).
+#[test]
+fn every_phase_of_a_phased_build_runs_on_every_spe() {
+    let s = scene::load("rtperf:100000:1", None).unwrap();
+    let cfg = BihConfig::default();
+    let durations = |b: BuilderKind, spes: usize| {
+        let cell = CellConfig::ps3().with_spes(spes);
+        let r = b.build_with(&s, s.bounds(), &cfg, &cell, &Knobs::default());
+        let phases = r.unwrap().simulated.unwrap().phases;
+        let mut start = 0;
+        (phases.iter())
+            .map(|&(name, end)| (name, end - std::mem::replace(&mut start, end)))
+            .collect::<Vec<_>>()
+    };
+    let mut phased = 0;
+    for b in multi_spe() {
+        let (one, eight) = (durations(b, 1), durations(b, 8));
+        if one.is_empty() {
+            continue;
+        }
+        phased += 1;
+        assert_eq!(one.len(), eight.len(), "{b}: the same phases");
+        for ((name, t1), (_, t8)) in one.iter().zip(&eight) {
+            assert!(
+                3 * t8 <= 2 * t1,
+                "{b}: {name} {t8} cycles on 8 SPEs, {t1} on 1"
+            );
+        }
+    }
+    assert!(phased > 0, "no multi-SPE builder reports phases");
+}

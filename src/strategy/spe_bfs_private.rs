@@ -216,7 +216,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                 }
             } else {
                 // Help partition the top levels until the deal comes.
-                help_top(&spe, &b, &mut helper).await?;
+                help_top(&spe, &b, &mut helper, n, knobs.top).await?;
                 spe.get(record, records.offset(id as u64 * RECORD_BYTES), 32, tag)
                     .await?;
                 spe.wait_tag(tag).await?;

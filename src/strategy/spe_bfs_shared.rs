@@ -283,7 +283,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                     spe.send_signal(to, 1, 1).await?;
                 }
             } else {
-                help_top(&spe, &b, &mut helper).await?;
+                help_top(&spe, &b, &mut helper, n, knobs.top).await?;
             }
             b.arena.renew(common.pool.blocks);
             b.share_queue(NodeWrites::new(

@@ -28,12 +28,17 @@
 //! each SPE an equal share of the swaps (a get of both, a put of both).
 //! Traffic: every record read and written once, and the misplaced ones
 //! (at most half) once more; no scratch array.
+//!
+//! Before the first level, the root's bounds ([`Coop::bounds`], issue 28):
+//! every SPE streams an equal chunk of the records and writes its chunk's
+//! bounds to the table; after a barrier every SPE merges the table (min
+//! and max: the same bounds as one SPE's pass over all of them).
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3A;
 
 use super::barrier::Barrier;
-use super::fig1::{BLOCK_BYTES, Fig1Buffers, partition_in_place};
+use super::fig1::{BLOCK_BYTES, Fig1Buffers, partition_in_place, stream_bounds};
 use super::layout::TriRecord;
 use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe, WaitMode};
 use crate::kernels::split::{Side, Split, partition};
@@ -262,6 +267,27 @@ impl Coop {
             .await?;
         self.barrier(spe).await?;
         Ok(both_sides(&entries))
+    }
+
+    /// The bounds of all `n` records, every SPE streaming an equal chunk
+    /// at `rate` (each SPE calls it, before the first level). A second
+    /// barrier after the table is read keeps the table from being
+    /// overwritten by a fast SPE's first partition before a slow one read it.
+    pub async fn bounds(
+        &mut self,
+        spe: &Spe,
+        bufs: &Fig1Buffers,
+        n: u64,
+        rate: Cycles,
+    ) -> Result<Side, CellError> {
+        let (s, k) = (self.area.spes as u64, spe.id() as u64);
+        let (lo, hi) = (n * k / s, n * (k + 1) / s);
+        let size = size_of::<TriRecord>() as u64;
+        let at = self.area.tris.offset(lo * size);
+        let mine = stream_bounds::<TriRecord>(spe, bufs, at, hi - lo, rate).await?;
+        let entries = self.exchange_table(spe, &mine, &Side::EMPTY).await?;
+        self.barrier(spe).await?;
+        Ok(both_sides(&entries).0)
     }
 
     /// Writes this SPE's two sides to its line of the table, waits for

@@ -335,7 +335,14 @@ pub(in crate::strategy) async fn build_top(
     work: &mut SpeWork,
 ) -> Result<Option<Level>, CellError> {
     let spes = helper.area.spes;
-    let all = b.bounds_of_all(n).await?;
+    let mut helper = helper;
+    let all = match spes > 1 && knobs.coop {
+        true => {
+            let rate = b.rates.spe_bounds_item;
+            helper.bounds(b.spe, &b.fig1, n as u64, rate).await?
+        }
+        false => b.bounds_of_all(n).await?,
+    };
     if spes > 1 && knobs.coop {
         let per_block = super::fig1::BLOCK_BYTES / size_of::<TriRecord>() as u32;
         b.help_with(Some((helper, spes as u32 * per_block)));
@@ -354,13 +361,21 @@ pub(in crate::strategy) async fn build_top(
     Ok(top)
 }
 
-/// Every SPE but 0: helps partition the top levels until SPE 0 signals
-/// their end (signal register 1, anything but `GO`).
+/// Every SPE but 0: with `TopKnobs::coop`, helps with the root's bounds
+/// and partition the top levels until SPE 0 signals their end (signal
+/// register 1, anything but `GO`).
 pub(in crate::strategy) async fn help_top(
     spe: &Spe,
     b: &SpeBuilder<'_>,
     helper: &mut Coop,
+    n: usize,
+    knobs: TopKnobs,
 ) -> Result<(), CellError> {
+    if knobs.coop {
+        helper
+            .bounds(spe, &b.fig1, n as u64, b.rates.spe_bounds_item)
+            .await?;
+    }
     let rate = b.rates.spe_partition_item;
     while spe.read_signal(1).await? == GO {
         helper.help(spe, &b.fig1, rate).await?;

@@ -15,10 +15,12 @@
 //! 3. **Permutation**: each SPE gathers the records of its slice of sorted
 //!    pairs with a DMA list (`getl`) and writes them, in key order, to a
 //!    second record array where the tree is built.
-//! 4. **The top of the tree** (SPE 0): a node wherever a range's keys first
-//!    differ (Karras 2012), found by binary search over the sorted keys in
-//!    main memory, down to **regions** of at most `--region-size`
-//!    triangles (or ranges that share their whole key, or leaves).
+//! 4. **The top of the tree** (every SPE, [`top`]): a node wherever a
+//!    range's keys first differ (Karras 2012), found by binary search over
+//!    the sorted keys in main memory, down to **regions** of at most
+//!    `--region-size` triangles (or ranges that share their whole key, or
+//!    leaves): SPE 0 splits the largest ranges until there are a few per
+//!    SPE, then every SPE takes them from an atomic counter.
 //! 5. **Independent subtrees**: every SPE takes regions largest first from
 //!    an atomic counter (or, `--static-regions`, from its own dealt
 //!    list) and builds each alone: a region that fits in the local store is
@@ -27,13 +29,15 @@
 //!    WorkAPPE/WorkBPPE in a spill area the PPE allocates per SPE, sized
 //!    for the largest such region. Nodes go straight into slots of the
 //!    per-SPE ObjectArena lists of one pool. Each region's bounds go to a
-//!    table, from which SPE 0 finally writes the top nodes' clip planes.
+//!    table, from which every SPE finally writes the clip planes of the
+//!    top nodes it made.
 //!
 //! With the global heuristic's order the splits are the baseline's, so the
 //! tree is the baseline's tree.
 
 mod regions;
 mod sort;
+mod top;
 
 use crate::strategy::machinery::footprint::Purpose;
 
@@ -277,6 +281,9 @@ const NODE: usize = size_of::<crate::bih::BihNode>();
 const RECORDS_PER_BLOCK: usize = (16 * 1024) / size_of::<TriRecord>();
 const KEYS_PER_BLOCK: usize = (16 * 1024) / size_of::<KeyRec>();
 
+/// Bytes of a region job in main memory: the paper's job.
+const JOB: usize = 64;
+
 /// What the PPE lays out in main memory for the SPEs.
 #[derive(Clone, Copy)]
 struct Areas {
@@ -290,9 +297,13 @@ struct Areas {
     /// The static deal's header line: per SPE, the start and count of its
     /// positions in the deal array.
     deal_header: Ea,
+    /// The sub-tops of the top of the tree, and their bounds.
+    subtops: Ea,
+    sub_bounds: Ea,
     /// Lock lines: barrier arrivals; the regions' line: word 0 the next
-    /// region to take, word 1 the number of regions, words 2 to 4 where
-    /// the PPE put the region jobs, their bounds and the static deal.
+    /// sub-top, then region, to take, word 1 how many, words 2 to 6 where
+    /// the PPE put the region tables (`Program::tables`), word 7 the spill
+    /// units, words 8 on each SPE's first place in the region jobs.
     arrivals: Ea,
     take: Ea,
     pool: Ea,
@@ -310,6 +321,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     let mut mem = cell.memory_mut();
     let n64 = n as u64;
     let line = 128;
+    let subtops = ((top::SUBTOPS_PER_SPE * spes + 1) * top::RANGE) as u64;
     let a = Areas {
         n,
         spes,
@@ -329,6 +341,8 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             128,
         )?,
         deal_header: mem.alloc(Purpose::JobQueues.buffer("region deal header"), line, 128)?,
+        subtops: mem.alloc(Purpose::JobQueues.buffer("sub-tops"), subtops, 128)?,
+        sub_bounds: mem.alloc(Purpose::JobQueues.buffer("sub-top bounds"), subtops, 128)?,
         arrivals: mem.alloc(Purpose::JobQueues.buffer("barrier arrivals"), line, 128)?,
         take: mem.alloc(Purpose::JobQueues.buffer("region counter"), line, 128)?,
         pool: pool.base,
@@ -373,6 +387,11 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                     (regions * 4).next_multiple_of(16),
                 ),
                 (
+                    JobQueues,
+                    "spe_morton: region positions",
+                    (regions * 4).next_multiple_of(16),
+                ),
+                (
                     WorkPpe,
                     "spe_morton: WorkAPPE/WorkBPPE of large regions",
                     spill,
@@ -393,19 +412,6 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         Ok(server.end())
     });
     Ok(pool.readback(exits, reach, Some(a.sorted)))
-}
-
-/// One node of the top of the tree, as SPE 0 keeps it until the regions'
-/// bounds are known.
-enum Top {
-    Inner {
-        id: u32,
-        children: u32,
-        axis: usize,
-        /// Top indices of the two children.
-        kids: [usize; 2],
-    },
-    Region(usize),
 }
 
 /// One SPE's program.
@@ -433,10 +439,11 @@ struct Program<'a> {
     /// SPE 0: each phase and the cycle it ended at.
     phases: Vec<(&'static str, u64)>,
     /// The region jobs (largest first), their bounds (by the same
-    /// position), the static deal and the large regions' WorkAPPE/WorkBPPE,
-    /// where the PPE allocated them.
-    tables: [Ea; 4],
-    /// Bytes of each SPE's part of the spill area (`tables[3]`).
+    /// position), the static deal, each unsorted place's sorted position
+    /// and the large regions' WorkAPPE/WorkBPPE, where the PPE allocated
+    /// them.
+    tables: [Ea; 5],
+    /// Bytes of each SPE's part of the spill area (`tables[4]`).
     spill_per_spe: u64,
 }
 
@@ -485,7 +492,7 @@ impl<'a> Program<'a> {
             partitions: 0,
             regions_built: 0,
             phases: Vec::new(),
-            tables: [Ea(0); 4],
+            tables: [Ea(0); 5],
             spill_per_spe: 0,
         })
     }
@@ -541,17 +548,11 @@ impl<'a> Program<'a> {
         self.permute(keys, bufs).await?;
         self.end_phase("permutation").await?;
         self.spe.ls_release_to(mark);
-        let top = if self.spe.id() == 0 {
-            Some(self.top(keys).await?)
-        } else {
-            None
-        };
+        let top = self.top(keys).await?;
         self.end_phase("top of the tree").await?;
         self.build_regions().await?;
         self.end_phase("regions").await?;
-        if let Some(top) = top {
-            self.write_top(&top).await?;
-        }
+        self.write_top(&top).await?;
         self.w().finish().await?;
         let nodes = self.w().nodes;
         let count = self.arena().allocated();

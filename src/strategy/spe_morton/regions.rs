@@ -1,167 +1,23 @@
-//! `spe_morton`, phases 4 and 5 (section 5: "regions of primitives that
-//! then could be built-up totally independent"): the top of the tree from
-//! the sorted keys on SPE 0, the regions built by every SPE alone, and
-//! the top nodes' clip planes from the regions' bounds.
+//! `spe_morton`, phase 5 (section 5: "regions of primitives that then
+//! could be built-up totally independent"): the regions built by every
+//! SPE alone, each in its local store where it fits.
 
 use bytemuck::Pod;
-use glam::Vec3;
 
-use super::{KEY, KeyRec, NODE, Program, RECORD, RECORDS_PER_BLOCK, SPILL_UNIT, Top};
+use super::{JOB, NODE, Program, RECORD, RECORDS_PER_BLOCK};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 use crate::cell::{CellError, Ea};
-use crate::kernels::morton::KeyOrder;
 use crate::kernels::recursion::build_subtree;
 use crate::kernels::split::{Side, side_of};
 use crate::strategy::machinery::breadth_first::{Job, SpeBuilder};
 use crate::strategy::machinery::fig1::stream_bounds;
 use crate::strategy::machinery::layout::TriRecord;
-use crate::strategy::machinery::work_queue::{from_wire, to_wire};
-
-/// Bytes of a region job in main memory: the paper's job.
-const JOB: usize = 64;
+use crate::strategy::machinery::work_queue::from_wire;
 
 impl Program<'_> {
-    /// The key at sorted position `i` (one small get from main memory).
-    async fn key_at(&self, keys: Ea, i: usize) -> Result<u64, CellError> {
-        let tag = self.tags;
-        self.spe
-            .get(self.line, keys.offset((i * KEY) as u64), KEY as u32, tag)
-            .await?;
-        self.spe.wait_tag(tag).await?;
-        Ok(self.spe.ls_read::<KeyRec>(self.line, 1)?[0].key)
-    }
-
-    /// Phase 4, SPE 0: the top of the tree from the sorted keys, down to
-    /// regions; writes the regions largest first (and their static deal).
-    pub(super) async fn top(&mut self, keys: Ea) -> Result<Vec<Top>, CellError> {
-        let k = self.kernels;
-        let bits = self.spec.bits;
-        let root = self.arena().alloc(1).await?;
-        let mut top: Vec<Top> = Vec::new();
-        let mut regions: Vec<Job> = Vec::new();
-        // (top index, node id, first, count, depth, key bits the cell has
-        // consumed)
-        let mut stack = vec![(usize::MAX, root, 0usize, self.a.n, 0u32, 0u32)];
-        while let Some((parent_slot, id, first, count, depth, used)) = stack.pop() {
-            self.spe.compute(k.spe_job);
-            let at = top.len();
-            if parent_slot != usize::MAX {
-                let (kid, slot) = (parent_slot / 2, parent_slot % 2);
-                if let Top::Inner { kids, .. } = &mut top[kid] {
-                    kids[slot] = at;
-                }
-            }
-            let key_first = self.key_at(keys, first).await?;
-            let leafish = count <= self.knobs.region_size || self.cfg.ends_in_leaf(count, depth);
-            let split = if leafish {
-                None
-            } else {
-                let key_last = self.key_at(keys, first + count - 1).await?;
-                let diff = key_first ^ key_last;
-                if diff == 0 {
-                    None
-                } else {
-                    let bit = diff.leading_zeros() - (64 - bits);
-                    let mask = 1u64 << (bits - 1 - bit);
-                    // The first key with the bit set: binary search.
-                    let (mut l, mut r) = (first + 1, first + count - 1);
-                    while l < r {
-                        let m = l + (r - l) / 2;
-                        if self.key_at(keys, m).await? & mask == 0 {
-                            l = m + 1;
-                        } else {
-                            r = m;
-                        }
-                    }
-                    Some((bit, l - first))
-                }
-            };
-            let Some((bit, left)) = split else {
-                let cell = self.spec.cell(key_first, used);
-                let job = Job::new(first, count, id as usize, depth, cell, &Side::EMPTY);
-                top.push(Top::Region(regions.len()));
-                regions.push(job);
-                continue;
-            };
-            let axis = match self.spec.order {
-                KeyOrder::GlobalHeuristic => self.spec.cell(key_first, bit).longest_axis(),
-                KeyOrder::RoundRobin => (bit % 3) as usize,
-            };
-            let children = self.arena().alloc(2).await?;
-            top.push(Top::Inner {
-                id,
-                children,
-                axis,
-                kids: [0, 0],
-            });
-            stack.push((
-                2 * at + 1,
-                children + 1,
-                first + left,
-                count - left,
-                depth + 1,
-                bit + 1,
-            ));
-            stack.push((2 * at, children, first, left, depth + 1, bit + 1));
-        }
-        // Largest first (ties by position: deterministic).
-        let mut order: Vec<usize> = (0..regions.len()).collect();
-        order.sort_by_key(|&r| std::cmp::Reverse(regions[r].count));
-        self.spe.compute_items(k.spe_job, regions.len() as u64);
-        let mut position = vec![0; regions.len()];
-        for (pos, &r) in order.iter().enumerate() {
-            position[r] = pos;
-        }
-        for t in &mut top {
-            if let Top::Region(r) = t {
-                *r = position[*r];
-            }
-        }
-        let sorted: Vec<Job> = order.iter().map(|&r| regions[r]).collect();
-        // Regions too large for the local store run the breadth-first loop:
-        // each SPE gets WorkAPPE and WorkBPPE for the largest of them (the
-        // first, largest first), and reuses them region after region.
-        let cap = self.ls_capacity();
-        let largest = sorted.first().map_or(0, |j| j.count as usize);
-        self.spill_per_spe = match largest > cap {
-            true => (2 * Job::spill_bytes_for(largest, &self.cfg)).next_multiple_of(SPILL_UNIT),
-            false => 0,
-        };
-        self.spe.write_out_mbox(super::REGIONS).await;
-        self.spe.write_out_mbox(sorted.len() as u32).await;
-        self.spe
-            .write_out_mbox((self.spill_per_spe / SPILL_UNIT) as u32)
-            .await;
-        for t in &mut self.tables {
-            *t = Ea(self.spe.read_in_mbox().await as u64);
-        }
-        // The region jobs as the paper's 64-byte jobs (spe_morton builds
-        // no empty-space cut-off).
-        self.write_array(self.tables[0], &to_wire(&sorted, JOB))
-            .await?;
-        if self.knobs.static_regions {
-            self.deal(&sorted).await?;
-        }
-        let (line, take, tables) = (self.line, self.a.take, self.tables);
-        let (total, spill) = (
-            sorted.len() as u32,
-            (self.spill_per_spe / SPILL_UNIT) as u32,
-        );
-        self.spe
-            .atomic_update_line(line, take, |w| {
-                (w[0], w[1]) = (0, total);
-                for (i, t) in tables.iter().enumerate() {
-                    w[2 + i] = t.0 as u32;
-                }
-                w[6] = spill;
-            })
-            .await?;
-        Ok(top)
-    }
-
     /// Writes `items` to `ea` in puts of at most 16 KiB, and waits.
-    async fn write_array<T: Pod>(&self, ea: Ea, items: &[T]) -> Result<(), CellError> {
+    pub(super) async fn write_array<T: Pod>(&self, ea: Ea, items: &[T]) -> Result<(), CellError> {
         let per = (16 * 1024) / size_of::<T>();
         let tag = self.tags;
         let mark = self.spe.ls_mark();
@@ -180,7 +36,7 @@ impl Program<'_> {
 
     /// The static deal: each region, largest first, to the SPE with the
     /// fewest triangles so far; per SPE its positions, contiguous.
-    async fn deal(&mut self, regions: &[Job]) -> Result<(), CellError> {
+    pub(super) async fn deal(&mut self, regions: &[Job]) -> Result<(), CellError> {
         let spes = self.a.spes;
         let mut load = vec![0u64; spes];
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); spes];
@@ -206,12 +62,7 @@ impl Program<'_> {
     pub(super) async fn build_regions(&mut self) -> Result<(), CellError> {
         let tag = self.tags;
         let (line, take) = (self.line, self.a.take);
-        self.spe.get(line, take, 128, tag).await?;
-        self.spe.wait_tag(tag).await?;
-        let w = self.spe.ls_read::<u32>(line, 7)?;
-        let total = w[1];
-        self.tables = [w[2], w[3], w[4], w[5]].map(|t| Ea(t as u64));
-        self.spill_per_spe = w[6] as u64 * SPILL_UNIT;
+        let total = self.read_take_line().await?;
         let mine: Option<Vec<u32>> = if self.knobs.static_regions {
             self.spe.get(line, self.a.deal_header, 128, tag).await?;
             self.spe.wait_tag(tag).await?;
@@ -266,7 +117,7 @@ impl Program<'_> {
 
     /// Records the local store can hold with their nodes (48 bytes and at
     /// most two 12-byte nodes each).
-    fn ls_capacity(&self) -> usize {
+    pub(super) fn ls_capacity(&self) -> usize {
         let free = self.spe.ls_free_bytes().saturating_sub(256);
         free as usize / (RECORD + 2 * NODE)
     }
@@ -281,7 +132,7 @@ impl Program<'_> {
         }
         // Too large for the local store: the baseline's breadth-first loop,
         // its WorkAPPE/WorkBPPE in this SPE's part of the spill area.
-        let mine = self.tables[3].offset(self.spe.id() as u64 * self.spill_per_spe);
+        let mine = self.tables[4].offset(self.spe.id() as u64 * self.spill_per_spe);
         let half = self.spill_per_spe / 2;
         let work_ppe = ([mine, mine.offset(half)], half);
         let mark = self.spe.ls_mark();
@@ -404,52 +255,5 @@ impl Program<'_> {
         self.spe.wait_tag(tag).await?;
         self.spe.ls_release_to(mark);
         Ok(side)
-    }
-
-    /// Last, SPE 0: the top nodes, their clip planes from the regions' bounds.
-    pub(super) async fn write_top(&mut self, top: &[Top]) -> Result<(), CellError> {
-        let regions = top.iter().filter(|t| matches!(t, Top::Region(_))).count();
-        let tag = self.tags;
-        let mut bounds: Vec<Aabb> = Vec::with_capacity(regions);
-        let mark = self.spe.ls_mark();
-        let buf = self.spe.ls_alloc(16 * 1024, 128)?;
-        for c in (0..regions).step_by(512) {
-            let len = 512.min(regions - c);
-            self.spe
-                .get(
-                    buf,
-                    self.tables[1].offset(c as u64 * 32),
-                    (len * 32) as u32,
-                    tag,
-                )
-                .await?;
-            self.spe.wait_tag(tag).await?;
-            let b: Vec<[f32; 8]> = self.spe.ls_read(buf, len)?;
-            bounds.extend(
-                b.iter()
-                    .map(|b| Aabb::new(Vec3::new(b[0], b[1], b[2]), Vec3::new(b[4], b[5], b[6]))),
-            );
-        }
-        self.spe.ls_release_to(mark);
-        // Children come after their parents: bounds bottom-up in reverse.
-        let mut of = vec![Aabb::EMPTY; top.len()];
-        for (i, t) in top.iter().enumerate().rev() {
-            of[i] = match *t {
-                Top::Region(pos) => bounds[pos],
-                Top::Inner {
-                    id,
-                    children,
-                    axis,
-                    kids,
-                } => {
-                    let (l, r) = (of[kids[0]], of[kids[1]]);
-                    self.w()
-                        .push(id, BihNode::inner(children, axis, l.max[axis], r.min[axis]));
-                    self.spe.compute(self.kernels.spe_job);
-                    l.union(r)
-                }
-            };
-        }
-        self.w().flush().await
     }
 }

@@ -153,7 +153,7 @@ impl TopEnd {
 /// The SPE program's state: its local-store buffers and counters. The
 /// multi-SPE strategies run the same loop on every SPE.
 pub(in crate::strategy) struct SpeBuilder<'a> {
-    spe: &'a Spe,
+    pub(in crate::strategy) spe: &'a Spe,
     tris: Ea,
     pub(in crate::strategy) cfg: BihConfig,
     /// The kernels' rates this run charges.
