@@ -133,12 +133,23 @@ pub struct Output {
     pub compact: bool,
     /// Multi-SPE strategies: what each SPE did, by SPE.
     pub spe_work: Vec<SpeWork>,
-    /// Where the triangle records end, if not in the array they started
-    /// in (a strategy that permuted them into another).
-    pub records: Option<Ea>,
+    /// Where the triangles' final order is, if not in the array of records
+    /// they started in.
+    pub records: Option<Records>,
     /// A strategy made of phases separated by barriers: each phase's name
     /// and the cycle at which it ended (all SPEs through the barrier).
     pub phases: Vec<(&'static str, u64)>,
+}
+
+/// Where a strategy leaves the triangles' final order (the leaves' ranges
+/// index it), if not in the array of records they started in.
+#[derive(Clone, Copy, Debug)]
+pub enum Records {
+    /// The records, permuted into another array.
+    Moved(Ea),
+    /// A column of triangle ids: in an array of `stride`-byte records at
+    /// `at`, each record's `u32` number `word`.
+    Ids { at: Ea, stride: u64, word: usize },
 }
 
 /// What one SPE of a multi-SPE build did.
@@ -310,11 +321,24 @@ pub fn run_in(
         nodes = compact(&nodes)?;
     }
     check_jobs(&o.spe_work, nodes.len())?;
-    let at = o.records.unwrap_or(triangles);
-    let records: Vec<layout::TriRecord> = cell.memory().read_pod(at, scene.len())?;
+    let prim_ids = match o.records {
+        Some(Records::Ids { at, stride, word }) => {
+            let words = stride as usize / 4;
+            let column: Vec<u32> = cell.memory().read_pod(at, scene.len() * words)?;
+            column.iter().skip(word).step_by(words).copied().collect()
+        }
+        moved => {
+            let at = match moved {
+                Some(Records::Moved(at)) => at,
+                _ => triangles,
+            };
+            let records: Vec<layout::TriRecord> = cell.memory().read_pod(at, scene.len())?;
+            records.iter().map(|r| r.id).collect()
+        }
+    };
     let bih = Bih {
         nodes,
-        prim_ids: records.iter().map(|r| r.id).collect(),
+        prim_ids,
         bounds: region,
         config: *cfg,
     };

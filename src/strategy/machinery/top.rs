@@ -274,7 +274,7 @@ impl Pool {
         self,
         exits: Vec<Exit<SpeExit>>,
         reach: Exit<Ea>,
-        records: Option<Ea>,
+        records: Option<super::super::Records>,
     ) -> Readback {
         Box::new(move || {
             let end = reach.take("PPE")?;

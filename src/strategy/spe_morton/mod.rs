@@ -48,7 +48,7 @@ use super::machinery::barrier::Barrier;
 use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, NO_PREFETCH, QueueKnobs};
 use super::machinery::layout::TriRecord;
 use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, spes_used};
-use super::{Knob, Knobs, Readback, Setup, SpeWork};
+use super::{Knob, Knobs, Readback, Records, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, Ea, LsAddr, Spe};
 use crate::kernels::morton::{KeyOrder, KeySpec, auto_key_bits};
@@ -69,6 +69,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &DIGIT_BITS,
     &REGION_SIZE,
     &STATIC_REGIONS,
+    &PERMUTE,
     &TRIS_PER_SPE,
     // Regions too large for a local store run the breadth-first loop.
     &DOUBLE_BUFFER,
@@ -113,6 +114,12 @@ pub const STATIC_REGIONS: Knob = Knob::flag(
     "regions dealt before the builds, not taken from an atomic counter",
 );
 
+/// `--permute`: `MortonKnobs::permute`.
+pub const PERMUTE: Knob = Knob::flag(
+    "permute",
+    "the records gathered into a second array in key order before the top of the tree, each region loaded from there (before issue 28; default: each region gathers its own records by their keys, no second array)",
+);
+
 /// The queue knobs of regions too large for a local store: the next
 /// batch's get overlaps the partition, as the breadth-first strategies'.
 const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
@@ -155,6 +162,12 @@ struct MortonKnobs {
     /// least-loaded SPE) instead of taken largest first from an atomic
     /// counter. Buys: no atomics. Costs: balance.
     static_regions: bool,
+    /// Every record gathered into a second array in key order (phase 3)
+    /// before the regions. Buys: each region one contiguous get. Costs: a
+    /// second record array (48 bytes a triangle) and a pass over every
+    /// record. Without it each region gathers its records by their keys
+    /// and writes their ids, in the tree's order, over its keys' indices.
+    permute: bool,
     /// Regions too large for a local store run the breadth-first loop,
     /// with these.
     queue: QueueKnobs,
@@ -174,6 +187,7 @@ impl MortonKnobs {
             digit_bits: k.int(&DIGIT_BITS) as u32,
             region_size: k.int(&REGION_SIZE),
             static_regions: k.flag(&STATIC_REGIONS),
+            permute: k.flag(&PERMUTE),
             queue: QueueKnobs::read(k, DEFAULT_QUEUE),
         }
     }
@@ -290,8 +304,13 @@ struct Areas {
     n: usize,
     spes: usize,
     tris: Ea,
-    sorted: Ea,
+    /// `--permute`: the records in key order (else the PPE allocates them
+    /// only if a region is too large for a local store: `Program::tables`).
+    sorted: Option<Ea>,
     keys: [Ea; 2],
+    /// The keys array that holds them sorted (and, unless `--permute`, the
+    /// triangle ids in the tree's order).
+    sorted_keys: Ea,
     /// The radix count table: a row of `1 << digit_bits` words per SPE.
     counts: Ea,
     /// The static deal's header line: per SPE, the start and count of its
@@ -301,9 +320,9 @@ struct Areas {
     subtops: Ea,
     sub_bounds: Ea,
     /// Lock lines: barrier arrivals; the regions' line: word 0 the next
-    /// sub-top, then region, to take, word 1 how many, words 2 to 6 where
-    /// the PPE put the region tables (`Program::tables`), word 7 the spill
-    /// units, words 8 on each SPE's first place in the region jobs.
+    /// sub-top, then region, to take, word 1 how many, words 2 to 7 where
+    /// the PPE put the region tables (`Program::tables`), word 8 the spill
+    /// units, words 9 on each SPE's first place in the region jobs.
     arrivals: Ea,
     take: Ea,
     pool: Ea,
@@ -322,19 +341,24 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     let n64 = n as u64;
     let line = 128;
     let subtops = ((top::SUBTOPS_PER_SPE * spes + 1) * top::RANGE) as u64;
+    let keys = [
+        mem.alloc(Purpose::KeysAndSort.buffer("keys A"), n64 * KEY as u64, 128)?,
+        mem.alloc(Purpose::KeysAndSort.buffer("keys B"), n64 * KEY as u64, 128)?,
+    ];
     let a = Areas {
         n,
         spes,
         tris: setup.triangles,
-        sorted: mem.alloc(
-            Purpose::TriangleRecords.buffer("records in key order"),
-            n64 * RECORD as u64,
-            128,
-        )?,
-        keys: [
-            mem.alloc(Purpose::KeysAndSort.buffer("keys A"), n64 * KEY as u64, 128)?,
-            mem.alloc(Purpose::KeysAndSort.buffer("keys B"), n64 * KEY as u64, 128)?,
-        ],
+        sorted: match knobs.permute {
+            true => Some(mem.alloc(
+                Purpose::TriangleRecords.buffer("records in key order"),
+                n64 * RECORD as u64,
+                128,
+            )?),
+            false => None,
+        },
+        keys,
+        sorted_keys: keys[radix::passes(knobs.key_bits, knobs.digit_bits) as usize % 2],
         counts: mem.alloc(
             Purpose::KeysAndSort.buffer("radix count table"),
             spes as u64 * (4 << knobs.digit_bits),
@@ -377,7 +401,13 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             let regions = ppe.read_out_mbox(0).await? as u64;
             // Per SPE: room for the largest region's two levels of jobs.
             let spill = ppe.read_out_mbox(0).await? as u64 * SPILL_UNIT * spes as u64;
-            use Purpose::{JobQueues, WorkPpe};
+            // Regions too large for a local store are built in key order in
+            // a second record array.
+            let sorted = match (knobs.permute, spill) {
+                (false, 1..) => n64 * RECORD as u64,
+                _ => 0,
+            };
+            use Purpose::{JobQueues, TriangleRecords, WorkPpe};
             for (purpose, what, bytes) in [
                 (JobQueues, "spe_morton: region jobs", regions * 64),
                 (JobQueues, "spe_morton: region bounds", regions * 32),
@@ -396,6 +426,11 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                     "spe_morton: WorkAPPE/WorkBPPE of large regions",
                     spill,
                 ),
+                (
+                    TriangleRecords,
+                    "spe_morton: records in key order of the regions too large for a local store",
+                    sorted,
+                ),
             ] {
                 if bytes == 0 {
                     ppe.write_in_mbox(0, 0).await?;
@@ -411,7 +446,15 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         }
         Ok(server.end())
     });
-    Ok(pool.readback(exits, reach, Some(a.sorted)))
+    let records = match a.sorted {
+        Some(at) => Records::Moved(at),
+        None => Records::Ids {
+            at: a.sorted_keys,
+            stride: KEY as u64,
+            word: 2,
+        },
+    };
+    Ok(pool.readback(exits, reach, Some(records)))
 }
 
 /// One SPE's program.
@@ -439,10 +482,10 @@ struct Program<'a> {
     /// SPE 0: each phase and the cycle it ended at.
     phases: Vec<(&'static str, u64)>,
     /// The region jobs (largest first), their bounds (by the same
-    /// position), the static deal, each unsorted place's sorted position
-    /// and the large regions' WorkAPPE/WorkBPPE, where the PPE allocated
-    /// them.
-    tables: [Ea; 5],
+    /// position), the static deal, each unsorted place's sorted position,
+    /// the large regions' WorkAPPE/WorkBPPE and (unless `--permute`) their
+    /// records in key order, where the PPE allocated them.
+    tables: [Ea; 6],
     /// Bytes of each SPE's part of the spill area (`tables[4]`).
     spill_per_spe: u64,
 }
@@ -492,7 +535,7 @@ impl<'a> Program<'a> {
             partitions: 0,
             regions_built: 0,
             phases: Vec::new(),
-            tables: [Ea(0); 5],
+            tables: [Ea(0); 6],
             spill_per_spe: 0,
         })
     }
@@ -544,9 +587,11 @@ impl<'a> Program<'a> {
             self.radix_pass(pass, bufs).await?;
             self.end_phase(PASSES[pass as usize]).await?;
         }
-        let keys = self.a.keys[passes as usize % 2];
-        self.permute(keys, bufs).await?;
-        self.end_phase("permutation").await?;
+        let keys = self.a.sorted_keys;
+        if self.knobs.permute {
+            self.permute(keys, bufs).await?;
+            self.end_phase("permutation").await?;
+        }
         self.spe.ls_release_to(mark);
         let top = self.top(keys).await?;
         self.end_phase("top of the tree").await?;

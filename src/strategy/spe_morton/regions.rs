@@ -4,10 +4,10 @@
 
 use bytemuck::Pod;
 
-use super::{JOB, NODE, Program, RECORD, RECORDS_PER_BLOCK};
+use super::{JOB, KEY, KEYS_PER_BLOCK, KeyRec, NODE, Program, RECORD, RECORDS_PER_BLOCK};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
-use crate::cell::{CellError, Ea};
+use crate::cell::{CellError, Ea, ListElement, LsAddr};
 use crate::kernels::recursion::build_subtree;
 use crate::kernels::split::{Side, side_of};
 use crate::strategy::machinery::breadth_first::{Job, SpeBuilder};
@@ -115,11 +115,115 @@ impl Program<'_> {
         Ok(())
     }
 
-    /// Records the local store can hold with their nodes (48 bytes and at
-    /// most two 12-byte nodes each).
+    /// Records the local store can hold with their nodes (48 bytes, at
+    /// most two 12-byte nodes each and, unless `--permute`, a 16-byte key
+    /// pair).
     pub(super) fn ls_capacity(&self) -> usize {
         let free = self.spe.ls_free_bytes().saturating_sub(256);
-        free as usize / (RECORD + 2 * NODE)
+        let pair = if self.knobs.permute { 0 } else { KEY };
+        free as usize / (RECORD + 2 * NODE + pair)
+    }
+
+    /// The records in key order: `--permute`'s array, or the one the PPE
+    /// allocates for regions too large for a local store.
+    pub(super) fn sorted(&self) -> Ea {
+        self.a.sorted.unwrap_or(self.tables[5])
+    }
+
+    /// Gets the key pairs of sorted positions `first..first + count` into
+    /// `pairs`, then their records, by their indices, into `recs` (a getl
+    /// of a block's records at a time, at the permutation's rate a record:
+    /// `MortonRates::radix_scatter`), and waits.
+    async fn gather(
+        &self,
+        (pairs, recs): (LsAddr, LsAddr),
+        first: usize,
+        count: usize,
+    ) -> Result<(), CellError> {
+        let tag = self.tags;
+        let at = self.a.sorted_keys.offset((first * KEY) as u64);
+        for c in (0..count).step_by(KEYS_PER_BLOCK) {
+            let len = KEYS_PER_BLOCK.min(count - c);
+            let (ls, ea) = (pairs.offset((c * KEY) as u32), at.offset((c * KEY) as u64));
+            self.spe.get(ls, ea, (len * KEY) as u32, tag).await?;
+        }
+        self.spe.wait_tag(tag).await?;
+        let keys: Vec<KeyRec> = self.spe.ls_read(pairs, count)?;
+        for (c, chunk) in keys.chunks(RECORDS_PER_BLOCK).enumerate() {
+            let list: Vec<ListElement> = (chunk.iter())
+                .map(|k| ListElement {
+                    ea: self.a.tris.offset(k.index as u64 * RECORD as u64),
+                    size: RECORD as u32,
+                })
+                .collect();
+            let ls = recs.offset((c * RECORDS_PER_BLOCK * RECORD) as u32);
+            self.spe.getl(ls, &list, tag).await?;
+        }
+        self.spe
+            .compute_items(self.rates.radix_scatter, count as u64);
+        self.spe.wait_tag(tag).await.map(|_| ())
+    }
+
+    /// Writes the ids of the `count` records at `recs` over the indices of
+    /// their key pairs at `pairs` and puts the pairs back to sorted
+    /// positions `first..`: the triangles in the tree's order.
+    async fn ids_back(
+        &self,
+        (pairs, recs): (LsAddr, LsAddr),
+        first: usize,
+        count: usize,
+    ) -> Result<(), CellError> {
+        let ids: Vec<u32> = (self.spe).with_ls(recs, count, |r: &[TriRecord]| {
+            r.iter().map(|r| r.id).collect()
+        })?;
+        let mut keys: Vec<KeyRec> = self.spe.ls_read(pairs, count)?;
+        for (k, id) in keys.iter_mut().zip(ids) {
+            k.index = id;
+        }
+        self.spe.ls_write(pairs, &keys)?;
+        let at = self.a.sorted_keys.offset((first * KEY) as u64);
+        for c in (0..count).step_by(KEYS_PER_BLOCK) {
+            let len = KEYS_PER_BLOCK.min(count - c);
+            let (ls, ea) = (pairs.offset((c * KEY) as u32), at.offset((c * KEY) as u64));
+            self.spe.put(ls, ea, (len * KEY) as u32, self.tags).await?;
+        }
+        Ok(())
+    }
+
+    /// A region too large for the local store, without `--permute`: its
+    /// records gathered into their places of the sorted array (`back`:
+    /// after its build, their ids written over its key pairs' indices), a
+    /// block at a time.
+    async fn large_region_records(
+        &self,
+        first: usize,
+        count: usize,
+        back: bool,
+    ) -> Result<(), CellError> {
+        let mark = self.spe.ls_mark();
+        let pairs = self.spe.ls_alloc((RECORDS_PER_BLOCK * KEY) as u32, 128)?;
+        let recs = self
+            .spe
+            .ls_alloc((RECORDS_PER_BLOCK * RECORD) as u32, 128)?;
+        let tag = self.tags;
+        for c in (first..first + count).step_by(RECORDS_PER_BLOCK) {
+            let len = RECORDS_PER_BLOCK.min(first + count - c);
+            let at = self.sorted().offset((c * RECORD) as u64);
+            let bytes = (len * RECORD) as u32;
+            if back {
+                self.spe.get(recs, at, bytes, tag).await?;
+                let keys = self.a.sorted_keys.offset((c * KEY) as u64);
+                self.spe.get(pairs, keys, (len * KEY) as u32, tag).await?;
+                self.spe.wait_tag(tag).await?;
+                self.ids_back((pairs, recs), c, len).await?;
+            } else {
+                self.gather((pairs, recs), c, len).await?;
+                self.spe.put(recs, at, bytes, tag).await?;
+            }
+            self.spe.wait_tag(tag).await?;
+        }
+        self.spe.ls_release_to(mark);
+        Ok(())
     }
 
     /// Builds one region; returns its bounds.
@@ -130,8 +234,12 @@ impl Program<'_> {
                 .in_local_store(first, count, job.node, job.depth, job.candidate())
                 .await;
         }
-        // Too large for the local store: the baseline's breadth-first loop,
-        // its WorkAPPE/WorkBPPE in this SPE's part of the spill area.
+        // Too large for the local store: the baseline's breadth-first loop
+        // on the records in key order, its WorkAPPE/WorkBPPE in this SPE's
+        // part of the spill area.
+        if !self.knobs.permute {
+            self.large_region_records(first, count, false).await?;
+        }
         let mine = self.tables[4].offset(self.spe.id() as u64 * self.spill_per_spe);
         let half = self.spill_per_spe / 2;
         let work_ppe = ([mine, mine.offset(half)], half);
@@ -140,7 +248,7 @@ impl Program<'_> {
         let arena = self.arena.take().expect("the arena is lent only here");
         let mut b = SpeBuilder::with_arena(
             self.spe,
-            self.a.sorted,
+            self.sorted(),
             work_ppe,
             self.cfg,
             arena,
@@ -148,7 +256,7 @@ impl Program<'_> {
         )?;
         b.lend_node_writes(self.writes.take());
         let k = self.kernels;
-        let at = self.a.sorted.offset((first * RECORD) as u64);
+        let at = self.sorted().offset((first * RECORD) as u64);
         let side =
             stream_bounds::<TriRecord>(self.spe, &b.fig1, at, count as u64, k.spe_bounds_item)
                 .await?;
@@ -168,6 +276,9 @@ impl Program<'_> {
         self.writes = b.lend_node_writes(None);
         self.arena = Some(b.arena);
         self.spe.ls_release_to(mark);
+        if !self.knobs.permute {
+            self.large_region_records(first, count, true).await?;
+        }
         Ok(side)
     }
 
@@ -196,8 +307,10 @@ impl Program<'_> {
         Ok(())
     }
 
-    /// A region (or piece) that fits: loaded once, built in the local store
-    /// with the global heuristic, written back once; returns its bounds.
+    /// A region (or piece) that fits: loaded once (gathered by its keys,
+    /// or with `--permute` one get from the sorted array), built in the
+    /// local store with the global heuristic, written back once (its ids
+    /// over its keys' indices, or its records); returns its bounds.
     async fn in_local_store(
         &mut self,
         first: usize,
@@ -212,9 +325,21 @@ impl Program<'_> {
         let recs = self
             .spe
             .ls_alloc((count * RECORD).next_multiple_of(128) as u32, 128)?;
-        let at = self.a.sorted.offset((first * RECORD) as u64);
-        self.move_records(recs, at, count, true).await?;
-        self.spe.wait_tag(tag).await?;
+        let pairs = match self.knobs.permute {
+            true => None,
+            false => Some(
+                self.spe
+                    .ls_alloc((count * KEY).next_multiple_of(128) as u32, 128)?,
+            ),
+        };
+        let at = self.sorted().offset((first * RECORD) as u64);
+        match pairs {
+            Some(pairs) => self.gather((pairs, recs), first, count).await?,
+            None => {
+                self.move_records(recs, at, count, true).await?;
+                self.spe.wait_tag(tag).await?;
+            }
+        }
         let cfg = self.cfg;
         let (side, nodes, stats) =
             self.spe
@@ -233,7 +358,10 @@ impl Program<'_> {
         self.spe.compute_items(k.spe_job, nodes.len() as u64);
         self.items_partitioned += partitioned;
         self.partitions += stats.partitions;
-        self.move_records(recs, at, count, false).await?;
+        match pairs {
+            Some(pairs) => self.ids_back((pairs, recs), first, count).await?,
+            None => self.move_records(recs, at, count, false).await?,
+        }
         // Local pairs (1, 2), (3, 4), ... take pairs of this SPE's arena.
         let mut global = vec![id; nodes.len()];
         for pair in (1..nodes.len()).step_by(2) {

@@ -209,7 +209,7 @@ impl Program<'_> {
             let (obuf, tag) = self.out_buffer(b, bufs).await?;
             self.spe.getl(obuf, &list, tag).await?;
             self.spe.wait_tag(tag).await?;
-            let to = self.a.sorted.offset(((lo + first) * RECORD) as u64);
+            let to = self.sorted().offset(((lo + first) * RECORD) as u64);
             self.spe.put(obuf, to, (len * RECORD) as u32, tag).await?;
         }
         self.drain().await

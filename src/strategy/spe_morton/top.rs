@@ -298,14 +298,14 @@ impl Program<'_> {
                     for (i, t) in tables.iter().enumerate() {
                         w[2 + i] = t.0 as u32;
                     }
-                    w[7] = spill;
-                    w[8..8 + spes].copy_from_slice(&offsets);
+                    w[8] = spill;
+                    w[9..9 + spes].copy_from_slice(&offsets);
                 })
                 .await?;
         }
         self.barrier().await?;
         self.read_take_line().await?;
-        let offset = self.spe.ls_read::<u32>(line, 32)?[8 + self.spe.id()] as usize;
+        let offset = self.spe.ls_read::<u32>(line, 32)?[9 + self.spe.id()] as usize;
         let at = self.tables[0].offset((offset * JOB) as u64);
         self.write_array(at, &to_wire(regions, JOB)).await?;
         self.barrier().await?;
@@ -318,11 +318,11 @@ impl Program<'_> {
         let (line, tag) = (self.line, self.tags);
         self.spe.get(line, self.a.take, 128, tag).await?;
         self.spe.wait_tag(tag).await?;
-        let w = self.spe.ls_read::<u32>(line, 8)?;
+        let w = self.spe.ls_read::<u32>(line, 9)?;
         for (i, t) in self.tables.iter_mut().enumerate() {
             *t = Ea(w[2 + i] as u64);
         }
-        self.spill_per_spe = w[7] as u64 * SPILL_UNIT;
+        self.spill_per_spe = w[8] as u64 * SPILL_UNIT;
         Ok(w[1])
     }
 
