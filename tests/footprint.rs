@@ -70,14 +70,14 @@ fn a_build_that_does_not_fit_names_the_buffer_and_the_sizes() {
         "--builder",
         "spe_morton",
         "--memory-mib",
-        "16",
+        "12",
     ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{err}");
     assert!(
         err.contains("main memory full: ")
             && err.contains(" asked ")
-            && err.contains("of 16777216 in use"),
+            && err.contains("of 12582912 in use"),
         "{err}"
     );
     assert!(

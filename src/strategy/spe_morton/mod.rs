@@ -35,13 +35,14 @@
 //! With the global heuristic's order the splits are the baseline's, so the
 //! tree is the baseline's tree.
 
+mod pairs;
 mod regions;
 mod sort;
 mod top;
 
-use crate::strategy::machinery::footprint::Purpose;
+use pairs::Pairs;
 
-use bytemuck::{Pod, Zeroable};
+use crate::strategy::machinery::footprint::Purpose;
 
 use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
 use super::machinery::barrier::Barrier;
@@ -272,28 +273,17 @@ impl MortonRates {
     ];
 }
 
-/// A key and the index of its triangle record: 16 bytes.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-struct KeyRec {
-    key: u64,
-    index: u32,
-    pad: u32,
-}
-
 /// Each SPE's WorkAPPE/WorkBPPE for regions too large for the local store
 /// is asked for in units of this many bytes (one `WorkAPPE` block), so that
 /// one mailbox word holds it.
 const SPILL_UNIT: u64 = 16 * 1024;
 
-/// Bytes of a triangle record, of a key pair, of a node.
+/// Bytes of a triangle record, of a node.
 const RECORD: usize = size_of::<TriRecord>();
-const KEY: usize = size_of::<KeyRec>();
 const NODE: usize = size_of::<crate::bih::BihNode>();
 
-/// One DMA block of records (341 of 48 bytes) and of key pairs (1,024).
+/// One DMA block of records (341 of 48 bytes).
 const RECORDS_PER_BLOCK: usize = (16 * 1024) / size_of::<TriRecord>();
-const KEYS_PER_BLOCK: usize = (16 * 1024) / size_of::<KeyRec>();
 
 /// Bytes of a region job in main memory: the paper's job.
 const JOB: usize = 64;
@@ -307,6 +297,8 @@ struct Areas {
     /// `--permute`: the records in key order (else the PPE allocates them
     /// only if a region is too large for a local store: `Program::tables`).
     sorted: Option<Ea>,
+    /// The key pairs' width, and their two arrays.
+    pairs: Pairs,
     keys: [Ea; 2],
     /// The keys array that holds them sorted (and, unless `--permute`, the
     /// triangle ids in the tree's order).
@@ -341,9 +333,11 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     let n64 = n as u64;
     let line = 128;
     let subtops = ((top::SUBTOPS_PER_SPE * spes + 1) * top::RANGE) as u64;
+    let pairs = Pairs::for_bits(knobs.key_bits);
+    let key_bytes = n64 * pairs.bytes as u64;
     let keys = [
-        mem.alloc(Purpose::KeysAndSort.buffer("keys A"), n64 * KEY as u64, 128)?,
-        mem.alloc(Purpose::KeysAndSort.buffer("keys B"), n64 * KEY as u64, 128)?,
+        mem.alloc(Purpose::KeysAndSort.buffer("keys A"), key_bytes, 128)?,
+        mem.alloc(Purpose::KeysAndSort.buffer("keys B"), key_bytes, 128)?,
     ];
     let a = Areas {
         n,
@@ -357,6 +351,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             )?),
             false => None,
         },
+        pairs,
         keys,
         sorted_keys: keys[radix::passes(knobs.key_bits, knobs.digit_bits) as usize % 2],
         counts: mem.alloc(
@@ -450,8 +445,8 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         Some(at) => Records::Moved(at),
         None => Records::Ids {
             at: a.sorted_keys,
-            stride: KEY as u64,
-            word: 2,
+            stride: a.pairs.bytes as u64,
+            word: a.pairs.index_word(),
         },
     };
     Ok(pool.readback(exits, reach, Some(records)))
@@ -547,10 +542,12 @@ impl<'a> Program<'a> {
             .expect("the arena is back from the loop")
     }
 
-    /// This SPE's slice of `0..n`.
+    /// This SPE's slice of `0..n`, starting at an even place (16-byte
+    /// aligned for 8-byte key pairs).
     fn slice(&self) -> (usize, usize) {
         let (n, s, id) = (self.a.n, self.a.spes, self.spe.id());
-        (n * id / s, n * (id + 1) / s)
+        let bound = |k: usize| if k == s { n } else { (n * k / s) & !1 };
+        (bound(id), bound(id + 1))
     }
 
     fn w(&mut self) -> &mut NodeWrites<'a> {

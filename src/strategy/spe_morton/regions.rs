@@ -4,7 +4,8 @@
 
 use bytemuck::Pod;
 
-use super::{JOB, KEY, KEYS_PER_BLOCK, KeyRec, NODE, Program, RECORD, RECORDS_PER_BLOCK};
+use super::pairs::{KeyRec, ls_for, span};
+use super::{JOB, NODE, Program, RECORD, RECORDS_PER_BLOCK};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 use crate::cell::{CellError, Ea, ListElement, LsAddr};
@@ -120,7 +121,11 @@ impl Program<'_> {
     /// pair).
     pub(super) fn ls_capacity(&self) -> usize {
         let free = self.spe.ls_free_bytes().saturating_sub(256);
-        let pair = if self.knobs.permute { 0 } else { KEY };
+        let pair = if self.knobs.permute {
+            0
+        } else {
+            self.a.pairs.bytes
+        };
         free as usize / (RECORD + 2 * NODE + pair)
     }
 
@@ -131,24 +136,21 @@ impl Program<'_> {
     }
 
     /// Gets the key pairs of sorted positions `first..first + count` into
-    /// `pairs`, then their records, by their indices, into `recs` (a getl
-    /// of a block's records at a time, at the permutation's rate a record:
-    /// `MortonRates::radix_scatter`), and waits.
+    /// `pairs` (at their address's low four bits: 16 bytes more than
+    /// they take), then their records, by their indices, into `recs` (a
+    /// getl of a block's records at a time, at the permutation's rate a
+    /// record: `MortonRates::radix_scatter`), and waits.
     async fn gather(
         &self,
         (pairs, recs): (LsAddr, LsAddr),
         first: usize,
         count: usize,
     ) -> Result<(), CellError> {
-        let tag = self.tags;
-        let at = self.a.sorted_keys.offset((first * KEY) as u64);
-        for c in (0..count).step_by(KEYS_PER_BLOCK) {
-            let len = KEYS_PER_BLOCK.min(count - c);
-            let (ls, ea) = (pairs.offset((c * KEY) as u32), at.offset((c * KEY) as u64));
-            self.spe.get(ls, ea, (len * KEY) as u32, tag).await?;
-        }
+        let (tag, p) = (self.tags, self.a.pairs);
+        let at = self.a.sorted_keys.offset((first * p.bytes) as u64);
+        span(self.spe, pairs, at, count * p.bytes, false, tag).await?;
         self.spe.wait_tag(tag).await?;
-        let keys: Vec<KeyRec> = self.spe.ls_read(pairs, count)?;
+        let keys: Vec<KeyRec> = p.read(self.spe, ls_for(pairs, at), count)?;
         for (c, chunk) in keys.chunks(RECORDS_PER_BLOCK).enumerate() {
             let list: Vec<ListElement> = (chunk.iter())
                 .map(|k| ListElement {
@@ -176,18 +178,14 @@ impl Program<'_> {
         let ids: Vec<u32> = (self.spe).with_ls(recs, count, |r: &[TriRecord]| {
             r.iter().map(|r| r.id).collect()
         })?;
-        let mut keys: Vec<KeyRec> = self.spe.ls_read(pairs, count)?;
+        let p = self.a.pairs;
+        let at = self.a.sorted_keys.offset((first * p.bytes) as u64);
+        let mut keys: Vec<KeyRec> = p.read(self.spe, ls_for(pairs, at), count)?;
         for (k, id) in keys.iter_mut().zip(ids) {
             k.index = id;
         }
-        self.spe.ls_write(pairs, &keys)?;
-        let at = self.a.sorted_keys.offset((first * KEY) as u64);
-        for c in (0..count).step_by(KEYS_PER_BLOCK) {
-            let len = KEYS_PER_BLOCK.min(count - c);
-            let (ls, ea) = (pairs.offset((c * KEY) as u32), at.offset((c * KEY) as u64));
-            self.spe.put(ls, ea, (len * KEY) as u32, self.tags).await?;
-        }
-        Ok(())
+        p.write(self.spe, ls_for(pairs, at), &keys)?;
+        span(self.spe, pairs, at, count * p.bytes, true, self.tags).await
     }
 
     /// A region too large for the local store, without `--permute`: its
@@ -201,7 +199,8 @@ impl Program<'_> {
         back: bool,
     ) -> Result<(), CellError> {
         let mark = self.spe.ls_mark();
-        let pairs = self.spe.ls_alloc((RECORDS_PER_BLOCK * KEY) as u32, 128)?;
+        let p = self.a.pairs;
+        let pairs = (self.spe).ls_alloc((RECORDS_PER_BLOCK * p.bytes + 16) as u32, 128)?;
         let recs = self
             .spe
             .ls_alloc((RECORDS_PER_BLOCK * RECORD) as u32, 128)?;
@@ -212,8 +211,8 @@ impl Program<'_> {
             let bytes = (len * RECORD) as u32;
             if back {
                 self.spe.get(recs, at, bytes, tag).await?;
-                let keys = self.a.sorted_keys.offset((c * KEY) as u64);
-                self.spe.get(pairs, keys, (len * KEY) as u32, tag).await?;
+                let keys = self.a.sorted_keys.offset((c * p.bytes) as u64);
+                span(self.spe, pairs, keys, len * p.bytes, false, tag).await?;
                 self.spe.wait_tag(tag).await?;
                 self.ids_back((pairs, recs), c, len).await?;
             } else {
@@ -327,10 +326,10 @@ impl Program<'_> {
             .ls_alloc((count * RECORD).next_multiple_of(128) as u32, 128)?;
         let pairs = match self.knobs.permute {
             true => None,
-            false => Some(
-                self.spe
-                    .ls_alloc((count * KEY).next_multiple_of(128) as u32, 128)?,
-            ),
+            false => {
+                let bytes = count * self.a.pairs.bytes + 16;
+                Some((self.spe).ls_alloc(bytes.next_multiple_of(128) as u32, 128)?)
+            }
         };
         let at = self.sorted().offset((first * RECORD) as u64);
         match pairs {

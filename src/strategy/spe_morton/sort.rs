@@ -4,7 +4,8 @@
 //! keys, the radix passes and the permutation of the records, every SPE
 //! on its slice, streamed through the local store.
 
-use super::{KEY, KEYS_PER_BLOCK, KeyRec, Program, RECORD, RECORDS_PER_BLOCK};
+use super::pairs::{KeyRec, PAIRS_PER_BLOCK, ls_for, span, stage_list};
+use super::{Program, RECORD, RECORDS_PER_BLOCK};
 use crate::cell::{CellError, Cycles, Ea, ListElement, LsAddr, WaitMode};
 use crate::kernels::radix;
 use crate::kernels::split::Boxed;
@@ -38,16 +39,21 @@ impl Stream {
         let first = k * self.per_block;
         (first, self.per_block.min(self.count - first))
     }
+
+    /// Block `k`'s address and bytes.
+    fn at(&self, k: usize) -> (Ea, usize) {
+        let (first, len) = self.block(k);
+        (self.ea.offset((first * self.size) as u64), len * self.size)
+    }
 }
 
 impl Program<'_> {
     /// Issues the get of block `k` of stream `s` into `bufs[k % 2]` (tag
-    /// `tags + k % 2`).
+    /// `tags + k % 2`), at its address's low four bits (`pairs::span`).
     async fn get_block(&self, s: Stream, k: usize, bufs: [LsAddr; 4]) -> Result<(), CellError> {
-        let (first, len) = s.block(k);
         let (buf, tag) = (bufs[k % 2], self.tags + (k % 2) as u32);
-        let at = s.ea.offset((first * s.size) as u64);
-        self.spe.get(buf, at, (len * s.size) as u32, tag).await
+        let (at, bytes) = s.at(k);
+        span(self.spe, buf, at, bytes, false, tag).await
     }
 
     /// Block `k` of stream `s` (its first element, length and buffer):
@@ -67,7 +73,7 @@ impl Program<'_> {
         }
         self.spe.wait_tag(self.tags + (k % 2) as u32).await?;
         let (first, len) = s.block(k);
-        Ok((first, len, bufs[k % 2]))
+        Ok((first, len, ls_for(bufs[k % 2], s.at(k).0)))
     }
 
     /// The output buffer `k % 2` of `bufs[2..]`, once its last put is done.
@@ -98,15 +104,15 @@ impl Program<'_> {
                     .map(|(i, r)| KeyRec {
                         key: spec.key(r.center()),
                         index: (lo + first + i) as u32,
-                        pad: 0,
                     })
                     .collect()
             })?;
             self.spe.compute_items(rate, len as u64);
             let (obuf, tag) = self.out_buffer(b, bufs).await?;
-            self.spe.ls_write(obuf, &keys)?;
-            let to = self.a.keys[0].offset(((lo + first) * KEY) as u64);
-            self.spe.put(obuf, to, (len * KEY) as u32, tag).await?;
+            let p = self.a.pairs;
+            let to = self.a.keys[0].offset(((lo + first) * p.bytes) as u64);
+            p.write(self.spe, ls_for(obuf, to), &keys)?;
+            span(self.spe, obuf, to, len * p.bytes, true, tag).await?;
         }
         self.drain().await
     }
@@ -124,16 +130,14 @@ impl Program<'_> {
             self.a.keys[pass as usize % 2],
             self.a.keys[1 - pass as usize % 2],
         );
-        let slice = src.offset((lo * KEY) as u64);
+        let p = self.a.pairs;
+        let slice = src.offset((lo * p.bytes) as u64);
+        let stream = Stream::new(slice, p.bytes, count, PAIRS_PER_BLOCK);
         let mut counts = vec![0u32; digits];
-        for b in 0..count.div_ceil(KEYS_PER_BLOCK) {
-            let (_, len, buf) = self
-                .next_block(Stream::new(slice, KEY, count, KEYS_PER_BLOCK), b, bufs)
-                .await?;
-            self.spe.with_ls(buf, len, |keys: &[KeyRec]| {
-                let keys: Vec<u64> = keys.iter().map(|r| r.key).collect();
-                radix::histogram(&keys, pass, d, &mut counts);
-            })?;
+        for b in 0..stream.blocks() {
+            let (_, len, buf) = self.next_block(stream, b, bufs).await?;
+            let keys: Vec<u64> = p.read(self.spe, buf, len)?.iter().map(|r| r.key).collect();
+            radix::histogram(&keys, pass, d, &mut counts);
             self.spe.compute_items(self.rates.radix_count, len as u64);
         }
         // This SPE's row of the table, then everyone's.
@@ -156,11 +160,9 @@ impl Program<'_> {
         }
         let mut offsets = radix::offsets(&rows).swap_remove(self.spe.id());
         // Scatter: each block's pairs in order of their places, one putl.
-        for b in 0..count.div_ceil(KEYS_PER_BLOCK) {
-            let (_, len, buf) = self
-                .next_block(Stream::new(slice, KEY, count, KEYS_PER_BLOCK), b, bufs)
-                .await?;
-            let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
+        for b in 0..stream.blocks() {
+            let (_, len, buf) = self.next_block(stream, b, bufs).await?;
+            let recs: Vec<KeyRec> = p.read(self.spe, buf, len)?;
             let keys: Vec<u64> = recs.iter().map(|r| r.key).collect();
             let to = radix::scatter(&keys, pass, d, &mut offsets);
             // The block's own histogram and prefix sum, which stage its
@@ -169,18 +171,22 @@ impl Program<'_> {
             self.spe.compute_items(self.rates.radix_scatter, len as u64);
             let mut order: Vec<usize> = (0..len).collect();
             order.sort_by_key(|&i| to[i]);
-            let staged: Vec<KeyRec> = order.iter().map(|&i| recs[i]).collect();
-            let mut list: Vec<ListElement> = Vec::new();
+            // Runs of consecutive places, each its first place's address
+            // and its pairs.
+            let mut runs: Vec<(Ea, Vec<KeyRec>)> = Vec::new();
             for &i in &order {
-                let ea = dst.offset(to[i] as u64 * KEY as u64);
-                match list.last_mut() {
-                    Some(e) if e.ea.0 + e.size as u64 == ea.0 => e.size += KEY as u32,
-                    _ => list.push(ListElement {
-                        ea,
-                        size: KEY as u32,
-                    }),
+                let ea = dst.offset(to[i] as u64 * p.bytes as u64);
+                match runs.last_mut() {
+                    Some((at, run)) if at.0 + (run.len() * p.bytes) as u64 == ea.0 => {
+                        run.push(recs[i])
+                    }
+                    _ => runs.push((ea, vec![recs[i]])),
                 }
             }
+            let runs: Vec<(Ea, Vec<u8>)> = (runs.into_iter())
+                .map(|(ea, run)| (ea, bytemuck::cast_slice(&p.encode(&run)).to_vec()))
+                .collect();
+            let (staged, list) = stage_list(&runs);
             let (obuf, tag) = self.out_buffer(b, bufs).await?;
             self.spe.ls_write(obuf, &staged)?;
             self.spe.putl(obuf, &list, tag).await?;
@@ -193,12 +199,17 @@ impl Program<'_> {
     pub(super) async fn permute(&mut self, keys: Ea, bufs: [LsAddr; 4]) -> Result<(), CellError> {
         let (lo, hi) = self.slice();
         let count = hi - lo;
-        let slice = keys.offset((lo * KEY) as u64);
+        let p = self.a.pairs;
+        let slice = keys.offset((lo * p.bytes) as u64);
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
             let (first, len, buf) = self
-                .next_block(Stream::new(slice, KEY, count, RECORDS_PER_BLOCK), b, bufs)
+                .next_block(
+                    Stream::new(slice, p.bytes, count, RECORDS_PER_BLOCK),
+                    b,
+                    bufs,
+                )
                 .await?;
-            let recs: Vec<KeyRec> = self.spe.ls_read(buf, len)?;
+            let recs: Vec<KeyRec> = p.read(self.spe, buf, len)?;
             let list: Vec<ListElement> = (recs.iter())
                 .map(|r| ListElement {
                     ea: self.a.tris.offset(r.index as u64 * RECORD as u64),

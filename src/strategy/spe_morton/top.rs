@@ -22,7 +22,8 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::{JOB, KEY, KeyRec, Program, REGIONS, SPILL_UNIT};
+use super::pairs::{ls_for, span};
+use super::{JOB, Program, REGIONS, SPILL_UNIT};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 use crate::cell::{CellError, Ea};
@@ -95,12 +96,11 @@ fn link(list: &mut [Top], slot: usize, at: usize) {
 impl Program<'_> {
     /// The key at sorted position `i` (one small get from main memory).
     async fn key_at(&self, keys: Ea, i: usize) -> Result<u64, CellError> {
-        let tag = self.tags;
-        self.spe
-            .get(self.line, keys.offset((i * KEY) as u64), KEY as u32, tag)
-            .await?;
+        let (tag, p) = (self.tags, self.a.pairs);
+        let at = keys.offset((i * p.bytes) as u64);
+        span(self.spe, self.line, at, p.bytes, false, tag).await?;
         self.spe.wait_tag(tag).await?;
-        Ok(self.spe.ls_read::<KeyRec>(self.line, 1)?[0].key)
+        Ok(p.read(self.spe, ls_for(self.line, at), 1)?[0].key)
     }
 
     /// Splits `r` (charged one job and its probes) into `list`: a region
