@@ -330,6 +330,21 @@ pub fn auto_key_bits(n: usize, region_size: usize, digit_bits: u32) -> u32 {
     (halvings + 4).next_multiple_of(digit_bits).clamp(16, 64)
 }
 
+/// `--region-size auto`: the smallest region, a power of two from 64 to
+/// 1,024 triangles, that still gives the narrowest keys ([`auto_key_bits`]:
+/// 16 bits while n / region is at most 2^12): n / 4,096 rounded up to a
+/// power of two. Measured (docs/morton.md, "Defaults"), with the top of
+/// the tree on every SPE and each region gathering its own records:
+/// smaller regions were faster on every scene as long as the keys stayed
+/// 16 bits (bunny on 8 SPEs: 3.91 ms with regions of 64, 4.45 with 256),
+/// and wider keys cost more than smaller regions saved (dragon: 56.67 ms
+/// with 256 and 16 bits, 59.76 with 64 and 24 bits). At most 1,024: well
+/// inside a local store (about 2,000 records), so that no region needs the
+/// breadth-first loop; scenes above about 4 M triangles take wider keys.
+pub fn auto_region_size(n: usize) -> usize {
+    n.div_ceil(1 << 12).next_power_of_two().clamp(64, 1024)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -337,6 +352,34 @@ mod tests {
 
     fn unit() -> Aabb {
         Aabb::new(Vec3::ZERO, Vec3::ONE)
+    }
+
+    #[test]
+    fn auto_regions_are_the_smallest_that_keep_16_bit_keys() {
+        for (n, region) in [
+            (1, 64),
+            (69_451, 64),
+            (300_000, 128),
+            (871_414, 256),
+            (3_500_000, 1024),
+            (50_000_000, 1024),
+        ] {
+            assert_eq!(auto_region_size(n), region, "{n} triangles");
+        }
+        for n in [1, 5_000, 262_144, 262_145, 1_000_000, 4_194_304] {
+            assert_eq!(auto_key_bits(n, auto_region_size(n), 8), 16, "{n}");
+            let half = auto_region_size(n) / 2;
+            if half >= 64 {
+                assert!(
+                    auto_key_bits(n, half, 8) > 16,
+                    "{n}: a smaller region keeps 16 bits"
+                );
+            }
+        }
+        assert_eq!(
+            auto_key_bits(50_000_000, auto_region_size(50_000_000), 8),
+            24
+        );
     }
 
     #[test]

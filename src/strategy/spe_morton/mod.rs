@@ -52,7 +52,7 @@ use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, spes_used};
 use super::{Knob, Knobs, Readback, Records, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, Ea, LsAddr, Spe};
-use crate::kernels::morton::{KeyOrder, KeySpec, auto_key_bits};
+use crate::kernels::morton::{KeyOrder, KeySpec, auto_key_bits, auto_region_size};
 use crate::kernels::radix;
 use crate::kernels::rates::{FITTED_OVER_DERIVED, KernelRates, RateOverrides, Uncertain};
 
@@ -89,7 +89,7 @@ pub const KEY_ORDER: Knob = Knob::word(
 /// `--key-bits auto|16|24|32|64`: `MortonKnobs::key_bits`.
 pub const KEY_BITS: Knob = Knob::word(
     "key-bits",
-    "key bits (auto: from the scene, the halvings its regions need: 16 up to about a million triangles)",
+    "key bits (auto: from the scene, the halvings its regions need: 16 up to about 4 million triangles with --region-size auto)",
     &["auto", "16", "24", "32", "64"],
     &["32", "64"],
 );
@@ -101,13 +101,12 @@ pub const DIGIT_BITS: Knob = Knob::int(
     (4, 11),
     &["4", "11"],
 );
-/// `--region-size N`: `MortonKnobs::region_size`.
-pub const REGION_SIZE: Knob = Knob::int(
+/// `--region-size N|auto`: `MortonKnobs::region_size`.
+pub const REGION_SIZE: Knob = Knob::int_or_auto(
     "region-size",
-    "the largest region built by one SPE alone (triangles)",
-    256,
+    "the largest region built by one SPE alone (triangles; auto: the smallest power of two from 64 to 1,024 that keeps 16-bit keys, n / 4,096 rounded up)",
     (1, usize::MAX),
-    &["128", "2048", "8192"],
+    &["64", "256", "2048", "8192"],
 );
 /// `--static-regions`: `MortonKnobs::static_regions`.
 pub const STATIC_REGIONS: Knob = Knob::flag(
@@ -156,8 +155,10 @@ struct MortonKnobs {
     /// per pass.
     digit_bits: u32,
     /// The top of the tree stops at ranges of at most this many triangles
-    /// (regions), each built by one SPE alone. Buys: fewer top nodes and
-    /// probes (large); more regions to balance (small).
+    /// (regions), each built by one SPE alone (0 until `auto` is
+    /// resolved). Buys: fewer top nodes and probes (large); more regions to
+    /// balance and less partitioning inside them (small). Costs: key bits
+    /// (small: more halvings reach them).
     region_size: usize,
     /// Regions dealt before the builds (largest first, each to the
     /// least-loaded SPE) instead of taken largest first from an atomic
@@ -323,6 +324,9 @@ struct Areas {
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (n, mut knobs, cfg) = (setup.count, MortonKnobs::read(&setup.knobs), *cfg);
+    if knobs.region_size == 0 {
+        knobs.region_size = auto_region_size(n);
+    }
     if knobs.key_bits == 0 {
         knobs.key_bits = auto_key_bits(n, knobs.region_size, knobs.digit_bits);
     }
