@@ -107,12 +107,12 @@ fn compare_with_knobs_builds_them_where_they_are_built() {
     assert_eq!(base["speedup_over_spe_bfs"], 1.0);
 }
 
-/// A builder that fails (here: a build that does not fit 3 MiB of emulated
+/// A builder that fails (here: a build that does not fit 2 MiB of emulated
 /// memory) is named, with its error, beside the table of the others, and
 /// compare then exits non-zero; the JSON lists it under "failed".
 #[test]
 fn a_failing_builder_is_named_and_the_others_are_compared() {
-    let args = ["compare", "--scene", "rtperf:30000", "--memory-mib", "3"];
+    let args = ["compare", "--scene", "rtperf:30000", "--memory-mib", "2"];
     let out = common::cellbih(&args);
     let (stdout, stderr) = (
         String::from_utf8_lossy(&out.stdout),
@@ -124,7 +124,7 @@ fn a_failing_builder_is_named_and_the_others_are_compared() {
         "{stdout}"
     );
     assert!(stderr.contains("builder(s) failed"), "{stderr}");
-    // The cast on the SPEs does not fit 5 MiB either: said, not fatal.
+    // The cast on the SPEs does not fit 2 MiB either: said, not fatal.
     assert!(stdout.contains("not cast on the SPEs, builder"), "{stdout}");
     let mut json = args.to_vec();
     json.extend(["--format", "json"]);
