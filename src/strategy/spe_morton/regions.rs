@@ -117,15 +117,16 @@ impl Program<'_> {
     }
 
     /// Records the local store can hold with their nodes (48 bytes, at
-    /// most two 12-byte nodes each and, unless `--permute`, a 16-byte key
-    /// pair).
+    /// most two 12-byte nodes each and, unless `--permute`, a key pair),
+    /// beside the allocations' rounding: the records' and the nodes' (256
+    /// bytes), and the key pairs' buffer (16 bytes more than they take,
+    /// rounded to a line: 144).
     pub(super) fn ls_capacity(&self) -> usize {
-        let free = self.spe.ls_free_bytes().saturating_sub(256);
-        let pair = if self.knobs.permute {
-            0
-        } else {
-            self.a.pairs.bytes
+        let (pair, slack) = match self.knobs.permute {
+            true => (0, 256),
+            false => (self.a.pairs.bytes, 256 + 144),
         };
+        let free = self.spe.ls_free_bytes().saturating_sub(slack);
         free as usize / (RECORD + 2 * NODE + pair)
     }
 
