@@ -4,7 +4,7 @@
 
 use bytemuck::Pod;
 
-use super::pairs::{KeyRec, ls_for, span};
+use super::pairs::{KeyRec, Pairs, ls_for, span};
 use super::{JOB, NODE, Program, RECORD, RECORDS_PER_BLOCK};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
@@ -130,6 +130,12 @@ impl Program<'_> {
         free as usize / (RECORD + 2 * NODE + pair)
     }
 
+    /// The key pairs' width, and where sorted pair `i` lies.
+    fn sorted_pair(&self, i: usize) -> (Pairs, Ea) {
+        let p = self.a.pairs;
+        (p, self.a.sorted_keys.offset((i * p.bytes) as u64))
+    }
+
     /// The records in key order: `--permute`'s array, or the one the PPE
     /// allocates for regions too large for a local store.
     pub(super) fn sorted(&self) -> Ea {
@@ -147,8 +153,7 @@ impl Program<'_> {
         first: usize,
         count: usize,
     ) -> Result<(), CellError> {
-        let (tag, p) = (self.tags, self.a.pairs);
-        let at = self.a.sorted_keys.offset((first * p.bytes) as u64);
+        let ((p, at), tag) = (self.sorted_pair(first), self.tags);
         span(self.spe, pairs, at, count * p.bytes, false, tag).await?;
         self.spe.wait_tag(tag).await?;
         let keys: Vec<KeyRec> = p.read(self.spe, ls_for(pairs, at), count)?;
@@ -179,8 +184,7 @@ impl Program<'_> {
         let ids: Vec<u32> = (self.spe).with_ls(recs, count, |r: &[TriRecord]| {
             r.iter().map(|r| r.id).collect()
         })?;
-        let p = self.a.pairs;
-        let at = self.a.sorted_keys.offset((first * p.bytes) as u64);
+        let (p, at) = self.sorted_pair(first);
         let mut keys: Vec<KeyRec> = p.read(self.spe, ls_for(pairs, at), count)?;
         for (k, id) in keys.iter_mut().zip(ids) {
             k.index = id;
@@ -212,7 +216,7 @@ impl Program<'_> {
             let bytes = (len * RECORD) as u32;
             if back {
                 self.spe.get(recs, at, bytes, tag).await?;
-                let keys = self.a.sorted_keys.offset((c * p.bytes) as u64);
+                let (_, keys) = self.sorted_pair(c);
                 span(self.spe, pairs, keys, len * p.bytes, false, tag).await?;
                 self.spe.wait_tag(tag).await?;
                 self.ids_back((pairs, recs), c, len).await?;
