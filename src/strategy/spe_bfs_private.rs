@@ -30,8 +30,8 @@ use super::machinery::breadth_first::{
 };
 use super::machinery::coop::Coop;
 use super::machinery::top::{
-    COOP_PARTITION, Common, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE, TopKnobs,
-    build_top, help_top, spes_used,
+    COOP_PARTITION, Common, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE,
+    TopKnobs, build_top, help_top, largest_first, spes_used,
 };
 use super::machinery::work_queue::{Level, WORK_BYTES};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -86,13 +86,17 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
     dma_lists: true,
     prefetch: true,
 };
-/// The top's defaults: the deal at two jobs per SPE, at the first level
-/// where no job holds more than one SPE's share (or the jobs are small):
-/// a dealt job is never split, so the deal must be balanced.
+/// The top's defaults: the first level of one job per SPE, then its
+/// largest jobs split until a largest-first deal is even: a dealt job is
+/// never split later, so the deal must be balanced. Measured best of five
+/// (split or balanced, 1, 2 or 4 jobs per SPE) over 13 scenes on 2–8 SPEs:
+/// 5.7 % faster in geometric mean than the balanced end at two jobs per
+/// SPE, the issue 28 default before (sibenik and the ogre on 8 SPEs 35 %,
+/// the default scene 4 % slower; docs/many-spes.md, "Balance").
 const DEFAULT_TOP: TopKnobs = TopKnobs {
     coop: true,
-    deal_per_spe: 2,
-    balanced: true,
+    deal_per_spe: 1,
+    end: EndRule::Split,
     in_place: true,
 };
 
@@ -116,7 +120,8 @@ struct PrivateKnobs {
 }
 
 /// A deal record in main memory, one 128-byte line per SPE: jobs dealt,
-/// the depth of their level, and the SPE's `WorkAPPE` and `WorkBPPE`.
+/// the SPE's `WorkAPPE` and `WorkBPPE` (a fourth word unused: a DMA of 32
+/// bytes).
 const RECORD_BYTES: u64 = 128;
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
@@ -201,10 +206,10 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                         None
                     }
                 };
-                if let Some((jobs, depth, areas)) = own {
+                if let Some((jobs, areas)) = own {
                     b.arena.renew(blocks);
                     b.queue.set_spill(areas, areas[1].0 - areas[0].0);
-                    b.take_dealt(depth);
+                    b.take_dealt();
                     let level = b.queue.restart_local(&jobs)?;
                     b.levels(level, None).await?;
                     let count = b.arena.allocated();
@@ -220,7 +225,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                 spe.get(record, records.offset(id as u64 * RECORD_BYTES), 32, tag)
                     .await?;
                 spe.wait_tag(tag).await?;
-                let [count, depth, a, bb] = spe.ls_read::<u64>(record, 4)?[..] else {
+                let [count, a, bb, _] = spe.ls_read::<u64>(record, 4)?[..] else {
                     unreachable!("four words")
                 };
                 if knobs.steal && count > 0 {
@@ -228,7 +233,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
                         take_and_steal(&spe, &mut b, spes, work_ppe, record, records, tag).await?;
                 } else if count > 0 {
                     b.queue.set_spill([Ea(a), Ea(bb)], bb - a);
-                    b.take_dealt(depth as u32);
+                    b.take_dealt();
                     b.levels(Level::InMemory(count as usize), None).await?;
                     let count = b.arena.allocated();
                     b.arena.close(count).await?;
@@ -248,7 +253,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
 
 /// SPE 0 deals the jobs of `level` (in `WorkA`): largest first, each to the
 /// SPE with the fewest triangles so far. Writes every other SPE's jobs and
-/// record and signals it; returns SPE 0's own jobs, their depth and its
+/// record and signals it; returns SPE 0's own jobs and its
 /// spill areas (or `None` if it got none).
 #[allow(clippy::too_many_arguments)]
 async fn deal(
@@ -260,9 +265,8 @@ async fn deal(
     records: Ea,
     record: crate::cell::LsAddr,
     tag: u32,
-) -> Result<Option<(Vec<Job>, u32, [Ea; 2])>, CellError> {
+) -> Result<Option<(Vec<Job>, [Ea; 2])>, CellError> {
     let jobs = b.queue.load(level, 0).await?;
-    let depth = jobs[0].depth;
     // Sorting and dealing: the per-job bookkeeping rate of the SPE loop for
     // each job (docs/cost-model.md).
     spe.compute_items(b.rates.spe_job, jobs.len() as u64);
@@ -275,13 +279,13 @@ async fn deal(
         let areas = [at, at.offset(area)];
         at = at.offset(2 * area);
         if to == 0 {
-            own = (!hand.is_empty()).then_some((hand, depth, areas));
+            own = (!hand.is_empty()).then_some((hand, areas));
             continue;
         }
         if !hand.is_empty() {
             b.queue.write_jobs(&hand, areas[0]).await?;
         }
-        let words = [hand.len() as u64, depth as u64, areas[0].0, areas[1].0];
+        let words = [hand.len() as u64, areas[0].0, areas[1].0, 0];
         spe.ls_write(record, &words)?;
         spe.put(record, records.offset(to as u64 * RECORD_BYTES), 32, tag)
             .await?;
@@ -322,8 +326,8 @@ struct Lists {
 }
 
 /// SPE 0 deals the jobs of `level` largest first into per-SPE lists in main
-/// memory (`--steal`), writes every SPE's deal record (job count,
-/// depth, the jobs, the lists) and signals the others.
+/// memory (`--steal`), writes every SPE's deal record (job count, the
+/// jobs, the lists) and signals the others.
 async fn deal_to_lists(
     spe: &Spe,
     b: &mut SpeBuilder<'_>,
@@ -334,7 +338,6 @@ async fn deal_to_lists(
     tag: u32,
 ) -> Result<(), CellError> {
     let jobs = b.queue.load(level, 0).await?;
-    let depth = jobs[0].depth;
     spe.compute_items(b.rates.spe_job, jobs.len() as u64);
     let hands = largest_first(&jobs, spes);
     let mut grouped = Vec::with_capacity(jobs.len());
@@ -353,7 +356,7 @@ async fn deal_to_lists(
             .await?;
         spe.wait_tag(tag).await?;
     }
-    let words = [grouped.len() as u64, depth as u64, to.jobs.0, to.lists.0];
+    let words = [grouped.len() as u64, to.jobs.0, to.lists.0, 0];
     spe.ls_write(record, &words)?;
     for k in 0..spes {
         spe.put(record, to.records.offset(k as u64 * RECORD_BYTES), 32, tag)
@@ -384,7 +387,7 @@ async fn take_and_steal(
     spe.get(record, records.offset(id as u64 * RECORD_BYTES), 32, tag)
         .await?;
     spe.wait_tag(tag).await?;
-    let [count, depth, jobs_ea, lists] = spe.ls_read::<u64>(record, 4)?[..] else {
+    let [count, jobs_ea, lists, _] = spe.ls_read::<u64>(record, 4)?[..] else {
         unreachable!("four words")
     };
     let (count, lists) = (count as usize, Ea(lists));
@@ -397,7 +400,7 @@ async fn take_and_steal(
         areas.push([at, at.offset(area)]);
         at = at.offset(2 * area);
     }
-    b.take_dealt(depth as u32);
+    b.take_dealt();
     let mut stolen = 0;
     loop {
         // Choosing where to take from: the per-job bookkeeping rate.
@@ -452,22 +455,4 @@ async fn take(
         }
     }
     Ok(None)
-}
-
-/// Deals `jobs` largest first, each to the SPE with the fewest triangles so
-/// far (ties: the lower SPE); returns each SPE's jobs in node order.
-fn largest_first(jobs: &[Job], spes: usize) -> Vec<Vec<Job>> {
-    let mut order: Vec<usize> = (0..jobs.len()).collect();
-    order.sort_by_key(|&j| (std::cmp::Reverse(jobs[j].count), jobs[j].node));
-    let mut load = vec![0u64; spes];
-    let mut hands: Vec<Vec<Job>> = vec![Vec::new(); spes];
-    for j in order {
-        let to = (0..spes).min_by_key(|&s| (load[s], s)).expect("an SPE");
-        load[to] += jobs[j].count as u64;
-        hands[to].push(jobs[j]);
-    }
-    for hand in &mut hands {
-        hand.sort_by_key(|j| j.node);
-    }
-    hands
 }

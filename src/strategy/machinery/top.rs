@@ -29,17 +29,30 @@ pub const NO_COOP_TOP: Knob = Knob::flag(
 /// `--deal-per-spe N|auto`: `TopKnobs::deal_per_spe`.
 pub const DEAL_PER_SPE: Knob = Knob::int_or_auto(
     "deal-per-spe",
-    "the top levels end at the first level with this many jobs per SPE (auto: the strategy's measured best, 1 for the shared queue, 2 for private deques)",
+    "the top levels end at the first level with this many jobs per SPE (auto: the strategies' measured best, 1)",
     (1, 16),
     &["4", "16"],
 );
-/// `--top-end count|balanced|auto`: `TopKnobs::balanced`.
+/// `--top-end count|balanced|split|auto`: `TopKnobs::end`.
 pub const TOP_END: Knob = Knob::word(
     "top-end",
-    "where the top levels end: at the first level of --deal-per-spe jobs per SPE (count), or the first such level where no job holds more than one SPE's share of the triangles or the jobs average under 1,024 (balanced); auto: count for the shared queue, balanced for private deques",
-    &["auto", "count", "balanced"],
-    &["count", "balanced"],
+    "where the top levels end: at the first level of --deal-per-spe jobs per SPE (count); or the first such level where no job holds more than one SPE's share of the triangles or the jobs average under 1,024 (balanced); or the count level, then its largest job split until a largest-first deal gives no SPE more than 1/16 over an even share (split); auto: split",
+    &["auto", "count", "balanced", "split"],
+    &["count", "balanced", "split"],
 );
+
+/// Where the top levels end (`--top-end`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(in crate::strategy) enum EndRule {
+    /// At the first level of `--deal-per-spe` jobs per SPE.
+    Count,
+    /// At the first such level where no job holds more than one SPE's
+    /// share ([`TopEnd::ends`]).
+    Balanced,
+    /// At the count level, then its largest job split until the deal is
+    /// even ([`split_largest`]).
+    Split,
+}
 
 /// `--coop-partition in-place|scratch`: `TopKnobs::in_place`. In place is
 /// the default: faster on every scene and SPE count measured (1–10 %,
@@ -92,9 +105,8 @@ pub(in crate::strategy) struct TopKnobs {
     /// largest-first deal more room to balance, but more levels are built
     /// before it.
     pub deal_per_spe: usize,
-    /// The top levels also go on until no job of the level holds more than
-    /// one SPE's share of its triangles (at most 16 jobs per SPE).
-    pub balanced: bool,
+    /// Where the top ends once a level holds `deal_per_spe` jobs per SPE.
+    pub end: EndRule,
     /// The cooperative partition works in place (no scratch array).
     pub in_place: bool,
 }
@@ -107,7 +119,7 @@ impl TopKnobs {
             jobs,
             cap: jobs.max((16 * spes).min(128)),
             spes,
-            balanced: self.balanced,
+            balanced: self.end == EndRule::Balanced,
         }
     }
 
@@ -115,7 +127,10 @@ impl TopKnobs {
     /// under twice the level it ends at (a level at most doubles).
     pub fn max_deal(&self, spes: usize) -> usize {
         let end = self.end(spes);
-        2 * if end.balanced { end.cap } else { end.jobs }
+        2 * match self.end {
+            EndRule::Count => end.jobs,
+            EndRule::Balanced | EndRule::Split => end.cap,
+        }
     }
 
     /// The values `knobs` gives them; `auto` is the strategy's default.
@@ -126,9 +141,11 @@ impl TopKnobs {
                 0 => auto.deal_per_spe,
                 n => n,
             },
-            balanced: match knobs.word(&TOP_END) {
-                "auto" => auto.balanced,
-                w => w == "balanced",
+            end: match knobs.word(&TOP_END) {
+                "count" => EndRule::Count,
+                "balanced" => EndRule::Balanced,
+                "split" => EndRule::Split,
+                _ => auto.end,
             },
             in_place: knobs.word(&COOP_PARTITION) == "in-place",
         }
@@ -351,14 +368,94 @@ pub(in crate::strategy) async fn build_top(
     let level = b
         .queue
         .start(Job::new(0, n, root_id as usize, 0, region, &all))?;
-    let top = b.levels(level, Some(knobs.end(spes))).await?;
+    let end = knobs.end(spes);
+    let mut top = b.levels(level, Some(end)).await?;
+    if knobs.end == EndRule::Split
+        && let Some(level) = top
+    {
+        top = split_largest(b, level, end).await?;
+    }
     // From here on, every SPE works on whole jobs.
     b.help_with(None);
     let top_nodes = b.arena.allocated();
     b.arena.close(top_nodes).await?;
+    b.write_held().await?;
     work.arena_blocks += b.arena.stats.blocks;
     work.arena_unused += b.arena.unused();
     Ok(top)
+}
+
+/// A largest-first deal's heaviest hand may hold this share more than an
+/// even share of the triangles (`--top-end split`): 1/16.
+const SPLIT_SLACK: u64 = 16;
+
+/// `--top-end split`: SPE 0 splits the largest job of `level` (in `WorkA`,
+/// with the other SPEs' help while it is large) until a largest-first
+/// deal of its jobs ([`largest_first`]) gives no SPE more than
+/// 1/[`SPLIT_SLACK`] over an even share of the triangles, the level holds
+/// `end.cap` jobs, or the largest is too small for the other SPEs to help
+/// partition it (SPE 0 would split it alone while they wait: measured
+/// slower on the teapot and the default scene, docs/many-spes.md). Unlike
+/// a whole level more, only the jobs that unbalance the deal are split.
+/// Returns the level to deal (jobs of up to `cap` depths), or `None` if
+/// the tree ended.
+async fn split_largest(
+    b: &mut SpeBuilder<'_>,
+    mut level: Level,
+    end: TopEnd,
+) -> Result<Option<Level>, CellError> {
+    loop {
+        let Level::Local(len) = level else {
+            return Ok(Some(level));
+        };
+        let jobs = b.queue.load(level, 0).await?;
+        // Dealing them largest first (`KernelRates::spe_level_scan` a job
+        // a hand looked at: the deal's loop).
+        let hands = largest_first(&jobs, end.spes);
+        b.spe
+            .compute_items(b.rates.spe_level_scan, (len * end.spes) as u64);
+        let weight = |h: &[Job]| h.iter().map(|j| j.count as u64).sum::<u64>();
+        let heaviest = hands.iter().map(|h| weight(h)).max().unwrap_or(0);
+        let total = weight(&jobs);
+        let (k, largest) = (jobs.iter().enumerate())
+            .max_by_key(|(_, j)| (j.count, std::cmp::Reverse(j.node)))
+            .expect("a level has jobs");
+        let even = heaviest * (end.spes as u64) * SPLIT_SLACK <= total * (SPLIT_SLACK + 1);
+        if even || len >= end.cap || !b.helped(largest.count) {
+            return Ok(Some(level));
+        }
+        // The level again in `WorkB`, the largest job's children in its
+        // place.
+        for &j in &jobs[..k] {
+            b.queue.push(j).await?;
+        }
+        b.split_dealt(*largest).await?;
+        for &j in &jobs[k + 1..] {
+            b.queue.push(j).await?;
+        }
+        match b.queue.end_level().await? {
+            Some(next) => level = next,
+            None => return Ok(None),
+        }
+    }
+}
+
+/// Deals `jobs` largest first, each to the SPE with the fewest triangles
+/// so far (ties: the lower SPE), each hand in node order.
+pub(in crate::strategy) fn largest_first(jobs: &[Job], spes: usize) -> Vec<Vec<Job>> {
+    let mut order: Vec<usize> = (0..jobs.len()).collect();
+    order.sort_by_key(|&j| (std::cmp::Reverse(jobs[j].count), jobs[j].node));
+    let mut load = vec![0u64; spes];
+    let mut hands: Vec<Vec<Job>> = vec![Vec::new(); spes];
+    for j in order {
+        let to = (0..spes).min_by_key(|&s| (load[s], s)).expect("an SPE");
+        load[to] += jobs[j].count as u64;
+        hands[to].push(jobs[j]);
+    }
+    for hand in &mut hands {
+        hand.sort_by_key(|j| j.node);
+    }
+    hands
 }
 
 /// Every SPE but 0: with `TopKnobs::coop`, helps with the root's bounds

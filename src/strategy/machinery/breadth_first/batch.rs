@@ -100,7 +100,7 @@ impl SpeBuilder<'_> {
     /// order), agglomerating small intervals. Each batch runs as soon as
     /// it is complete, or, prefetching, once the block is planned.
     pub(in crate::strategy) async fn process(&mut self, jobs: &[Job]) -> Result<(), CellError> {
-        if self.foreign_depth.is_some() && self.foreign_depth == jobs.first().map(|j| j.depth) {
+        if self.dealt_level {
             // The jobs dealt to this SPE (one block: at most 128).
             self.dealt_starts = jobs.iter().map(|j| j.first).collect();
         }

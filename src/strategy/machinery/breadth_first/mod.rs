@@ -162,9 +162,16 @@ pub(in crate::strategy) struct SpeBuilder<'a> {
     /// `WorkA`/`WorkB` and their spill areas.
     pub(in crate::strategy) queue: WorkQueue<'a, Job>,
     pub(in crate::strategy) arena: ObjectArena<'a>,
-    /// Jobs of this depth were dealt to this SPE: their nodes' slots belong
-    /// to another arena (multi-SPE strategies).
-    foreign_depth: Option<u32>,
+    /// Jobs were dealt to this SPE: the first level of each
+    /// [`Self::levels`] is made of them, and their nodes' slots belong to
+    /// another arena (multi-SPE strategies). The jobs of a dealt level may
+    /// be of different depths (the top's `--top-end split`).
+    dealt: bool,
+    /// The level being built is the dealt one.
+    dealt_level: bool,
+    /// Nodes of jobs split from a level about to be dealt, written once
+    /// the top's arena is closed ([`Self::split_dealt`]).
+    held: Vec<(u32, BihNode)>,
     /// Where the intervals of the jobs dealt to this SPE start: a batch of
     /// agglomerated jobs never spans two of them.
     dealt_starts: Vec<u32>,
@@ -239,7 +246,9 @@ impl<'a> SpeBuilder<'a> {
                 Job::bytes(&cfg),
             )?,
             arena,
-            foreign_depth: None,
+            dealt: false,
+            dealt_level: false,
+            held: Vec::new(),
             dealt_starts: Vec::new(),
             strict_spans: false,
             node_writes: None,
@@ -259,16 +268,39 @@ impl<'a> SpeBuilder<'a> {
         })
     }
 
-    /// The jobs of `depth` were dealt to this SPE: their nodes' slots
-    /// belong to other arenas, and a batch of agglomerated jobs never spans
-    /// two of them (multi-SPE strategies).
-    pub(in crate::strategy) fn take_dealt(&mut self, depth: u32) {
-        self.foreign_depth = Some(depth);
+    /// Jobs were dealt to this SPE: from now on the first level of each
+    /// [`Self::levels`] holds them, their nodes' slots belong to other
+    /// arenas, and a batch of agglomerated jobs never spans two of them
+    /// (multi-SPE strategies).
+    pub(in crate::strategy) fn take_dealt(&mut self) {
+        self.dealt = true;
+    }
+
+    /// Makes the node of `job`, one of a level SPE 0 is about to deal (the
+    /// top's `--top-end split`); its children join the next level. Its slot
+    /// lies among the level's, which the SPEs the jobs go to write, so it
+    /// is written as they write theirs, by lock-line update, and only after
+    /// the arena is closed ([`Self::write_held`]): the arena's last put
+    /// rounds up over the slots after its last node.
+    pub(in crate::strategy) async fn split_dealt(&mut self, job: Job) -> Result<(), CellError> {
+        self.dealt_level = true;
+        let made = self.process(&[job]).await;
+        self.dealt_level = false;
+        self.dealt_starts.clear();
+        made
+    }
+
+    /// Writes the nodes [`Self::split_dealt`] made (the arena is closed).
+    pub(in crate::strategy) async fn write_held(&mut self) -> Result<(), CellError> {
+        for (id, node) in std::mem::take(&mut self.held) {
+            self.arena.emit_foreign(id, node).await?;
+        }
+        Ok(())
     }
 
     /// Whether this SPE builds jobs dealt to it (see [`Self::take_dealt`]).
     pub(in crate::strategy) fn builds_dealt(&self) -> bool {
-        self.foreign_depth.is_some()
+        self.dealt
     }
 
     /// From now on the jobs come from a queue shared with other SPEs: every
@@ -303,6 +335,12 @@ impl<'a> SpeBuilder<'a> {
         self.coop = coop;
     }
 
+    /// Whether an interval of `count` triangles is partitioned with the
+    /// other SPEs' help.
+    pub(in crate::strategy) fn helped(&self, count: u32) -> bool {
+        self.coop.as_ref().is_some_and(|&(_, min)| count >= min)
+    }
+
     /// The bounds of all `n` triangle records (one streaming pass), for
     /// the root job.
     pub(in crate::strategy) async fn bounds_of_all(&self, n: usize) -> Result<Side, CellError> {
@@ -332,11 +370,13 @@ impl<'a> SpeBuilder<'a> {
         mut level: Level,
         stop_at: Option<TopEnd>,
     ) -> Result<Option<Level>, CellError> {
+        self.dealt_level = self.dealt;
         loop {
             for k in 0..self.queue.blocks(level) {
                 let jobs = self.queue.load(level, k).await?;
                 self.process(&jobs).await?;
             }
+            self.dealt_level = false;
             match self.queue.end_level().await? {
                 Some(Level::Local(len)) if stop_at.is_some_and(|s| len >= s.jobs) => {
                     let end = stop_at.expect("checked");
@@ -367,7 +407,11 @@ impl<'a> SpeBuilder<'a> {
             w.push(job.node, node);
             return Ok(());
         }
-        if self.foreign_depth == Some(job.depth) {
+        if self.dealt_level && !self.dealt {
+            // A split of the level about to be dealt: held for later.
+            self.held.push((job.node, node));
+            Ok(())
+        } else if self.dealt_level {
             self.arena.emit_foreign(job.node, node).await
         } else {
             self.arena.emit(job.node, node).await
