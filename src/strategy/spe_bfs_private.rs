@@ -72,12 +72,13 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     ],
 ]);
 
-/// `--tris-per-spe auto`: each SPE used gets at least 1,500 triangles.
-/// Measured on 1–8 SPEs (docs/many-spes.md, "Small scenes"): the teapot
-/// (6,320 triangles) and iss-nasa (6,642) are fastest on 4 SPEs, slower on
-/// 5–8 (a deal of whole jobs too few to balance); scenes of 13,000 and
-/// more are fastest on 8 or within 15 % of it.
-const AUTO_TRIS_PER_SPE: usize = 1500;
+/// `--tris-per-spe auto`: each SPE used gets at least 1,350 triangles.
+/// Measured on 1–8 SPEs with the split top (docs/many-spes.md, "Small
+/// scenes"): the default scene (5,472 triangles), the teapot (6,320) and
+/// iss-nasa (6,642) are fastest on 4–5 SPEs and slower on 6–8 (a deal of
+/// whole jobs too few to balance); 1,350 gives them 4 (5,472 / 4 is
+/// 1,368), scenes of 12,000 triangles and more 8.
+const AUTO_TRIS_PER_SPE: usize = 1350;
 
 /// The queue's defaults, the best measured (docs/many-spes.md,
 /// "Defaults"): section 5's three improvements together.
