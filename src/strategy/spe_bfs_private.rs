@@ -7,7 +7,10 @@
 //!    at least `--deal-per-spe` jobs per SPE. Alone, the other SPEs
 //!    would wait — the paper's worry that on the upper levels most SPEs sit
 //!    idle; unless `--no-coop-top`, they help partition every large interval
-//!    of those levels ([`super::machinery::coop`]).
+//!    of those levels ([`super::machinery::coop`]). By default
+//!    (`--top-end split`) SPE 0 then splits that level's largest jobs,
+//!    with their help, until a largest-first deal of it is even: a dealt
+//!    job is never split later.
 //! 2. **The deal** (static, largest first): SPE 0 sorts that level's jobs
 //!    by triangle count and gives each, in turn, to the SPE with the fewest
 //!    triangles so far. It writes each SPE's jobs and a deal record (job

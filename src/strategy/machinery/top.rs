@@ -397,7 +397,8 @@ const SPLIT_SLACK: u64 = 16;
 /// partition it (SPE 0 would split it alone while they wait: measured
 /// slower on the teapot and the default scene, docs/many-spes.md). Unlike
 /// a whole level more, only the jobs that unbalance the deal are split.
-/// Returns the level to deal (jobs of up to `cap` depths), or `None` if
+/// Returns the level to deal (its jobs of different depths: a split job's
+/// children are one level deeper than the jobs beside them), or `None` if
 /// the tree ended.
 async fn split_largest(
     b: &mut SpeBuilder<'_>,
