@@ -57,6 +57,7 @@ impl BuilderKind {
     /// Every builder, the registry: a new builder is one line here.
     pub const ALL: &'static [BuilderKind] = &[
         BuilderKind::HOST,
+        BuilderKind::host(&crate::host::shared::BUILDER),
         BuilderKind::PPE_NAIVE,
         BuilderKind::PPE_APPROX,
         BuilderKind::SPE_DFS,
@@ -217,6 +218,13 @@ impl BuilderKind {
     /// Whether the builder builds `cfg`'s split choice and cut-off.
     pub fn builds(self, cfg: &BihConfig) -> bool {
         self.quality().builds(cfg)
+    }
+
+    /// Whether the builder builds on the host's cores, on the threads of
+    /// the current rayon pool (`ThreadPool::install` gives it the caller's):
+    /// the host counterparts of section 5's strategies (issue 29).
+    pub fn host_threads(self) -> bool {
+        matches!(self.0, Family::Host(b) if b.threads)
     }
 
     /// Whether the builder runs on the emulated Cell (and so reports

@@ -160,6 +160,32 @@ impl Bih {
     }
 }
 
+/// `nodes` (root 0, children adjacent) renumbered in the serial
+/// recursion's order: a node's two children take the next two ids when the
+/// node is made, its left subtree is made before its right. A builder that
+/// makes the serial recursion's nodes in another order gives back its node
+/// array this way.
+pub fn depth_first(nodes: &[BihNode]) -> Vec<BihNode> {
+    let mut out = vec![BihNode::default(); nodes.len()];
+    let mut next = 1;
+    let mut stack = vec![(0usize, 0usize)];
+    while let Some((from, to)) = stack.pop() {
+        let n = nodes[from];
+        if n.is_leaf() {
+            out[to] = n;
+            continue;
+        }
+        let (c, children) = (n.left_child() as usize, next);
+        next += 2;
+        let [l, r] = n.clip();
+        out[to] = BihNode::inner(children as u32, n.axis(), l, r);
+        stack.push((c + 1, children + 1));
+        stack.push((c, children));
+    }
+    out.truncate(next);
+    out
+}
+
 /// Which of [`BihConfig`]'s quality knobs a builder builds (the leaf size
 /// and depth limit every builder builds).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

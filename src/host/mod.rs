@@ -1,7 +1,11 @@
-//! The builders that run on the host's own cores. So far one: `host`, the
-//! serial reference, which runs the shared recursion
+//! The builders that run on the host's own cores: `host`, the serial
+//! reference, which runs the shared recursion
 //! ([`crate::kernels::recursion`]) on the scene's triangle boxes in one
-//! thread. The host counterparts of section 5's strategies will live here.
+//! thread, and the host counterparts of section 5's strategies (issue 29),
+//! which build its tree on the threads of the current rayon pool:
+//! [`shared`] (one job queue a level).
+
+pub mod shared;
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, Quality};
@@ -19,6 +23,9 @@ pub struct HostBuilder {
     /// `build(scene, region, cfg)`: the tree of `scene` with `region` as
     /// the scene box of the global heuristic.
     pub build: fn(&Scene, Aabb, &BihConfig) -> Bih,
+    /// It builds on the threads of the current rayon pool (the caller's,
+    /// with `ThreadPool::install`), the serial builder's tree on any number.
+    pub threads: bool,
 }
 
 /// The host builder, the serial reference.
@@ -27,6 +34,7 @@ pub const BUILDER: HostBuilder = HostBuilder {
     describe: "recursive in-place build, global heuristic, on the host (one thread)",
     quality: Quality::ALL,
     build: build_in,
+    threads: false,
 };
 
 /// Builds the tree of `scene` in one host thread.

@@ -78,6 +78,18 @@ pub struct BuildStats {
     pub f32_stalls: u64,
 }
 
+impl BuildStats {
+    /// Adds the work `o` counted (not its nodes: each build counts its own).
+    pub fn add(&mut self, o: &BuildStats) {
+        self.items_partitioned += o.items_partitioned;
+        self.partitions += o.partitions;
+        self.items_binned += o.items_binned;
+        self.sah_sweeps += o.sah_sweeps;
+        self.clip_nodes += o.clip_nodes;
+        self.f32_stalls += o.f32_stalls;
+    }
+}
+
 /// Builds a tree over `items`, sorting them in place, with `region` as the
 /// scene box of the global heuristic (the whole scene, or one node's region
 /// in a local update).
@@ -86,6 +98,7 @@ pub fn build_items<T: Item>(items: &mut [T], region: Aabb, cfg: &BihConfig) -> (
     let all = side_of(items);
     let mut b = Builder {
         items,
+        base: 0,
         nodes: Vec::with_capacity(all.count * 2 / cfg.leaf_size.max(1) as usize + 1),
         cfg,
         stats: BuildStats::default(),
@@ -122,6 +135,7 @@ pub fn build_subtree<T: Item>(
     let side = side_of(&items[first..first + count]);
     let mut b = Builder {
         items,
+        base: 0,
         nodes: std::mem::take(nodes),
         cfg,
         stats: BuildStats::default(),
@@ -136,7 +150,10 @@ pub fn build_subtree<T: Item>(
 }
 
 struct Builder<'a, T> {
+    /// The items from `base` on (a node's leaves still name their place in
+    /// the whole array).
     items: &'a mut [T],
+    base: usize,
     nodes: Vec<BihNode>,
     cfg: &'a BihConfig,
     stats: BuildStats,
@@ -151,55 +168,198 @@ impl<T: Item> Builder<'_, T> {
         id: usize,
         first: usize,
         count: usize,
-        mut candidate: Aabb,
+        candidate: Aabb,
         side: &Side,
         depth: u32,
         region: Aabb,
     ) {
-        let view = NodeView::of_side((first, count, depth), region, side, candidate);
-        let split = match decide(self.cfg, &view, &mut self.stats.f32_stalls) {
-            Decision::Leaf => None,
-            Decision::Clip(clip) => {
-                self.stats.clip_nodes += 1;
+        let node = NodeJob {
+            first,
+            depth,
+            region,
+            candidate,
+            side: *side,
+        };
+        let items = &mut self.items[first - self.base..first - self.base + count];
+        match step(items, &node, self.cfg, &mut self.stats) {
+            Step::Leaf => self.nodes[id] = BihNode::leaf(first as u32, count as u32),
+            Step::Clip(clip) => {
                 let full = clip.make_in(&mut self.nodes, id);
-                return self.node(full, first, count, candidate, side, depth + 1, clip.region);
+                self.node(full, first, count, candidate, side, depth + 1, clip.region);
             }
-            Decision::Split(split, c) => {
-                candidate = c;
-                Some(split)
+            Step::Split(split) => {
+                let [left, right] = split.make_in(&mut self.nodes, id, &node);
+                for child in [left, right] {
+                    let (first, count, side) = (child.first, child.side.count, child.side);
+                    self.node(
+                        child.id,
+                        first,
+                        count,
+                        child.candidate,
+                        &side,
+                        depth + 1,
+                        child.region,
+                    );
+                }
             }
-            Decision::Bin(bins) => {
-                self.stats.items_binned += count as u64;
-                self.stats.sah_sweeps += 1;
-                let mut b = Bins::new(&view.centers, bins);
-                b.add(&self.items[first..first + count]);
-                b.choose_or_halve(&mut candidate, &mut self.stats.f32_stalls)
-            }
-        };
-        let Some(split) = split else {
-            self.nodes[id] = BihNode::leaf(first as u32, count as u32);
-            return;
-        };
-        let (l, r) = partition(&mut self.items[first..first + count], split);
-        self.stats.items_partitioned += count as u64;
-        self.stats.partitions += 1;
-        debug_assert!(l.count > 0 && r.count > 0);
-        let children = self.nodes.len();
-        self.nodes.push(BihNode::default());
-        self.nodes.push(BihNode::default());
-        let [cl, cr] = clip_planes(split.axis, &l, &r);
-        self.nodes[id] = BihNode::inner(children as u32, split.axis, cl, cr);
-        let [lc, rc] = split.candidates(candidate);
-        let [lr, rr] = child_regions(region, split.axis, [cl, cr]);
-        self.node(children, first, l.count, lc, &l, depth + 1, lr);
-        self.node(
-            children + 1,
-            first + l.count,
-            r.count,
-            rc,
-            &r,
-            depth + 1,
-            rr,
-        );
+        }
     }
+}
+
+/// A node to make: where its items start, its depth, the region its
+/// ancestors' planes leave it, the global heuristic's candidate box, and
+/// what its items' bounds are.
+#[derive(Clone, Copy, Debug)]
+pub struct NodeJob {
+    pub first: usize,
+    pub depth: u32,
+    pub region: Aabb,
+    pub candidate: Aabb,
+    pub side: Side,
+}
+
+/// The subtree of `node` built by the serial recursion over the node's
+/// own `items` (`items[0]` is item `node.first` of the whole array): its
+/// nodes, root 0 and children appended as the recursion makes them, leaf
+/// ranges in the whole array's places. What a host builder does with a job
+/// small enough to finish alone.
+pub fn build_node<T: Item>(
+    items: &mut [T],
+    node: &NodeJob,
+    cfg: &BihConfig,
+    stats: &mut BuildStats,
+) -> Vec<BihNode> {
+    let count = items.len();
+    let mut b = Builder {
+        items,
+        base: node.first,
+        nodes: vec![BihNode::default()],
+        cfg,
+        stats: BuildStats::default(),
+    };
+    let (candidate, side) = (node.candidate, node.side);
+    b.node(
+        0,
+        node.first,
+        count,
+        candidate,
+        &side,
+        node.depth,
+        node.region,
+    );
+    stats.add(&b.stats);
+    b.nodes
+}
+
+/// What one node of the recursion became ([`step`]).
+#[derive(Clone, Copy, Debug)]
+pub enum Step {
+    Leaf,
+    /// A clip node; its full child is the node again, in the clip's region.
+    Clip(crate::kernels::cutoff::Clip),
+    /// Split, its items partitioned.
+    Split(Made),
+}
+
+/// A split made: the plane, the candidate box it was chosen in, and the
+/// two sides of the partition.
+#[derive(Clone, Copy, Debug)]
+pub struct Made {
+    pub split: crate::kernels::split::Split,
+    pub candidate: Aabb,
+    pub left: Side,
+    pub right: Side,
+}
+
+/// A child of a split: its node id and what its own [`NodeJob`] needs.
+#[derive(Clone, Copy, Debug)]
+pub struct Child {
+    pub id: usize,
+    pub first: usize,
+    pub region: Aabb,
+    pub candidate: Aabb,
+    pub side: Side,
+}
+
+impl Made {
+    /// Writes the split node `id` of `node` into `nodes` with its two
+    /// children's slots appended (adjacent, left first); returns the
+    /// children.
+    pub fn make_in(&self, nodes: &mut Vec<BihNode>, id: usize, node: &NodeJob) -> [Child; 2] {
+        let children = nodes.len();
+        nodes.extend([BihNode::default(); 2]);
+        let axis = self.split.axis;
+        let [cl, cr] = clip_planes(axis, &self.left, &self.right);
+        nodes[id] = BihNode::inner(children as u32, axis, cl, cr);
+        let [lc, rc] = self.split.candidates(self.candidate);
+        let [lr, rr] = child_regions(node.region, axis, [cl, cr]);
+        [
+            Child {
+                id: children,
+                first: node.first,
+                region: lr,
+                candidate: lc,
+                side: self.left,
+            },
+            Child {
+                id: children + 1,
+                first: node.first + self.left.count,
+                region: rr,
+                candidate: rc,
+                side: self.right,
+            },
+        ]
+    }
+}
+
+/// One node of the in-place build over its own `items`: the node decision
+/// ([`decide`]), binning where binned SAH chooses, and the partition of a
+/// split — everything but writing the node, which the caller does (the
+/// serial recursion at once, the host's parallel builders in their own
+/// order). Counts its work in `stats`.
+pub fn step<T: Item>(
+    items: &mut [T],
+    node: &NodeJob,
+    cfg: &BihConfig,
+    stats: &mut BuildStats,
+) -> Step {
+    let count = items.len();
+    let mut candidate = node.candidate;
+    let view = NodeView::of_side(
+        (node.first, count, node.depth),
+        node.region,
+        &node.side,
+        candidate,
+    );
+    let split = match decide(cfg, &view, &mut stats.f32_stalls) {
+        Decision::Leaf => None,
+        Decision::Clip(clip) => {
+            stats.clip_nodes += 1;
+            return Step::Clip(clip);
+        }
+        Decision::Split(split, c) => {
+            candidate = c;
+            Some(split)
+        }
+        Decision::Bin(bins) => {
+            stats.items_binned += count as u64;
+            stats.sah_sweeps += 1;
+            let mut b = Bins::new(&view.centers, bins);
+            b.add(items);
+            b.choose_or_halve(&mut candidate, &mut stats.f32_stalls)
+        }
+    };
+    let Some(split) = split else {
+        return Step::Leaf;
+    };
+    let (left, right) = partition(items, split);
+    stats.items_partitioned += count as u64;
+    stats.partitions += 1;
+    debug_assert!(left.count > 0 && right.count > 0);
+    Step::Split(Made {
+        split,
+        candidate,
+        left,
+        right,
+    })
 }

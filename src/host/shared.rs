@@ -1,0 +1,248 @@
+//! `host_shared` — section 5's **one common job queue** on the host's own
+//! cores (issue 29): the host counterpart of `spe_bfs_shared`. The tree is
+//! built level by level; the jobs of a level lie in one array and the
+//! threads of the current rayon pool take them in batches from one atomic
+//! counter (guided takes, as the shared queue's: an equal share of what is
+//! left, at most [`AGGLOMERATE`]); a level ends when every job of it is
+//! made (the barrier is the end of the scope).
+//!
+//! Each job is one step of the serial recursion ([`step`]: the node
+//! decision, binning, the in-place partition of the job's own items), on
+//! disjoint slices of the items, so the threads never share an item. The
+//! nodes are then written in the level's order by one thread (a few
+//! stores a job), breadth first, and at the end renumbered in the serial
+//! recursion's order ([`depth_first`], one pass): the tree is the serial
+//! host builder's, node for node, with the items in the same order, for
+//! any number of threads.
+//!
+//! A job of at most [`SUBTREE`] items is built to its leaves by the thread
+//! that takes it (the serial recursion over its own items, which then stay
+//! in that core's cache), and grafted into the tree.
+//!
+//! Threads: the pool the build runs in (`ThreadPool::install`; the global
+//! one otherwise). With one thread it is the serial recursion itself (no
+//! level, no task: no parallel overhead).
+
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use super::HostBuilder;
+use crate::aabb::Aabb;
+use crate::bih::{Bih, BihConfig, BihNode, Quality, depth_first};
+use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
+use crate::kernels::split::side_of;
+use crate::scene::Scene;
+
+/// The builder.
+pub const BUILDER: HostBuilder = HostBuilder {
+    name: "host_shared",
+    describe: "the host builder's tree level by level on the host's cores: one shared job queue a level, batches taken atomically (rayon; section 5's shared queue)",
+    quality: Quality::ALL,
+    build: build_in,
+    threads: true,
+};
+
+/// Jobs one take hands out at most (as `spe_bfs_shared --agglomerate`).
+pub const AGGLOMERATE: usize = 16;
+
+/// Builds the tree of `scene` with `region` as the scene box of the global
+/// heuristic, on the current rayon pool's threads.
+pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
+    let mut refs: Vec<PrimRef> = (scene.triangles.iter().enumerate())
+        .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
+        .collect();
+    build_items(&mut refs, region, cfg).0
+}
+
+/// A job of a level: a node to make over `items[first .. first + count]`.
+#[derive(Clone, Copy)]
+struct Job {
+    id: usize,
+    count: usize,
+    node: NodeJob,
+}
+
+/// Builds a tree over `items`, sorting them in place, level by level on
+/// the current rayon pool's threads: the serial recursion's tree
+/// ([`crate::kernels::recursion::build_items`]), node for node.
+pub fn build_items<T: Item + Send>(
+    items: &mut [T],
+    region: Aabb,
+    cfg: &BihConfig,
+) -> (Bih, BuildStats) {
+    assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
+    if rayon::current_num_threads() == 1 {
+        // One thread: the serial recursion itself, no level, no task.
+        return crate::kernels::recursion::build_items(items, region, cfg);
+    }
+    let all = side_of(items);
+    let mut nodes = vec![BihNode::default()];
+    let mut stats = BuildStats::default();
+    let mut level = vec![Job {
+        id: 0,
+        count: all.count,
+        node: NodeJob {
+            first: 0,
+            depth: 0,
+            region,
+            candidate: region,
+            side: all,
+        },
+    }];
+    while !level.is_empty() {
+        let steps = take_level(items, &level, cfg, &mut stats);
+        let mut next = Vec::with_capacity(2 * level.len());
+        for (job, made) in level.iter().zip(steps) {
+            let made = match made {
+                Made::Step(step) => step,
+                Made::Subtree(sub) => {
+                    graft(&mut nodes, job.id, &sub);
+                    continue;
+                }
+            };
+            match made {
+                Step::Leaf => {
+                    nodes[job.id] = BihNode::leaf(job.node.first as u32, job.count as u32);
+                }
+                Step::Clip(clip) => {
+                    let full = clip.make_in(&mut nodes, job.id);
+                    let node = NodeJob {
+                        depth: job.node.depth + 1,
+                        region: clip.region,
+                        ..job.node
+                    };
+                    next.push(Job {
+                        id: full,
+                        node,
+                        ..*job
+                    });
+                }
+                Step::Split(split) => {
+                    for c in split.make_in(&mut nodes, job.id, &job.node) {
+                        let node = NodeJob {
+                            first: c.first,
+                            depth: job.node.depth + 1,
+                            region: c.region,
+                            candidate: c.candidate,
+                            side: c.side,
+                        };
+                        next.push(Job {
+                            id: c.id,
+                            count: c.side.count,
+                            node,
+                        });
+                    }
+                }
+            }
+        }
+        level = next;
+    }
+    stats.nodes = nodes.len() as u64;
+    let bih = Bih {
+        nodes: depth_first(&nodes),
+        prim_ids: items.iter().map(T::id).collect(),
+        bounds: region,
+        config: *cfg,
+    };
+    (bih, stats)
+}
+
+/// What a job made: one step of the recursion (its children are jobs of
+/// the next level), or, for a job of at most [`SUBTREE`] items, its whole
+/// subtree (root 0, leaf ranges in the whole array's places).
+enum Made {
+    Step(Step),
+    Subtree(Vec<BihNode>),
+}
+
+/// A job of at most this many items is built to its leaves by the thread
+/// that takes it (the serial recursion: its items, 32 bytes each, stay in
+/// that core's cache); a larger one makes one node and leaves its children
+/// to the next level. 16,384 items are 512 KiB.
+pub const SUBTREE: usize = 16_384;
+
+/// One job's place in a level: its items, and what it made.
+struct Slot<'a, T> {
+    items: &'a mut [T],
+    made: Option<Made>,
+    stats: BuildStats,
+}
+
+/// Makes every job of `level` (in item order, disjoint), the threads
+/// taking batches from one counter; returns what each made, in order, and
+/// adds their work to `stats`.
+fn take_level<T: Item + Send>(
+    items: &mut [T],
+    level: &[Job],
+    cfg: &BihConfig,
+    stats: &mut BuildStats,
+) -> Vec<Made> {
+    // Each job's own items, carved in order.
+    let mut slots = Vec::with_capacity(level.len());
+    let (mut rest, mut at) = (items, 0);
+    for job in level {
+        let (_, tail) = std::mem::take(&mut rest).split_at_mut(job.node.first - at);
+        let (mine, tail) = tail.split_at_mut(job.count);
+        rest = tail;
+        at = job.node.first + job.count;
+        slots.push(Mutex::new(Slot {
+            items: mine,
+            made: None,
+            stats: BuildStats::default(),
+        }));
+    }
+    let make = |k: usize| {
+        let mut slot = slots[k].lock().expect("a job's slot");
+        let Slot { items, made, stats } = &mut *slot;
+        let job = &level[k];
+        *made = Some(match job.count <= SUBTREE {
+            true => Made::Subtree(build_node(items, &job.node, cfg, stats)),
+            false => Made::Step(step(items, &job.node, cfg, stats)),
+        });
+    };
+    let threads = rayon::current_num_threads().min(level.len());
+    if threads <= 1 {
+        (0..level.len()).for_each(make);
+    } else {
+        let next = AtomicUsize::new(0);
+        let worker = || {
+            loop {
+                let left = level.len().saturating_sub(next.load(Ordering::Relaxed));
+                let size = left.div_ceil(threads).clamp(1, AGGLOMERATE);
+                let first = next.fetch_add(size, Ordering::Relaxed);
+                if first >= level.len() {
+                    break;
+                }
+                (first..(first + size).min(level.len())).for_each(make);
+            }
+        };
+        rayon::scope(|s| {
+            for _ in 1..threads {
+                s.spawn(|_| worker());
+            }
+            worker();
+        });
+    }
+    (slots.into_iter())
+        .map(|slot| {
+            let slot = slot.into_inner().expect("a job's slot");
+            stats.add(&slot.stats);
+            slot.made.expect("every job of the level was made")
+        })
+        .collect()
+}
+
+/// Puts the subtree `sub` (root 0) in node `id` of `nodes`, its other
+/// nodes appended in their order.
+fn graft(nodes: &mut Vec<BihNode>, id: usize, sub: &[BihNode]) {
+    let off = nodes.len() - 1;
+    let moved = |n: BihNode| match n.is_leaf() {
+        true => n,
+        false => {
+            let [l, r] = n.clip();
+            BihNode::inner(n.left_child() + off as u32, n.axis(), l, r)
+        }
+    };
+    nodes[id] = moved(sub[0]);
+    nodes.extend(sub[1..].iter().map(|&n| moved(n)));
+}
