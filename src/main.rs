@@ -135,6 +135,10 @@ enum Command {
         /// that does not fit fails alone, named; the others are compared.
         #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u64).range(1..=4096))]
         memory_mib: u64,
+        /// Host threads of the builders that build on the host's cores
+        /// (host_shared, …) [default: the machine's available parallelism]
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
+        threads: Option<u64>,
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
     },
@@ -306,13 +310,21 @@ fn run(cli: Cli) -> Res<()> {
             tree,
             spes,
             memory_mib,
+            threads,
             format,
         }) => {
             let s = scene.load()?;
             let mut cell = CellConfig::ps3().with_spes(spes as usize);
             cell.main_memory_bytes = memory_mib * 1024 * 1024;
             let cfg = tree.config()?;
-            let c = compare::rows(&s, &cell, &cfg)?;
+            let threads = threads.map_or_else(
+                || std::thread::available_parallelism().map_or(1, |n| n.get()),
+                |n| n as usize,
+            );
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()?;
+            let c = pool.install(|| compare::rows(&s, &cell, &cfg).map_err(|e| e.to_string()))?;
             compare::print(&s, spes as usize, &cfg, &c, format);
             match c.failed.len() {
                 0 => Ok(()),

@@ -322,6 +322,7 @@ impl BuilderKind {
             bih,
             host_time: start.elapsed(),
             simulated,
+            threads: self.host_threads().then(rayon::current_num_threads),
         })
     }
 }
@@ -341,4 +342,7 @@ pub struct BuildReport {
     pub host_time: Duration,
     /// Simulated time and counters, for builders that run on the Cell.
     pub simulated: Option<Simulated>,
+    /// The host threads it built on, for builders that build on the
+    /// current rayon pool's ([`BuilderKind::host_threads`]).
+    pub threads: Option<usize>,
 }

@@ -105,3 +105,40 @@ proptest! {
         check(&s, &cfg, &[threads]).map_err(TestCaseError::fail)?;
     }
 }
+
+/// `--threads N` builds a host-thread builder on N threads (the report
+/// says so) and is refused, naming the builders that take it, by a builder
+/// that builds on one thread.
+#[test]
+fn threads_on_the_command_line() {
+    for b in parallel() {
+        let out = common::cellbih(&[
+            "build",
+            "--builder",
+            b.name(),
+            "--threads",
+            "3",
+            "--format",
+            "json",
+        ]);
+        common::assert_ok(&out);
+        let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(j["threads"], 3, "{b}");
+        let serial = common::cellbih(&["build", "--builder", "host", "--format", "json"]);
+        let s: serde_json::Value = serde_json::from_slice(&serial.stdout).unwrap();
+        assert_eq!(j["quality"], s["quality"], "{b}: another tree than host's");
+    }
+    for b in BuilderKind::ALL.iter().filter(|b| !b.host_threads()) {
+        let out = common::cellbih(&["build", "--builder", b.name(), "--threads", "2"]);
+        common::assert_fails_with(&out, "--threads");
+        for p in parallel() {
+            assert!(
+                common::stderr(&out).contains(p.name()),
+                "{b}: {}",
+                common::stderr(&out)
+            );
+        }
+    }
+    let out = common::cellbih(&["compare", "--threads", "2", "--format", "json"]);
+    common::assert_ok(&out);
+}

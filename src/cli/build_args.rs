@@ -109,6 +109,11 @@ pub struct BuildArgs {
     /// 11.6 µs a round trip: docs/validation.md) [default: raw]
     #[arg(long, value_enum)]
     pub mailboxes: Option<Mailboxes>,
+    /// Threads of a builder that builds on the host's cores (host_shared,
+    /// …), at least 1 [default: the machine's available parallelism]. The
+    /// others build on one thread (the emulator runs one) and refuse it
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
+    pub threads: Option<u64>,
     /// The strategies' knobs, as the registry's tables declare them.
     #[command(flatten)]
     pub knobs: KnobArgs,
@@ -161,13 +166,24 @@ pub struct Chosen {
     pub cfg: BihConfig,
     pub cell: CellConfig,
     pub knobs: Knobs,
+    /// `--threads`, for a builder that builds on the host's cores.
+    pub threads: Option<usize>,
 }
 
 impl Chosen {
     pub fn build(&self, s: &Scene) -> Res<BuildReport> {
-        Ok(self
-            .builder
-            .build_with(s, s.bounds(), &self.cfg, &self.cell, &self.knobs)?)
+        let build = || {
+            self.builder
+                .build_with(s, s.bounds(), &self.cfg, &self.cell, &self.knobs)
+        };
+        Ok(match self.threads {
+            Some(n) => rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| format!("--threads {n}: {e}"))?
+                .install(build)?,
+            None => build()?,
+        })
     }
 
     /// "builder B" and, for an emulated one, "on N SPEs".
@@ -178,6 +194,9 @@ impl Chosen {
                 self.builder,
                 super::spes(self.cell.spes)
             )
+        } else if let Some(n) = self.threads {
+            let s = if n == 1 { "" } else { "s" };
+            format!("builder {} on {n} host thread{s}", self.builder)
         } else {
             format!("builder {}", self.builder)
         }
@@ -218,11 +237,28 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
     for (name, value) in &args.knobs.given {
         builder.set_knob(&mut knobs, name, value)?;
     }
+    let threads = match (args.threads, builder.host_threads()) {
+        (Some(_), false) => {
+            let with: Vec<&str> = (BuilderKind::ALL.iter())
+                .filter(|b| b.host_threads())
+                .map(|b| b.name())
+                .collect();
+            return Err(format!(
+                "--threads: builder {builder} builds on one thread; the builders that take it: {}",
+                with.join(", ")
+            )
+            .into());
+        }
+        (Some(n), true) => Some(n as usize),
+        (None, true) => Some(std::thread::available_parallelism().map_or(1, |n| n.get())),
+        (None, false) => None,
+    };
     Ok(Chosen {
         builder,
         cfg,
         cell,
         knobs,
+        threads,
     })
 }
 

@@ -61,6 +61,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
             "{}",
             json!({
                 "scene": s.name, "triangles": s.len(), "builder": r.builder.name(),
+                "threads": r.threads,
                 "host_ms": ms, "quality": q,
                 "footprint": sim.map(|m| &m.footprint),
                 "rays": { "primary": primary, "incoherent": incoherent },
@@ -79,7 +80,14 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
         ),
         Format::Text => {
             println!("scene       {} ({} triangles)", s.name, s.len());
-            println!("builder     {}", r.builder);
+            match r.threads {
+                Some(n) => println!(
+                    "builder     {} on {n} host thread{}",
+                    r.builder,
+                    if n == 1 { "" } else { "s" }
+                ),
+                None => println!("builder     {}", r.builder),
+            }
             match sim {
                 Some(m) if !m.run.timed => println!(
                     "simulated   none: functional mode (no timing) with {}",
