@@ -58,6 +58,7 @@ impl BuilderKind {
     pub const ALL: &'static [BuilderKind] = &[
         BuilderKind::HOST,
         BuilderKind::host(&crate::host::shared::BUILDER),
+        BuilderKind::host(&crate::host::private::BUILDER),
         BuilderKind::PPE_NAIVE,
         BuilderKind::PPE_APPROX,
         BuilderKind::SPE_DFS,

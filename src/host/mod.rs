@@ -3,9 +3,34 @@
 //! ([`crate::kernels::recursion`]) on the scene's triangle boxes in one
 //! thread, and the host counterparts of section 5's strategies (issue 29),
 //! which build its tree on the threads of the current rayon pool:
-//! [`shared`] (one job queue a level).
+//! [`shared`] (one job queue a level) and [`private`] (per-thread deques
+//! with work stealing).
 
+pub mod private;
 pub mod shared;
+
+use crate::bih::BihNode;
+
+/// A job of at most this many items is built to its leaves by the thread
+/// that takes it (the serial recursion: its items, 32 bytes each, stay in
+/// that core's cache); a larger one makes one node and leaves its children
+/// to the others. 16,384 items are 512 KiB.
+pub const SUBTREE: usize = 16_384;
+
+/// Puts the subtree `sub` (root 0) in node `id` of `nodes`, its other
+/// nodes appended in their order.
+fn graft(nodes: &mut Vec<BihNode>, id: usize, sub: &[BihNode]) {
+    let off = nodes.len() - 1;
+    let moved = |n: BihNode| match n.is_leaf() {
+        true => n,
+        false => {
+            let [l, r] = n.clip();
+            BihNode::inner(n.left_child() + off as u32, n.axis(), l, r)
+        }
+    };
+    nodes[id] = moved(sub[0]);
+    nodes.extend(sub[1..].iter().map(|&n| moved(n)));
+}
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, Quality};

@@ -26,7 +26,7 @@
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use super::HostBuilder;
+use super::{HostBuilder, SUBTREE, graft};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality, depth_first};
 use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
@@ -155,12 +155,6 @@ enum Made {
     Subtree(Vec<BihNode>),
 }
 
-/// A job of at most this many items is built to its leaves by the thread
-/// that takes it (the serial recursion: its items, 32 bytes each, stay in
-/// that core's cache); a larger one makes one node and leaves its children
-/// to the next level. 16,384 items are 512 KiB.
-pub const SUBTREE: usize = 16_384;
-
 /// One job's place in a level: its items, and what it made.
 struct Slot<'a, T> {
     items: &'a mut [T],
@@ -230,19 +224,4 @@ fn take_level<T: Item + Send>(
             slot.made.expect("every job of the level was made")
         })
         .collect()
-}
-
-/// Puts the subtree `sub` (root 0) in node `id` of `nodes`, its other
-/// nodes appended in their order.
-fn graft(nodes: &mut Vec<BihNode>, id: usize, sub: &[BihNode]) {
-    let off = nodes.len() - 1;
-    let moved = |n: BihNode| match n.is_leaf() {
-        true => n,
-        false => {
-            let [l, r] = n.clip();
-            BihNode::inner(n.left_child() + off as u32, n.axis(), l, r)
-        }
-    };
-    nodes[id] = moved(sub[0]);
-    nodes.extend(sub[1..].iter().map(|&n| moved(n)));
 }

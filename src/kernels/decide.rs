@@ -96,6 +96,12 @@ impl Clip {
     pub fn make_in(&self, nodes: &mut Vec<BihNode>, id: usize) -> usize {
         let children = nodes.len();
         nodes.extend([BihNode::default(); 2]);
+        self.make_at(nodes, id, children)
+    }
+
+    /// [`Self::make_in`] with the children's two slots at `children`
+    /// (handed out by the caller).
+    pub fn make_at(&self, nodes: &mut [BihNode], id: usize, children: usize) -> usize {
         nodes[children + self.empty] = BihNode::leaf(self.leaf_at as u32, 0);
         let [cl, cr] = self.planes;
         nodes[id] = BihNode::inner(children as u32, self.axis, cl, cr);

@@ -288,9 +288,28 @@ impl Made {
     pub fn make_in(&self, nodes: &mut Vec<BihNode>, id: usize, node: &NodeJob) -> [Child; 2] {
         let children = nodes.len();
         nodes.extend([BihNode::default(); 2]);
+        self.make_at(nodes, id, children, node)
+    }
+
+    /// [`Self::make_in`] with the children's two slots at `children`
+    /// (handed out by the caller).
+    pub fn make_at(
+        &self,
+        nodes: &mut [BihNode],
+        id: usize,
+        children: usize,
+        node: &NodeJob,
+    ) -> [Child; 2] {
+        let [cl, cr] = clip_planes(self.split.axis, &self.left, &self.right);
+        nodes[id] = BihNode::inner(children as u32, self.split.axis, cl, cr);
+        self.children(children, node)
+    }
+
+    /// The two children of the split node of `node`, their slots at
+    /// `children` and `children + 1`.
+    pub fn children(&self, children: usize, node: &NodeJob) -> [Child; 2] {
         let axis = self.split.axis;
         let [cl, cr] = clip_planes(axis, &self.left, &self.right);
-        nodes[id] = BihNode::inner(children as u32, axis, cl, cr);
         let [lc, rc] = self.split.candidates(self.candidate);
         let [lr, rr] = child_regions(node.region, axis, [cl, cr]);
         [

@@ -1,0 +1,257 @@
+//! `host_private` — section 5's **private queues** on the host's own cores
+//! (issue 29): the host counterpart of `spe_bfs_private`, with the work
+//! stealing the SPEs' static deal lacks. Each thread of the current rayon
+//! pool has its own deque (`crossbeam::deque::Worker`, last in first out:
+//! it goes on depth first with the child it just made); a thread whose
+//! deque is empty steals the oldest job of another's (`Stealer`, the
+//! largest there: the top of its subtree), or takes from the `Injector`
+//! that holds the root.
+//!
+//! A job owns its items (a disjoint slice of the item array, split at
+//! each partition), so no two threads touch an item. A job of more than
+//! [`SUBTREE`] items makes one node — one step of the serial recursion
+//! ([`step`]) — and pushes its children; a smaller one is built to its
+//! leaves by its thread ([`build_node`]). Node ids are handed out by one
+//! atomic counter as threads make nodes, in whatever order they run; the
+//! nodes are put together at the end and renumbered in the serial
+//! recursion's order ([`depth_first`]), so the tree is the serial host
+//! builder's node for node, with the items in the same order, for any
+//! number of threads and any schedule.
+//!
+//! The top levels are partitioned by one thread each (not yet
+//! cooperatively: a job larger than a thread's share keeps the others
+//! waiting until it splits).
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use crossbeam::deque::{Injector, Steal, Stealer, Worker};
+
+use super::{HostBuilder, SUBTREE, graft};
+use crate::aabb::Aabb;
+use crate::bih::{Bih, BihConfig, BihNode, Quality, depth_first};
+use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
+use crate::kernels::split::side_of;
+use crate::scene::Scene;
+
+/// The builder.
+pub const BUILDER: HostBuilder = HostBuilder {
+    name: "host_private",
+    describe: "the host builder's tree on the host's cores: a deque per thread, work stealing (crossbeam; section 5's private queues)",
+    quality: Quality::ALL,
+    build: build_in,
+    threads: true,
+};
+
+/// Builds the tree of `scene` with `region` as the scene box of the global
+/// heuristic, on the current rayon pool's threads.
+pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
+    let mut refs: Vec<PrimRef> = (scene.triangles.iter().enumerate())
+        .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
+        .collect();
+    build_items(&mut refs, region, cfg).0
+}
+
+/// A job: node `id` over its own items.
+struct Job<'a, T> {
+    id: usize,
+    items: &'a mut [T],
+    node: NodeJob,
+}
+
+/// What a thread made of one job. (One a job above [`SUBTREE`] items and
+/// one a subtree: a few thousand on the dragon, so the size of a step's
+/// record does not matter.)
+#[allow(clippy::large_enum_variant)]
+enum Made {
+    /// A step of the recursion; its children took the ids from `children`.
+    Step(Step, usize),
+    /// The job's whole subtree (root 0).
+    Subtree(Vec<BihNode>),
+}
+
+/// Builds a tree over `items`, sorting them in place, on the current rayon
+/// pool's threads with per-thread deques: the serial recursion's tree
+/// ([`crate::kernels::recursion::build_items`]), node for node.
+pub fn build_items<T: Item + Send>(
+    items: &mut [T],
+    region: Aabb,
+    cfg: &BihConfig,
+) -> (Bih, BuildStats) {
+    assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
+    let threads = rayon::current_num_threads();
+    if threads == 1 {
+        // One thread: the serial recursion itself, no deque, no task.
+        return crate::kernels::recursion::build_items(items, region, cfg);
+    }
+    let all = side_of(items);
+    let root = NodeJob {
+        first: 0,
+        depth: 0,
+        region,
+        candidate: region,
+        side: all,
+    };
+    let ids = AtomicUsize::new(1);
+    let made = run(&mut *items, root, cfg, threads, &ids);
+    // The nodes, put together: every id handed out, then the subtrees.
+    let mut nodes = vec![BihNode::default(); ids.load(Ordering::Acquire)];
+    let mut stats = BuildStats::default();
+    let mut subtrees = Vec::new();
+    for (records, counted) in made {
+        stats.add(&counted);
+        for (id, node, m) in records {
+            match m {
+                Made::Step(Step::Leaf, _) => {
+                    let count = node.side.count as u32;
+                    nodes[id] = BihNode::leaf(node.first as u32, count);
+                }
+                Made::Step(Step::Clip(clip), children) => {
+                    clip.make_at(&mut nodes, id, children);
+                }
+                Made::Step(Step::Split(split), children) => {
+                    split.make_at(&mut nodes, id, children, &node);
+                }
+                Made::Subtree(sub) => subtrees.push((id, sub)),
+            }
+        }
+    }
+    // In id order, so that the array before renumbering is the same on
+    // every run with the same schedule (the renumbered one always is).
+    subtrees.sort_by_key(|(id, _)| *id);
+    for (id, sub) in subtrees {
+        graft(&mut nodes, id, &sub);
+    }
+    stats.nodes = nodes.len() as u64;
+    let bih = Bih {
+        nodes: depth_first(&nodes),
+        prim_ids: items.iter().map(T::id).collect(),
+        bounds: region,
+        config: *cfg,
+    };
+    (bih, stats)
+}
+
+/// What each thread made of the jobs below `root` (over all of `items`),
+/// the threads taking ids from `ids`.
+#[allow(clippy::type_complexity)]
+fn run<T: Item + Send>(
+    items: &mut [T],
+    root: NodeJob,
+    cfg: &BihConfig,
+    threads: usize,
+    ids: &AtomicUsize,
+) -> Vec<(Vec<(usize, NodeJob, Made)>, BuildStats)> {
+    let pending = AtomicUsize::new(1);
+    let injector = Injector::new();
+    injector.push(Job {
+        id: 0,
+        items,
+        node: root,
+    });
+    let workers: Vec<Worker<Job<T>>> = (0..threads).map(|_| Worker::new_lifo()).collect();
+    let stealers: Vec<Stealer<Job<T>>> = workers.iter().map(Worker::stealer).collect();
+    let made = std::sync::Mutex::new(Vec::with_capacity(threads));
+    rayon::scope(|s| {
+        for (me, worker) in workers.into_iter().enumerate() {
+            let (injector, stealers, pending, made) = (&injector, &stealers, &pending, &made);
+            s.spawn(move |_| {
+                let mut own = (Vec::new(), BuildStats::default());
+                while pending.load(Ordering::Acquire) > 0 {
+                    let Some(job) = find(&worker, injector, stealers, me) else {
+                        std::thread::yield_now();
+                        continue;
+                    };
+                    make(job, cfg, (&worker, ids, pending), &mut own);
+                }
+                made.lock().expect("a thread's records").push(own);
+            });
+        }
+    });
+    made.into_inner().expect("every thread's records")
+}
+
+/// The next job for thread `me`: its own deque's newest, else the oldest
+/// of the injector or of another thread's deque.
+fn find<'a, T>(
+    worker: &Worker<Job<'a, T>>,
+    injector: &Injector<Job<'a, T>>,
+    stealers: &[Stealer<Job<'a, T>>],
+    me: usize,
+) -> Option<Job<'a, T>> {
+    worker.pop().or_else(|| {
+        std::iter::repeat_with(|| {
+            injector.steal_batch_and_pop(worker).or_else(|| {
+                (stealers.iter().enumerate())
+                    .filter(|&(k, _)| k != me)
+                    .map(|(_, s)| s.steal())
+                    .collect()
+            })
+        })
+        .find(|s| !s.is_retry())
+        .and_then(Steal::success)
+    })
+}
+
+/// Makes `job`: its subtree if small, else one node, its children pushed
+/// onto this thread's deque. Records what it made in `own`.
+fn make<'a, T: Item>(
+    job: Job<'a, T>,
+    cfg: &BihConfig,
+    (worker, ids, pending): (&Worker<Job<'a, T>>, &AtomicUsize, &AtomicUsize),
+    own: &mut (Vec<(usize, NodeJob, Made)>, BuildStats),
+) {
+    let (records, stats) = own;
+    let Job { id, items, node } = job;
+    if items.len() <= SUBTREE {
+        records.push((
+            id,
+            node,
+            Made::Subtree(build_node(items, &node, cfg, stats)),
+        ));
+        pending.fetch_sub(1, Ordering::AcqRel);
+        return;
+    }
+    let made = step(items, &node, cfg, stats);
+    let children = match made {
+        Step::Leaf => 0,
+        _ => ids.fetch_add(2, Ordering::Relaxed),
+    };
+    match made {
+        Step::Leaf => {}
+        Step::Clip(clip) => {
+            pending.fetch_add(1, Ordering::AcqRel);
+            let full = NodeJob {
+                depth: node.depth + 1,
+                region: clip.region,
+                ..node
+            };
+            worker.push(Job {
+                id: children + 1 - clip.empty,
+                items,
+                node: full,
+            });
+        }
+        Step::Split(split) => {
+            pending.fetch_add(2, Ordering::AcqRel);
+            let [left, right] = split.children(children, &node);
+            let (l, r) = items.split_at_mut(split.left.count);
+            // The right child first: the left is popped next (depth first).
+            for (c, items) in [(right, r), (left, l)] {
+                let child = NodeJob {
+                    first: c.first,
+                    depth: node.depth + 1,
+                    region: c.region,
+                    candidate: c.candidate,
+                    side: c.side,
+                };
+                worker.push(Job {
+                    id: c.id,
+                    items,
+                    node: child,
+                });
+            }
+        }
+    }
+    records.push((id, node, Made::Step(made, children)));
+    pending.fetch_sub(1, Ordering::AcqRel);
+}
