@@ -230,13 +230,19 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
         "trees{with} valid. Cell ms: simulated time on the PS3 model (multi-SPE builders on up to \
          {}: a small scene runs on fewer, --tris-per-spe); \
          speedup: over spe_bfs (one SPE, the paper's baseline); host figures: this machine, one \
-         thread; tree KiB: nodes and triangle ids; Cell MiB: main memory the emulated build used \
+         thread ({} build on --threads, by default every core); tree KiB: nodes and triangle \
+         ids; Cell MiB: main memory the emulated build used \
          (every buffer). primary, incoherent: nodes visited + triangles tested per ray, closest \
          hit (the render camera's primary rays; 16,384 rays from random points in the scene box \
          in random directions); Cell render: simulated ms to cast the camera's {}×{} primary rays \
          through the tree on the SPEs.",
         // Kept on one line: "6 SPEs" is one phrase.
         super::spes(spes).replace(' ', "\u{1}"),
+        (BuilderKind::ALL.iter())
+            .filter(|b| b.host_threads())
+            .map(|b| b.name())
+            .collect::<Vec<_>>()
+            .join(" and "),
         CAST_SIZE.0,
         CAST_SIZE.1
     );
