@@ -9,7 +9,11 @@
 pub mod private;
 pub mod shared;
 
-use crate::bih::BihNode;
+use crate::aabb::Aabb;
+use crate::bih::{Bih, BihConfig, BihNode, Quality, depth_first};
+use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, build_items};
+use crate::kernels::split::side_of;
+use crate::scene::Scene;
 
 /// A job of at most this many items is built to its leaves by the thread
 /// that takes it (the serial recursion: its items, 32 bytes each, stay in
@@ -32,10 +36,43 @@ fn graft(nodes: &mut Vec<BihNode>, id: usize, sub: &[BihNode]) {
     nodes.extend(sub[1..].iter().map(|&n| moved(n)));
 }
 
-use crate::aabb::Aabb;
-use crate::bih::{Bih, BihConfig, Quality};
-use crate::kernels::recursion::{PrimRef, build_items};
-use crate::scene::Scene;
+/// The root's job over all of `items`, `region` its region and candidate.
+fn root_job<T: Item>(items: &[T], region: Aabb) -> NodeJob {
+    NodeJob {
+        first: 0,
+        depth: 0,
+        region,
+        candidate: region,
+        side: side_of(items),
+    }
+}
+
+/// The tree a parallel builder made: its `nodes` (root 0, in the order it
+/// made them) renumbered in the serial recursion's order, over `items` in
+/// their final order.
+fn finish<T: Item>(
+    nodes: &[BihNode],
+    items: &[T],
+    region: Aabb,
+    cfg: &BihConfig,
+    mut stats: BuildStats,
+) -> (Bih, BuildStats) {
+    stats.nodes = nodes.len() as u64;
+    let bih = Bih {
+        nodes: depth_first(nodes),
+        prim_ids: items.iter().map(T::id).collect(),
+        bounds: region,
+        config: *cfg,
+    };
+    (bih, stats)
+}
+
+/// The scene's triangles as the host builders sort them: box and id.
+pub fn prim_refs(scene: &Scene) -> Vec<PrimRef> {
+    (scene.triangles.iter().enumerate())
+        .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
+        .collect()
+}
 
 /// A builder that runs on the host: what the registry needs of it.
 pub struct HostBuilder {
@@ -69,9 +106,5 @@ pub fn build(scene: &Scene, cfg: &BihConfig) -> Bih {
 
 /// [`build`] with `region` as the scene box of the global heuristic.
 pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    let mut refs: Vec<PrimRef> = (scene.triangles.iter().enumerate())
-        .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
-        .collect();
-    let (bih, _) = build_items(&mut refs, region, cfg);
-    bih
+    build_items(&mut prim_refs(scene), region, cfg).0
 }

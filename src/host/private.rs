@@ -14,7 +14,7 @@
 //! leaves by its thread ([`build_node`]). Node ids are handed out by one
 //! atomic counter as threads make nodes, in whatever order they run; the
 //! nodes are put together at the end and renumbered in the serial
-//! recursion's order ([`depth_first`]), so the tree is the serial host
+//! recursion's order ([`crate::bih::depth_first`]), so the tree is the serial host
 //! builder's node for node, with the items in the same order, for any
 //! number of threads and any schedule.
 //!
@@ -28,9 +28,8 @@ use crossbeam::deque::{Injector, Steal, Stealer, Worker};
 
 use super::{HostBuilder, SUBTREE, graft};
 use crate::aabb::Aabb;
-use crate::bih::{Bih, BihConfig, BihNode, Quality, depth_first};
-use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
-use crate::kernels::split::side_of;
+use crate::bih::{Bih, BihConfig, BihNode, Quality};
+use crate::kernels::recursion::{BuildStats, Item, NodeJob, Step, build_node, step};
 use crate::scene::Scene;
 
 /// The builder.
@@ -45,10 +44,7 @@ pub const BUILDER: HostBuilder = HostBuilder {
 /// Builds the tree of `scene` with `region` as the scene box of the global
 /// heuristic, on the current rayon pool's threads.
 pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    let mut refs: Vec<PrimRef> = (scene.triangles.iter().enumerate())
-        .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
-        .collect();
-    build_items(&mut refs, region, cfg).0
+    build_items(&mut super::prim_refs(scene), region, cfg).0
 }
 
 /// A job: node `id` over its own items.
@@ -83,14 +79,7 @@ pub fn build_items<T: Item + Send>(
         // One thread: the serial recursion itself, no deque, no task.
         return crate::kernels::recursion::build_items(items, region, cfg);
     }
-    let all = side_of(items);
-    let root = NodeJob {
-        first: 0,
-        depth: 0,
-        region,
-        candidate: region,
-        side: all,
-    };
+    let root = super::root_job(items, region);
     let ids = AtomicUsize::new(1);
     let made = run(&mut *items, root, cfg, threads, &ids);
     // The nodes, put together: every id handed out, then the subtrees.
@@ -121,14 +110,7 @@ pub fn build_items<T: Item + Send>(
     for (id, sub) in subtrees {
         graft(&mut nodes, id, &sub);
     }
-    stats.nodes = nodes.len() as u64;
-    let bih = Bih {
-        nodes: depth_first(&nodes),
-        prim_ids: items.iter().map(T::id).collect(),
-        bounds: region,
-        config: *cfg,
-    };
-    (bih, stats)
+    super::finish(&nodes, items, region, cfg, stats)
 }
 
 /// What each thread made of the jobs below `root` (over all of `items`),
@@ -220,15 +202,10 @@ fn make<'a, T: Item>(
         Step::Leaf => {}
         Step::Clip(clip) => {
             pending.fetch_add(1, Ordering::AcqRel);
-            let full = NodeJob {
-                depth: node.depth + 1,
-                region: clip.region,
-                ..node
-            };
             worker.push(Job {
                 id: children + 1 - clip.empty,
                 items,
-                node: full,
+                node: node.clipped(clip.region),
             });
         }
         Step::Split(split) => {
@@ -237,17 +214,10 @@ fn make<'a, T: Item>(
             let (l, r) = items.split_at_mut(split.left.count);
             // The right child first: the left is popped next (depth first).
             for (c, items) in [(right, r), (left, l)] {
-                let child = NodeJob {
-                    first: c.first,
-                    depth: node.depth + 1,
-                    region: c.region,
-                    candidate: c.candidate,
-                    side: c.side,
-                };
                 worker.push(Job {
                     id: c.id,
                     items,
-                    node: child,
+                    node: c.job(&node),
                 });
             }
         }

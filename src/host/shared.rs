@@ -11,7 +11,7 @@
 //! disjoint slices of the items, so the threads never share an item. The
 //! nodes are then written in the level's order by one thread (a few
 //! stores a job), breadth first, and at the end renumbered in the serial
-//! recursion's order ([`depth_first`], one pass): the tree is the serial
+//! recursion's order ([`crate::bih::depth_first`], one pass): the tree is the serial
 //! host builder's, node for node, with the items in the same order, for
 //! any number of threads.
 //!
@@ -28,9 +28,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::{HostBuilder, SUBTREE, graft};
 use crate::aabb::Aabb;
-use crate::bih::{Bih, BihConfig, BihNode, Quality, depth_first};
-use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
-use crate::kernels::split::side_of;
+use crate::bih::{Bih, BihConfig, BihNode, Quality};
+use crate::kernels::recursion::{BuildStats, Item, NodeJob, Step, build_node, step};
 use crate::scene::Scene;
 
 /// The builder.
@@ -48,10 +47,7 @@ pub const AGGLOMERATE: usize = 16;
 /// Builds the tree of `scene` with `region` as the scene box of the global
 /// heuristic, on the current rayon pool's threads.
 pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    let mut refs: Vec<PrimRef> = (scene.triangles.iter().enumerate())
-        .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
-        .collect();
-    build_items(&mut refs, region, cfg).0
+    build_items(&mut super::prim_refs(scene), region, cfg).0
 }
 
 /// A job of a level: a node to make over `items[first .. first + count]`.
@@ -75,19 +71,13 @@ pub fn build_items<T: Item + Send>(
         // One thread: the serial recursion itself, no level, no task.
         return crate::kernels::recursion::build_items(items, region, cfg);
     }
-    let all = side_of(items);
+    let root = super::root_job(items, region);
     let mut nodes = vec![BihNode::default()];
     let mut stats = BuildStats::default();
     let mut level = vec![Job {
         id: 0,
-        count: all.count,
-        node: NodeJob {
-            first: 0,
-            depth: 0,
-            region,
-            candidate: region,
-            side: all,
-        },
+        count: root.side.count,
+        node: root,
     }];
     while !level.is_empty() {
         let steps = take_level(items, &level, cfg, &mut stats);
@@ -105,31 +95,18 @@ pub fn build_items<T: Item + Send>(
                     nodes[job.id] = BihNode::leaf(job.node.first as u32, job.count as u32);
                 }
                 Step::Clip(clip) => {
-                    let full = clip.make_in(&mut nodes, job.id);
-                    let node = NodeJob {
-                        depth: job.node.depth + 1,
-                        region: clip.region,
-                        ..job.node
-                    };
                     next.push(Job {
-                        id: full,
-                        node,
+                        id: clip.make_in(&mut nodes, job.id),
+                        node: job.node.clipped(clip.region),
                         ..*job
                     });
                 }
                 Step::Split(split) => {
                     for c in split.make_in(&mut nodes, job.id, &job.node) {
-                        let node = NodeJob {
-                            first: c.first,
-                            depth: job.node.depth + 1,
-                            region: c.region,
-                            candidate: c.candidate,
-                            side: c.side,
-                        };
                         next.push(Job {
                             id: c.id,
                             count: c.side.count,
-                            node,
+                            node: c.job(&job.node),
                         });
                     }
                 }
@@ -137,14 +114,7 @@ pub fn build_items<T: Item + Send>(
         }
         level = next;
     }
-    stats.nodes = nodes.len() as u64;
-    let bih = Bih {
-        nodes: depth_first(&nodes),
-        prim_ids: items.iter().map(T::id).collect(),
-        bounds: region,
-        config: *cfg,
-    };
-    (bih, stats)
+    super::finish(&nodes, items, region, cfg, stats)
 }
 
 /// What a job made: one step of the recursion (its children are jobs of

@@ -251,6 +251,31 @@ pub fn build_node<T: Item>(
     b.nodes
 }
 
+impl NodeJob {
+    /// The job of a clip node's full child: this node's items again, one
+    /// level down, in the clip's `region`.
+    pub fn clipped(&self, region: Aabb) -> NodeJob {
+        NodeJob {
+            depth: self.depth + 1,
+            region,
+            ..*self
+        }
+    }
+}
+
+impl Child {
+    /// The child's own job, one level below `parent`.
+    pub fn job(&self, parent: &NodeJob) -> NodeJob {
+        NodeJob {
+            first: self.first,
+            depth: parent.depth + 1,
+            region: self.region,
+            candidate: self.candidate,
+            side: self.side,
+        }
+    }
+}
+
 /// What one node of the recursion became ([`step`]).
 #[derive(Clone, Copy, Debug)]
 pub enum Step {
