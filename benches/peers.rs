@@ -1,5 +1,6 @@
 //! cellbih beside a peer (issue 15, item 8): obvhs's CWBVH, built with its
-//! fastest and medium presets on one thread (no `parallel` feature), and
+//! fastest and medium presets on one thread (a rayon pool of one: obvhs's
+//! `parallel` feature is on for `host_scaling`), and
 //! cellbih's host builder and tracer — the paper's tree and the best
 //! quality knobs (the cut-off alone, and binned SAH with it) — on the same
 //! triangles and the same rays.
@@ -59,6 +60,10 @@ fn main() {
         }
     }
     let data = scene::data_dir(None);
+    let one_thread = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("a pool of one thread");
     println!(
         "one thread; RUSTFLAGS={:?}; build ms and Mrays/s: medians of {runs}",
         std::env::var("RUSTFLAGS").unwrap_or_default()
@@ -71,7 +76,7 @@ fn main() {
                 continue;
             }
         };
-        compare(&s, runs, &above);
+        one_thread.install(|| compare(&s, runs, &above));
     }
 }
 

@@ -59,6 +59,7 @@ impl BuilderKind {
         BuilderKind::HOST,
         BuilderKind::host(&crate::host::shared::BUILDER),
         BuilderKind::host(&crate::host::private::BUILDER),
+        BuilderKind::host(&crate::host::morton::BUILDER),
         BuilderKind::PPE_NAIVE,
         BuilderKind::PPE_APPROX,
         BuilderKind::SPE_DFS,
@@ -225,7 +226,28 @@ impl BuilderKind {
     /// the current rayon pool (`ThreadPool::install` gives it the caller's):
     /// the host counterparts of section 5's strategies (issue 29).
     pub fn host_threads(self) -> bool {
-        matches!(self.0, Family::Host(b) if b.threads)
+        matches!(self.0, Family::Host(b) if b.grained.is_some())
+    }
+
+    /// A host-thread builder's tree of `scene`, a job of at most `grain`
+    /// items finished by one thread alone (the builders use
+    /// [`crate::host::SUBTREE`]; tests make it small so that the parallel
+    /// part runs on small scenes). `None` for every other builder.
+    pub fn build_grained(self, scene: &Scene, cfg: &BihConfig, grain: usize) -> Option<Bih> {
+        match self.0 {
+            Family::Host(HostBuilder {
+                grained: Some(g), ..
+            }) if self.builds(cfg) => Some(
+                g(
+                    &mut crate::host::prim_refs(scene),
+                    scene.bounds(),
+                    cfg,
+                    grain,
+                )
+                .0,
+            ),
+            _ => None,
+        }
     }
 
     /// Whether the builder runs on the emulated Cell (and so reports

@@ -1,12 +1,15 @@
 //! Issue 29: the host's parallel builders (every builder of the registry
 //! that builds on the threads of the current rayon pool) build exactly the
-//! serial host builder's tree — the same nodes, numbered alike, and the
-//! same triangle order — with 1, 2, 3 and 8 threads, on the property
-//! scenes, the extremes and the real meshes, with every quality knob.
+//! serial host builder's tree — the same nodes, numbered alike, the same
+//! leaves with the same triangles — with 1, 2, 3 and 8 threads, on the
+//! property scenes, the extremes and the real meshes, with every quality
+//! knob each builds; with a grain of a few items (so that the parallel
+//! part, not one thread's serial recursion, builds a small scene); and
+//! every ray they answer, brute force answers the same.
 
 mod common;
 
-use cellbih::bih::BihConfig;
+use cellbih::bih::{Bih, BihConfig, Tracer};
 use cellbih::registry::BuilderKind;
 use cellbih::scene::{self, Scene};
 use proptest::prelude::*;
@@ -34,7 +37,7 @@ fn settings() -> Vec<BihConfig> {
 }
 
 /// `b`'s tree of `s` built in a pool of `threads` threads.
-fn build_in_pool(b: BuilderKind, s: &Scene, cfg: &BihConfig, threads: usize) -> cellbih::bih::Bih {
+fn build_in_pool(b: BuilderKind, s: &Scene, cfg: &BihConfig, threads: usize) -> Bih {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -42,20 +45,48 @@ fn build_in_pool(b: BuilderKind, s: &Scene, cfg: &BihConfig, threads: usize) -> 
     pool.install(|| b.build(s, cfg)).unwrap().bih
 }
 
-/// Every parallel builder gives the serial host builder's tree of `s`.
+/// `tree` is `serial`: the same nodes, numbered alike, and each leaf the
+/// same triangles (in any order).
+fn same_tree(serial: &Bih, tree: &Bih) -> Result<(), String> {
+    common::same_tree_structure(serial, tree)?;
+    match tree.nodes == serial.nodes {
+        true => Ok(()),
+        false => Err("the same structure, numbered otherwise".into()),
+    }
+}
+
+/// Every parallel builder that builds `cfg` gives the serial host
+/// builder's tree of `s`.
 fn check(s: &Scene, cfg: &BihConfig, threads: &[usize]) -> Result<(), String> {
     let serial = BuilderKind::HOST.build(s, cfg).unwrap().bih;
-    for b in parallel() {
+    for b in parallel().into_iter().filter(|b| b.builds(cfg)) {
         for &t in threads {
             let tree = build_in_pool(b, s, cfg, t);
-            if tree != serial {
-                let why = common::same_tree_structure(&serial, &tree)
-                    .err()
-                    .unwrap_or_else(|| {
-                        "the same structure, another numbering or triangle order".into()
-                    });
-                return Err(format!("{b}, {t} threads, {}: {why}", s.name));
-            }
+            same_tree(&serial, &tree)
+                .map_err(|why| format!("{b}, {t} threads, {}: {why}", s.name))?;
+        }
+    }
+    Ok(())
+}
+
+/// [`check`] with jobs of at most `grain` items finished by one thread,
+/// and every ray of the trees against brute force.
+fn check_grained(s: &Scene, cfg: &BihConfig, threads: usize, grain: usize) -> Result<(), String> {
+    let serial = BuilderKind::HOST.build(s, cfg).unwrap().bih;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    for b in parallel().into_iter().filter(|b| b.builds(cfg)) {
+        let tree = pool
+            .install(|| b.build_grained(s, cfg, grain))
+            .expect("a grained builder");
+        let at = || format!("{b}, {threads} threads, grain {grain}, {}", s.name);
+        same_tree(&serial, &tree).map_err(|why| format!("{}: {why}", at()))?;
+        tree.validate(s).map_err(|v| format!("{}: {v}", at()))?;
+        let tracer = Tracer::new(&tree, s);
+        for ray in common::rays_for(s, 16, 5) {
+            common::check_ray(s, &tracer, &ray).map_err(|e| format!("{}: {e}", at()))?;
         }
     }
     Ok(())
@@ -76,6 +107,9 @@ fn the_serial_tree_with_1_2_3_and_8_threads_on_procedural_scenes_and_extremes() 
     for s in &scenes {
         for cfg in settings() {
             check(s, &cfg, &[1, 2, 3, 8]).unwrap();
+            for grain in [1, 7, 64] {
+                check_grained(s, &cfg, 3, grain).unwrap();
+            }
         }
     }
 }
@@ -100,9 +134,11 @@ proptest! {
         s in common::scene_strategy(),
         threads in 1usize..9,
         pick in 0usize..3,
+        grain in prop::sample::select(vec![1usize, 2, 5, 33]),
     ) {
         let cfg = settings()[pick];
         check(&s, &cfg, &[threads]).map_err(TestCaseError::fail)?;
+        check_grained(&s, &cfg, threads.max(2), grain).map_err(TestCaseError::fail)?;
     }
 }
 

@@ -46,11 +46,23 @@ fn runs(cost: &CostModel) -> BTreeMap<String, String> {
         );
     };
     let default = scene::load("default", None).unwrap();
+    // The host's parallel builders on two threads on every machine: their
+    // tree is the serial builder's on any number, but the order of the
+    // triangles within a leaf may differ between one thread and more
+    // (host_morton's key order).
+    let two = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
     let build = |s: &Scene, b: BuilderKind, cfg: &BihConfig, spes: usize, k: &Knobs| {
         let mut cell = CellConfig::ps3().with_spes(spes);
         cell.cost = cost.clone();
-        b.build_with(s, s.bounds(), cfg, &cell, k)
-            .unwrap_or_else(|e| panic!("{b}: {e}"))
+        let run = || b.build_with(s, s.bounds(), cfg, &cell, k);
+        match b.host_threads() {
+            true => two.install(run),
+            false => run(),
+        }
+        .unwrap_or_else(|e| panic!("{b}: {e}"))
     };
     let d = Knobs::default();
     let quality = BihConfig {

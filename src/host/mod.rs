@@ -3,9 +3,12 @@
 //! ([`crate::kernels::recursion`]) on the scene's triangle boxes in one
 //! thread, and the host counterparts of section 5's strategies (issue 29),
 //! which build its tree on the threads of the current rayon pool:
-//! [`shared`] (one job queue a level) and [`private`] (per-thread deques
-//! with work stealing).
+//! [`shared`] (one job queue a level), [`private`] (per-thread deques
+//! with work stealing) and [`morton`] (Morton keys, a parallel radix sort,
+//! independent subtrees).
 
+pub mod coop;
+pub mod morton;
 pub mod private;
 pub mod shared;
 
@@ -85,10 +88,18 @@ pub struct HostBuilder {
     /// `build(scene, region, cfg)`: the tree of `scene` with `region` as
     /// the scene box of the global heuristic.
     pub build: fn(&Scene, Aabb, &BihConfig) -> Bih,
-    /// It builds on the threads of the current rayon pool (the caller's,
-    /// with `ThreadPool::install`), the serial builder's tree on any number.
-    pub threads: bool,
+    /// Set for a builder that builds on the threads of the current rayon
+    /// pool (the caller's, with `ThreadPool::install`), the serial
+    /// builder's tree on any number: its build over the items with the
+    /// grain as a parameter (tests make it small to run the parallel part
+    /// on small scenes).
+    pub grained: Option<Grained>,
 }
+
+/// A parallel builder's tree of `items` (sorted in place) with `region` as
+/// the scene box, a job of at most `grain` items built by one thread alone
+/// (the builders use [`SUBTREE`]).
+pub type Grained = fn(&mut [PrimRef], Aabb, &BihConfig, usize) -> (Bih, BuildStats);
 
 /// The host builder, the serial reference.
 pub const BUILDER: HostBuilder = HostBuilder {
@@ -96,7 +107,7 @@ pub const BUILDER: HostBuilder = HostBuilder {
     describe: "recursive in-place build, global heuristic, on the host (one thread)",
     quality: Quality::ALL,
     build: build_in,
-    threads: false,
+    grained: None,
 };
 
 /// Builds the tree of `scene` in one host thread.

@@ -9,27 +9,30 @@
 //!
 //! A job owns its items (a disjoint slice of the item array, split at
 //! each partition), so no two threads touch an item. A job of more than
-//! [`SUBTREE`] items makes one node — one step of the serial recursion
+//! [`SUBTREE`] items (the grain) makes one node — one step of the serial recursion
 //! ([`step`]) — and pushes its children; a smaller one is built to its
 //! leaves by its thread ([`build_node`]). Node ids are handed out by one
 //! atomic counter as threads make nodes, in whatever order they run; the
 //! nodes are put together at the end and renumbered in the serial
-//! recursion's order ([`crate::bih::depth_first`]), so the tree is the serial host
-//! builder's node for node, with the items in the same order, for any
-//! number of threads and any schedule.
+//! recursion's order ([`crate::bih::depth_first`]), so the tree is the
+//! serial host builder's node for node, for any number of threads and any
+//! schedule.
 //!
-//! The top levels are partitioned by one thread each (not yet
-//! cooperatively: a job larger than a thread's share keeps the others
-//! waiting until it splits).
+//! The top levels are made cooperatively first ([`coop::top`]: a job of
+//! more than 4 × [`SUBTREE`] items by every thread together), breadth
+//! first; the jobs below them start in the `Injector`. The cooperative
+//! partition leaves the items of a side in another order than the serial
+//! one: a leaf holds the same triangles, perhaps in another order (the
+//! same on two threads as on eight).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crossbeam::deque::{Injector, Steal, Stealer, Worker};
 
-use super::{HostBuilder, SUBTREE, graft};
+use super::{HostBuilder, SUBTREE, coop, graft};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality};
-use crate::kernels::recursion::{BuildStats, Item, NodeJob, Step, build_node, step};
+use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
 use crate::scene::Scene;
 
 /// The builder.
@@ -38,13 +41,13 @@ pub const BUILDER: HostBuilder = HostBuilder {
     describe: "the host builder's tree on the host's cores: a deque per thread, work stealing (crossbeam; section 5's private queues)",
     quality: Quality::ALL,
     build: build_in,
-    threads: true,
+    grained: Some(build_items::<PrimRef>),
 };
 
 /// Builds the tree of `scene` with `region` as the scene box of the global
 /// heuristic, on the current rayon pool's threads.
 pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    build_items(&mut super::prim_refs(scene), region, cfg).0
+    build_items(&mut super::prim_refs(scene), region, cfg, SUBTREE).0
 }
 
 /// A job: node `id` over its own items.
@@ -54,7 +57,7 @@ struct Job<'a, T> {
     node: NodeJob,
 }
 
-/// What a thread made of one job. (One a job above [`SUBTREE`] items and
+/// What a thread made of one job. (One a job above the grain and
 /// one a subtree: a few thousand on the dragon, so the size of a step's
 /// record does not matter.)
 #[allow(clippy::large_enum_variant)]
@@ -68,10 +71,11 @@ enum Made {
 /// Builds a tree over `items`, sorting them in place, on the current rayon
 /// pool's threads with per-thread deques: the serial recursion's tree
 /// ([`crate::kernels::recursion::build_items`]), node for node.
-pub fn build_items<T: Item + Send>(
+pub fn build_items<T: Item + Send + Sync>(
     items: &mut [T],
     region: Aabb,
     cfg: &BihConfig,
+    grain: usize,
 ) -> (Bih, BuildStats) {
     assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
     let threads = rayon::current_num_threads();
@@ -81,10 +85,16 @@ pub fn build_items<T: Item + Send>(
     }
     let root = super::root_job(items, region);
     let ids = AtomicUsize::new(1);
-    let made = run(&mut *items, root, cfg, threads, &ids);
+    let mut stats = BuildStats::default();
+    // The top, every thread on each job; then the deques.
+    let (top, below) = coop::top(&mut *items, root, (cfg, grain), &ids, &mut stats);
+    let top: Vec<_> = (top.into_iter())
+        .map(|(id, node, step, children)| (id, node, Made::Step(step, children)))
+        .collect();
+    let mut made = run(below, (cfg, grain), threads, &ids);
+    made.push((top, BuildStats::default()));
     // The nodes, put together: every id handed out, then the subtrees.
     let mut nodes = vec![BihNode::default(); ids.load(Ordering::Acquire)];
-    let mut stats = BuildStats::default();
     let mut subtrees = Vec::new();
     for (records, counted) in made {
         stats.add(&counted);
@@ -113,23 +123,20 @@ pub fn build_items<T: Item + Send>(
     super::finish(&nodes, items, region, cfg, stats)
 }
 
-/// What each thread made of the jobs below `root` (over all of `items`),
-/// the threads taking ids from `ids`.
+/// What each thread made of the jobs `below` the top and their
+/// descendants, the threads taking ids from `ids`.
 #[allow(clippy::type_complexity)]
-fn run<T: Item + Send>(
-    items: &mut [T],
-    root: NodeJob,
-    cfg: &BihConfig,
+fn run<'a, T: Item + Send>(
+    below: Vec<coop::Below<'a, T>>,
+    (cfg, grain): (&BihConfig, usize),
     threads: usize,
     ids: &AtomicUsize,
 ) -> Vec<(Vec<(usize, NodeJob, Made)>, BuildStats)> {
-    let pending = AtomicUsize::new(1);
+    let pending = AtomicUsize::new(below.len());
     let injector = Injector::new();
-    injector.push(Job {
-        id: 0,
-        items,
-        node: root,
-    });
+    for (id, items, node) in below {
+        injector.push(Job { id, items, node });
+    }
     let workers: Vec<Worker<Job<T>>> = (0..threads).map(|_| Worker::new_lifo()).collect();
     let stealers: Vec<Stealer<Job<T>>> = workers.iter().map(Worker::stealer).collect();
     let made = std::sync::Mutex::new(Vec::with_capacity(threads));
@@ -143,7 +150,7 @@ fn run<T: Item + Send>(
                         std::thread::yield_now();
                         continue;
                     };
-                    make(job, cfg, (&worker, ids, pending), &mut own);
+                    make(job, (cfg, grain), (&worker, ids, pending), &mut own);
                 }
                 made.lock().expect("a thread's records").push(own);
             });
@@ -178,13 +185,13 @@ fn find<'a, T>(
 /// onto this thread's deque. Records what it made in `own`.
 fn make<'a, T: Item>(
     job: Job<'a, T>,
-    cfg: &BihConfig,
+    (cfg, grain): (&BihConfig, usize),
     (worker, ids, pending): (&Worker<Job<'a, T>>, &AtomicUsize, &AtomicUsize),
     own: &mut (Vec<(usize, NodeJob, Made)>, BuildStats),
 ) {
     let (records, stats) = own;
     let Job { id, items, node } = job;
-    if items.len() <= SUBTREE {
+    if items.len() <= grain {
         records.push((
             id,
             node,

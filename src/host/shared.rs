@@ -11,11 +11,15 @@
 //! disjoint slices of the items, so the threads never share an item. The
 //! nodes are then written in the level's order by one thread (a few
 //! stores a job), breadth first, and at the end renumbered in the serial
-//! recursion's order ([`crate::bih::depth_first`], one pass): the tree is the serial
-//! host builder's, node for node, with the items in the same order, for
-//! any number of threads.
+//! recursion's order ([`crate::bih::depth_first`], one pass): the tree is
+//! the serial host builder's, node for node, for any number of threads.
+//! A job of more than 4 × [`SUBTREE`] items is made by every thread
+//! together ([`coop::coop_step`]), before the level's queue opens: a leaf
+//! holds the same triangles as the serial builder's, perhaps in another
+//! order (the cooperative partition's; the same on two threads as on
+//! eight).
 //!
-//! A job of at most [`SUBTREE`] items is built to its leaves by the thread
+//! A job of at most [`SUBTREE`] items (the grain) is built to its leaves by the thread
 //! that takes it (the serial recursion over its own items, which then stay
 //! in that core's cache), and grafted into the tree.
 //!
@@ -26,10 +30,10 @@
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use super::{HostBuilder, SUBTREE, graft};
+use super::{HostBuilder, SUBTREE, coop, graft};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality};
-use crate::kernels::recursion::{BuildStats, Item, NodeJob, Step, build_node, step};
+use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
 use crate::scene::Scene;
 
 /// The builder.
@@ -38,7 +42,7 @@ pub const BUILDER: HostBuilder = HostBuilder {
     describe: "the host builder's tree level by level on the host's cores: one shared job queue a level, batches taken atomically (rayon; section 5's shared queue)",
     quality: Quality::ALL,
     build: build_in,
-    threads: true,
+    grained: Some(build_items::<PrimRef>),
 };
 
 /// Jobs one take hands out at most (as `spe_bfs_shared --agglomerate`).
@@ -47,7 +51,7 @@ pub const AGGLOMERATE: usize = 16;
 /// Builds the tree of `scene` with `region` as the scene box of the global
 /// heuristic, on the current rayon pool's threads.
 pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    build_items(&mut super::prim_refs(scene), region, cfg).0
+    build_items(&mut super::prim_refs(scene), region, cfg, SUBTREE).0
 }
 
 /// A job of a level: a node to make over `items[first .. first + count]`.
@@ -61,10 +65,11 @@ struct Job {
 /// Builds a tree over `items`, sorting them in place, level by level on
 /// the current rayon pool's threads: the serial recursion's tree
 /// ([`crate::kernels::recursion::build_items`]), node for node.
-pub fn build_items<T: Item + Send>(
+pub fn build_items<T: Item + Send + Sync>(
     items: &mut [T],
     region: Aabb,
     cfg: &BihConfig,
+    grain: usize,
 ) -> (Bih, BuildStats) {
     assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
     if rayon::current_num_threads() == 1 {
@@ -80,7 +85,7 @@ pub fn build_items<T: Item + Send>(
         node: root,
     }];
     while !level.is_empty() {
-        let steps = take_level(items, &level, cfg, &mut stats);
+        let steps = take_level(items, &level, (cfg, grain), &mut stats);
         let mut next = Vec::with_capacity(2 * level.len());
         for (job, made) in level.iter().zip(steps) {
             let made = match made {
@@ -118,7 +123,7 @@ pub fn build_items<T: Item + Send>(
 }
 
 /// What a job made: one step of the recursion (its children are jobs of
-/// the next level), or, for a job of at most [`SUBTREE`] items, its whole
+/// the next level), or, for a job of at most the grain's items, its whole
 /// subtree (root 0, leaf ranges in the whole array's places).
 enum Made {
     Step(Step),
@@ -135,10 +140,10 @@ struct Slot<'a, T> {
 /// Makes every job of `level` (in item order, disjoint), the threads
 /// taking batches from one counter; returns what each made, in order, and
 /// adds their work to `stats`.
-fn take_level<T: Item + Send>(
+fn take_level<T: Item + Send + Sync>(
     items: &mut [T],
     level: &[Job],
-    cfg: &BihConfig,
+    (cfg, grain): (&BihConfig, usize),
     stats: &mut BuildStats,
 ) -> Vec<Made> {
     // Each job's own items, carved in order.
@@ -155,29 +160,39 @@ fn take_level<T: Item + Send>(
             stats: BuildStats::default(),
         }));
     }
+    let coop = coop::threshold(grain);
     let make = |k: usize| {
         let mut slot = slots[k].lock().expect("a job's slot");
         let Slot { items, made, stats } = &mut *slot;
         let job = &level[k];
-        *made = Some(match job.count <= SUBTREE {
-            true => Made::Subtree(build_node(items, &job.node, cfg, stats)),
-            false => Made::Step(step(items, &job.node, cfg, stats)),
+        *made = Some(match job.count {
+            n if n <= grain => Made::Subtree(build_node(items, &job.node, cfg, stats)),
+            n if n > coop => Made::Step(coop::coop_step(items, &job.node, (cfg, grain), stats)),
+            _ => Made::Step(step(items, &job.node, cfg, stats)),
         });
     };
-    let threads = rayon::current_num_threads().min(level.len());
+    // The large jobs first, one at a time, every thread on each; then the
+    // others from the queue.
+    let (large, queue): (Vec<usize>, Vec<usize>) =
+        (0..level.len()).partition(|&k| level[k].count > coop);
+    large.into_iter().for_each(make);
+    let threads = rayon::current_num_threads().min(queue.len());
     if threads <= 1 {
-        (0..level.len()).for_each(make);
+        queue.into_iter().for_each(make);
     } else {
         let next = AtomicUsize::new(0);
         let worker = || {
             loop {
-                let left = level.len().saturating_sub(next.load(Ordering::Relaxed));
+                let left = queue.len().saturating_sub(next.load(Ordering::Relaxed));
                 let size = left.div_ceil(threads).clamp(1, AGGLOMERATE);
                 let first = next.fetch_add(size, Ordering::Relaxed);
-                if first >= level.len() {
+                if first >= queue.len() {
                     break;
                 }
-                (first..(first + size).min(level.len())).for_each(make);
+                queue[first..(first + size).min(queue.len())]
+                    .iter()
+                    .copied()
+                    .for_each(make);
             }
         };
         rayon::scope(|s| {

@@ -367,6 +367,26 @@ pub fn step<T: Item>(
     cfg: &BihConfig,
     stats: &mut BuildStats,
 ) -> Step {
+    step_with(
+        items,
+        node,
+        (cfg, stats),
+        |b, items| b.add(items),
+        partition,
+    )
+}
+
+/// [`step`] with the node's binning (`bin`: fill the bins with the items)
+/// and partition (`part`) given: the host's cooperative top passes ones
+/// that share the work among threads. They must give the same bins and the
+/// same sides (a partition may leave the items of a side in another order).
+pub fn step_with<T: Item>(
+    items: &mut [T],
+    node: &NodeJob,
+    (cfg, stats): (&BihConfig, &mut BuildStats),
+    bin: impl FnOnce(&mut Bins, &[T]),
+    part: impl FnOnce(&mut [T], crate::kernels::split::Split) -> (Side, Side),
+) -> Step {
     let count = items.len();
     let mut candidate = node.candidate;
     let view = NodeView::of_side(
@@ -389,14 +409,14 @@ pub fn step<T: Item>(
             stats.items_binned += count as u64;
             stats.sah_sweeps += 1;
             let mut b = Bins::new(&view.centers, bins);
-            b.add(items);
+            bin(&mut b, items);
             b.choose_or_halve(&mut candidate, &mut stats.f32_stalls)
         }
     };
     let Some(split) = split else {
         return Step::Leaf;
     };
-    let (left, right) = partition(items, split);
+    let (left, right) = part(items, split);
     stats.items_partitioned += count as u64;
     stats.partitions += 1;
     debug_assert!(left.count > 0 && right.count > 0);

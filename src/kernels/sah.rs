@@ -43,6 +43,7 @@ pub fn sah_split<T: Boxed>(items: &[T], centers: &Aabb, bins: u32) -> Option<Spl
 /// The bins of one node: filled by one pass over its triangles (in as many
 /// pieces as it comes in: an SPE bins a local-store block at a time), then
 /// swept for the cheapest plane.
+#[derive(Clone)]
 pub struct Bins {
     centers: Aabb,
     lo: DVec3,

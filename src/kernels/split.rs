@@ -26,7 +26,7 @@ pub struct Split {
 impl Split {
     /// Whether `it` goes left: its box center is below the plane.
     #[inline(always)]
-    fn goes_left<T: Boxed>(self, it: &T) -> bool {
+    pub fn goes_left<T: Boxed>(self, it: &T) -> bool {
         mid(it.lo()[self.axis], it.hi()[self.axis]) < self.plane
     }
 

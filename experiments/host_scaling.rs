@@ -1,0 +1,303 @@
+//! Issue 29, item 4: section 5's strategies on the host's own cores. Every
+//! builder of the registry that builds on the host's threads, beside the
+//! serial host builder and a peer (obvhs's CWBVH with its `parallel`
+//! feature, its fastest preset), on each scene and thread count: wall time
+//! and total CPU time (user + sys of the whole process, every thread), so
+//! that work efficiency shows even where there are few cores.
+//!
+//! `CELLBIH_DATA=../shared/data cargo run --release --example host_scaling -- [--scenes bunny,dragon] [--threads 1,2] [--runs 7] [--out results]`
+//!
+//! An example, not a `[[bin]]`: obvhs is a dev-dependency only. Each build
+//! runs in a rayon pool of the row's threads (`ThreadPool::install`), once
+//! to warm up and then `--runs` times; the table gives medians. Each
+//! parallel builder's tree is checked against the serial builder's (the
+//! same nodes). Writes host_scaling.{csv,json} and host_scaling.svg
+//! (speedup against threads on the largest scene).
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use clap::Parser;
+use serde_json::{Value, json};
+
+use cellbih::bih::BihConfig;
+use cellbih::registry::BuilderKind;
+use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
+use cellbih::scene::{self, Scene};
+
+#[derive(Parser)]
+struct Args {
+    /// Directory of the real meshes (default: $CELLBIH_DATA).
+    #[arg(long)]
+    data: Option<PathBuf>,
+    /// Scenes, comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "bunny,dragon,sponza-dabrovic,sibenik,rtperf:4000000"
+    )]
+    scenes: Vec<String>,
+    /// Thread counts, comma-separated (default: 1, 2, 4, … up to the
+    /// machine's available parallelism, and it).
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u64).range(1..=1024))]
+    threads: Vec<u64>,
+    /// Timed builds per row (after one to warm up); the table gives medians.
+    #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    runs: u64,
+    /// text (a table) or json (the rows).
+    #[arg(long, value_enum, default_value = "text")]
+    format: Format,
+    /// Directory for the CSV, JSON and SVG files.
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+}
+
+fn main() {
+    let mut args = Args::parse();
+    if args.data.is_none() {
+        args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
+    }
+    if args.threads.is_empty() {
+        let most = hardware_threads() as u64;
+        args.threads = std::iter::successors(Some(1u64), |t| Some(t * 2))
+            .take_while(|&t| t < most)
+            .chain([most])
+            .collect();
+    }
+    cellbih::report::experiment_main("host_scaling", &args.out, || run(&args));
+}
+
+fn hardware_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// The CPU time (user + sys) this process has used, every thread.
+fn cpu_time() -> Duration {
+    // SAFETY: getrusage writes the struct it is given and nothing else.
+    let usage = unsafe {
+        let mut u = std::mem::zeroed::<libc::rusage>();
+        libc::getrusage(libc::RUSAGE_SELF, &mut u);
+        u
+    };
+    let tv = |t: libc::timeval| Duration::new(t.tv_sec as u64, t.tv_usec as u32 * 1000);
+    tv(usage.ru_utime) + tv(usage.ru_stime)
+}
+
+/// The medians of `runs` timed calls of `f` (after one to warm up): wall
+/// and CPU milliseconds; and what the last call returned.
+fn timed<R>(runs: u64, mut f: impl FnMut() -> R) -> (f64, f64, R) {
+    let mut last = f();
+    let (mut wall, mut cpu) = (Vec::new(), Vec::new());
+    for _ in 0..runs {
+        let (w, c) = (Instant::now(), cpu_time());
+        last = f();
+        cpu.push((cpu_time() - c).as_secs_f64() * 1e3);
+        wall.push(w.elapsed().as_secs_f64() * 1e3);
+    }
+    (median(wall), median(cpu), last)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The builders measured: the serial host builder and every builder that
+/// builds on the host's threads.
+fn builders() -> Vec<BuilderKind> {
+    (BuilderKind::ALL.iter().copied())
+        .filter(|b| *b == BuilderKind::HOST || b.host_threads())
+        .collect()
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let cfg = BihConfig::default();
+    let machine = json!({
+        "hardware_threads": hardware_threads(),
+        "cpu": cpu_model(),
+        "runs": args.runs,
+        "statistic": "median",
+    });
+    eprintln!(
+        "host_scaling: {} hardware threads ({}); medians of {} warm builds",
+        machine["hardware_threads"], machine["cpu"], args.runs
+    );
+    let mut rows = Vec::new();
+    for spec in &args.scenes {
+        let s = match scene::load(spec, args.data.as_deref()) {
+            Ok(s) => s,
+            Err(e) if args.data.is_none() => {
+                eprintln!("host_scaling: {spec} skipped ({e})");
+                continue;
+            }
+            Err(e) => return Err(format!("{spec}: {e}")),
+        };
+        rows.extend(scene_rows(&s, &cfg, args)?);
+    }
+    let mut doc = machine.clone();
+    doc["rows"] = Value::Array(rows.clone());
+    write_json(
+        &output(&args.out, "host_scaling.json").map_err(|e| e.to_string())?,
+        &doc,
+    )
+    .map_err(|e| e.to_string())?;
+    let keys = [
+        "scene",
+        "triangles",
+        "builder",
+        "threads",
+        "wall_ms",
+        "cpu_ms",
+        "speedup",
+        "cpu_over_serial",
+        "same_tree",
+    ];
+    write_rows_csv(
+        &output(&args.out, "host_scaling.csv").map_err(|e| e.to_string())?,
+        &keys,
+        &rows,
+    )
+    .map_err(|e| e.to_string())?;
+    plot(&rows, &args.out)?;
+    print_rows(args.format, &rows, |rows| {
+        println!(
+            "{:<16} {:<14} {:>7} {:>10} {:>10} {:>8} {:>9} {:>5}",
+            "scene", "builder", "threads", "wall ms", "cpu ms", "speedup", "cpu/ser.", "same"
+        );
+        for r in rows {
+            println!(
+                "{:<16} {:<14} {:>7} {:>10.2} {:>10.2} {:>7.2}x {:>8.2}x {:>5}",
+                r["scene"].as_str().unwrap_or(""),
+                r["builder"].as_str().unwrap_or(""),
+                r["threads"],
+                r["wall_ms"].as_f64().unwrap_or(0.0),
+                r["cpu_ms"].as_f64().unwrap_or(0.0),
+                r["speedup"].as_f64().unwrap_or(0.0),
+                r["cpu_over_serial"].as_f64().unwrap_or(0.0),
+                match r["same_tree"].as_bool() {
+                    Some(true) => "yes",
+                    Some(false) => "NO",
+                    None => "-",
+                }
+            );
+        }
+    })
+}
+
+/// The rows of one scene: the serial builder once, each parallel builder
+/// and the peer on each thread count.
+fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, String> {
+    let one = |threads: u64| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads as usize)
+            .build()
+            .map_err(|e| e.to_string())
+    };
+    let (serial_wall, serial_cpu, serial) =
+        one(1)?.install(|| timed(args.runs, || BuilderKind::HOST.build(s, cfg).map(|r| r.bih)));
+    let serial = serial.map_err(|e| e.to_string())?;
+    let row = |builder: &str, threads: u64, wall: f64, cpu: f64, same: Option<bool>| {
+        eprintln!("  {} {builder} {threads} threads: {wall:.2} ms", s.name);
+        json!({
+            "scene": s.name, "triangles": s.len(), "builder": builder, "threads": threads,
+            "wall_ms": wall, "cpu_ms": cpu,
+            "speedup": serial_wall / wall, "cpu_over_serial": cpu / serial_cpu,
+            "same_tree": same,
+        })
+    };
+    let mut rows = vec![row(
+        BuilderKind::HOST.name(),
+        1,
+        serial_wall,
+        serial_cpu,
+        Some(true),
+    )];
+    let tris: Vec<obvhs::triangle::Triangle> = (s.triangles.iter())
+        .map(|t| obvhs::triangle::Triangle {
+            v0: t.v[0].into(),
+            v1: t.v[1].into(),
+            v2: t.v[2].into(),
+        })
+        .collect();
+    for &threads in &args.threads {
+        let pool = one(threads)?;
+        for b in builders().into_iter().filter(|b| b.host_threads()) {
+            let (wall, cpu, tree) =
+                pool.install(|| timed(args.runs, || b.build(s, cfg).map(|r| r.bih)));
+            let tree = tree.map_err(|e| e.to_string())?;
+            rows.push(row(
+                b.name(),
+                threads,
+                wall,
+                cpu,
+                Some(tree.nodes == serial.nodes),
+            ));
+        }
+        let params = obvhs::BvhBuildParams::fastest_build();
+        let (wall, cpu, _) = pool.install(|| {
+            timed(args.runs, || {
+                obvhs::cwbvh::builder::build_cwbvh_from_tris(
+                    &tris,
+                    params,
+                    &mut Duration::default(),
+                )
+            })
+        });
+        rows.push(row("obvhs fastest", threads, wall, cpu, None));
+    }
+    Ok(rows)
+}
+
+/// Speedup over the serial host builder against threads, one line a
+/// builder, on the largest scene.
+fn plot(rows: &[Value], out: &std::path::Path) -> Result<(), String> {
+    let Some(largest) = rows.iter().max_by_key(|r| r["triangles"].as_u64()) else {
+        return Ok(());
+    };
+    let scene = largest["scene"].as_str().unwrap_or("");
+    let mut names: Vec<&str> = Vec::new();
+    for r in rows.iter().filter(|r| r["scene"] == scene) {
+        let n = r["builder"].as_str().unwrap_or("");
+        if !names.contains(&n) {
+            names.push(n);
+        }
+    }
+    let series: Vec<Series> = (names.iter().enumerate())
+        .map(|(i, &n)| Series {
+            name: n.to_string(),
+            points: (rows.iter())
+                .filter(|r| r["scene"] == scene && r["builder"] == n)
+                .map(|r| {
+                    (
+                        r["threads"].as_f64().unwrap_or(1.0),
+                        r["speedup"].as_f64().unwrap_or(0.0),
+                    )
+                })
+                .collect(),
+            color: i,
+            dashed: n.starts_with("obvhs"),
+        })
+        .collect();
+    line_plot(
+        &output(out, "host_scaling.svg").map_err(|e| e.to_string())?,
+        &format!("{scene}: build speedup over the serial host builder (host wall time, medians)"),
+        "host threads",
+        "speedup",
+        &series,
+        true,
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// The CPU's model name, from /proc/cpuinfo where there is one.
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|c| {
+            c.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into())
+}

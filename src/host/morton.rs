@@ -1,0 +1,262 @@
+//! `host_morton` — section 5's **Morton route** on the host's own cores
+//! (issue 29): the host counterpart of `spe_morton` ("a pre-processing
+//! step using Morton curves is performed to find regions of primitives
+//! that then could be built-up totally independent"; "a radix sort needs
+//! to be performed"), with the shared kernels of [`crate::kernels::morton`]
+//! and [`crate::kernels::radix`]:
+//!
+//! 1. **Keys** in the global heuristic's halving order ([`KeyOrder`]), one
+//!    per item, computed in parallel from a table of the halvings
+//!    ([`HalvingTable`]: eight items' chains of lookups side by side;
+//!    dragon, 2 threads: 8.8 ms, against 34.5 one item at a time).
+//! 2. **Radix sort**, LSD, 8 bits a pass, of (key, item index) pairs, by
+//!    blocks of [`BLOCK`] pairs in parallel: every block counts its digits;
+//!    the output is carved, digit by digit and block by block, into one
+//!    run per (block, digit); every block scatters its pairs into its own
+//!    runs (stable, and no two threads write one place).
+//! 3. The items **gathered** in key order.
+//! 4. **The top of the tree from the sorted keys**: a node where a range's
+//!    keys first differ ([`split_of`]), its two sides made side by side
+//!    (`rayon::join`), down to ranges of at most the grain's items
+//!    ([`SUBTREE`]) or whose keys are all equal.
+//! 5. **Independent subtrees**: each such range built by the serial
+//!    recursion from its candidate cell ([`KeySpec::cell`]), as a rayon
+//!    task.
+//!
+//! With keys in the global heuristic's order, a node of the key tree is a
+//! halving the serial builder makes with items on both sides (the Morton
+//! kernel's own proof, tested in `tests/morton.rs`), so the tree is the
+//! serial host builder's: the same nodes, the same leaves with the same
+//! triangles. Within a leaf the triangles may come in another order (the
+//! sort is stable where the serial partition swaps), the same for every
+//! number of threads. The paper's split choice only: keys cannot hold the
+//! binned SAH's planes or the cut-off's clip nodes.
+//!
+//! Threads: the pool the build runs in; with one thread it is the serial
+//! recursion itself (no keys, no sort: no parallel overhead).
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+
+use super::{HostBuilder, SUBTREE, graft};
+use crate::aabb::Aabb;
+use crate::bih::{Bih, BihConfig, BihNode, Quality};
+use crate::kernels::cutoff::child_regions;
+use crate::kernels::morton::{HalvingTable, KeyOrder, KeySpec, auto_key_bits, split_of};
+use crate::kernels::radix;
+use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, build_node};
+use crate::kernels::split::{clip_planes, side_of};
+use crate::scene::Scene;
+
+/// The builder.
+pub const BUILDER: HostBuilder = HostBuilder {
+    name: "host_morton",
+    describe: "the host builder's tree on the host's cores: Morton keys in the global heuristic's order, a parallel radix sort, the top from the keys, independent subtrees as rayon tasks (section 5's Morton route)",
+    quality: Quality::PAPER,
+    build: build_in,
+    grained: Some(build_items::<PrimRef>),
+};
+
+/// Pairs a block of the radix sort counts and scatters: 64 Ki pairs, 768
+/// KiB of keys and indices, a block a task.
+pub const BLOCK: usize = 1 << 16;
+
+/// Items whose keys one task computes.
+const KEY_CHUNK: usize = 4096;
+
+/// Bits a radix pass sorts by (256 counters a block).
+pub const DIGIT_BITS: u32 = 8;
+
+/// Builds the tree of `scene` with `region` as the scene box of the global
+/// heuristic, on the current rayon pool's threads.
+pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
+    build_items(&mut super::prim_refs(scene), region, cfg, SUBTREE).0
+}
+
+/// Builds a tree over `items`, sorting them in place, on the current rayon
+/// pool's threads by the Morton route: the serial recursion's tree
+/// ([`crate::kernels::recursion::build_items`]), leaf for leaf, ranges of
+/// at most `grain` items built by one thread.
+pub fn build_items<T: Item + Send + Sync>(
+    items: &mut [T],
+    region: Aabb,
+    cfg: &BihConfig,
+    grain: usize,
+) -> (Bih, BuildStats) {
+    assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
+    assert!(
+        Quality::PAPER.builds(cfg),
+        "host_morton builds the global heuristic without the cut-off"
+    );
+    if rayon::current_num_threads() == 1 {
+        // One thread: the serial recursion itself, no key, no sort.
+        return crate::kernels::recursion::build_items(items, region, cfg);
+    }
+    let grain = grain.max(1);
+    let spec = KeySpec {
+        order: KeyOrder::GlobalHeuristic,
+        bits: auto_key_bits(items.len(), grain, DIGIT_BITS),
+        scene: region,
+    };
+    // 1. Keys, 2. the sort, 3. the items in key order.
+    let mut keys = vec![0u64; items.len()];
+    match HalvingTable::new(&spec) {
+        Some(table) => (items
+            .par_chunks(KEY_CHUNK)
+            .zip(keys.par_chunks_mut(KEY_CHUNK)))
+        .for_each(|(ts, ks)| {
+            let centers: Vec<_> = ts.iter().map(|t| t.center()).collect();
+            table.keys(&centers, ks);
+        }),
+        None => (items.par_iter().zip(&mut keys)).for_each(|(t, k)| *k = spec.key(t.center())),
+    }
+    let mut order: Vec<u32> = (0..items.len() as u32).collect();
+    sort_pairs(&mut keys, &mut order, spec.bits);
+    let sorted: Vec<T> = order.par_iter().map(|&i| items[i as usize]).collect();
+    items.par_iter_mut().zip(sorted).for_each(|(to, t)| *to = t);
+    // 4. The top, 5. the subtrees.
+    let top = Top {
+        keys: &keys,
+        spec,
+        cfg,
+        grain,
+        ids: AtomicUsize::new(1),
+    };
+    let root = super::root_job(items, region);
+    let (made, stats) = top.node(items, root, 0);
+    let mut nodes = vec![BihNode::default(); top.ids.load(Ordering::Acquire)];
+    let mut subtrees = Vec::new();
+    for (id, m) in made {
+        match m {
+            Made::Node(n) => nodes[id] = n,
+            Made::Subtree(sub) => subtrees.push((id, sub)),
+        }
+    }
+    subtrees.sort_by_key(|(id, _)| *id);
+    for (id, sub) in subtrees {
+        graft(&mut nodes, id, &sub);
+    }
+    super::finish(&nodes, items, region, cfg, stats)
+}
+
+/// Sorts `keys` (of `bits` bits) and their `values` together, stably, by
+/// LSD passes of [`DIGIT_BITS`], each pass by blocks of [`BLOCK`] pairs on
+/// the current pool's threads (the passes of [`radix`]).
+pub fn sort_pairs(keys: &mut Vec<u64>, values: &mut Vec<u32>, bits: u32) {
+    assert_eq!(keys.len(), values.len());
+    let digits = 1usize << DIGIT_BITS;
+    let (mut keys2, mut values2) = (vec![0u64; keys.len()], vec![0u32; keys.len()]);
+    for pass in 0..radix::passes(bits, DIGIT_BITS) {
+        let counts: Vec<Vec<u32>> = (keys.par_chunks(BLOCK))
+            .map(|block| {
+                let mut c = vec![0u32; digits];
+                radix::histogram(block, pass, DIGIT_BITS, &mut c);
+                c
+            })
+            .collect();
+        if counts
+            .iter()
+            .all(|c| c.iter().all(|&n| n == 0 || n as usize == keys.len()))
+        {
+            continue; // Every key has the same digit: the pass moves nothing.
+        }
+        // The output carved into one run per (block, digit), digit-major:
+        // where the stable scatter puts them ([`radix::offsets`]).
+        let mut runs: Vec<Vec<(&mut [u64], &mut [u32])>> = (0..counts.len())
+            .map(|_| Vec::with_capacity(digits))
+            .collect();
+        let (mut k_rest, mut v_rest) = (&mut keys2[..], &mut values2[..]);
+        for d in 0..digits {
+            for (b, c) in counts.iter().enumerate() {
+                let (k, kt) = std::mem::take(&mut k_rest).split_at_mut(c[d] as usize);
+                let (v, vt) = std::mem::take(&mut v_rest).split_at_mut(c[d] as usize);
+                (k_rest, v_rest) = (kt, vt);
+                runs[b].push((k, v));
+            }
+        }
+        (keys.par_chunks(BLOCK).zip(values.par_chunks(BLOCK)))
+            .zip(runs)
+            .for_each(|((ks, vs), mut runs)| {
+                let mut at = vec![0usize; digits];
+                for (&k, &v) in ks.iter().zip(vs) {
+                    let d = radix::digit(k, pass, DIGIT_BITS);
+                    runs[d].0[at[d]] = k;
+                    runs[d].1[at[d]] = v;
+                    at[d] += 1;
+                }
+            });
+        std::mem::swap(keys, &mut keys2);
+        std::mem::swap(values, &mut values2);
+    }
+}
+
+/// What the top made in one node id: an inner node of the key tree, or a
+/// range's whole subtree (root 0).
+enum Made {
+    Node(BihNode),
+    Subtree(Vec<BihNode>),
+}
+
+/// The top of the tree from the sorted keys.
+struct Top<'a> {
+    keys: &'a [u64],
+    spec: KeySpec,
+    cfg: &'a BihConfig,
+    grain: usize,
+    ids: AtomicUsize,
+}
+
+impl Top<'_> {
+    /// Makes node `id` of `job` (over `items`, the job's own items), whose
+    /// keys share at least their first `shared` bits; returns what it made
+    /// below, and the work counted.
+    fn node<T: Item + Send + Sync>(
+        &self,
+        items: &mut [T],
+        job: NodeJob,
+        id: usize,
+    ) -> (Vec<(usize, Made)>, BuildStats) {
+        let mut stats = BuildStats::default();
+        let keys = &self.keys[job.first..job.first + items.len()];
+        let split = match items.len() <= self.grain || self.cfg.ends_in_leaf(items.len(), job.depth)
+        {
+            true => None,
+            false => split_of(keys, self.spec.bits),
+        };
+        let Some((bit, at)) = split else {
+            // A range for one thread, or one whose keys are all equal: the
+            // serial recursion from the node's candidate.
+            let sub = build_node(items, &job, self.cfg, &mut stats);
+            return (vec![(id, Made::Subtree(sub))], stats);
+        };
+        let axis = self.spec.cell(keys[0], bit).longest_axis();
+        let (l_items, r_items) = items.split_at_mut(at);
+        let (l, r) = rayon::join(|| side_of(l_items), || side_of(r_items));
+        let planes = clip_planes(axis, &l, &r);
+        let children = self.ids.fetch_add(2, Ordering::Relaxed);
+        let [lr, rr] = child_regions(job.region, axis, planes);
+        let child = |first: usize, region: Aabb, side| NodeJob {
+            first,
+            depth: job.depth + 1,
+            region,
+            candidate: self.spec.cell(self.keys[first], bit + 1),
+            side,
+        };
+        let (lj, rj) = (child(job.first, lr, l), child(job.first + at, rr, r));
+        let ((mut made, ls), (rm, rs)) = rayon::join(
+            || self.node(l_items, lj, children),
+            || self.node(r_items, rj, children + 1),
+        );
+        made.extend(rm);
+        made.push((
+            id,
+            Made::Node(BihNode::inner(children as u32, axis, planes[0], planes[1])),
+        ));
+        stats.add(&ls);
+        stats.add(&rs);
+        stats.items_partitioned += (l.count + r.count) as u64;
+        stats.partitions += 1;
+        (made, stats)
+    }
+}
