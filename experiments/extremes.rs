@@ -8,7 +8,7 @@
 //! leaf, and the halvings `f32` could not make (the host recursion's count,
 //! the same tree as every builder of the paper's tree but ppe_approx).
 //!
-//! `cargo run --release --bin extremes -- [--rays 1000] [--out results]`
+//! `cargo run --release --bin extremes -- [--rays 1000] [--threads N] [--out results]`
 //!
 //! Writes extremes.{csv,json}. `tests/extremes.rs` checks each case.
 
@@ -22,7 +22,9 @@ use cellbih::cell::CellConfig;
 use cellbih::kernels::recursion::{PrimRef, build_items};
 use cellbih::quality::agree::{examine, rays_for};
 use cellbih::registry::BuilderKind;
-use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
+use cellbih::report::{
+    Format, ThreadsArg, output, print_rows, side_by_side, write_json, write_rows_csv,
+};
 use cellbih::scene::{Scene, extremes};
 
 #[derive(Parser)]
@@ -36,6 +38,8 @@ struct Args {
     /// Directory for the CSV and JSON files.
     #[arg(long, default_value = "results")]
     out: PathBuf,
+    #[command(flatten)]
+    threads: ThreadsArg,
 }
 
 fn main() {
@@ -44,25 +48,32 @@ fn main() {
 }
 
 fn run(args: &Args) -> Result<(), String> {
+    args.threads.install()?;
     let mut cell = CellConfig::ps3();
     cell.checked = true;
-    let mut rows = Vec::new();
+    let mut cases = Vec::new();
     for &name in extremes::CASES {
         let scene = extremes::case(name).ok_or(format!("no case {name}"))?;
         let rays = rays_for(&scene, args.rays as usize, 11);
-        let runs = BuilderKind::every_run(BihConfig::SAH_CUT);
-        for (b, cfg) in runs {
-            let flags = cfg.flags();
-            let e = examine(b, &cfg, &cell, &scene, &rays);
-            rows.push(json!({
-                "case": name, "triangles": scene.len(), "degenerate": scene.degenerate_count(),
-                "builder": b.name(), "setting": flags,
-                "valid": e.invalid.is_none(), "violation": e.invalid,
-                "disagree": e.disagree, "rays": e.rays, "depth": e.depth,
-                "largest_leaf": e.largest_leaf, "f32_stalls": stalls(&scene, &cfg),
-            }));
-        }
+        cases.push((name, scene, rays));
     }
+    // Every (case, builder run) side by side.
+    let runs = BuilderKind::every_run(BihConfig::SAH_CUT);
+    let jobs: Vec<(usize, usize)> = (0..cases.len())
+        .flat_map(|c| (0..runs.len()).map(move |k| (c, k)))
+        .collect();
+    let rows = side_by_side("builds", &jobs, |&(c, k)| {
+        let (name, scene, rays) = &cases[c];
+        let (b, cfg) = runs[k];
+        let e = examine(b, &cfg, &cell, scene, rays);
+        json!({
+            "case": name, "triangles": scene.len(), "degenerate": scene.degenerate_count(),
+            "builder": b.name(), "setting": cfg.flags(),
+            "valid": e.invalid.is_none(), "violation": e.invalid,
+            "disagree": e.disagree, "rays": e.rays, "depth": e.depth,
+            "largest_leaf": e.largest_leaf, "f32_stalls": stalls(scene, &cfg),
+        })
+    });
     print_rows(args.format, &rows, print_table)?;
     let keys = [
         "case",

@@ -6,17 +6,15 @@
 //!
 //! `cargo run --release --bin frame_loop -- [--scenes car,cup,rtperf:100000]
 //! [--sizes 320x240,640x480] [--frames 10] [--builder spe_bfs_private]
-//! [--spes 6] [--out results]`
+//! [--spes 6] [--threads N] [--out results]`
 //!
 //! Writes frame_loop.{csv,json} (a row per scene, size, arrangement and
 //! policy; the JSON also holds every frame) and one SVG per scene and size:
 //! frame time per frame, a line per policy and arrangement.
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use clap::Parser;
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
@@ -24,7 +22,10 @@ use cellbih::cast::CastConfig;
 use cellbih::cell::CellConfig;
 use cellbih::frame::{FrameConfig, Policy, play};
 use cellbih::registry::BuilderKind;
-use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
+use cellbih::report::{
+    Format, Series, ThreadsArg, line_plot, output, print_rows, side_by_side, write_json,
+    write_rows_csv,
+};
 use cellbih::scene;
 use cellbih::update::{Animation, Method};
 
@@ -59,6 +60,8 @@ struct Args {
     /// Directory for frame_loop.csv, frame_loop.json and the plots.
     #[arg(long, default_value = "results")]
     out: PathBuf,
+    #[command(flatten)]
+    threads: ThreadsArg,
 }
 
 fn main() {
@@ -85,6 +88,7 @@ fn size_of(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
+    args.threads.install()?;
     let builder = BuilderKind::from_name(&args.builder)
         .filter(|b| b.emulated())
         .ok_or_else(|| format!("--builder {}: an emulated builder", args.builder))?;
@@ -105,98 +109,111 @@ fn run(args: &Args) -> Result<(), String> {
         Policy::Auto,
     ];
     let arrangements = [("section 5", spes), ("paper", 1)];
-    let runs = scenes.len() * sizes.len() * arrangements.len() * policies.len();
-    let bar = if std::io::stderr().is_terminal() {
-        let b = ProgressBar::new(runs as u64);
-        b.set_style(
-            ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} {elapsed}")
-                .map_err(|e| e.to_string())?,
-        );
-        b
-    } else {
-        ProgressBar::hidden()
-    };
-    let mut rows = Vec::new();
+    let mut played = Vec::new();
     for (spec, anim_name) in &scenes {
         let s = scene::load(spec, data.as_deref()).map_err(|e| e.to_string())?;
         let s = Animation::prepare(anim_name, s).map_err(|e| e.to_string())?;
         let anim = Animation::named(anim_name, &s, args.frames as usize, args.seed)?;
+        played.push((spec, *anim_name, s, anim));
+    }
+    // Every (scene, size, arrangement, policy) side by side.
+    let mut jobs = Vec::new();
+    for si in 0..played.len() {
         for &(w, h) in &sizes {
-            let mut series = Vec::new();
-            for (ai, &(arrangement, build_spes)) in arrangements.iter().enumerate() {
+            for (ai, &arrangement) in arrangements.iter().enumerate() {
                 for (pi, &policy) in policies.iter().enumerate() {
-                    bar.set_message(format!("{spec} {w}x{h} {arrangement} {}", policy.name()));
-                    let cfg = FrameConfig {
-                        builder,
-                        tree: BihConfig::default(),
-                        policy,
-                        oracle: policy == Policy::Auto,
-                        spes,
-                        build_spes,
-                        width: w,
-                        height: h,
-                        cast: CastConfig::DEFAULT,
-                    };
-                    let r = play(&s, &anim, &cfg, &CellConfig::ps3(), |_| {})
-                        .map_err(|e| format!("{spec}: {e}"))?;
-                    let n = r.frames.len() as f64;
-                    let mean = |f: &dyn Fn(&cellbih::frame::FrameReport) -> f64| {
-                        r.frames.iter().map(f).sum::<f64>() / n
-                    };
-                    let predicted: Vec<f64> = (r.frames.iter())
-                        .filter_map(|f| f.predicted.map(|p| cfg.frame_ms(p.update_ms, p.render_ms)))
-                        .collect();
-                    let prediction_error = (!predicted.is_empty()).then(|| {
-                        (r.frames.iter().zip(&predicted))
-                            .map(|(f, p)| (p - f.frame_ms).abs() / f.frame_ms)
-                            .sum::<f64>()
-                            / predicted.len() as f64
-                    });
-                    rows.push(json!({
-                        "scene": spec,
-                        "triangles": s.len(),
-                        "animation": anim_name,
-                        "width": w,
-                        "height": h,
-                        "arrangement": arrangement,
-                        "build_spes": build_spes,
-                        "render_spes": cfg.render_spes(),
-                        "policy": policy.name(),
-                        "total_ms": r.total_ms,
-                        "fps": r.fps,
-                        "mean_update_ms": mean(&|f| f.update_ms),
-                        "mean_render_ms": mean(&|f| f.render_ms),
-                        "complete_rebuilds": r.frames.iter().filter(|f| f.full_rebuild).count(),
-                        "near_best": r.near_best,
-                        "oracle_total_ms": r.oracle_total_ms,
-                        "prediction_error": prediction_error,
-                        "frames": r.frames,
-                    }));
-                    series.push(Series {
-                        name: format!("{} ({arrangement})", policy.name()),
-                        points: (r.frames.iter())
-                            .map(|f| (f.frame as f64, f.frame_ms))
-                            .collect(),
-                        color: pi,
-                        dashed: ai == 1,
-                    });
-                    bar.inc(1);
+                    jobs.push((si, (w, h), (ai, arrangement), (pi, policy)));
                 }
             }
-            let file = format!("frame_loop_{}_{w}x{h}.svg", spec.replace(':', "_"));
-            let path = output(&args.out, &file).map_err(|e| e.to_string())?;
-            line_plot(
-                &path,
-                &format!("{spec}, {w} × {h}: frame time on the PS3 model"),
-                "frame",
-                "simulated ms",
-                &series,
-                false,
-            )
-            .map_err(|e| e.to_string())?;
         }
     }
-    bar.finish_and_clear();
+    let done = side_by_side(
+        "runs",
+        &jobs,
+        |&(si, (w, h), (ai, (arrangement, build_spes)), (pi, policy))| {
+            let (spec, anim_name, s, anim) = &played[si];
+            let cfg = FrameConfig {
+                builder,
+                tree: BihConfig::default(),
+                policy,
+                oracle: policy == Policy::Auto,
+                spes,
+                build_spes,
+                width: w,
+                height: h,
+                cast: CastConfig::DEFAULT,
+            };
+            let r = play(s, anim, &cfg, &CellConfig::ps3(), |_| {})
+                .map_err(|e| format!("{spec}: {e}"))?;
+            let n = r.frames.len() as f64;
+            let mean = |f: &dyn Fn(&cellbih::frame::FrameReport) -> f64| {
+                r.frames.iter().map(f).sum::<f64>() / n
+            };
+            let predicted: Vec<f64> = (r.frames.iter())
+                .filter_map(|f| f.predicted.map(|p| cfg.frame_ms(p.update_ms, p.render_ms)))
+                .collect();
+            let prediction_error = (!predicted.is_empty()).then(|| {
+                (r.frames.iter().zip(&predicted))
+                    .map(|(f, p)| (p - f.frame_ms).abs() / f.frame_ms)
+                    .sum::<f64>()
+                    / predicted.len() as f64
+            });
+            let series = Series {
+                name: format!("{} ({arrangement})", policy.name()),
+                points: (r.frames.iter())
+                    .map(|f| (f.frame as f64, f.frame_ms))
+                    .collect(),
+                color: pi,
+                dashed: ai == 1,
+            };
+            let row = json!({
+                "scene": spec,
+                "triangles": s.len(),
+                "animation": anim_name,
+                "width": w,
+                "height": h,
+                "arrangement": arrangement,
+                "build_spes": build_spes,
+                "render_spes": cfg.render_spes(),
+                "policy": policy.name(),
+                "total_ms": r.total_ms,
+                "fps": r.fps,
+                "mean_update_ms": mean(&|f| f.update_ms),
+                "mean_render_ms": mean(&|f| f.render_ms),
+                "complete_rebuilds": r.frames.iter().filter(|f| f.full_rebuild).count(),
+                "near_best": r.near_best,
+                "oracle_total_ms": r.oracle_total_ms,
+                "prediction_error": prediction_error,
+                "frames": r.frames,
+            });
+            Ok::<_, String>((row, series))
+        },
+    );
+    // The rows in order; a plot per scene and size.
+    let mut rows = Vec::new();
+    let per_plot = arrangements.len() * policies.len();
+    let mut series = Vec::new();
+    for (k, d) in done.into_iter().enumerate() {
+        let (row, line) = d?;
+        rows.push(row);
+        series.push(line);
+        if series.len() < per_plot {
+            continue;
+        }
+        let (si, (w, h), ..) = jobs[k];
+        let spec = played[si].0;
+        let file = format!("frame_loop_{}_{w}x{h}.svg", spec.replace(':', "_"));
+        let path = output(&args.out, &file).map_err(|e| e.to_string())?;
+        line_plot(
+            &path,
+            &format!("{spec}, {w} × {h}: frame time on the PS3 model"),
+            "frame",
+            "simulated ms",
+            &std::mem::take(&mut series),
+            false,
+        )
+        .map_err(|e| e.to_string())?;
+    }
     const KEYS: [&str; 18] = [
         "scene",
         "triangles",

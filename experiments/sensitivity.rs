@@ -8,7 +8,7 @@
 //! same rates; a rate under which the order of the builders, or whether
 //! more SPEs are faster, changes is reported as a flip.
 //!
-//! `cargo run --release --bin sensitivity -- --data ../shared/data [--scenes bunny,dragon] [--spes 6,8] [--model measured|legacy] [--out results]`
+//! `cargo run --release --bin sensitivity -- --data ../shared/data [--scenes bunny,dragon] [--spes 6,8] [--model measured|legacy] [--threads N] [--out results]`
 
 use std::path::PathBuf;
 
@@ -19,7 +19,7 @@ use cellbih::bih::BihConfig;
 use cellbih::cell::{CellConfig, CostModel, Cycles};
 use cellbih::kernels::rates::RateOverrides;
 use cellbih::registry::BuilderKind;
-use cellbih::report::{output, prepare_dir, write_csv, write_json};
+use cellbih::report::{ThreadsArg, output, prepare_dir, side_by_side, write_csv, write_json};
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
 
@@ -41,6 +41,8 @@ struct Args {
     /// Directory for sensitivity.csv and sensitivity.json.
     #[arg(long, default_value = "results")]
     out: PathBuf,
+    #[command(flatten)]
+    threads: ThreadsArg,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -122,6 +124,7 @@ fn main() {
 
 fn run(args: &Args) -> Result<(), String> {
     prepare_dir(&args.out).map_err(|e| e.to_string())?;
+    args.threads.install()?;
     let scenes: Vec<Scene> = (args.scenes.iter())
         .map(|n| scene::load(n, args.data.as_deref()).map_err(|e| e.to_string()))
         .collect::<Result<_, _>>()?;
@@ -133,17 +136,38 @@ fn run(args: &Args) -> Result<(), String> {
         .filter(|b| b.multi_spe())
         .collect();
     let variants = variants(&base);
-    // speedups[variant][scene][spes][builder]
+    // Every emulation side by side: each variant's baseline on each scene
+    // (no SPE count) and each builder on each SPE count.
+    let mut jobs = Vec::new();
+    for k in 0..variants.len() {
+        for si in 0..scenes.len() {
+            jobs.push((k, si, None));
+            for ni in 0..args.spes.len() {
+                jobs.extend((0..builders.len()).map(|bi| (k, si, Some((ni, bi)))));
+            }
+        }
+    }
+    let done = side_by_side("emulations", &jobs, |&(k, si, at)| match at {
+        None => ms(BuilderKind::SPE_BFS, &scenes[si], 1, &variants[k]),
+        Some((ni, bi)) => ms(
+            builders[bi],
+            &scenes[si],
+            args.spes[ni] as usize,
+            &variants[k],
+        ),
+    });
+    let mut done = done.into_iter();
+    // speedups[variant][scene][spes][builder], in the jobs' order.
     let mut speedups: Vec<Vec<Vec<Vec<f64>>>> = Vec::new();
-    for (k, v) in variants.iter().enumerate() {
-        eprintln!("[{}/{}] {} {}", k + 1, variants.len(), v.rate, v.end);
+    for _ in &variants {
         let mut by_scene = Vec::new();
-        for s in &scenes {
-            let baseline = ms(BuilderKind::SPE_BFS, s, 1, v)?;
+        for _ in &scenes {
+            let mut next = || done.next().expect("a job a figure");
+            let baseline = next()?;
             let mut by_spes = Vec::new();
-            for &n in &args.spes {
+            for _ in &args.spes {
                 let row: Vec<f64> = (builders.iter())
-                    .map(|&b| ms(b, s, n as usize, v).map(|t| baseline / t))
+                    .map(|_| next().map(|t| baseline / t))
                     .collect::<Result<_, _>>()?;
                 by_spes.push(row);
             }

@@ -3,7 +3,7 @@
 //! scenes that matter: simulated time, speedup, parallel efficiency, where
 //! the SPEs' cycles go, memory-interface use, tree quality.
 //!
-//! `cargo run --release --bin spe_scaling -- --data DIR [--scenes default,bunny] [--max-spes 8] [--defaults-only] [--out results]`
+//! `cargo run --release --bin spe_scaling -- --data DIR [--scenes default,bunny] [--max-spes 8] [--defaults-only] [--threads N] [--out results]`
 //!
 //! Scenes (default): default, bunny, dragon, sponza-dabrovic, sibenik,
 //! rtperf:1000000 and the held-out meshes teapot, iss-nasa, homer,
@@ -12,7 +12,6 @@
 //! spe_scaling.{csv,json}, one SVG per scene of speedup against SPEs (with the ideal line) and one of where the SPEs'
 //! time goes on the largest scene.
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use clap::Parser;
@@ -21,7 +20,10 @@ use serde_json::{Value, json};
 use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::BuilderKind;
-use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
+use cellbih::report::{
+    Format, Series, ThreadsArg, line_plot, output, print_rows, side_by_side, write_json,
+    write_rows_csv,
+};
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
 
@@ -50,6 +52,8 @@ struct Args {
     /// Directory for the CSV, JSON and SVG files.
     #[arg(long, default_value = "results")]
     out: PathBuf,
+    #[command(flatten)]
+    threads: ThreadsArg,
 }
 
 /// A builder with one setting of the knobs, as its rows name it.
@@ -154,44 +158,49 @@ fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih) -> (f64, f64) {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    let progress = std::io::stderr().is_terminal();
-    let mut rows = Vec::new();
+    args.threads.install()?;
+    let mut scenes = Vec::new();
     for spec in &args.scenes {
-        let scene = match scene::load(spec, args.data.as_deref()) {
-            Ok(s) => s,
-            Err(e) if args.data.is_none() => {
-                eprintln!("{spec}: skipped ({e})");
-                continue;
-            }
+        match scene::load(spec, args.data.as_deref()) {
+            Ok(s) => scenes.push(s),
+            Err(e) if args.data.is_none() => eprintln!("{spec}: skipped ({e})"),
             Err(e) => return Err(e.to_string()),
-        };
-        let base = BuilderKind::SPE_BFS
-            .build(&scene, &BihConfig::default())
-            .map_err(|e| format!("{spec} / spe_bfs: {e}"))?;
-        let base_rays = ray_cost(&scene, &base.bih);
-        let base = (
-            base.simulated.expect("emulated").run.ms,
-            base.bih.quality().sah_cost,
-        );
-        for v in variants(args.defaults_only) {
-            let mut cost = None;
-            for spes in 1..=args.max_spes as usize {
-                if progress {
-                    eprint!("{spec:>16} {:<58} {spes} SPEs\r", v.name);
-                }
-                let (mut r, bih) = row(&scene, &v, spes, base)?;
-                // The tree does not depend on the SPE count: its rays are
-                // cast once.
-                let (nodes, tris) = *cost.get_or_insert_with(|| ray_cost(&scene, &bih));
-                r["ray_nodes"] = json!(nodes);
-                r["ray_triangles"] = json!(tris);
-                r["ray_cost_over_baseline"] = json!((nodes + tris) / (base_rays.0 + base_rays.1));
-                rows.push(r);
-            }
         }
     }
-    if progress {
-        eprint!("{:90}\r", "");
+    // Each scene's baseline: simulated ms, SAH cost and ray cost.
+    let bases = side_by_side("baselines", &scenes, |scene| {
+        let base = BuilderKind::SPE_BFS
+            .build(scene, &BihConfig::default())
+            .map_err(|e| format!("{} / spe_bfs: {e}", scene.name))?;
+        let rays = ray_cost(scene, &base.bih);
+        let sim = base.simulated.expect("emulated").run.ms;
+        Ok::<_, String>(((sim, base.bih.quality().sah_cost), rays))
+    });
+    let bases = bases.into_iter().collect::<Result<Vec<_>, _>>()?;
+    // Every (scene, variant, SPE count), side by side; the tree does not
+    // depend on the SPE count, so its rays are cast once (on one SPE).
+    let variants = variants(args.defaults_only);
+    let mut jobs = Vec::new();
+    for si in 0..scenes.len() {
+        for vi in 0..variants.len() {
+            jobs.extend((1..=args.max_spes as usize).map(|spes| (si, vi, spes)));
+        }
+    }
+    let done = side_by_side("builds", &jobs, |&(si, vi, spes)| {
+        let (scene, v) = (&scenes[si], &variants[vi]);
+        let (r, bih) = row(scene, v, spes, bases[si].0)?;
+        Ok::<_, String>((r, (spes == 1).then(|| ray_cost(scene, &bih))))
+    });
+    let mut rows = Vec::new();
+    let mut cost = None;
+    for (&(si, _, _), done) in jobs.iter().zip(done) {
+        let (mut r, rays) = done?;
+        let (nodes, tris) = *cost.insert(rays.or(cost).expect("the one-SPE row comes first"));
+        let base_rays = bases[si].1;
+        r["ray_nodes"] = json!(nodes);
+        r["ray_triangles"] = json!(tris);
+        r["ray_cost_over_baseline"] = json!((nodes + tris) / (base_rays.0 + base_rays.1));
+        rows.push(r);
     }
     if rows.is_empty() {
         return Err("no scene could be loaded: nothing measured, nothing written".into());

@@ -1,7 +1,7 @@
 //! Table 1 of the paper: the four builders on the PS3 model, for the four
 //! models, beside the paper's figures.
 //!
-//! `cargo run --release --bin table1 -- --data DIR [--format json] [--out results]`
+//! `cargo run --release --bin table1 -- --data DIR [--format json] [--threads N] [--out results]`
 //!
 //! Bunny and dragon come from the data directory. The paper's ISS (17,633
 //! triangles) and Fairy Forest (174,117) are used when the data directory
@@ -11,7 +11,6 @@
 //! time the emulation took is reported beside them. Writes table1.csv and
 //! table1.json to the output directory.
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use clap::Parser;
@@ -20,7 +19,9 @@ use serde_json::json;
 use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::BuilderKind;
-use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
+use cellbih::report::{
+    Format, ThreadsArg, output, print_rows, side_by_side, write_json, write_rows_csv,
+};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -34,6 +35,8 @@ struct Args {
     /// Directory for table1.csv and table1.json.
     #[arg(long, default_value = "results")]
     out: PathBuf,
+    #[command(flatten)]
+    threads: ThreadsArg,
 }
 
 /// The paper's Table 1: model, triangles, file name, milliseconds for
@@ -105,65 +108,71 @@ fn main() {
 }
 
 fn run(args: &Args) -> Result<(), String> {
+    args.threads.install()?;
     let cfg = BihConfig::default();
-    let progress = std::io::stderr().is_terminal();
-    let mut rows = Vec::new();
+    let mut models = Vec::new();
     for (name, count, file, paper) in PAPER {
         let (scene, stand_in) = model(name, count, file, args.data.as_deref())?;
         if let Some(spec) = &stand_in {
             eprintln!("{name}: not in the data directory; stand-in `{spec}` ({count} triangles)");
         }
-        let mut naive_ms = None;
-        for (m, method) in METHODS.iter().enumerate() {
-            if progress {
-                eprint!("{name:>12} {:<11}\r", method.name());
-            }
-            let r = method
-                .build(&scene, &cfg)
-                .map_err(|e| format!("{name}, {}: {e}", method.name()))?;
-            let sim = r
-                .simulated
-                .expect("every Table 1 method runs on the emulated Cell");
-            let ms = sim.run.ms;
-            let mib = sim.footprint.total as f64 / MIB;
-            let naive = *naive_ms.get_or_insert(ms);
-            let paper_naive = paper[0].expect("the paper's naive figure");
-            rows.push(json!({
-                "model": name,
-                "triangles": scene.len(),
-                "stand_in": stand_in,
-                "method": method.name(),
-                "simulated_ms": ms,
-                "paper_ms": paper[m],
-                "ratio": paper[m].map(|p| ms / p),
-                "speedup": naive / ms,
-                "paper_speedup": paper[m].map(|p| paper_naive / p),
-                "host_ms": r.host_time.as_secs_f64() * 1e3,
-                "nodes": r.bih.nodes.len(),
-                "memory_mib": mib,
-            }));
-        }
-        // Section 5's strategies on the PS3's six SPEs, beside the paper's
-        // four columns (the paper has no figure for them).
-        let naive = naive_ms.expect("the naive build ran");
-        let six = CellConfig::ps3().with_spes(6);
-        for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
-            let r = b
-                .build_on(&scene, &cfg, &six)
-                .map_err(|e| format!("{name}, {}: {e}", b.name()))?;
-            let sim = r.simulated.expect("a multi-SPE builder runs on the Cell");
-            let (ms, mib) = (sim.run.ms, sim.footprint.total as f64 / MIB);
-            rows.push(json!({
-                "model": name, "triangles": scene.len(), "stand_in": stand_in,
-                "method": format!("{} (6 SPEs)", b.name()), "simulated_ms": ms,
-                "paper_ms": null, "ratio": null, "speedup": naive / ms, "paper_speedup": null,
-                "host_ms": r.host_time.as_secs_f64() * 1e3, "nodes": r.bih.nodes.len(),
-                "memory_mib": mib,
-            }));
-        }
+        models.push((name, scene, stand_in, paper));
     }
-    if progress {
-        eprint!("{:40}\r", "");
+    // The paper's four methods on the PS3 (6 SPEs: the multi-SPE builders
+    // use them all), and section 5's strategies beside them (the paper has
+    // no figure for them): every build side by side.
+    let six = CellConfig::ps3().with_spes(6);
+    let builders: Vec<BuilderKind> = (METHODS.iter().copied())
+        .chain(BuilderKind::ALL.iter().copied().filter(|b| b.multi_spe()))
+        .collect();
+    let jobs: Vec<(usize, usize)> = (0..models.len())
+        .flat_map(|mi| (0..builders.len()).map(move |bi| (mi, bi)))
+        .collect();
+    let done = side_by_side("builds", &jobs, |&(mi, bi)| {
+        let (name, scene, ..) = &models[mi];
+        let b = builders[bi];
+        let r = b
+            .build_on(scene, &cfg, &six)
+            .map_err(|e| format!("{name}, {b}: {e}"))?;
+        let sim = r
+            .simulated
+            .expect("every Table 1 method runs on the emulated Cell");
+        let mib = sim.footprint.total as f64 / MIB;
+        Ok::<_, String>((
+            sim.run.ms,
+            mib,
+            r.host_time.as_secs_f64() * 1e3,
+            r.bih.nodes.len(),
+        ))
+    });
+    let mut rows = Vec::new();
+    let mut naive_ms = None;
+    for (&(mi, bi), done) in jobs.iter().zip(done) {
+        let (name, scene, stand_in, paper) = &models[mi];
+        let (ms, mib, host_ms, nodes) = done?;
+        if bi == 0 {
+            naive_ms = Some(ms);
+        }
+        let naive = naive_ms.expect("the naive build is each model's first");
+        let paper_naive = paper[0].expect("the paper's naive figure");
+        let (method, paper_ms) = match bi < METHODS.len() {
+            true => (builders[bi].name().to_string(), paper[bi]),
+            false => (format!("{} (6 SPEs)", builders[bi].name()), None),
+        };
+        rows.push(json!({
+            "model": name,
+            "triangles": scene.len(),
+            "stand_in": stand_in,
+            "method": method,
+            "simulated_ms": ms,
+            "paper_ms": paper_ms,
+            "ratio": paper_ms.map(|p| ms / p),
+            "speedup": naive / ms,
+            "paper_speedup": paper_ms.map(|p| paper_naive / p),
+            "host_ms": host_ms,
+            "nodes": nodes,
+            "memory_mib": mib,
+        }));
     }
     print_rows(args.format, &rows, print_table)?;
     let io = |e: cellbih::report::OutputError| e.to_string();

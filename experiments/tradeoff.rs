@@ -2,7 +2,7 @@
 //! setting of the knobs it has, on the scenes that matter — build cost
 //! against tree quality, the quality measured on real rays.
 //!
-//! `cargo run --release --bin tradeoff -- --data DIR [--scenes bunny,dragon] [--spes 6] [--out results]`
+//! `cargo run --release --bin tradeoff -- --data DIR [--scenes bunny,dragon] [--spes 6] [--threads N] [--out results]`
 //!
 //! Build cost: simulated ms on the PS3 model for the emulated builders
 //! (timed mode: the cycles of the checked mode), host ms (median of three,
@@ -16,11 +16,9 @@
 //! tradeoff.{csv,json} and `tradeoff_<scene>.svg` (the scatter, the fronts
 //! drawn).
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use clap::Parser;
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::{Value, json};
 
 use cellbih::bih::{BihConfig, SplitChoice, Tracer};
@@ -34,7 +32,8 @@ use cellbih::quality::rays::RaySets;
 use cellbih::registry::{BuilderKind, Quality};
 use cellbih::render::Camera;
 use cellbih::report::{
-    Format, Series, output, print_rows, scatter_plot, write_json, write_rows_csv,
+    Format, Series, ThreadsArg, output, print_rows, scatter_plot, side_by_side, write_json,
+    write_rows_csv,
 };
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
@@ -61,6 +60,8 @@ struct Args {
     /// Directory for the CSV, JSON and SVG files.
     #[arg(long, default_value = "results")]
     out: PathBuf,
+    #[command(flatten)]
+    threads: ThreadsArg,
 }
 
 /// A builder with one setting, named by its CLI options.
@@ -134,6 +135,7 @@ fn main() {
 }
 
 fn run(args: &Args) -> Result<(), String> {
+    args.threads.install()?;
     let data = scene::data_dir(args.data.as_deref());
     let settings = settings();
     let mut scenes: Vec<Scene> = Vec::new();
@@ -147,33 +149,31 @@ fn run(args: &Args) -> Result<(), String> {
     if scenes.is_empty() {
         return Err("no scene could be loaded: nothing measured, nothing written".into());
     }
-    let bar = if std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new((scenes.len() * settings.len()) as u64);
-        let style = ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} ({elapsed})");
-        bar.set_style(style.map_err(|e| e.to_string())?);
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
     let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
     cell.checked = false;
-    let mut rows: Vec<Value> = Vec::new();
-    for s in &scenes {
-        let rays = RaySets::standard(&s.bounds());
-        let cam = Camera::framing(&s.bounds(), CAST_SIZE.0, CAST_SIZE.1).rays();
-        let first = rows.len();
-        for st in &settings {
+    let sets: Vec<_> = (scenes.iter())
+        .map(|s| {
+            let rays = RaySets::standard(&s.bounds());
+            let cam = Camera::framing(&s.bounds(), CAST_SIZE.0, CAST_SIZE.1).rays();
+            (rays, cam)
+        })
+        .collect();
+    // Every (scene, setting) side by side, then each scene's fronts.
+    let jobs: Vec<(usize, usize)> = (0..scenes.len())
+        .flat_map(|si| (0..settings.len()).map(move |k| (si, k)))
+        .collect();
+    let done = side_by_side("settings", &jobs, |&(si, k)| {
+        let (s, st) = (&scenes[si], &settings[k]);
+        let (rays, cam) = &sets[si];
+        measure(s, st, &cell, (rays, cam)).map_err(|e| {
             let label = format!("{} {}", st.builder, st.flags);
-            bar.set_message(format!("{}: {}", s.name, label.trim()));
-            rows.push(
-                measure(s, st, &cell, (&rays, &cam))
-                    .map_err(|e| format!("{}, {label}: {e}", s.name))?,
-            );
-            bar.inc(1);
-        }
-        mark_fronts(&mut rows[first..]);
+            format!("{}, {}: {e}", s.name, label.trim())
+        })
+    });
+    let mut rows: Vec<Value> = done.into_iter().collect::<Result<_, _>>()?;
+    for scene_rows in rows.chunks_mut(settings.len()) {
+        mark_fronts(scene_rows);
     }
-    bar.finish_and_clear();
     print_rows(args.format, &rows, print_tables)?;
     let keys = [
         "scene",
@@ -232,9 +232,17 @@ fn measure(
     cell: &CellConfig,
     (rays, cam): (&RaySets, &[cellbih::bih::Ray]),
 ) -> Result<Value, String> {
+    // The host's figures are one thread's: a builder that builds on the
+    // host's threads builds in a pool of one.
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .map_err(|e| e.to_string())?;
     let build = || {
-        (st.builder
-            .build_with(s, s.bounds(), &st.cfg, cell, &st.knobs))
+        one.install(|| {
+            st.builder
+                .build_with(s, s.bounds(), &st.cfg, cell, &st.knobs)
+        })
         .map_err(|e| e.to_string())
     };
     let mut r = build()?;

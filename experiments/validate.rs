@@ -5,7 +5,7 @@
 //! windows and retry loops — beside the published figure, with a verdict
 //! per figure and a non-zero exit when one leaves its tolerance.
 //!
-//! `cargo run --release --bin validate -- [--model measured|legacy] [--out results]`
+//! `cargo run --release --bin validate -- [--model measured|legacy] [--threads N] [--out results]`
 
 use std::path::PathBuf;
 
@@ -13,7 +13,7 @@ use clap::{Parser, ValueEnum};
 use serde_json::json;
 
 use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea, LsAddr, Reservation};
-use cellbih::report::{output, prepare_dir, write_csv, write_json};
+use cellbih::report::{ThreadsArg, output, prepare_dir, side_by_side, write_csv, write_json};
 
 #[derive(Parser)]
 struct Args {
@@ -25,6 +25,8 @@ struct Args {
     /// Directory for validate.csv and validate.json.
     #[arg(long, default_value = "results")]
     out: PathBuf,
+    #[command(flatten)]
+    threads: ThreadsArg,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -54,7 +56,7 @@ struct Figure {
 }
 
 /// How a figure is reproduced on a cost model.
-type Probe = Box<dyn Fn(&CostModel) -> Result<f64, CellError>>;
+type Probe = Box<dyn Fn(&CostModel) -> Result<f64, CellError> + Send + Sync>;
 
 const KIB16: u32 = 16 * 1024;
 
@@ -444,15 +446,19 @@ fn main() {
 
 fn run(args: &Args) -> Result<(), String> {
     prepare_dir(&args.out).map_err(|e| e.to_string())?;
+    args.threads.install()?;
     let cost = args.model.cost();
+    // Every figure's probe side by side (each its own emulated machine).
+    let figures = figures();
+    let probed = side_by_side("figures", &figures, |f| (f.probe)(&cost));
     let mut rows = Vec::new();
     let mut failed = Vec::new();
     println!(
         "{:<66} {:>9} {:>9} {:>6} {:>6}  verdict",
         "published figure (retail PS3, 3.2 GHz)", "published", "emulated", "ratio", "tol."
     );
-    for f in figures() {
-        let got = (f.probe)(&cost).map_err(|e| format!("{}: {e}", f.what))?;
+    for (f, got) in figures.iter().zip(probed) {
+        let got = got.map_err(|e| format!("{}: {e}", f.what))?;
         let ratio = got / f.published;
         let ok = (ratio - 1.0).abs() <= f.tolerance;
         if !ok {

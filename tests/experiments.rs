@@ -375,3 +375,93 @@ fn frame_loop_plays_every_policy_in_both_arrangements() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-mesh"));
 }
+
+/// The experiments run their independent emulations side by side
+/// (`--threads`, rayon): the simulated figures of a run on two and on
+/// three threads are byte for byte those of a run on one (the columns of
+/// host time and host ray rates aside: this machine's, measured side by
+/// side). Every experiment that takes `--threads` (`tradeoff` aside: its
+/// run of a scene takes half a minute a thread count here; it shares the
+/// same `side_by_side`), on scenes small enough for the test.
+#[test]
+fn simulated_figures_do_not_depend_on_the_threads() {
+    let data = cellbih::scene::data_dir(None);
+    let mut runs: Vec<(&str, &str, Vec<&str>)> = vec![
+        (
+            env!("CARGO_BIN_EXE_spe_scaling"),
+            "spe_scaling.csv",
+            vec![
+                "--scenes",
+                "default,rtperf:3000",
+                "--max-spes",
+                "3",
+                "--defaults-only",
+            ],
+        ),
+        (
+            env!("CARGO_BIN_EXE_sensitivity"),
+            "sensitivity.csv",
+            vec!["--scenes", "default", "--spes", "2,3"],
+        ),
+        (
+            env!("CARGO_BIN_EXE_extremes"),
+            "extremes.csv",
+            vec!["--rays", "40"],
+        ),
+        (
+            env!("CARGO_BIN_EXE_frame_loop"),
+            "frame_loop.csv",
+            vec![
+                "--scenes",
+                "car,rtperf:2000",
+                "--sizes",
+                "32x24",
+                "--frames",
+                "3",
+            ],
+        ),
+        (env!("CARGO_BIN_EXE_validate"), "validate.csv", vec![]),
+    ];
+    match &data {
+        Some(_) => runs.push((env!("CARGO_BIN_EXE_table1"), "table1.csv", vec![])),
+        None => eprintln!("experiments: CELLBIH_DATA is not set: table1 did NOT run"),
+    }
+    for (exe, file, args) in runs {
+        let csv = |threads: &str| {
+            let dir = tmp(&format!("threads-{threads}-{file}"));
+            let out = std::process::Command::new(exe)
+                .args(&args)
+                .args(["--threads", threads, "--out", dir.to_str().unwrap()])
+                .output()
+                .unwrap();
+            assert_ok(&out);
+            let text = std::fs::read_to_string(dir.join(file)).unwrap();
+            simulated_columns(&text)
+        };
+        let one = csv("1");
+        assert!(one.lines().count() > 1, "{file}: no rows");
+        for threads in ["2", "3"] {
+            assert_eq!(csv(threads), one, "{file} on {threads} threads");
+        }
+    }
+}
+
+/// A CSV without its columns of host time or host ray rates.
+fn simulated_columns(csv: &str) -> String {
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+    let keep: Vec<bool> = (header.iter())
+        .map(|h| !(h.contains("host") || h.contains("mrays")))
+        .collect();
+    let pick = |l: &str| -> String {
+        (l.split(',').zip(&keep))
+            .filter(|(_, k)| **k)
+            .map(|(v, _)| v)
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    std::iter::once(pick(&header.join(",")))
+        .chain(lines.map(pick))
+        .collect::<Vec<_>>()
+        .join("\n")
+}

@@ -2,9 +2,13 @@
 //! line plots a person can read (plotters). Every file goes through
 //! [`crate::output`]: written whole or not at all, errors naming the path.
 
+pub mod parallel;
+
 use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
+
+pub use parallel::{ThreadsArg, side_by_side};
 
 pub use crate::output::OutputError;
 use crate::output::{check_writable, write_bytes, write_file};
