@@ -3,7 +3,12 @@
 //! serial host builder and a peer (obvhs's CWBVH with its `parallel`
 //! feature, its fastest preset), on each scene and thread count: wall time
 //! and total CPU time (user + sys of the whole process, every thread), so
-//! that work efficiency shows even where there are few cores.
+//! that work efficiency shows even where there are few cores. Beside them
+//! the machine's own ceiling: as many independent serial builds at once as
+//! threads (its speedup: builds × serial time / its time), which no
+//! parallel builder can beat on the same machine at the same moment. Each build
+//! is timed alone; the runs go round the contenders of a scene, so that a
+//! shared machine's drift falls on all of them alike.
 //!
 //! `CELLBIH_DATA=../shared/data cargo run --release --example host_scaling -- [--scenes bunny,dragon] [--threads 1,2] [--runs 7] [--out results]`
 //!
@@ -20,7 +25,7 @@ use std::time::{Duration, Instant};
 use clap::Parser;
 use serde_json::{Value, json};
 
-use cellbih::bih::BihConfig;
+use cellbih::bih::{BihConfig, BihNode};
 use cellbih::registry::BuilderKind;
 use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::{self, Scene};
@@ -83,18 +88,12 @@ fn cpu_time() -> Duration {
     tv(usage.ru_utime) + tv(usage.ru_stime)
 }
 
-/// The medians of `runs` timed calls of `f` (after one to warm up): wall
-/// and CPU milliseconds; and what the last call returned.
-fn timed<R>(runs: u64, mut f: impl FnMut() -> R) -> (f64, f64, R) {
-    let mut last = f();
-    let (mut wall, mut cpu) = (Vec::new(), Vec::new());
-    for _ in 0..runs {
-        let (w, c) = (Instant::now(), cpu_time());
-        last = f();
-        cpu.push((cpu_time() - c).as_secs_f64() * 1e3);
-        wall.push(w.elapsed().as_secs_f64() * 1e3);
-    }
-    (median(wall), median(cpu), last)
+/// One timed call: wall and CPU milliseconds.
+fn timed<R>(f: impl FnOnce() -> R) -> (f64, f64, R) {
+    let (w, c) = (Instant::now(), cpu_time());
+    let r = f();
+    let cpu = (cpu_time() - c).as_secs_f64() * 1e3;
+    (w.elapsed().as_secs_f64() * 1e3, cpu, r)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -184,34 +183,28 @@ fn run(args: &Args) -> Result<(), String> {
     })
 }
 
-/// The rows of one scene: the serial builder once, each parallel builder
-/// and the peer on each thread count.
+/// A contender of one scene: its name, threads and one build (returning
+/// the tree's nodes for the host builders).
+struct Contender<'a> {
+    builder: String,
+    threads: u64,
+    /// Serial builds one call makes (the ceiling's: one per thread).
+    builds: u64,
+    pool: rayon::ThreadPool,
+    build: Box<dyn Fn() -> Result<Option<Vec<BihNode>>, String> + Sync + 'a>,
+}
+
+/// The rows of one scene: the serial builder, each parallel builder and
+/// the peer on each thread count. Each is built once to warm up, then the
+/// runs go round the contenders (so that the machine's drift over time
+/// falls on all of them alike); each row gives its medians.
 fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, String> {
-    let one = |threads: u64| {
+    let pool = |threads: u64| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads as usize)
             .build()
             .map_err(|e| e.to_string())
     };
-    let (serial_wall, serial_cpu, serial) =
-        one(1)?.install(|| timed(args.runs, || BuilderKind::HOST.build(s, cfg).map(|r| r.bih)));
-    let serial = serial.map_err(|e| e.to_string())?;
-    let row = |builder: &str, threads: u64, wall: f64, cpu: f64, same: Option<bool>| {
-        eprintln!("  {} {builder} {threads} threads: {wall:.2} ms", s.name);
-        json!({
-            "scene": s.name, "triangles": s.len(), "builder": builder, "threads": threads,
-            "wall_ms": wall, "cpu_ms": cpu,
-            "speedup": serial_wall / wall, "cpu_over_serial": cpu / serial_cpu,
-            "same_tree": same,
-        })
-    };
-    let mut rows = vec![row(
-        BuilderKind::HOST.name(),
-        1,
-        serial_wall,
-        serial_cpu,
-        Some(true),
-    )];
     let tris: Vec<obvhs::triangle::Triangle> = (s.triangles.iter())
         .map(|t| obvhs::triangle::Triangle {
             v0: t.v[0].into(),
@@ -219,32 +212,99 @@ fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, Str
             v2: t.v[2].into(),
         })
         .collect();
+    let ours =
+        |b: BuilderKind| -> Box<dyn Fn() -> Result<Option<Vec<BihNode>>, String> + Sync + '_> {
+            Box::new(move || {
+                b.build(s, cfg)
+                    .map(|r| Some(r.bih.nodes))
+                    .map_err(|e| e.to_string())
+            })
+        };
+    let mut contenders = vec![Contender {
+        builder: BuilderKind::HOST.name().into(),
+        threads: 1,
+        builds: 1,
+        pool: pool(1)?,
+        build: ours(BuilderKind::HOST),
+    }];
     for &threads in &args.threads {
-        let pool = one(threads)?;
         for b in builders().into_iter().filter(|b| b.host_threads()) {
-            let (wall, cpu, tree) =
-                pool.install(|| timed(args.runs, || b.build(s, cfg).map(|r| r.bih)));
-            let tree = tree.map_err(|e| e.to_string())?;
-            rows.push(row(
-                b.name(),
+            contenders.push(Contender {
+                builder: b.name().into(),
                 threads,
-                wall,
-                cpu,
-                Some(tree.nodes == serial.nodes),
-            ));
+                builds: 1,
+                pool: pool(threads)?,
+                build: ours(b),
+            });
         }
-        let params = obvhs::BvhBuildParams::fastest_build();
-        let (wall, cpu, _) = pool.install(|| {
-            timed(args.runs, || {
+        if threads > 1 {
+            // The machine's own ceiling: as many serial builds as threads
+            // at once, no sharing between them.
+            contenders.push(Contender {
+                builder: "ceiling".into(),
+                threads,
+                builds: threads,
+                pool: pool(threads)?,
+                build: Box::new(move || {
+                    rayon::scope(|sc| {
+                        for _ in 0..threads {
+                            sc.spawn(|_| drop(BuilderKind::HOST.build(s, cfg)));
+                        }
+                    });
+                    Ok(None)
+                }),
+            });
+        }
+        let tris = &tris;
+        contenders.push(Contender {
+            builder: "obvhs fastest".into(),
+            threads,
+            builds: 1,
+            pool: pool(threads)?,
+            build: Box::new(move || {
+                let params = obvhs::BvhBuildParams::fastest_build();
                 obvhs::cwbvh::builder::build_cwbvh_from_tris(
-                    &tris,
+                    tris,
                     params,
                     &mut Duration::default(),
-                )
-            })
+                );
+                Ok(None)
+            }),
         });
-        rows.push(row("obvhs fastest", threads, wall, cpu, None));
     }
+    // Warm up, and each tree against the serial builder's.
+    let mut trees = Vec::new();
+    for c in &contenders {
+        trees.push(c.pool.install(|| (c.build)())?);
+    }
+    let mut times = vec![(Vec::new(), Vec::new()); contenders.len()];
+    for _ in 0..args.runs {
+        for (c, t) in contenders.iter().zip(&mut times) {
+            let (wall, cpu, built) = c.pool.install(|| timed(|| (c.build)()));
+            built?;
+            t.0.push(wall);
+            t.1.push(cpu);
+        }
+    }
+    let medians: Vec<(f64, f64)> = (times.into_iter())
+        .map(|(w, c)| (median(w), median(c)))
+        .collect();
+    let (serial_wall, serial_cpu) = medians[0];
+    let rows = (contenders.iter().zip(medians).zip(&trees))
+        .map(|((c, (wall, cpu)), tree)| {
+            eprintln!(
+                "  {} {} {} threads: {wall:.2} ms",
+                s.name, c.builder, c.threads
+            );
+            json!({
+                "scene": s.name, "triangles": s.len(), "builder": c.builder, "threads": c.threads,
+                "wall_ms": wall, "cpu_ms": cpu,
+                "speedup": c.builds as f64 * serial_wall / wall,
+                "cpu_over_serial": cpu / (c.builds as f64 * serial_cpu),
+                "same_tree": tree.as_ref().map(|t| Some(t) == trees[0].as_ref()),
+            })
+        })
+        .collect();
     Ok(rows)
 }
 

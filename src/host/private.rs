@@ -23,7 +23,7 @@
 //! first; the jobs below them start in the `Injector`. The cooperative
 //! partition leaves the items of a side in another order than the serial
 //! one: a leaf holds the same triangles, perhaps in another order (the
-//! same on two threads as on eight).
+//! same on two threads as on eight: the top depends on the grain only).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 

@@ -1,27 +1,30 @@
 //! `host_shared` — section 5's **one common job queue** on the host's own
 //! cores (issue 29): the host counterpart of `spe_bfs_shared`. The tree is
 //! built level by level; the jobs of a level lie in one array and the
-//! threads of the current rayon pool take them in batches from one atomic
-//! counter (guided takes, as the shared queue's: an equal share of what is
-//! left, at most [`AGGLOMERATE`]); a level ends when every job of it is
-//! made (the barrier is the end of the scope).
+//! threads of the current rayon pool take them, largest first, in batches
+//! from one atomic counter (guided takes, as the shared queue's: an equal
+//! share of what is left, at most [`AGGLOMERATE`]); a level ends when
+//! every job of it is made (the barrier is the end of the scope).
 //!
-//! Each job is one step of the serial recursion ([`step`]: the node
-//! decision, binning, the in-place partition of the job's own items), on
-//! disjoint slices of the items, so the threads never share an item. The
-//! nodes are then written in the level's order by one thread (a few
+//! Each job of a level is one step of the serial recursion ([`step`]: the
+//! node decision, binning, the in-place partition of the job's own items),
+//! on disjoint slices of the items, so the threads never share an item.
+//! The nodes are then written in the level's order by one thread (a few
 //! stores a job), breadth first, and at the end renumbered in the serial
 //! recursion's order ([`crate::bih::depth_first`], one pass): the tree is
 //! the serial host builder's, node for node, for any number of threads.
-//! A job of more than 4 × [`SUBTREE`] items is made by every thread
-//! together ([`coop::coop_step`]), before the level's queue opens: a leaf
-//! holds the same triangles as the serial builder's, perhaps in another
-//! order (the cooperative partition's; the same on two threads as on
-//! eight).
 //!
-//! A job of at most [`SUBTREE`] items (the grain) is built to its leaves by the thread
-//! that takes it (the serial recursion over its own items, which then stay
-//! in that core's cache), and grafted into the tree.
+//! A job of more than 4 × [`SUBTREE`] items — or of more than [`SUBTREE`]
+//! on a level of fewer jobs than threads — is made by every thread
+//! together ([`coop::coop_step`]) before the level's queue opens. A job of
+//! at most [`SUBTREE`] items (the grain) is built to its leaves by the
+//! thread that takes it (the serial recursion over its own items, just
+//! partitioned and still in that core's cache) and grafted into the tree.
+//! (Kept instead for one last round after the last level, so that a level
+//! of partitions would not wait on a thread's whole subtree, they made the
+//! dragon slower: 1.31–1.49x the serial build on two threads against
+//! 1.59–1.65x.) A leaf holds the same triangles as the serial builder's,
+//! perhaps in another order (the cooperative partition's).
 //!
 //! Threads: the pool the build runs in (`ThreadPool::install`; the global
 //! one otherwise). With one thread it is the serial recursion itself (no
@@ -160,7 +163,13 @@ fn take_level<T: Item + Send + Sync>(
             stats: BuildStats::default(),
         }));
     }
-    let coop = coop::threshold(grain);
+    // Above this many items a job is made by every thread together: 4 ×
+    // the grain, or the grain itself on a level of fewer jobs than threads
+    // (which would leave threads idle until the level ends).
+    let coop = match level.len() < rayon::current_num_threads() {
+        true => grain,
+        false => coop::threshold(grain),
+    };
     let make = |k: usize| {
         let mut slot = slots[k].lock().expect("a job's slot");
         let Slot { items, made, stats } = &mut *slot;
@@ -172,10 +181,11 @@ fn take_level<T: Item + Send + Sync>(
         });
     };
     // The large jobs first, one at a time, every thread on each; then the
-    // others from the queue.
-    let (large, queue): (Vec<usize>, Vec<usize>) =
+    // others from the queue, largest first.
+    let (large, mut queue): (Vec<usize>, Vec<usize>) =
         (0..level.len()).partition(|&k| level[k].count > coop);
     large.into_iter().for_each(make);
+    queue.sort_by_key(|&k| std::cmp::Reverse(level[k].count));
     let threads = rayon::current_num_threads().min(queue.len());
     if threads <= 1 {
         queue.into_iter().for_each(make);
