@@ -90,11 +90,12 @@ pub fn build_items<T: Item + Send + Sync>(
         Quality::PAPER.builds(cfg),
         "host_morton builds the global heuristic without the cut-off"
     );
-    if rayon::current_num_threads() == 1 {
-        // One thread: the serial recursion itself, no key, no sort.
+    let grain = grain.max(1);
+    if rayon::current_num_threads() == 1 || items.len() <= grain {
+        // One thread, or one range: the serial recursion itself, no key,
+        // no sort (the halving table alone is 2^16 cells).
         return crate::kernels::recursion::build_items(items, region, cfg);
     }
-    let grain = grain.max(1);
     let spec = KeySpec {
         order: KeyOrder::GlobalHeuristic,
         bits: auto_key_bits(items.len(), grain, DIGIT_BITS),
