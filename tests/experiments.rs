@@ -465,3 +465,65 @@ fn simulated_columns(csv: &str) -> String {
         .collect::<Vec<_>>()
         .join("\n")
 }
+
+/// `host_scaling` (an example: it measures obvhs, a dev-dependency; `cargo
+/// test` builds it beside this test): a row per builder that builds on
+/// the host's threads and thread count, the serial builder's, the peer's
+/// and, above one thread, the machine's ceiling; every parallel tree the
+/// serial builder's; the files written.
+#[test]
+fn host_scaling_measures_every_parallel_builder_on_every_thread_count() {
+    let exe = std::env::current_exe().unwrap();
+    let exe = exe
+        .parent()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .join("examples")
+        .join("host_scaling");
+    assert!(exe.exists(), "{} was not built", exe.display());
+    let (rows, dir) = run_experiment(
+        exe.to_str().unwrap(),
+        "host_scaling",
+        &[
+            "--scenes",
+            "default,rtperf:20000",
+            "--threads",
+            "1,2",
+            "--runs",
+            "1",
+        ],
+    );
+    let parallel: Vec<_> = (cellbih::registry::BuilderKind::ALL.iter())
+        .filter(|b| b.host_threads())
+        .collect();
+    assert!(!parallel.is_empty());
+    for scene in ["default", "rtperf:20000:1"] {
+        let of = |builder: &str, threads: u64| {
+            (rows.iter())
+                .filter(|r| {
+                    r["scene"] == scene && r["builder"] == builder && r["threads"] == threads
+                })
+                .count()
+        };
+        assert_eq!(of("host", 1), 1, "{scene}");
+        for b in &parallel {
+            for threads in [1, 2] {
+                assert_eq!(of(b.name(), threads), 1, "{scene} {b} {threads}");
+            }
+        }
+        assert_eq!(of("ceiling", 2), 1, "{scene}");
+        assert_eq!(of("ceiling", 1), 0, "{scene}: a ceiling of one thread");
+        assert_eq!(of("obvhs fastest", 2), 1, "{scene}");
+    }
+    for r in &rows {
+        let builder = r["builder"].as_str().unwrap();
+        if builder.starts_with("host") {
+            assert_eq!(r["same_tree"], true, "{r}");
+        }
+        assert!(r["wall_ms"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["speedup"].as_f64().unwrap() > 0.0, "{r}");
+    }
+    assert!(dir.join("host_scaling.csv").exists());
+    assert!(dir.join("host_scaling.svg").exists());
+}
