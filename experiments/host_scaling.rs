@@ -88,6 +88,15 @@ fn cpu_time() -> Duration {
     tv(usage.ru_utime) + tv(usage.ru_stime)
 }
 
+/// The pause before each contender (see [`scene_rows`]).
+const SETTLE: Duration = Duration::from_millis(20);
+
+/// How long each contender builds before it is timed: on the VM of
+/// docs/host-parallel.md an idle second vCPU came up to speed only after
+/// some 50 ms of back-to-back builds (the bunny on two threads ran at the
+/// serial builder's speed for its first 6 to 9 builds, then at 0.6 of it).
+const WARM_UP: Duration = Duration::from_millis(300);
+
 /// One timed call: wall and CPU milliseconds.
 fn timed<R>(f: impl FnOnce() -> R) -> (f64, f64, R) {
     let (w, c) = (Instant::now(), cpu_time());
@@ -195,9 +204,8 @@ struct Contender<'a> {
 }
 
 /// The rows of one scene: the serial builder, each parallel builder and
-/// the peer on each thread count. Each is built once to warm up, then the
-/// runs go round the contenders (so that the machine's drift over time
-/// falls on all of them alike); each row gives its medians.
+/// the peer on each thread count, each built for [`WARM_UP`] and then
+/// `--runs` times back to back; each row gives its medians.
 fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, String> {
     let pool = |threads: u64| {
         rayon::ThreadPoolBuilder::new()
@@ -272,14 +280,21 @@ fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, Str
             }),
         });
     }
-    // Warm up, and each tree against the serial builder's.
+    // Each contender in turn: after a pause (the last contender's idle
+    // threads spin a little before they sleep, and the process's CPU time
+    // would count it), builds for [`WARM_UP`] (the first one's tree
+    // checked against the serial builder's), then the timed builds back to
+    // back, in a warm pool.
     let mut trees = Vec::new();
-    for c in &contenders {
-        trees.push(c.pool.install(|| (c.build)())?);
-    }
     let mut times = vec![(Vec::new(), Vec::new()); contenders.len()];
-    for _ in 0..args.runs {
-        for (c, t) in contenders.iter().zip(&mut times) {
+    for (c, t) in contenders.iter().zip(&mut times) {
+        std::thread::sleep(SETTLE);
+        trees.push(c.pool.install(|| (c.build)())?);
+        let warm = Instant::now();
+        while warm.elapsed() < WARM_UP {
+            c.pool.install(|| (c.build)())?;
+        }
+        for _ in 0..args.runs {
             let (wall, cpu, built) = c.pool.install(|| timed(|| (c.build)()));
             built?;
             t.0.push(wall);

@@ -20,10 +20,10 @@
 //! at most [`SUBTREE`] items (the grain) is built to its leaves by the
 //! thread that takes it (the serial recursion over its own items, just
 //! partitioned and still in that core's cache) and grafted into the tree.
-//! (Kept instead for one last round after the last level, so that a level
-//! of partitions would not wait on a thread's whole subtree, they made the
-//! dragon slower: 1.31–1.49x the serial build on two threads against
-//! 1.59–1.65x.) A leaf holds the same triangles as the serial builder's,
+//! (Keeping them for one last round after the last level, so that a level
+//! of partitions would not wait on a thread's whole subtree, was tried: no
+//! faster in an A/B on a noisy two-vCPU machine, and it gives up that
+//! cache.) A leaf holds the same triangles as the serial builder's,
 //! perhaps in another order (the cooperative partition's).
 //!
 //! Threads: the pool the build runs in (`ThreadPool::install`; the global
