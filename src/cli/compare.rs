@@ -238,11 +238,17 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
          through the tree on the SPEs.",
         // Kept on one line: "6 SPEs" is one phrase.
         super::spes(spes).replace(' ', "\u{1}"),
-        (BuilderKind::ALL.iter())
-            .filter(|b| b.host_threads())
-            .map(|b| b.name())
-            .collect::<Vec<_>>()
-            .join(" and "),
+        {
+            let names: Vec<&str> = (BuilderKind::ALL.iter())
+                .filter(|b| b.host_threads())
+                .map(|b| b.name())
+                .collect();
+            match names.split_last() {
+                Some((last, [])) => last.to_string(),
+                Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
+                None => "no builder".into(),
+            }
+        },
         CAST_SIZE.0,
         CAST_SIZE.1
     );
