@@ -8,21 +8,11 @@ use std::hint::black_box;
 use cellbih::bih::{BihConfig, RayStats, Tracer};
 use cellbih::registry::BuilderKind;
 use cellbih::render::Camera;
-use cellbih::scene::{self, Scene};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
-fn scenes() -> Vec<Scene> {
-    let mut v = vec![scene::load("default", None).unwrap()];
-    match scene::data_dir(None) {
-        Some(dir) => {
-            for name in ["bunny", "dragon"] {
-                v.push(scene::load(name, Some(&dir)).unwrap());
-            }
-        }
-        None => eprintln!("CELLBIH_DATA is not set: benchmarking the default scene only"),
-    }
-    v
-}
+#[path = "common/scenes.rs"]
+mod scenes;
+use scenes::default_bunny_dragon as scenes;
 
 fn build(c: &mut Criterion) {
     let mut g = c.benchmark_group("host_build");

@@ -50,6 +50,24 @@ fn root_job<T: Item>(items: &[T], region: Aabb) -> NodeJob {
     }
 }
 
+/// [`finish`] after grafting each of `subtrees` (node id, subtree with
+/// root 0) into `nodes`, in id order: the array before renumbering is then
+/// the same on every run with the same schedule (the renumbered one always
+/// is).
+fn finish_grafted<T: Item>(
+    mut nodes: Vec<BihNode>,
+    mut subtrees: Vec<(usize, Vec<BihNode>)>,
+    items: &[T],
+    region: Aabb,
+    (cfg, stats): (&BihConfig, BuildStats),
+) -> (Bih, BuildStats) {
+    subtrees.sort_by_key(|(id, _)| *id);
+    for (id, sub) in subtrees {
+        graft(&mut nodes, id, &sub);
+    }
+    finish(&nodes, items, region, cfg, stats)
+}
+
 /// The tree a parallel builder made: its `nodes` (root 0, in the order it
 /// made them) renumbered in the serial recursion's order, over `items` in
 /// their final order.

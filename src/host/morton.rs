@@ -41,7 +41,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
-use super::{HostBuilder, SUBTREE, graft};
+use super::{HostBuilder, SUBTREE};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality};
 use crate::kernels::cutoff::child_regions;
@@ -137,11 +137,7 @@ pub fn build_items<T: Item + Send + Sync>(
             Made::Subtree(sub) => subtrees.push((id, sub)),
         }
     }
-    subtrees.sort_by_key(|(id, _)| *id);
-    for (id, sub) in subtrees {
-        graft(&mut nodes, id, &sub);
-    }
-    super::finish(&nodes, items, region, cfg, stats)
+    super::finish_grafted(nodes, subtrees, items, region, (cfg, stats))
 }
 
 /// Sorts `keys` (of `bits` bits) and their `values` together, stably, by

@@ -29,7 +29,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crossbeam::deque::{Injector, Steal, Stealer, Worker};
 
-use super::{HostBuilder, SUBTREE, coop, graft};
+use super::{HostBuilder, SUBTREE, coop};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality};
 use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
@@ -114,13 +114,7 @@ pub fn build_items<T: Item + Send + Sync>(
             }
         }
     }
-    // In id order, so that the array before renumbering is the same on
-    // every run with the same schedule (the renumbered one always is).
-    subtrees.sort_by_key(|(id, _)| *id);
-    for (id, sub) in subtrees {
-        graft(&mut nodes, id, &sub);
-    }
-    super::finish(&nodes, items, region, cfg, stats)
+    super::finish_grafted(nodes, subtrees, items, region, (cfg, stats))
 }
 
 /// What each thread made of the jobs `below` the top and their
