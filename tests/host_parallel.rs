@@ -9,7 +9,7 @@
 
 mod common;
 
-use cellbih::bih::{Bih, BihConfig, Tracer};
+use cellbih::bih::{Bih, BihConfig, SplitChoice, Tracer};
 use cellbih::registry::BuilderKind;
 use cellbih::scene::{self, Scene};
 use proptest::prelude::*;
@@ -23,11 +23,23 @@ fn parallel() -> Vec<BuilderKind> {
     v
 }
 
-/// The settings checked: the paper's tree and each quality knob.
+/// The settings checked: the paper's tree and each quality knob — the
+/// cut-off alone (`host_morton`: clip nodes among the keys' splits) and
+/// binned SAH above a few triangles, the global heuristic below (its
+/// keyed subtrees under SAH's candidates).
 fn settings() -> Vec<BihConfig> {
     vec![
         BihConfig::default(),
         BihConfig::SAH_CUT,
+        BihConfig {
+            empty_cut: Some(10),
+            ..BihConfig::default()
+        },
+        BihConfig {
+            split: SplitChoice::BinnedSah { bins: 8, above: 24 },
+            empty_cut: Some(25),
+            ..BihConfig::default()
+        },
         BihConfig {
             leaf_size: 1,
             max_depth: 20,
@@ -124,6 +136,16 @@ fn the_serial_tree_on_the_real_meshes() {
         let s = scene::load(name, Some(&dir)).unwrap();
         check(&s, &BihConfig::default(), &[1, 2, 3, 8]).unwrap();
         check(&s, &BihConfig::SAH_CUT, &[3]).unwrap();
+        // Binned SAH down to 65,536 triangles, then the global heuristic
+        // (host_morton: keyed subtrees under SAH's candidates).
+        let hybrid = BihConfig {
+            split: SplitChoice::BinnedSah {
+                bins: 16,
+                above: 65_536,
+            },
+            ..BihConfig::SAH_CUT
+        };
+        check(&s, &hybrid, &[3]).unwrap();
     }
 }
 
@@ -133,10 +155,9 @@ proptest! {
     fn the_serial_tree_with_any_number_of_threads(
         s in common::scene_strategy(),
         threads in 1usize..9,
-        pick in 0usize..3,
+        cfg in prop::sample::select(settings()),
         grain in prop::sample::select(vec![1usize, 2, 5, 33]),
     ) {
-        let cfg = settings()[pick];
         check(&s, &cfg, &[threads]).map_err(TestCaseError::fail)?;
         check_grained(&s, &cfg, threads.max(2), grain).map_err(TestCaseError::fail)?;
     }

@@ -14,7 +14,7 @@ pub mod shared;
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality, depth_first};
-use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, build_items};
+use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_items};
 use crate::kernels::split::side_of;
 use crate::scene::Scene;
 
@@ -50,17 +50,50 @@ fn root_job<T: Item>(items: &[T], region: Aabb) -> NodeJob {
     }
 }
 
-/// [`finish`] after grafting each of `subtrees` (node id, subtree with
-/// root 0) into `nodes`, in id order: the array before renumbering is then
-/// the same on every run with the same schedule (the renumbered one always
-/// is).
-fn finish_grafted<T: Item>(
-    mut nodes: Vec<BihNode>,
-    mut subtrees: Vec<(usize, Vec<BihNode>)>,
+/// What a parallel builder made in one node id, in whatever order its
+/// threads made them (`host_private`, `host_morton`). (One a node above
+/// the grain, a few thousand on the dragon: the size of a step's record
+/// does not matter.)
+#[allow(clippy::large_enum_variant)]
+enum Made {
+    /// A node as it is (`host_morton`'s nodes of the key tree).
+    Node(BihNode),
+    /// A step of the recursion for this job; its children took the ids
+    /// from the `usize`.
+    Step(Step, usize, NodeJob),
+    /// The job's whole subtree (root 0).
+    Subtree(Vec<BihNode>),
+}
+
+/// The tree of the nodes a parallel builder `made` (`ids` node ids handed
+/// out, root 0), over `items` in their final order: every node put in its
+/// place, then the subtrees grafted in id order (the array before
+/// renumbering is then the same on every run with the same schedule; the
+/// renumbered one always is), then [`finish`].
+fn assemble<T: Item>(
+    ids: usize,
+    made: impl IntoIterator<Item = (usize, Made)>,
     items: &[T],
     region: Aabb,
     (cfg, stats): (&BihConfig, BuildStats),
 ) -> (Bih, BuildStats) {
+    let mut nodes = vec![BihNode::default(); ids];
+    let mut subtrees = Vec::new();
+    for (id, m) in made {
+        match m {
+            Made::Node(n) => nodes[id] = n,
+            Made::Step(Step::Leaf, _, node) => {
+                nodes[id] = BihNode::leaf(node.first as u32, node.side.count as u32);
+            }
+            Made::Step(Step::Clip(clip), children, _) => {
+                clip.make_at(&mut nodes, id, children);
+            }
+            Made::Step(Step::Split(split), children, node) => {
+                split.make_at(&mut nodes, id, children, &node);
+            }
+            Made::Subtree(sub) => subtrees.push((id, sub)),
+        }
+    }
     subtrees.sort_by_key(|(id, _)| *id);
     for (id, sub) in subtrees {
         graft(&mut nodes, id, &sub);

@@ -31,8 +31,18 @@
 //! serial host builder's: the same nodes, the same leaves with the same
 //! triangles. Within a leaf the triangles may come in another order (the
 //! sort is stable where the serial partition swaps), the same for every
-//! number of threads. The paper's split choice only: keys cannot hold the
-//! binned SAH's planes or the cut-off's clip nodes.
+//! number of threads.
+//!
+//! The quality knobs, with the serial tree still: the **empty-space
+//! cut-off** decides at each node of the key tree as in the serial
+//! recursion ([`decide`]); a clip node leaves its candidate cell, so the
+//! keys still give the splits below it. **Binned SAH** chooses planes keys
+//! cannot hold: a node SAH splits (more than `--sah-above` triangles) is
+//! one step of the recursion with the binning and the partition shared by
+//! the threads ([`coop::coop_step`]), its children made side by side; a
+//! node the global heuristic splits gets keys in the halving order of its
+//! own candidate box, and the route above runs on its items alone. With
+//! SAH at every node (`--sah-above 0`) no key is computed.
 //!
 //! Threads: the pool the build runs in; with one thread it is the serial
 //! recursion itself (no keys, no sort: no parallel overhead).
@@ -41,13 +51,14 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
-use super::{HostBuilder, SUBTREE};
+use super::{HostBuilder, Made, SUBTREE, coop};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality};
 use crate::kernels::cutoff::child_regions;
+use crate::kernels::decide::{Decision, NodeView, decide};
 use crate::kernels::morton::{HalvingTable, KeyOrder, KeySpec, auto_key_bits, split_of};
 use crate::kernels::radix;
-use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, build_node};
+use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node};
 use crate::kernels::split::{clip_planes, side_of};
 use crate::scene::Scene;
 
@@ -55,7 +66,7 @@ use crate::scene::Scene;
 pub const BUILDER: HostBuilder = HostBuilder {
     name: "host_morton",
     describe: "the host builder's tree on the host's cores: Morton keys in the global heuristic's order, a parallel radix sort, the top from the keys, independent subtrees as rayon tasks (section 5's Morton route)",
-    quality: Quality::PAPER,
+    quality: Quality::ALL,
     build: build_in,
     grained: Some(build_items::<PrimRef>),
 };
@@ -87,57 +98,116 @@ pub fn build_items<T: Item + Send + Sync>(
     grain: usize,
 ) -> (Bih, BuildStats) {
     assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
-    assert!(
-        Quality::PAPER.builds(cfg),
-        "host_morton builds the global heuristic without the cut-off"
-    );
     let grain = grain.max(1);
     if rayon::current_num_threads() == 1 || items.len() <= grain {
         // One thread, or one range: the serial recursion itself, no key,
         // no sort (the halving table alone is 2^16 cells).
         return crate::kernels::recursion::build_items(items, region, cfg);
     }
-    let spec = KeySpec {
-        order: KeyOrder::GlobalHeuristic,
-        bits: auto_key_bits(items.len(), grain, DIGIT_BITS),
-        scene: region,
-    };
-    // 1. Keys, 2. the sort of (key, index) pairs.
-    let mut keys = vec![0u64; items.len()];
-    match HalvingTable::new(&spec) {
-        Some(table) => (items
-            .par_chunks(KEY_CHUNK)
-            .zip(keys.par_chunks_mut(KEY_CHUNK)))
-        .for_each(|(ts, ks)| {
-            let centers: Vec<_> = ts.iter().map(|t| t.center()).collect();
-            table.keys(&centers, ks);
-        }),
-        None => (items.par_iter().zip(&mut keys)).for_each(|(t, k)| *k = spec.key(t.center())),
-    }
-    let mut order: Vec<u32> = (0..items.len() as u32).collect();
-    sort_pairs(&mut keys, &mut order, spec.bits);
-    // 3. The items gathered in key order.
-    let sorted: Vec<T> = order.par_iter().map(|&i| items[i as usize]).collect();
-    items.par_iter_mut().zip(sorted).for_each(|(to, t)| *to = t);
-    // 4. The top, 5. the subtrees.
-    let top = Top {
-        keys: &keys,
-        spec,
+    let route = Route {
         cfg,
         grain,
         ids: AtomicUsize::new(1),
     };
     let root = super::root_job(items, region);
-    let (made, stats) = top.node(items, root, 0);
-    let mut nodes = vec![BihNode::default(); top.ids.load(Ordering::Acquire)];
-    let mut subtrees = Vec::new();
-    for (id, m) in made {
-        match m {
-            Made::Node(n) => nodes[id] = n,
-            Made::Subtree(sub) => subtrees.push((id, sub)),
+    let (made, stats) = route.node(items, root, 0);
+    let ids = route.ids.load(Ordering::Acquire);
+    super::assemble(ids, made, items, region, (cfg, stats))
+}
+
+/// The build above the keys: node ids handed out by one counter.
+struct Route<'a> {
+    cfg: &'a BihConfig,
+    grain: usize,
+    ids: AtomicUsize,
+}
+
+/// What a part of the build made (node id and what is there), and the
+/// work it counted.
+type Built = (Vec<(usize, Made)>, BuildStats);
+
+impl Route<'_> {
+    /// Makes node `id` of `job` (over `items`, the job's own items) and
+    /// its subtree: by the keys where the global heuristic splits it
+    /// ([`Self::keyed`]); where binned SAH does (a node of more than
+    /// `--sah-above` triangles), one step of the recursion with its
+    /// binning and partition shared by the threads ([`coop::coop_step`]),
+    /// its children side by side (`rayon::join`).
+    fn node<T: Item + Send + Sync>(&self, items: &mut [T], job: NodeJob, id: usize) -> Built {
+        let mut stats = BuildStats::default();
+        if items.len() <= self.grain {
+            let sub = build_node(items, &job, self.cfg, &mut stats);
+            return (vec![(id, Made::Subtree(sub))], stats);
         }
+        if self.cfg.sah_bins(items.len()).is_none() {
+            // The global heuristic from here down (a node's children have
+            // fewer triangles): keys in its halving order of this
+            // candidate.
+            return self.keyed(items, job, id);
+        }
+        let step = coop::coop_step(items, &job, (self.cfg, self.grain), &mut stats);
+        let children = match step {
+            Step::Leaf => 0,
+            _ => self.ids.fetch_add(2, Ordering::Relaxed),
+        };
+        let mut made = match step {
+            Step::Leaf => Vec::new(),
+            Step::Clip(clip) => {
+                let (made, s) =
+                    self.node(items, job.clipped(clip.region), children + 1 - clip.empty);
+                stats.add(&s);
+                made
+            }
+            Step::Split(split) => {
+                let [left, right] = split.children(children, &job);
+                let (l, r) = items.split_at_mut(split.left.count);
+                let ((mut made, ls), (rm, rs)) = rayon::join(
+                    || self.node(l, left.job(&job), left.id),
+                    || self.node(r, right.job(&job), right.id),
+                );
+                made.extend(rm);
+                stats.add(&ls);
+                stats.add(&rs);
+                made
+            }
+        };
+        made.push((id, Made::Step(step, children, job)));
+        (made, stats)
     }
-    super::finish_grafted(nodes, subtrees, items, region, (cfg, stats))
+
+    /// [`Self::node`] for a job the global heuristic splits, and so every
+    /// node below it: 1. keys in its halving order of the job's candidate,
+    /// 2. the sort of (key, index) pairs, 3. the items gathered in key
+    /// order, 4. the top from the keys ([`Top`]), 5. the subtrees.
+    fn keyed<T: Item + Send + Sync>(&self, items: &mut [T], job: NodeJob, id: usize) -> Built {
+        let spec = KeySpec {
+            order: KeyOrder::GlobalHeuristic,
+            bits: auto_key_bits(items.len(), self.grain, DIGIT_BITS),
+            scene: job.candidate,
+        };
+        let mut keys = vec![0u64; items.len()];
+        match HalvingTable::new(&spec) {
+            Some(table) => (items
+                .par_chunks(KEY_CHUNK)
+                .zip(keys.par_chunks_mut(KEY_CHUNK)))
+            .for_each(|(ts, ks)| {
+                let centers: Vec<_> = ts.iter().map(|t| t.center()).collect();
+                table.keys(&centers, ks);
+            }),
+            None => (items.par_iter().zip(&mut keys)).for_each(|(t, k)| *k = spec.key(t.center())),
+        }
+        let mut order: Vec<u32> = (0..items.len() as u32).collect();
+        sort_pairs(&mut keys, &mut order, spec.bits);
+        let sorted: Vec<T> = order.par_iter().map(|&i| items[i as usize]).collect();
+        items.par_iter_mut().zip(sorted).for_each(|(to, t)| *to = t);
+        let top = Top {
+            keys: &keys,
+            base: job.first,
+            spec,
+            route: self,
+        };
+        top.node(items, job, id)
+    }
 }
 
 /// Sorts `keys` (of `bits` bits) and their `values` together, stably, by
@@ -218,56 +288,65 @@ fn radix_pass<V: Copy + Send + Sync>(
     true
 }
 
-/// What the top made in one node id: an inner node of the key tree, or a
-/// range's whole subtree (root 0).
-enum Made {
-    Node(BihNode),
-    Subtree(Vec<BihNode>),
-}
-
-/// The top of the tree from the sorted keys.
+/// The top of a keyed job's subtree from its sorted keys.
 struct Top<'a> {
+    /// The keys of the job's items, the first that of item `base`.
     keys: &'a [u64],
+    base: usize,
     spec: KeySpec,
-    cfg: &'a BihConfig,
-    grain: usize,
-    ids: AtomicUsize,
+    route: &'a Route<'a>,
 }
 
 impl Top<'_> {
-    /// Makes node `id` of `job` (over `items`, the job's own items), whose
-    /// keys share at least their first `shared` bits; returns what it made
-    /// below, and the work counted.
-    fn node<T: Item + Send + Sync>(
-        &self,
-        items: &mut [T],
-        job: NodeJob,
-        id: usize,
-    ) -> (Vec<(usize, Made)>, BuildStats) {
-        let mut stats = BuildStats::default();
-        let keys = &self.keys[job.first..job.first + items.len()];
-        let split = match items.len() <= self.grain || self.cfg.ends_in_leaf(items.len(), job.depth)
-        {
+    /// Makes node `id` of `job` (over `items`, the job's own items) and its
+    /// subtree: a split where its keys first differ ([`split_of`]), a clip
+    /// node where the empty-space cut-off finds a gap (the node decision,
+    /// [`decide`], as the serial recursion makes it), the serial recursion
+    /// for a range of at most the grain's items, a leaf, or keys all equal.
+    fn node<T: Item + Send + Sync>(&self, items: &mut [T], job: NodeJob, id: usize) -> Built {
+        let (cfg, mut stats) = (self.route.cfg, BuildStats::default());
+        let from = job.first - self.base;
+        let keys = &self.keys[from..from + items.len()];
+        let view = NodeView::of_side(
+            (job.first, items.len(), job.depth),
+            job.region,
+            &job.side,
+            job.candidate,
+        );
+        let split = match items.len() <= self.route.grain {
             true => None,
-            false => split_of(keys, self.spec.bits),
+            false => match decide(cfg, &view, &mut 0) {
+                Decision::Clip(clip) => {
+                    stats.clip_nodes += 1;
+                    let children = self.route.ids.fetch_add(2, Ordering::Relaxed);
+                    let full = children + 1 - clip.empty;
+                    let (mut made, s) = self.node(items, job.clipped(clip.region), full);
+                    stats.add(&s);
+                    made.push((id, Made::Step(Step::Clip(clip), children, job)));
+                    return (made, stats);
+                }
+                Decision::Split(..) => split_of(keys, self.spec.bits),
+                Decision::Leaf => None,
+                Decision::Bin(_) => unreachable!("a keyed job's nodes are the global heuristic's"),
+            },
         };
         let Some((bit, at)) = split else {
-            // A range for one thread, or one whose keys are all equal: the
-            // serial recursion from the node's candidate.
-            let sub = build_node(items, &job, self.cfg, &mut stats);
+            // A range for one thread, a leaf, or keys all equal: the serial
+            // recursion from the node's candidate.
+            let sub = build_node(items, &job, cfg, &mut stats);
             return (vec![(id, Made::Subtree(sub))], stats);
         };
         let axis = self.spec.cell(keys[0], bit).longest_axis();
         let (l_items, r_items) = items.split_at_mut(at);
         let (l, r) = rayon::join(|| side_of(l_items), || side_of(r_items));
         let planes = clip_planes(axis, &l, &r);
-        let children = self.ids.fetch_add(2, Ordering::Relaxed);
+        let children = self.route.ids.fetch_add(2, Ordering::Relaxed);
         let [lr, rr] = child_regions(job.region, axis, planes);
         let child = |first: usize, region: Aabb, side| NodeJob {
             first,
             depth: job.depth + 1,
             region,
-            candidate: self.spec.cell(self.keys[first], bit + 1),
+            candidate: self.spec.cell(self.keys[first - self.base], bit + 1),
             side,
         };
         let (lj, rj) = (child(job.first, lr, l), child(job.first + at, rr, r));

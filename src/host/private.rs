@@ -29,9 +29,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crossbeam::deque::{Injector, Steal, Stealer, Worker};
 
-use super::{HostBuilder, SUBTREE, coop};
+use super::{HostBuilder, Made, SUBTREE, coop};
 use crate::aabb::Aabb;
-use crate::bih::{Bih, BihConfig, BihNode, Quality};
+use crate::bih::{Bih, BihConfig, Quality};
 use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
 use crate::scene::Scene;
 
@@ -57,17 +57,6 @@ struct Job<'a, T> {
     node: NodeJob,
 }
 
-/// What a thread made of one job. (One a job above the grain and
-/// one a subtree: a few thousand on the dragon, so the size of a step's
-/// record does not matter.)
-#[allow(clippy::large_enum_variant)]
-enum Made {
-    /// A step of the recursion; its children took the ids from `children`.
-    Step(Step, usize),
-    /// The job's whole subtree (root 0).
-    Subtree(Vec<BihNode>),
-}
-
 /// Builds a tree over `items`, sorting them in place, on the current rayon
 /// pool's threads with per-thread deques: the serial recursion's tree
 /// ([`crate::kernels::recursion::build_items`]), node for node.
@@ -88,33 +77,16 @@ pub fn build_items<T: Item + Send + Sync>(
     let mut stats = BuildStats::default();
     // The top, every thread on each job; then the deques.
     let (top, below) = coop::top(&mut *items, root, (cfg, grain), &ids, &mut stats);
-    let top: Vec<_> = (top.into_iter())
-        .map(|(id, node, step, children)| (id, node, Made::Step(step, children)))
-        .collect();
-    let mut made = run(below, (cfg, grain), threads, &ids);
-    made.push((top, BuildStats::default()));
-    // The nodes, put together: every id handed out, then the subtrees.
-    let mut nodes = vec![BihNode::default(); ids.load(Ordering::Acquire)];
-    let mut subtrees = Vec::new();
-    for (records, counted) in made {
+    let top =
+        (top.into_iter()).map(|(id, node, step, children)| (id, Made::Step(step, children, node)));
+    let mut made = Vec::from_iter(top);
+    for (records, counted) in run(below, (cfg, grain), threads, &ids) {
         stats.add(&counted);
-        for (id, node, m) in records {
-            match m {
-                Made::Step(Step::Leaf, _) => {
-                    let count = node.side.count as u32;
-                    nodes[id] = BihNode::leaf(node.first as u32, count);
-                }
-                Made::Step(Step::Clip(clip), children) => {
-                    clip.make_at(&mut nodes, id, children);
-                }
-                Made::Step(Step::Split(split), children) => {
-                    split.make_at(&mut nodes, id, children, &node);
-                }
-                Made::Subtree(sub) => subtrees.push((id, sub)),
-            }
-        }
+        made.extend(records);
     }
-    super::finish_grafted(nodes, subtrees, items, region, (cfg, stats))
+    // The nodes, put together: every id handed out, then the subtrees.
+    let ids = ids.load(Ordering::Acquire);
+    super::assemble(ids, made, items, region, (cfg, stats))
 }
 
 /// What each thread made of the jobs `below` the top and their
@@ -125,7 +97,7 @@ fn run<'a, T: Item + Send>(
     (cfg, grain): (&BihConfig, usize),
     threads: usize,
     ids: &AtomicUsize,
-) -> Vec<(Vec<(usize, NodeJob, Made)>, BuildStats)> {
+) -> Vec<(Vec<(usize, Made)>, BuildStats)> {
     let pending = AtomicUsize::new(below.len());
     let injector = Injector::new();
     for (id, items, node) in below {
@@ -181,16 +153,12 @@ fn make<'a, T: Item>(
     job: Job<'a, T>,
     (cfg, grain): (&BihConfig, usize),
     (worker, ids, pending): (&Worker<Job<'a, T>>, &AtomicUsize, &AtomicUsize),
-    own: &mut (Vec<(usize, NodeJob, Made)>, BuildStats),
+    own: &mut (Vec<(usize, Made)>, BuildStats),
 ) {
     let (records, stats) = own;
     let Job { id, items, node } = job;
     if items.len() <= grain {
-        records.push((
-            id,
-            node,
-            Made::Subtree(build_node(items, &node, cfg, stats)),
-        ));
+        records.push((id, Made::Subtree(build_node(items, &node, cfg, stats))));
         pending.fetch_sub(1, Ordering::AcqRel);
         return;
     }
@@ -223,6 +191,6 @@ fn make<'a, T: Item>(
             }
         }
     }
-    records.push((id, node, Made::Step(made, children)));
+    records.push((id, Made::Step(made, children, node)));
     pending.fetch_sub(1, Ordering::AcqRel);
 }
