@@ -10,7 +10,11 @@
 //! is timed alone; the runs go round the contenders of a scene, so that a
 //! shared machine's drift falls on all of them alike.
 //!
-//! `CELLBIH_DATA=../shared/data cargo run --release --example host_scaling -- [--scenes bunny,dragon] [--threads 1,2] [--runs 7] [--out results]`
+//! `CELLBIH_DATA=../shared/data cargo run --release --example host_scaling -- [--scenes bunny,dragon] [--threads 1,2] [--runs 7] [--split sah --empty-cut 10 …] [--out results]`
+//!
+//! The tree is the paper's unless the tree's options (`cellbih build`'s:
+//! `report::TreeArgs`) ask for the quality knobs; every builder that
+//! builds them is measured with them.
 //!
 //! An example, not a `[[bin]]`: obvhs is a dev-dependency only. Each build
 //! runs in a rayon pool of the row's threads (`ThreadPool::install`), once
@@ -27,7 +31,9 @@ use serde_json::{Value, json};
 
 use cellbih::bih::{BihConfig, BihNode};
 use cellbih::registry::BuilderKind;
-use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
+use cellbih::report::{
+    Format, Series, TreeArgs, line_plot, output, print_rows, write_json, write_rows_csv,
+};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -52,6 +58,10 @@ struct Args {
     /// text (a table) or json (the rows).
     #[arg(long, value_enum, default_value = "text")]
     format: Format,
+    /// The tree every builder makes (the peer, obvhs, has its own): the
+    /// paper's by default; the quality knobs as `cellbih build` takes them.
+    #[command(flatten)]
+    tree: TreeArgs,
     /// Directory for the CSV, JSON and SVG files.
     #[arg(long, default_value = "results")]
     out: PathBuf,
@@ -111,24 +121,32 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The builders measured: the serial host builder and every builder that
-/// builds on the host's threads.
-fn builders() -> Vec<BuilderKind> {
+/// builds on the host's threads and builds `cfg`.
+fn builders(cfg: &BihConfig) -> Vec<BuilderKind> {
     (BuilderKind::ALL.iter().copied())
         .filter(|b| *b == BuilderKind::HOST || b.host_threads())
+        .filter(|b| b.builds(cfg))
         .collect()
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    let cfg = BihConfig::default();
+    let cfg = args.tree.config()?;
     let machine = json!({
+        "settings": cfg.flags(),
         "hardware_threads": hardware_threads(),
         "cpu": cpu_model(),
         "runs": args.runs,
         "statistic": "median",
     });
     eprintln!(
-        "host_scaling: {} hardware threads ({}); medians of {} warm builds",
-        machine["hardware_threads"], machine["cpu"], args.runs
+        "host_scaling: {} hardware threads ({}); medians of {} warm builds; tree: {}",
+        machine["hardware_threads"],
+        machine["cpu"],
+        args.runs,
+        match cfg.flags().as_str() {
+            "" => "the paper's",
+            flags => flags,
+        }
     );
     let mut rows = Vec::new();
     for spec in &args.scenes {
@@ -236,7 +254,7 @@ fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, Str
         build: ours(BuilderKind::HOST),
     }];
     for &threads in &args.threads {
-        for b in builders().into_iter().filter(|b| b.host_threads()) {
+        for b in builders(cfg).into_iter().filter(|b| b.host_threads()) {
             contenders.push(Contender {
                 builder: b.name().into(),
                 threads,

@@ -466,13 +466,9 @@ fn simulated_columns(csv: &str) -> String {
         .join("\n")
 }
 
-/// `host_scaling` (an example: it measures obvhs, a dev-dependency; `cargo
-/// test` builds it beside this test): a row per builder that builds on
-/// the host's threads and thread count, the serial builder's, the peer's
-/// and, above one thread, the machine's ceiling; every parallel tree the
-/// serial builder's; the files written.
-#[test]
-fn host_scaling_measures_every_parallel_builder_on_every_thread_count() {
+/// The `host_scaling` example (it measures obvhs, a dev-dependency; `cargo
+/// test` builds it beside this test).
+fn host_scaling() -> String {
     let exe = std::env::current_exe().unwrap();
     let exe = exe
         .parent()
@@ -482,8 +478,18 @@ fn host_scaling_measures_every_parallel_builder_on_every_thread_count() {
         .join("examples")
         .join("host_scaling");
     assert!(exe.exists(), "{} was not built", exe.display());
+    exe.to_str().unwrap().to_string()
+}
+
+/// `host_scaling`: a row per builder that builds on
+/// the host's threads and thread count, the serial builder's, the peer's
+/// and, above one thread, the machine's ceiling; every parallel tree the
+/// serial builder's; the files written.
+#[test]
+fn host_scaling_measures_every_parallel_builder_on_every_thread_count() {
+    let exe = host_scaling();
     let (rows, dir) = run_experiment(
-        exe.to_str().unwrap(),
+        &exe,
         "host_scaling",
         &[
             "--scenes",
@@ -526,4 +532,36 @@ fn host_scaling_measures_every_parallel_builder_on_every_thread_count() {
     }
     assert!(dir.join("host_scaling.csv").exists());
     assert!(dir.join("host_scaling.svg").exists());
+}
+
+/// `host_scaling --split sah --sah-above N --empty-cut P`: every parallel
+/// builder measured with the knobs, each tree the serial builder's with
+/// them (not the paper's: the JSON names the settings); binned SAH's
+/// options without `--split sah` refused, named.
+#[test]
+fn host_scaling_builds_with_the_quality_knobs() {
+    let exe = host_scaling();
+    let knobs = ["--split", "sah", "--sah-above", "2000", "--empty-cut", "10"];
+    let mut args = vec!["--scenes", "rtperf:20000", "--threads", "2", "--runs", "1"];
+    args.extend(knobs);
+    let (rows, dir) = run_experiment(&exe, "host_scaling_knobs", &args);
+    let parallel = (cellbih::registry::BuilderKind::ALL.iter()).filter(|b| b.host_threads());
+    for b in parallel {
+        let row = (rows.iter()).find(|r| r["builder"] == b.name());
+        let row = row.unwrap_or_else(|| panic!("no row for {b}"));
+        assert_eq!(row["same_tree"], true, "{row}");
+    }
+    let doc: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("host_scaling.json")).unwrap()).unwrap();
+    assert_eq!(
+        doc["settings"],
+        "--split sah --sah-above 2000 --empty-cut 10"
+    );
+    let out = std::process::Command::new(&exe)
+        .args(["--scenes", "default", "--sah-above", "10"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--sah-above"), "{err}");
 }

@@ -5,76 +5,15 @@
 
 use clap::ValueEnum;
 
-use cellbih::bih::{BihConfig, SplitChoice};
+use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
-use cellbih::kernels::sah::{DEFAULT_BINS, MAX_BINS};
 use cellbih::registry::{BuildReport, BuilderKind};
 use cellbih::scene::Scene;
 use cellbih::strategy::{Knob, Knobs};
 
+pub use cellbih::report::TreeArgs;
+
 use super::Res;
-
-/// The tree's limits and quality knobs ([`BihConfig`]): the options of
-/// every command that builds, `compare` among them.
-#[derive(clap::Args)]
-pub struct TreeArgs {
-    /// Largest leaf, in triangles (at least 1).
-    #[arg(long, default_value_t = BihConfig::default().leaf_size,
-          value_parser = clap::value_parser!(u32).range(1..))]
-    pub leaf_size: u32,
-    /// How inner nodes choose their plane: gh (the paper's global
-    /// heuristic: halve the candidate box) or sah (binned surface-area
-    /// heuristic: fewer nodes and triangles per ray, one more pass over
-    /// each node's triangles). Every builder but ppe_approx and spe_morton.
-    #[arg(long, value_enum, default_value = "gh")]
-    pub split: SplitArg,
-    /// --split sah: bins per axis (2 to 256) [default: 16].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(2..=MAX_BINS as i64))]
-    pub sah_bins: Option<u32>,
-    /// --split sah: nodes of at most this many triangles take the global
-    /// heuristic's halving instead of binning (0: every node bins). A
-    /// faster build for a little quality: the small nodes are most of the
-    /// bin sweeps.
-    /// [default: 0]
-    #[arg(long)]
-    pub sah_above: Option<u32>,
-    /// Empty-space cut-off: a gap of more than this percentage of a node's
-    /// extent beside its triangles is cut off by a clip node (1 to 99;
-    /// off by default). Every builder but ppe_approx and spe_morton.
-    #[arg(long, value_parser = percent)]
-    pub empty_cut: Option<u32>,
-    /// Deepest leaf (root = 0), at most 126 (the traversal stack's depth).
-    #[arg(long, default_value_t = BihConfig::default().max_depth,
-          value_parser = clap::value_parser!(u32).range(0..=BihConfig::MAX_SUPPORTED_DEPTH as i64))]
-    pub max_depth: u32,
-}
-
-impl TreeArgs {
-    /// The tree configuration asked for; binned SAH's options without
-    /// `--split sah` are an error, not ignored.
-    pub fn config(&self) -> Res<BihConfig> {
-        let split = match self.split {
-            SplitArg::Gh => {
-                if self.sah_bins.is_some() || self.sah_above.is_some() {
-                    return Err("--sah-bins and --sah-above apply to --split sah only \
-                                (the global heuristic bins nothing)"
-                        .into());
-                }
-                SplitChoice::GlobalHeuristic
-            }
-            SplitArg::Sah => SplitChoice::BinnedSah {
-                bins: self.sah_bins.unwrap_or(DEFAULT_BINS),
-                above: self.sah_above.unwrap_or(0),
-            },
-        };
-        Ok(BihConfig {
-            leaf_size: self.leaf_size,
-            max_depth: self.max_depth,
-            split,
-            empty_cut: self.empty_cut,
-        })
-    }
-}
 
 #[derive(clap::Args)]
 pub struct BuildArgs {
@@ -119,18 +58,6 @@ pub struct BuildArgs {
     pub knobs: KnobArgs,
 }
 
-/// `--empty-cut`: a whole percentage, 1 to 99.
-fn percent(v: &str) -> Result<u32, String> {
-    match v.parse::<u32>() {
-        Ok(p) if (1..=99).contains(&p) => Ok(p),
-        Ok(p) => Err(format!("{p} is not in 1..=99")),
-        Err(_) if v.parse::<f64>().is_ok() => Err(format!(
-            "a whole percentage is wanted (1 to 99), not {v}: round it"
-        )),
-        Err(_) => Err(format!("a whole percentage is wanted (1 to 99), not '{v}'")),
-    }
-}
-
 /// `--mode`: the emulator's own speed/accuracy trade.
 #[derive(Clone, Copy, ValueEnum)]
 pub enum Mode {
@@ -151,13 +78,6 @@ pub enum MachineModel {
 pub enum Mailboxes {
     Raw,
     Ps3Kernel,
-}
-
-/// `--split`.
-#[derive(Clone, Copy, ValueEnum)]
-pub enum SplitArg {
-    Gh,
-    Sah,
 }
 
 /// What `--builder` and its options ask for.

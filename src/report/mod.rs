@@ -3,12 +3,14 @@
 //! [`crate::output`]: written whole or not at all, errors naming the path.
 
 pub mod parallel;
+pub mod tree_args;
 
 use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
 pub use parallel::{ThreadsArg, side_by_side};
+pub use tree_args::TreeArgs;
 
 pub use crate::output::OutputError;
 use crate::output::{check_writable, write_bytes, write_file};
