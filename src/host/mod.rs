@@ -15,7 +15,9 @@ pub mod shared;
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality, depth_first};
 use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_items};
-use crate::kernels::split::side_of;
+use rayon::prelude::*;
+
+use crate::kernels::split::{Side, side_of};
 use crate::scene::Scene;
 
 /// A job of at most this many items is built to its leaves by the thread
@@ -39,15 +41,28 @@ fn graft(nodes: &mut Vec<BihNode>, id: usize, sub: &[BihNode]) {
     nodes.extend(sub[1..].iter().map(|&n| moved(n)));
 }
 
-/// The root's job over all of `items`, `region` its region and candidate.
-fn root_job<T: Item>(items: &[T], region: Aabb) -> NodeJob {
+/// The root's job over all of `items`, `region` its region and candidate;
+/// its side found by the current pool's threads (by blocks of
+/// [`SUBTREE`]: the same bounds and count, merged).
+fn root_job<T: Item + Sync>(items: &[T], region: Aabb) -> NodeJob {
+    let side = (items.par_chunks(SUBTREE))
+        .map(side_of)
+        .reduce(|| Side::EMPTY, |a, b| a.merge(b));
     NodeJob {
         first: 0,
         depth: 0,
         region,
         candidate: region,
-        side: side_of(items),
+        side,
     }
+}
+
+/// [`prim_refs`] made by the current pool's threads, for the parallel
+/// builders (the same items in the same order).
+fn par_prim_refs(scene: &Scene) -> Vec<PrimRef> {
+    (scene.triangles.par_iter().enumerate())
+        .map(|(i, t)| PrimRef::new(i as u32, t.bounds()))
+        .collect()
 }
 
 /// What a parallel builder made in one node id, in whatever order its

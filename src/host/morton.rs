@@ -7,23 +7,29 @@
 //!
 //! 1. **Keys** in the global heuristic's halving order ([`KeyOrder`]), one
 //!    per item, computed in parallel from a table of the halvings
-//!    ([`HalvingTable`]: eight items' chains of lookups side by side;
-//!    dragon, 2 threads: 8.8 ms, against 34.5 one item at a time).
+//!    ([`HalvingTable`]: usually three one-dimensional trees of planes in
+//!    L1; eight items' descents side by side; dragon, 2 threads: 7.2–7.5
+//!    ms, against 34.5 one halving a bit).
 //! 2. **Radix sort**, LSD, 8 bits a pass, of (key, item index) pairs, by
 //!    blocks of [`BLOCK`] pairs in parallel: every block counts its digits;
 //!    the output is carved, digit by digit and block by block, into one
 //!    run per (block, digit); every block scatters its pairs into its own
-//!    runs (stable, and no two threads write one place).
-//! 3. The items **gathered** in key order. (Moving the 32-byte items with
-//!    their keys in every pass instead cost more: dragon, 2 threads, warm
-//!    pool, 18.5 ms against 5 + 10.5 ms for the sort and the gather.)
-//! 4. **The top of the tree from the sorted keys**: a node where a range's
+//!    runs (stable, and no two threads write one place). (Moving the
+//!    32-byte items with their keys in every pass instead cost more:
+//!    dragon, 2 threads, warm pool, 18.5 ms against 5 + 10.5 ms for the
+//!    sort and a gather.)
+//! 3. **The top of the tree from the sorted keys**: a node where a range's
 //!    keys first differ ([`split_of`]), its two sides made side by side
 //!    (`rayon::join`), down to ranges of at most the grain's items
-//!    ([`SUBTREE`]) or whose keys are all equal.
-//! 5. **Independent subtrees**: each such range built by the serial
+//!    ([`SUBTREE`]) or whose keys are all equal. Without the empty-space
+//!    cut-off it is made bottom up ([`Top::gathered`]): each such range
+//!    **gathers its own items** in key order from a copy of them, and a
+//!    node's planes come from its sides' bounds as they return; with the
+//!    cut-off, a node's decision needs its bounds first, so the items are
+//!    gathered in key order once and the top goes down ([`Top::node`]).
+//! 4. **Independent subtrees**: each such range built by the serial
 //!    recursion from its candidate cell ([`KeySpec::cell`]), as a rayon
-//!    task.
+//!    task, while its gathered items are in its core's cache.
 //!
 //! With keys in the global heuristic's order, a node of the key tree is a
 //! halving the serial builder makes with items on both sides (the Morton
@@ -59,7 +65,7 @@ use crate::kernels::decide::{Decision, NodeView, decide};
 use crate::kernels::morton::{HalvingTable, KeyOrder, KeySpec, auto_key_bits, split_of};
 use crate::kernels::radix;
 use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node};
-use crate::kernels::split::{clip_planes, side_of};
+use crate::kernels::split::{Side, clip_planes, side_of};
 use crate::scene::Scene;
 
 /// The builder.
@@ -84,7 +90,7 @@ pub const DIGIT_BITS: u32 = 8;
 /// Builds the tree of `scene` with `region` as the scene box of the global
 /// heuristic, on the current rayon pool's threads.
 pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    build_items(&mut super::prim_refs(scene), region, cfg, SUBTREE).0
+    build_items(&mut super::par_prim_refs(scene), region, cfg, SUBTREE).0
 }
 
 /// Builds a tree over `items`, sorting them in place, on the current rayon
@@ -198,14 +204,22 @@ impl Route<'_> {
         }
         let mut order: Vec<u32> = (0..items.len() as u32).collect();
         sort_pairs(&mut keys, &mut order, spec.bits);
-        let sorted: Vec<T> = order.par_iter().map(|&i| items[i as usize]).collect();
-        items.par_iter_mut().zip(sorted).for_each(|(to, t)| *to = t);
         let top = Top {
             keys: &keys,
             base: job.first,
             spec,
             route: self,
         };
+        if self.cfg.empty_cut.is_none() {
+            // No node of the key tree needs its items' bounds before its
+            // children are made: each range gathers its own items.
+            let unsorted: Vec<T> = items.par_iter().copied().collect();
+            let at = (job.first, job.depth, job.candidate);
+            let (made, _, stats) = top.gathered(items, (&unsorted, &order), at, id);
+            return (made, stats);
+        }
+        let sorted: Vec<T> = order.par_iter().map(|&i| items[i as usize]).collect();
+        items.par_iter_mut().zip(sorted).for_each(|(to, t)| *to = t);
         top.node(items, job, id)
     }
 }
@@ -298,6 +312,74 @@ struct Top<'a> {
 }
 
 impl Top<'_> {
+    /// Makes node `id` (over `items`' places, from `first`, at `depth`, its
+    /// candidate cell `candidate`) and its subtree without the empty-space
+    /// cut-off, bottom up: a split where its keys first differ, both sides
+    /// side by side, its planes from their bounds once they are made; a
+    /// range of at most the grain's items (or a leaf, or keys all equal)
+    /// gathers its items from `unsorted` in key order (`order`) into its
+    /// places and is built by the serial recursion while they are in this
+    /// core's cache. Returns what it made, its items' side, the work.
+    fn gathered<T: Item + Send + Sync>(
+        &self,
+        items: &mut [T],
+        (unsorted, order): (&[T], &[u32]),
+        (first, depth, candidate): (usize, u32, Aabb),
+        id: usize,
+    ) -> (Vec<(usize, Made)>, Side, BuildStats) {
+        let (cfg, grain) = (self.route.cfg, self.route.grain);
+        debug_assert!(cfg.empty_cut.is_none(), "regions are not followed");
+        let from = first - self.base;
+        let keys = &self.keys[from..from + items.len()];
+        let split = match items.len() <= grain || cfg.ends_in_leaf(items.len(), depth) {
+            true => None,
+            false => split_of(keys, self.spec.bits),
+        };
+        let Some((bit, at)) = split else {
+            for (to, &i) in items.iter_mut().zip(&order[from..]) {
+                *to = unsorted[i as usize];
+            }
+            let side = side_of(items);
+            // Its region is followed for the cut-off only.
+            let (region, mut stats) = (candidate, BuildStats::default());
+            let job = NodeJob {
+                first,
+                depth,
+                region,
+                candidate,
+                side,
+            };
+            let sub = build_node(items, &job, cfg, &mut stats);
+            return (vec![(id, Made::Subtree(sub))], side, stats);
+        };
+        let axis = self.spec.cell(keys[0], bit).longest_axis();
+        let children = self.route.ids.fetch_add(2, Ordering::Relaxed);
+        let (l_items, r_items) = items.split_at_mut(at);
+        let child = |first: usize| {
+            (
+                first,
+                depth + 1,
+                self.spec.cell(self.keys[first - self.base], bit + 1),
+            )
+        };
+        let from = (unsorted, order);
+        let ((mut made, l, ls), (rm, r, rs)) = rayon::join(
+            || self.gathered(l_items, from, child(first), children),
+            || self.gathered(r_items, from, child(first + at), children + 1),
+        );
+        made.extend(rm);
+        let planes = clip_planes(axis, &l, &r);
+        made.push((
+            id,
+            Made::Node(BihNode::inner(children as u32, axis, planes[0], planes[1])),
+        ));
+        let mut stats = ls;
+        stats.add(&rs);
+        stats.items_partitioned += (l.count + r.count) as u64;
+        stats.partitions += 1;
+        (made, l.merge(r), stats)
+    }
+
     /// Makes node `id` of `job` (over `items`, the job's own items) and its
     /// subtree: a split where its keys first differ ([`split_of`]), a clip
     /// node where the empty-space cut-off finds a gap (the node decision,

@@ -47,7 +47,7 @@ pub const BUILDER: HostBuilder = HostBuilder {
 /// Builds the tree of `scene` with `region` as the scene box of the global
 /// heuristic, on the current rayon pool's threads.
 pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    build_items(&mut super::prim_refs(scene), region, cfg, SUBTREE).0
+    build_items(&mut super::par_prim_refs(scene), region, cfg, SUBTREE).0
 }
 
 /// A job: node `id` over its own items.

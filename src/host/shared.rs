@@ -54,7 +54,7 @@ pub const AGGLOMERATE: usize = 16;
 /// Builds the tree of `scene` with `region` as the scene box of the global
 /// heuristic, on the current rayon pool's threads.
 pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    build_items(&mut super::prim_refs(scene), region, cfg, SUBTREE).0
+    build_items(&mut super::par_prim_refs(scene), region, cfg, SUBTREE).0
 }
 
 /// A job of a level: a node to make over `items[first .. first + count]`.

@@ -1,15 +1,18 @@
 //! The plain functions that host builders and SPE programs share (DESIGN.md
 //! rule 3): the global heuristic's split choice and the in-place partition
 //! ([`split`]), binned SAH ([`sah`]), the empty-space cut-off ([`cutoff`]),
-//! the node decision ([`decide`]), the recursion written once over boxed items ([`recursion`]), the bucket
-//! presort of approximate sorting ([`approx`]), Morton keys ([`morton`]) and
-//! the radix-sort passes ([`radix`]), and their compute rates ([`rates`]).
+//! the node decision ([`decide`]), the recursion written once over boxed
+//! items ([`recursion`]), the bucket presort of approximate sorting
+//! ([`approx`]), Morton keys ([`morton`]) and their halving tables
+//! ([`halving`]), the radix-sort passes ([`radix`]), and their compute
+//! rates ([`rates`]).
 //! A host builder calls them on whole arrays, an SPE program on
 //! local-store blocks.
 
 pub mod approx;
 pub mod cutoff;
 pub mod decide;
+pub mod halving;
 pub mod morton;
 pub mod radix;
 pub mod rates;

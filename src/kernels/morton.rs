@@ -36,6 +36,8 @@ use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
 use crate::scene::Scene;
 
+pub use super::halving::HalvingTable;
+
 /// The order of a key's bits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum KeyOrder {
@@ -56,7 +58,7 @@ pub struct KeySpec {
 
 /// The midpoint of `lo..hi` as the builder computes it.
 #[inline]
-fn mid(lo: f32, hi: f32) -> f32 {
+pub(super) fn mid(lo: f32, hi: f32) -> f32 {
     lo * 0.5 + hi * 0.5
 }
 
@@ -142,89 +144,10 @@ impl KeySpec {
     }
 }
 
-/// The global heuristic's halvings of a scene box, every cell down to
-/// [`KeySpec::bits`] halvings, as an implicit binary tree (cell `k` has
-/// children `2k` and `2k + 1`, the root is 1): each cell's axis and plane
-/// ([`halving`], computed once a cell instead of once a triangle). A key is
-/// then [`KeySpec::bits`] lookups and comparisons, one chain of dependent
-/// loads a triangle, so [`HalvingTable::keys`] runs eight triangles' chains
-/// side by side. Equal to [`KeySpec::key`] for finite centers. `2^bits`
-/// cells.
-pub struct HalvingTable {
-    bits: u32,
-    /// Per cell: its plane and axis. A cell `f32` cannot halve (and every
-    /// cell below it) has the plane +∞: no finite center is on its right,
-    /// so the key ends in zeros.
-    cells: Vec<(f32, u32)>,
-}
-
-impl HalvingTable {
-    /// Widest keys a table is made for (2^20 cells, 8 MiB).
-    pub const MAX_BITS: u32 = 20;
-
-    /// The table of `spec`'s halvings; `None` for round-robin keys or keys
-    /// wider than [`Self::MAX_BITS`].
-    pub fn new(spec: &KeySpec) -> Option<HalvingTable> {
-        if spec.order != KeyOrder::GlobalHeuristic || spec.bits > Self::MAX_BITS {
-            return None;
-        }
-        let mut t = HalvingTable {
-            bits: spec.bits,
-            cells: vec![(f32::INFINITY, 0); 1 << spec.bits],
-        };
-        t.fill(1, spec.scene);
-        Some(t)
-    }
-
-    fn fill(&mut self, k: usize, cell: Aabb) {
-        if k >= self.cells.len() {
-            return;
-        }
-        let Some((axis, plane)) = halving(&cell) else {
-            return; // This cell and those below keep the plane +∞.
-        };
-        self.cells[k] = (plane, axis as u32);
-        let (mut l, mut r) = (cell, cell);
-        l.max[axis] = plane;
-        r.min[axis] = plane;
-        self.fill(2 * k, l);
-        self.fill(2 * k + 1, r);
-    }
-
-    /// [`KeySpec::key`] of a triangle whose box center is `c`.
-    #[inline]
-    pub fn key(&self, c: Vec3A) -> u64 {
-        let mut keys = [0];
-        self.keys(&[c], &mut keys);
-        keys[0]
-    }
-
-    /// The keys of the box centers `centers` into `keys`, eight at a time.
-    pub fn keys(&self, centers: &[Vec3A], keys: &mut [u64]) {
-        const LANES: usize = 8;
-        for (cs, ks) in centers.chunks(LANES).zip(keys.chunks_mut(LANES)) {
-            let mut c = [[0f32; 3]; LANES];
-            for (to, from) in c.iter_mut().zip(cs) {
-                *to = from.to_array();
-            }
-            let mut k = [1usize; LANES];
-            for _ in 0..self.bits {
-                for (k, c) in k.iter_mut().zip(&c) {
-                    let (plane, axis) = self.cells[*k];
-                    *k = 2 * *k + (c[axis as usize] >= plane) as usize;
-                }
-            }
-            for (to, k) in ks.iter_mut().zip(k) {
-                *to = k as u64 & ((1u64 << self.bits) - 1);
-            }
-        }
-    }
-}
-
 /// The builder's halving of `cell` (its longest axis and `f32` midpoint),
 /// or `None` when the midpoint does not fall strictly inside (`f32` cannot
 /// halve it any more).
-fn halving(cell: &Aabb) -> Option<(usize, f32)> {
+pub(super) fn halving(cell: &Aabb) -> Option<(usize, f32)> {
     let axis = cell.longest_axis();
     let (lo, hi) = (cell.min[axis], cell.max[axis]);
     let plane = mid(lo, hi);
@@ -428,7 +351,6 @@ pub fn auto_region_size(n: usize) -> usize {
 mod tests {
     use super::*;
     use glam::Vec3;
-    use proptest::prelude::*;
 
     fn unit() -> Aabb {
         Aabb::new(Vec3::ZERO, Vec3::ONE)
@@ -493,27 +415,6 @@ mod tests {
         };
         // The midpoint of two adjacent floats is one of them: no halving.
         assert_eq!(spec.key(Vec3A::new(next, x, x)), 0);
-    }
-
-    proptest::proptest! {
-        /// The table's keys are the halvings' own, on boxes from thin to
-        /// huge, centers inside and on the faces.
-        #[test]
-        fn the_halving_table_gives_the_same_keys(
-            lo in proptest::array::uniform3(-1e15f32..1e15),
-            ext in proptest::array::uniform3(prop_oneof![Just(0.0f32), 1e-30f32..1e-20, 1e-6f32..1e6, 1e20f32..1e30]),
-            ts in proptest::collection::vec(proptest::array::uniform3(prop_oneof![Just(0.0f32), Just(1.0f32), 0.0f32..1.0]), 1..40),
-            bits in 1u32..=20,
-        ) {
-            let lo = Vec3::from(lo);
-            let hi = lo + Vec3::from(ext);
-            let spec = KeySpec { order: KeyOrder::GlobalHeuristic, bits, scene: Aabb::new(lo, hi) };
-            let table = HalvingTable::new(&spec).unwrap();
-            for t in ts {
-                let c = Vec3A::from(lo) + Vec3A::from(t) * (Vec3A::from(hi) - Vec3A::from(lo));
-                proptest::prop_assert_eq!(table.key(c), spec.key(c), "{:?}", c);
-            }
-        }
     }
 
     #[test]
