@@ -6,19 +6,23 @@
 //! that work efficiency shows even where there are few cores. Beside them
 //! the machine's own ceiling: as many independent serial builds at once as
 //! threads (its speedup: builds × serial time / its time), which no
-//! parallel builder can beat on the same machine at the same moment. Each build
-//! is timed alone; the runs go round the contenders of a scene, so that a
-//! shared machine's drift falls on all of them alike.
+//! parallel builder can beat on the same machine at the same moment. Each
+//! contender in turn, in its own warm pool, its builds timed back to back
+//! (a second vCPU of a virtual machine comes up to speed only after some
+//! work: `WARM_UP`); beside each row the share of the CPUs' time the
+//! hypervisor stole during its builds (/proc/stat), which slows a parallel
+//! build more than independent ones.
 //!
-//! `CELLBIH_DATA=../shared/data cargo run --release --example host_scaling -- [--scenes bunny,dragon] [--threads 1,2] [--runs 7] [--split sah --empty-cut 10 …] [--out results]`
+//! `CELLBIH_DATA=../shared/data cargo run --release --example host_scaling -- [--scenes bunny,dragon] [--threads 1,2] [--runs 7] [--rounds 3] [--split sah --empty-cut 10 …] [--out results]`
 //!
 //! The tree is the paper's unless the tree's options (`cellbih build`'s:
 //! `report::TreeArgs`) ask for the quality knobs; every builder that
 //! builds them is measured with them.
 //!
 //! An example, not a `[[bin]]`: obvhs is a dev-dependency only. Each build
-//! runs in a rayon pool of the row's threads (`ThreadPool::install`), once
-//! to warm up and then `--runs` times; the table gives medians. Each
+//! runs in a rayon pool of the row's threads (`ThreadPool::install`), for
+//! `WARM_UP` and then `--runs` times, in each of `--rounds` rounds over the
+//! contenders; the table gives medians over the rounds' builds. Each
 //! parallel builder's tree is checked against the serial builder's (the
 //! same nodes). Writes host_scaling.{csv,json} and host_scaling.svg
 //! (speedup against threads on the largest scene).
@@ -52,9 +56,16 @@ struct Args {
     /// machine's available parallelism, and it).
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u64).range(1..=1024))]
     threads: Vec<u64>,
-    /// Timed builds per row (after one to warm up); the table gives medians.
+    /// Timed builds per row and round (after a warm-up); the table gives
+    /// medians over every round's.
     #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u64).range(1..=1000))]
     runs: u64,
+    /// Rounds over the contenders of a scene, each contender warmed up
+    /// and timed once a round: a slow stretch of a shared machine then
+    /// falls on one round of each rather than on all of one contender's
+    /// builds.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
+    rounds: u64,
     /// text (a table) or json (the rows).
     #[arg(long, value_enum, default_value = "text")]
     format: Format,
@@ -98,6 +109,19 @@ fn cpu_time() -> Duration {
     tv(usage.ru_utime) + tv(usage.ru_stime)
 }
 
+/// The time the hypervisor gave this machine's CPUs to others ("steal",
+/// summed over the CPUs, from /proc/stat), where the kernel reports it: a
+/// virtual machine's vCPUs may stand still while the host runs something
+/// else, and a parallel build waits for the one that stands.
+fn stolen() -> Option<Duration> {
+    let stat = std::fs::read_to_string("/proc/stat").ok()?;
+    let cpu = stat.lines().find(|l| l.starts_with("cpu "))?;
+    let ticks: u64 = cpu.split_whitespace().nth(8)?.parse().ok()?;
+    // SAFETY: sysconf reads a constant of the system.
+    let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) };
+    (hz > 0).then(|| Duration::from_secs_f64(ticks as f64 / hz as f64))
+}
+
 /// The pause before each contender (see [`scene_rows`]).
 const SETTLE: Duration = Duration::from_millis(20);
 
@@ -136,12 +160,14 @@ fn run(args: &Args) -> Result<(), String> {
         "hardware_threads": hardware_threads(),
         "cpu": cpu_model(),
         "runs": args.runs,
+        "rounds": args.rounds,
         "statistic": "median",
     });
     eprintln!(
-        "host_scaling: {} hardware threads ({}); medians of {} warm builds; tree: {}",
+        "host_scaling: {} hardware threads ({}); medians of {} rounds of {} warm builds; tree: {}",
         machine["hardware_threads"],
         machine["cpu"],
+        args.rounds,
         args.runs,
         match cfg.flags().as_str() {
             "" => "the paper's",
@@ -177,6 +203,7 @@ fn run(args: &Args) -> Result<(), String> {
         "speedup",
         "cpu_over_serial",
         "same_tree",
+        "stolen",
     ];
     write_rows_csv(
         &output(&args.out, "host_scaling.csv").map_err(|e| e.to_string())?,
@@ -187,12 +214,20 @@ fn run(args: &Args) -> Result<(), String> {
     plot(&rows, &args.out)?;
     print_rows(args.format, &rows, |rows| {
         println!(
-            "{:<16} {:<14} {:>7} {:>10} {:>10} {:>8} {:>9} {:>5}",
-            "scene", "builder", "threads", "wall ms", "cpu ms", "speedup", "cpu/ser.", "same"
+            "{:<16} {:<14} {:>7} {:>10} {:>10} {:>8} {:>9} {:>5} {:>7}",
+            "scene",
+            "builder",
+            "threads",
+            "wall ms",
+            "cpu ms",
+            "speedup",
+            "cpu/ser.",
+            "same",
+            "stolen"
         );
         for r in rows {
             println!(
-                "{:<16} {:<14} {:>7} {:>10.2} {:>10.2} {:>7.2}x {:>8.2}x {:>5}",
+                "{:<16} {:<14} {:>7} {:>10.2} {:>10.2} {:>7.2}x {:>8.2}x {:>5} {:>7}",
                 r["scene"].as_str().unwrap_or(""),
                 r["builder"].as_str().unwrap_or(""),
                 r["threads"],
@@ -204,6 +239,10 @@ fn run(args: &Args) -> Result<(), String> {
                     Some(true) => "yes",
                     Some(false) => "NO",
                     None => "-",
+                },
+                match r["stolen"].as_f64() {
+                    Some(f) => format!("{:.1}%", 100.0 * f),
+                    None => "-".into(),
                 }
             );
         }
@@ -223,7 +262,7 @@ struct Contender<'a> {
 
 /// The rows of one scene: the serial builder, each parallel builder and
 /// the peer on each thread count, each built for [`WARM_UP`] and then
-/// `--runs` times back to back; each row gives its medians.
+/// `--runs` times back to back, every round; each row gives its medians.
 fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, String> {
     let pool = |threads: u64| {
         rayon::ThreadPoolBuilder::new()
@@ -298,33 +337,47 @@ fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, Str
             }),
         });
     }
-    // Each contender in turn: after a pause (the last contender's idle
-    // threads spin a little before they sleep, and the process's CPU time
-    // would count it), builds for [`WARM_UP`] (the first one's tree
-    // checked against the serial builder's), then the timed builds back to
-    // back, in a warm pool.
+    // Each round, each contender in turn: after a pause (the last
+    // contender's idle threads spin a little before they sleep, and the
+    // process's CPU time would count it), builds for [`WARM_UP`] (the very
+    // first one's tree checked against the serial builder's), then the
+    // timed builds back to back, in a warm pool.
     let mut trees = Vec::new();
     let mut times = vec![(Vec::new(), Vec::new()); contenders.len()];
-    for (c, t) in contenders.iter().zip(&mut times) {
-        std::thread::sleep(SETTLE);
-        trees.push(c.pool.install(|| (c.build)())?);
-        let warm = Instant::now();
-        while warm.elapsed() < WARM_UP {
-            c.pool.install(|| (c.build)())?;
-        }
-        for _ in 0..args.runs {
-            let (wall, cpu, built) = c.pool.install(|| timed(|| (c.build)()));
-            built?;
-            t.0.push(wall);
-            t.1.push(cpu);
+    // Per contender: CPU time stolen and CPU time there was, seconds.
+    let mut steal = vec![Some((0.0, 0.0)); contenders.len()];
+    for round in 0..args.rounds {
+        for ((c, t), steal) in contenders.iter().zip(&mut times).zip(&mut steal) {
+            std::thread::sleep(SETTLE);
+            let first = c.pool.install(|| (c.build)())?;
+            if round == 0 {
+                trees.push(first);
+            }
+            let warm = Instant::now();
+            while warm.elapsed() < WARM_UP {
+                c.pool.install(|| (c.build)())?;
+            }
+            let (before, timing) = (stolen(), Instant::now());
+            for _ in 0..args.runs {
+                let (wall, cpu, built) = c.pool.install(|| timed(|| (c.build)()));
+                built?;
+                t.0.push(wall);
+                t.1.push(cpu);
+            }
+            // The CPUs' time during the timed builds, and how much of it
+            // was stolen (in /proc/stat's ticks: 10 ms on Linux).
+            let all = timing.elapsed().as_secs_f64() * hardware_threads() as f64;
+            let took = before.zip(stolen()).map(|(b, a)| (a - b).as_secs_f64());
+            *steal = steal.zip(took).map(|((s, a), took)| (s + took, a + all));
         }
     }
+    let steal = steal.into_iter().map(|s| s.map(|(s, all)| s / all));
     let medians: Vec<(f64, f64)> = (times.into_iter())
         .map(|(w, c)| (median(w), median(c)))
         .collect();
     let (serial_wall, serial_cpu) = medians[0];
-    let rows = (contenders.iter().zip(medians).zip(&trees))
-        .map(|((c, (wall, cpu)), tree)| {
+    let rows = (contenders.iter().zip(medians).zip(&trees).zip(steal))
+        .map(|(((c, (wall, cpu)), tree), stolen)| {
             eprintln!(
                 "  {} {} {} threads: {wall:.2} ms",
                 s.name, c.builder, c.threads
@@ -335,6 +388,7 @@ fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, Str
                 "speedup": c.builds as f64 * serial_wall / wall,
                 "cpu_over_serial": cpu / (c.builds as f64 * serial_cpu),
                 "same_tree": tree.as_ref().map(|t| Some(t) == trees[0].as_ref()),
+                "stolen": stolen,
             })
         })
         .collect();

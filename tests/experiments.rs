@@ -498,6 +498,8 @@ fn host_scaling_measures_every_parallel_builder_on_every_thread_count() {
             "1,2",
             "--runs",
             "1",
+            "--rounds",
+            "1",
         ],
     );
     let parallel: Vec<_> = (cellbih::registry::BuilderKind::ALL.iter())
@@ -529,6 +531,11 @@ fn host_scaling_measures_every_parallel_builder_on_every_thread_count() {
         }
         assert!(r["wall_ms"].as_f64().unwrap() > 0.0, "{r}");
         assert!(r["speedup"].as_f64().unwrap() > 0.0, "{r}");
+        if cfg!(target_os = "linux") {
+            // /proc/stat's steal: a share, never negative (a row shorter
+            // than its 10 ms ticks may count one whole).
+            assert!(r["stolen"].as_f64().is_some_and(|f| f >= 0.0), "{r}");
+        }
     }
     assert!(dir.join("host_scaling.csv").exists());
     assert!(dir.join("host_scaling.svg").exists());
@@ -543,6 +550,7 @@ fn host_scaling_builds_with_the_quality_knobs() {
     let exe = host_scaling();
     let knobs = ["--split", "sah", "--sah-above", "2000", "--empty-cut", "10"];
     let mut args = vec!["--scenes", "rtperf:20000", "--threads", "2", "--runs", "1"];
+    args.extend(["--rounds", "2"]);
     args.extend(knobs);
     let (rows, dir) = run_experiment(&exe, "host_scaling_knobs", &args);
     let parallel = (cellbih::registry::BuilderKind::ALL.iter()).filter(|b| b.host_threads());
