@@ -12,6 +12,10 @@
 //! policy; the JSON also holds every frame) and one SVG per scene and size:
 //! frame time per frame, a line per policy and arrangement.
 
+// The options' doc comments are their --help text: `rtperf:N[:SEED]` is
+// the scene syntax there, not a link.
+#![allow(rustdoc::broken_intra_doc_links)]
+
 use std::path::PathBuf;
 
 use clap::Parser;

@@ -3,7 +3,7 @@
 //! the SPEs between tree updates, section 4). The tree's nodes (12 bytes
 //! each), the triangle records in the tree's leaf order (48 bytes, each
 //! with its triangle id) and the rays (64 bytes) are in emulated main
-//! memory; every SPE runs [`program`]'s caster, reading nodes and
+//! memory; every SPE runs `program`'s caster, reading nodes and
 //! triangles through a
 //! [`SoftwareCache`](crate::strategy::machinery::software_cache::SoftwareCache) in its
 //! local store, and the hits (32 bytes) come back by DMA. The answers are

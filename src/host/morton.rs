@@ -22,11 +22,11 @@
 //!    keys first differ ([`split_of`]), its two sides made side by side
 //!    (`rayon::join`), down to ranges of at most the grain's items
 //!    ([`SUBTREE`]) or whose keys are all equal. Without the empty-space
-//!    cut-off it is made bottom up ([`Top::gathered`]): each such range
+//!    cut-off it is made bottom up (`Top::gathered`): each such range
 //!    **gathers its own items** in key order from a copy of them, and a
 //!    node's planes come from its sides' bounds as they return; with the
 //!    cut-off, a node's decision needs its bounds first, so the items are
-//!    gathered in key order once and the top goes down ([`Top::node`]).
+//!    gathered in key order once and the top goes down (`Top::node`).
 //! 4. **Independent subtrees**: each such range built by the serial
 //!    recursion from its candidate cell ([`KeySpec::cell`]), as a rayon
 //!    task, while its gathered items are in its core's cache.

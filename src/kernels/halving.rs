@@ -10,10 +10,10 @@
 //! its interval there): the halvings are then three one-dimensional trees,
 //! one an axis, of a few dozen planes each, and a key is three short
 //! descents in tables that stay in L1, each code's bits spread to their
-//! places in the key ([`Form::Separable`]). Where `f32`'s rounding makes
+//! places in the key (`Form::Separable`). Where `f32`'s rounding makes
 //! cells of one depth disagree on the axis (near-ties of extents), or a
 //! cell too thin to halve ends its keys early, one entry a cell
-//! ([`Form::Cells`]: `2^bits` entries, a chain of dependent loads from L2
+//! (`Form::Cells`: `2^bits` entries, a chain of dependent loads from L2
 //! a key).
 
 use glam::Vec3A;

@@ -64,7 +64,7 @@ pub const COOP_PARTITION: Knob = Knob::word(
     &["scratch"],
 );
 
-/// `--tris-per-spe N|auto`: [`spes_used`].
+/// `--tris-per-spe N|auto`: `spes_used`.
 pub const TRIS_PER_SPE: Knob = Knob::int_or_auto(
     "tris-per-spe",
     "each SPE used gets at least this many triangles: a small scene runs on fewer SPEs than given (auto: the strategy's measured threshold; 1: every SPE)",

@@ -15,7 +15,7 @@
 //! 3. **Permutation**: each SPE gathers the records of its slice of sorted
 //!    pairs with a DMA list (`getl`) and writes them, in key order, to a
 //!    second record array where the tree is built.
-//! 4. **The top of the tree** (every SPE, [`top`]): a node wherever a
+//! 4. **The top of the tree** (every SPE, `top`): a node wherever a
 //!    range's keys first differ (Karras 2012), found by binary search over
 //!    the sorted keys in main memory, down to **regions** of at most
 //!    `--region-size` triangles (or ranges that share their whole key, or
