@@ -183,8 +183,10 @@ impl Route<'_> {
 
     /// [`Self::node`] for a job the global heuristic splits, and so every
     /// node below it: 1. keys in its halving order of the job's candidate,
-    /// 2. the sort of (key, index) pairs, 3. the items gathered in key
-    /// order, 4. the top from the keys ([`Top`]), 5. the subtrees.
+    /// 2. the sort of (key, index) pairs, 3. the top from the keys
+    /// ([`Top`]) and 4. the subtrees — without the cut-off bottom up, each
+    /// range gathering its own items from a copy; with it top down, the
+    /// items gathered in key order first.
     fn keyed<T: Item + Send + Sync>(&self, items: &mut [T], job: NodeJob, id: usize) -> Built {
         let spec = KeySpec {
             order: KeyOrder::GlobalHeuristic,
