@@ -24,9 +24,10 @@ fn parallel() -> Vec<BuilderKind> {
 }
 
 /// The settings checked: the paper's tree and each quality knob — the
-/// cut-off alone (`host_morton`: clip nodes among the keys' splits) and
-/// binned SAH above a few triangles, the global heuristic below (its
-/// keyed subtrees under SAH's candidates).
+/// cut-off alone (`host_morton`: clip nodes among the keys' splits, and
+/// with a low depth limit, leaves where clip nodes reach it) and binned SAH
+/// above a few triangles, the global heuristic below (its keyed subtrees
+/// under SAH's candidates).
 fn settings() -> Vec<BihConfig> {
     vec![
         BihConfig::default(),
@@ -38,6 +39,13 @@ fn settings() -> Vec<BihConfig> {
         BihConfig {
             split: SplitChoice::BinnedSah { bins: 8, above: 24 },
             empty_cut: Some(25),
+            ..BihConfig::default()
+        },
+        // Clip nodes that bring splits to the depth limit.
+        BihConfig {
+            empty_cut: Some(5),
+            leaf_size: 1,
+            max_depth: 7,
             ..BihConfig::default()
         },
         BihConfig {

@@ -24,9 +24,11 @@
 //!    ([`SUBTREE`]) or whose keys are all equal. Without the empty-space
 //!    cut-off it is made bottom up (`Top::gathered`): each such range
 //!    **gathers its own items** in key order from a copy of them, and a
-//!    node's planes come from its sides' bounds as they return; with the
-//!    cut-off, a node's decision needs its bounds first, so the items are
-//!    gathered in key order once and the top goes down (`Top::node`).
+//!    node's planes come from its sides' bounds as they return. With the
+//!    cut-off a node's decision needs its bounds and its region first: the
+//!    ranges are gathered and their sides found bottom up (`Top::sides`),
+//!    then the decisions — clip nodes among the keys' splits — made top
+//!    down (`Top::decided`), each range built as it is reached.
 //! 4. **Independent subtrees**: each such range built by the serial
 //!    recursion from its candidate cell ([`KeySpec::cell`]), as a rayon
 //!    task, while its gathered items are in its core's cache.
@@ -184,9 +186,9 @@ impl Route<'_> {
     /// [`Self::node`] for a job the global heuristic splits, and so every
     /// node below it: 1. keys in its halving order of the job's candidate,
     /// 2. the sort of (key, index) pairs, 3. the top from the keys
-    /// ([`Top`]) and 4. the subtrees — without the cut-off bottom up, each
-    /// range gathering its own items from a copy; with it top down, the
-    /// items gathered in key order first.
+    /// ([`Top`]) and 4. the subtrees, each range gathering its own items
+    /// from a copy: without the cut-off in one pass, bottom up; with it in
+    /// two, the sides bottom up and the decisions top down.
     fn keyed<T: Item + Send + Sync>(&self, items: &mut [T], job: NodeJob, id: usize) -> Built {
         let spec = KeySpec {
             order: KeyOrder::GlobalHeuristic,
@@ -212,17 +214,22 @@ impl Route<'_> {
             spec,
             route: self,
         };
+        let unsorted: Vec<T> = items.par_iter().copied().collect();
+        let from = (unsorted.as_slice(), order.as_slice());
         if self.cfg.empty_cut.is_none() {
             // No node of the key tree needs its items' bounds before its
-            // children are made: each range gathers its own items.
-            let unsorted: Vec<T> = items.par_iter().copied().collect();
+            // children are made: each range gathers its own items and is
+            // built at once.
             let at = (job.first, job.depth, job.candidate);
-            let (made, _, stats) = top.gathered(items, (&unsorted, &order), at, id);
+            let (made, _, stats) = top.gathered(items, from, at, id);
             return (made, stats);
         }
-        let sorted: Vec<T> = order.par_iter().map(|&i| items[i as usize]).collect();
-        items.par_iter_mut().zip(sorted).for_each(|(to, t)| *to = t);
-        top.node(items, job, id)
+        // The cut-off decides a node by its bounds and region: the key
+        // tree's ranges gathered and their sides found first, bottom up,
+        // then the decisions top down.
+        let tree = top.sides(items, from, (job.first, job.depth));
+        drop(unsorted);
+        top.decided(&tree, items, job, id)
     }
 }
 
@@ -382,61 +389,104 @@ impl Top<'_> {
         (made, l.merge(r), stats)
     }
 
-    /// Makes node `id` of `job` (over `items`, the job's own items) and its
-    /// subtree: a split where its keys first differ ([`split_of`]), a clip
-    /// node where the empty-space cut-off finds a gap (the node decision,
-    /// [`decide`], as the serial recursion makes it), the serial recursion
-    /// for a range of at most the grain's items, a leaf, or keys all equal.
-    fn node<T: Item + Send + Sync>(&self, items: &mut [T], job: NodeJob, id: usize) -> Built {
-        let (cfg, mut stats) = (self.route.cfg, BuildStats::default());
-        let from = job.first - self.base;
+    /// The key tree of a range (over `items`' places, from `first`, at
+    /// least at `depth`): a split where its keys first differ, both sides
+    /// side by side, down to ranges of at most the grain's items (or a
+    /// leaf's, or keys all equal), each of which gathers its items from
+    /// `unsorted` in key order (`order`) into its places and finds their
+    /// side. Nothing is decided or built yet.
+    fn sides<T: Item + Send + Sync>(
+        &self,
+        items: &mut [T],
+        (unsorted, order): (&[T], &[u32]),
+        (first, depth): (usize, u32),
+    ) -> Keyed {
+        let (cfg, grain) = (self.route.cfg, self.route.grain);
+        let from = first - self.base;
         let keys = &self.keys[from..from + items.len()];
+        let split = match items.len() <= grain || cfg.ends_in_leaf(items.len(), depth) {
+            true => None,
+            false => split_of(keys, self.spec.bits),
+        };
+        let Some((bit, at)) = split else {
+            for (to, &i) in items.iter_mut().zip(&order[from..]) {
+                *to = unsorted[i as usize];
+            }
+            return Keyed::Range(side_of(items));
+        };
+        let (l_items, r_items) = items.split_at_mut(at);
+        let gather = (unsorted, order);
+        let (l, r) = rayon::join(
+            || self.sides(l_items, gather, (first, depth + 1)),
+            || self.sides(r_items, gather, (first + at, depth + 1)),
+        );
+        Keyed::Split {
+            bit,
+            at,
+            side: l.side().merge(r.side()),
+            kids: Box::new([l, r]),
+        }
+    }
+
+    /// Makes node `id` of `job` (over `items`, the job's own items, `tree`
+    /// their key tree from [`Self::sides`]) and its subtree, top down: the
+    /// node decision ([`decide`]) as the serial recursion makes it — a
+    /// clip node where the empty-space cut-off finds a gap, a leaf where
+    /// the clip nodes above reach the depth limit, else the keys' split,
+    /// both sides side by side; a range built by the serial recursion.
+    fn decided<T: Item + Send + Sync>(
+        &self,
+        tree: &Keyed,
+        items: &mut [T],
+        job: NodeJob,
+        id: usize,
+    ) -> Built {
+        let (cfg, mut stats) = (self.route.cfg, BuildStats::default());
+        let Keyed::Split { bit, at, kids, .. } = tree else {
+            let sub = build_node(items, &job, cfg, &mut stats);
+            return (vec![(id, Made::Subtree(sub))], stats);
+        };
         let view = NodeView::of_side(
             (job.first, items.len(), job.depth),
             job.region,
             &job.side,
             job.candidate,
         );
-        let split = match items.len() <= self.route.grain {
-            true => None,
-            false => match decide(cfg, &view, &mut 0) {
-                Decision::Clip(clip) => {
-                    stats.clip_nodes += 1;
-                    let children = self.route.ids.fetch_add(2, Ordering::Relaxed);
-                    let full = children + 1 - clip.empty;
-                    let (mut made, s) = self.node(items, job.clipped(clip.region), full);
-                    stats.add(&s);
-                    made.push((id, Made::Step(Step::Clip(clip), children, job)));
-                    return (made, stats);
-                }
-                Decision::Split(..) => split_of(keys, self.spec.bits),
-                Decision::Leaf => None,
-                Decision::Bin(_) => unreachable!("a keyed job's nodes are the global heuristic's"),
-            },
-        };
-        let Some((bit, at)) = split else {
-            // A range for one thread, a leaf, or keys all equal: the serial
-            // recursion from the node's candidate.
-            let sub = build_node(items, &job, cfg, &mut stats);
-            return (vec![(id, Made::Subtree(sub))], stats);
-        };
-        let axis = self.spec.cell(keys[0], bit).longest_axis();
-        let (l_items, r_items) = items.split_at_mut(at);
-        let (l, r) = rayon::join(|| side_of(l_items), || side_of(r_items));
+        match decide(cfg, &view, &mut 0) {
+            Decision::Split(..) => {}
+            Decision::Leaf => {
+                let leaf = BihNode::leaf(job.first as u32, items.len() as u32);
+                return (vec![(id, Made::Node(leaf))], stats);
+            }
+            Decision::Clip(clip) => {
+                stats.clip_nodes += 1;
+                let children = self.route.ids.fetch_add(2, Ordering::Relaxed);
+                let full = children + 1 - clip.empty;
+                let (mut made, s) = self.decided(tree, items, job.clipped(clip.region), full);
+                stats.add(&s);
+                made.push((id, Made::Step(Step::Clip(clip), children, job)));
+                return (made, stats);
+            }
+            Decision::Bin(_) => unreachable!("a keyed job's nodes are the global heuristic's"),
+        }
+        let from = job.first - self.base;
+        let axis = self.spec.cell(self.keys[from], *bit).longest_axis();
+        let [l, r] = [kids[0].side(), kids[1].side()];
         let planes = clip_planes(axis, &l, &r);
         let children = self.route.ids.fetch_add(2, Ordering::Relaxed);
-        let [lr, rr] = child_regions(job.region, axis, planes);
-        let child = |first: usize, region: Aabb, side| NodeJob {
+        let regions = child_regions(job.region, axis, planes);
+        let child = |k: usize, first: usize| NodeJob {
             first,
             depth: job.depth + 1,
-            region,
+            region: regions[k],
             candidate: self.spec.cell(self.keys[first - self.base], bit + 1),
-            side,
+            side: kids[k].side(),
         };
-        let (lj, rj) = (child(job.first, lr, l), child(job.first + at, rr, r));
+        let (lj, rj) = (child(0, job.first), child(1, job.first + at));
+        let (l_items, r_items) = items.split_at_mut(*at);
         let ((mut made, ls), (rm, rs)) = rayon::join(
-            || self.node(l_items, lj, children),
-            || self.node(r_items, rj, children + 1),
+            || self.decided(&kids[0], l_items, lj, children),
+            || self.decided(&kids[1], r_items, rj, children + 1),
         );
         made.extend(rm);
         made.push((
@@ -448,6 +498,28 @@ impl Top<'_> {
         stats.items_partitioned += (l.count + r.count) as u64;
         stats.partitions += 1;
         (made, stats)
+    }
+}
+
+/// A keyed range's key tree, its ranges gathered ([`Top::sides`]).
+enum Keyed {
+    /// A range built by the serial recursion: its items' side.
+    Range(Side),
+    /// Where its keys first differ: the bit, the first item on its right,
+    /// the side of all its items, and its two halves.
+    Split {
+        bit: u32,
+        at: usize,
+        side: Side,
+        kids: Box<[Keyed; 2]>,
+    },
+}
+
+impl Keyed {
+    fn side(&self) -> Side {
+        match self {
+            Keyed::Range(side) | Keyed::Split { side, .. } => *side,
+        }
     }
 }
 
