@@ -14,7 +14,7 @@
 //! for the builders; tests make it small).
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::AtomicUsize;
 
 use rayon::prelude::*;
 
@@ -150,10 +150,7 @@ pub fn top<'a, T: Item + Send + Sync>(
             continue;
         }
         let step = coop_step(items, &node, (cfg, grain), stats);
-        let children = match step {
-            Step::Leaf => 0,
-            _ => ids.fetch_add(2, Ordering::Relaxed),
-        };
+        let children = super::children_of(&step, ids);
         match step {
             Step::Leaf => {}
             Step::Clip(clip) => {

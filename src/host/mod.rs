@@ -12,11 +12,13 @@ pub mod morton;
 pub mod private;
 pub mod shared;
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality, depth_first};
 use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_items};
-use rayon::prelude::*;
-
 use crate::kernels::split::{Side, side_of};
 use crate::scene::Scene;
 
@@ -78,6 +80,16 @@ enum Made {
     Step(Step, usize, NodeJob),
     /// The job's whole subtree (root 0).
     Subtree(Vec<BihNode>),
+}
+
+/// The id of the first of the two children slots a node that made `step`
+/// takes from `ids` (0 for a leaf, which has none): a clip node's and a
+/// split's children are adjacent.
+fn children_of(step: &Step, ids: &AtomicUsize) -> usize {
+    match step {
+        Step::Leaf => 0,
+        _ => ids.fetch_add(2, Ordering::Relaxed),
+    }
 }
 
 /// The tree of the nodes a parallel builder `made` (`ids` node ids handed

@@ -154,10 +154,7 @@ impl Route<'_> {
             return self.keyed(items, job, id);
         }
         let step = coop::coop_step(items, &job, (self.cfg, self.grain), &mut stats);
-        let children = match step {
-            Step::Leaf => 0,
-            _ => self.ids.fetch_add(2, Ordering::Relaxed),
-        };
+        let children = super::children_of(&step, &self.ids);
         let mut made = match step {
             Step::Leaf => Vec::new(),
             Step::Clip(clip) => {
@@ -321,6 +318,32 @@ struct Top<'a> {
 }
 
 impl Top<'_> {
+    /// Where the range of `items`' places from `first`, at `depth`, splits:
+    /// the first bit at which its keys differ and the first item on its
+    /// right ([`split_of`]); `None` for a range of at most the grain's
+    /// items, a leaf's, or keys all equal — whose items are then gathered
+    /// from `unsorted` in key order (`order`) into its places.
+    fn split_or_gather<T: Item>(
+        &self,
+        items: &mut [T],
+        (unsorted, order): (&[T], &[u32]),
+        (first, depth): (usize, u32),
+    ) -> Option<(u32, usize)> {
+        let (cfg, grain) = (self.route.cfg, self.route.grain);
+        let from = first - self.base;
+        let keys = &self.keys[from..from + items.len()];
+        let split = match items.len() <= grain || cfg.ends_in_leaf(items.len(), depth) {
+            true => None,
+            false => split_of(keys, self.spec.bits),
+        };
+        if split.is_none() {
+            for (to, &i) in items.iter_mut().zip(&order[from..]) {
+                *to = unsorted[i as usize];
+            }
+        }
+        split
+    }
+
     /// Makes node `id` (over `items`' places, from `first`, at `depth`, its
     /// candidate cell `candidate`) and its subtree without the empty-space
     /// cut-off, bottom up: a split where its keys first differ, both sides
@@ -336,18 +359,9 @@ impl Top<'_> {
         (first, depth, candidate): (usize, u32, Aabb),
         id: usize,
     ) -> (Vec<(usize, Made)>, Side, BuildStats) {
-        let (cfg, grain) = (self.route.cfg, self.route.grain);
+        let cfg = self.route.cfg;
         debug_assert!(cfg.empty_cut.is_none(), "regions are not followed");
-        let from = first - self.base;
-        let keys = &self.keys[from..from + items.len()];
-        let split = match items.len() <= grain || cfg.ends_in_leaf(items.len(), depth) {
-            true => None,
-            false => split_of(keys, self.spec.bits),
-        };
-        let Some((bit, at)) = split else {
-            for (to, &i) in items.iter_mut().zip(&order[from..]) {
-                *to = unsorted[i as usize];
-            }
+        let Some((bit, at)) = self.split_or_gather(items, (unsorted, order), (first, depth)) else {
             let side = side_of(items);
             // Its region is followed for the cut-off only.
             let (region, mut stats) = (candidate, BuildStats::default());
@@ -361,7 +375,10 @@ impl Top<'_> {
             let sub = build_node(items, &job, cfg, &mut stats);
             return (vec![(id, Made::Subtree(sub))], side, stats);
         };
-        let axis = self.spec.cell(keys[0], bit).longest_axis();
+        let axis = self
+            .spec
+            .cell(self.keys[first - self.base], bit)
+            .longest_axis();
         let children = self.route.ids.fetch_add(2, Ordering::Relaxed);
         let (l_items, r_items) = items.split_at_mut(at);
         let child = |first: usize| {
@@ -401,17 +418,7 @@ impl Top<'_> {
         (unsorted, order): (&[T], &[u32]),
         (first, depth): (usize, u32),
     ) -> Keyed {
-        let (cfg, grain) = (self.route.cfg, self.route.grain);
-        let from = first - self.base;
-        let keys = &self.keys[from..from + items.len()];
-        let split = match items.len() <= grain || cfg.ends_in_leaf(items.len(), depth) {
-            true => None,
-            false => split_of(keys, self.spec.bits),
-        };
-        let Some((bit, at)) = split else {
-            for (to, &i) in items.iter_mut().zip(&order[from..]) {
-                *to = unsorted[i as usize];
-            }
+        let Some((bit, at)) = self.split_or_gather(items, (unsorted, order), (first, depth)) else {
             return Keyed::Range(side_of(items));
         };
         let (l_items, r_items) = items.split_at_mut(at);

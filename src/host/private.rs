@@ -163,10 +163,7 @@ fn make<'a, T: Item>(
         return;
     }
     let made = step(items, &node, cfg, stats);
-    let children = match made {
-        Step::Leaf => 0,
-        _ => ids.fetch_add(2, Ordering::Relaxed),
-    };
+    let children = super::children_of(&made, ids);
     match made {
         Step::Leaf => {}
         Step::Clip(clip) => {
