@@ -155,6 +155,7 @@ fn builders(cfg: &BihConfig) -> Vec<BuilderKind> {
 
 fn run(args: &Args) -> Result<(), String> {
     let cfg = args.tree.config()?;
+    let scenes = cellbih::report::load_scenes(&args.scenes, args.data.as_deref())?;
     let machine = json!({
         "settings": cfg.flags(),
         "hardware_threads": hardware_threads(),
@@ -164,27 +165,19 @@ fn run(args: &Args) -> Result<(), String> {
         "statistic": "median",
     });
     eprintln!(
-        "host_scaling: {} hardware threads ({}); medians of {} rounds of {} warm builds; tree: {}",
+        "host_scaling: {} hardware threads ({}); medians of {} of {}; tree: {}",
         machine["hardware_threads"],
         machine["cpu"],
-        args.rounds,
-        args.runs,
+        cellbih::report::count(args.rounds, "round"),
+        cellbih::report::count(args.runs, "warm build"),
         match cfg.flags().as_str() {
             "" => "the paper's",
             flags => flags,
         }
     );
     let mut rows = Vec::new();
-    for spec in &args.scenes {
-        let s = match scene::load(spec, args.data.as_deref()) {
-            Ok(s) => s,
-            Err(e) if args.data.is_none() => {
-                eprintln!("host_scaling: {spec} skipped ({e})");
-                continue;
-            }
-            Err(e) => return Err(format!("{spec}: {e}")),
-        };
-        rows.extend(scene_rows(&s, &cfg, args)?);
+    for s in &scenes {
+        rows.extend(scene_rows(s, &cfg, args)?);
     }
     let mut doc = machine.clone();
     doc["rows"] = Value::Array(rows.clone());

@@ -125,9 +125,7 @@ fn main() {
 fn run(args: &Args) -> Result<(), String> {
     prepare_dir(&args.out).map_err(|e| e.to_string())?;
     args.threads.install()?;
-    let scenes: Vec<Scene> = (args.scenes.iter())
-        .map(|n| scene::load(n, args.data.as_deref()).map_err(|e| e.to_string()))
-        .collect::<Result<_, _>>()?;
+    let scenes: Vec<Scene> = cellbih::report::load_scenes(&args.scenes, args.data.as_deref())?;
     let base = match args.model {
         Model::Measured => CostModel::ps3(),
         Model::Legacy => CostModel::ps3_legacy(),

@@ -159,14 +159,7 @@ fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih) -> (f64, f64) {
 
 fn run(args: &Args) -> Result<(), String> {
     args.threads.install()?;
-    let mut scenes = Vec::new();
-    for spec in &args.scenes {
-        match scene::load(spec, args.data.as_deref()) {
-            Ok(s) => scenes.push(s),
-            Err(e) if args.data.is_none() => eprintln!("{spec}: skipped ({e})"),
-            Err(e) => return Err(e.to_string()),
-        }
-    }
+    let scenes = cellbih::report::load_scenes(&args.scenes, args.data.as_deref())?;
     // Each scene's baseline: simulated ms, SAH cost and ray cost.
     let bases = side_by_side("baselines", &scenes, |scene| {
         let base = BuilderKind::SPE_BFS
@@ -201,9 +194,6 @@ fn run(args: &Args) -> Result<(), String> {
         r["ray_triangles"] = json!(tris);
         r["ray_cost_over_baseline"] = json!((nodes + tris) / (base_rays.0 + base_rays.1));
         rows.push(r);
-    }
-    if rows.is_empty() {
-        return Err("no scene could be loaded: nothing measured, nothing written".into());
     }
     print_rows(args.format, &rows, print_table)?;
     let keys = [
@@ -345,31 +335,37 @@ fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error
     Ok(())
 }
 
+/// The rows in 80 columns: a heading for each scene and builder (its
+/// knobs), then a line per SPE count; the atomic share, memory-interface
+/// utilisation and main memory are in the CSV and JSON.
 fn print_table(rows: &[Value]) {
-    println!(
-        "{:<18} {:<58} {:>5} {:>10} {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8} {:>7}",
-        "scene",
-        "builder",
-        "SPEs",
-        "sim ms",
-        "speedup",
-        "eff",
-        "busy",
-        "DMA",
-        "sync",
-        "idle",
-        "atomic",
-        "lost",
-        "mem",
-        "host ms",
-        "MiB"
-    );
     let pct = |v: &Value| format!("{:.0}%", v.as_f64().unwrap_or(0.0) * 100.0);
+    let mut heading = String::new();
     for r in rows {
-        println!(
-            "{:<18} {:<58} {:>5} {:>10.2} {:>8.2} {:>6.2} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>8.0} {:>7.1}",
+        let here = format!(
+            "{} · {}",
             r["scene"].as_str().unwrap_or(""),
-            r["builder"].as_str().unwrap_or(""),
+            r["builder"].as_str().unwrap_or("")
+        );
+        if here != heading {
+            println!("\n{}", cellbih::report::wrap(&here, 80));
+            println!(
+                "{:>5} {:>10} {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>7} {:>9}",
+                "SPEs",
+                "sim ms",
+                "speedup",
+                "eff",
+                "busy",
+                "DMA",
+                "sync",
+                "idle",
+                "lost",
+                "host ms"
+            );
+            heading = here;
+        }
+        println!(
+            "{:>5} {:>10.2} {:>8.2} {:>6.2} {:>6} {:>6} {:>6} {:>6} {:>7} {:>9.0}",
             // SPEs used of those given, where a small scene used fewer.
             match (r["spes_used"].as_u64(), r["spes"].as_u64()) {
                 (Some(u), Some(s)) if u < s => format!("{u}/{s}"),
@@ -382,17 +378,19 @@ fn print_table(rows: &[Value]) {
             pct(&r["dma_wait"]),
             pct(&r["sync_wait"]),
             pct(&r["idle"]),
-            pct(&r["atomic"]),
-            r["reservations_lost"],
-            pct(&r["memory_utilisation"]),
+            r["reservations_lost"].as_u64().unwrap_or(0),
             r["host_ms"].as_f64().unwrap_or(0.0),
-            r["memory_mib"].as_f64().unwrap_or(0.0),
         );
     }
     println!(
-        "speedup over spe_bfs on one SPE, simulated PS3 time; busy/DMA/sync/idle/atomic: mean share \
-         of the run per SPE (sync: mailboxes and signals, a barrier's wait among them); lost: \
-         reservations lost; mem: memory-interface utilisation; host ms: the emulation, one thread; \
-         MiB: main memory the build used (by purpose in the JSON's footprint)"
+        "\n{}",
+        cellbih::report::wrap(
+            "speedup over spe_bfs on one SPE, simulated PS3 time; SPEs: used/given where a small \
+             scene used fewer; busy/DMA/sync/idle: mean share of the run per SPE (sync: mailboxes \
+             and signals, a barrier's wait among them); lost: reservations lost; host ms: the \
+             emulation, one thread. The atomic share, memory-interface utilisation and main \
+             memory used are in spe_scaling.csv and the JSON.",
+            80
+        )
     );
 }

@@ -35,7 +35,7 @@ use cellbih::report::{
     Format, Series, ThreadsArg, output, print_rows, scatter_plot, side_by_side, write_json,
     write_rows_csv,
 };
-use cellbih::scene::{self, Scene};
+use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
 
 #[derive(Parser)]
@@ -136,19 +136,8 @@ fn main() {
 
 fn run(args: &Args) -> Result<(), String> {
     args.threads.install()?;
-    let data = scene::data_dir(args.data.as_deref());
     let settings = settings();
-    let mut scenes: Vec<Scene> = Vec::new();
-    for name in &args.scenes {
-        match scene::load(name, data.as_deref()) {
-            Ok(s) => scenes.push(s),
-            Err(e) if data.is_none() => eprintln!("{name}: skipped ({e})"),
-            Err(e) => return Err(format!("{name}: {e}")),
-        }
-    }
-    if scenes.is_empty() {
-        return Err("no scene could be loaded: nothing measured, nothing written".into());
-    }
+    let scenes = cellbih::report::load_scenes(&args.scenes, args.data.as_deref())?;
     let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
     cell.checked = false;
     let sets: Vec<_> = (scenes.iter())

@@ -9,12 +9,14 @@
 //!   valid. A target that is not a regular file (a device such as
 //!   `/dev/full`, a pipe) is written directly and flushed explicitly;
 //! - `-` is the standard output, as command-line users expect;
-//! - an existing file keeps its permissions (a 0600 file stays 0600);
+//! - an existing file keeps its permissions (a 0600 file stays 0600); a new
+//!   one gets what `open(2)` would give it, `0666 & !umask`;
 //! - every error names the path the user gave, never the temporary file;
-//! - an interrupt (Ctrl-C) while a file is being written removes its
-//!   temporary file before the process ends ([`clean_up_on_interrupt`]).
+//! - an interrupt (Ctrl-C), a `kill`/`timeout` (SIGTERM) or a closed
+//!   terminal (SIGHUP) while a file is being written removes its temporary
+//!   file before the process ends ([`clean_up_on_interrupt`]).
 
-use std::fs::{File, OpenOptions};
+use std::fs::OpenOptions;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -69,12 +71,33 @@ fn target(path: &Path) -> Result<Target, OutputError> {
         _ => PathBuf::from("."),
     };
     if !dir.is_dir() {
-        return Err(err(format!(
-            "the directory {} does not exist",
-            dir.display()
-        )));
+        return Err(err(match not_a_directory(&dir) {
+            Some(f) => format!("{} is not a directory", f.display()),
+            None => format!("the directory {} does not exist", dir.display()),
+        }));
     }
     Ok(Target::Replace { dir, file })
+}
+
+/// The first of `dir` and its ancestors that exists but is not a directory
+/// (a regular file where a directory is asked for), if any.
+pub fn not_a_directory(dir: &Path) -> Option<PathBuf> {
+    dir.ancestors()
+        .filter(|a| !a.as_os_str().is_empty())
+        .find(|a| std::fs::metadata(a).is_ok_and(|m| !m.is_dir()))
+        .map(Path::to_path_buf)
+}
+
+/// A temporary file in `dir` created as `open(2)` creates a new file: mode
+/// `0666 & !umask` (`tempfile`'s own default is a private 0600).
+fn new_temporary(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    let mut b = tempfile::Builder::new();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        b.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    b.tempfile_in(dir)
 }
 
 /// Checks, before any work, that `path` can be written: its directory exists
@@ -88,7 +111,7 @@ pub fn check_writable(path: &Path) -> Result<(), OutputError> {
             .open(path)
             .map(drop)
             .map_err(|e| OutputError::new(path, e)),
-        Target::Replace { dir, .. } => tempfile::NamedTempFile::new_in(&dir)
+        Target::Replace { dir, .. } => new_temporary(&dir)
             .map(drop)
             .map_err(|e| OutputError::new(path, e)),
     }
@@ -120,7 +143,7 @@ pub fn write_file(
         }
         Target::Replace { dir, file } => {
             let plain = |e: std::io::Error| fail(std::io::Error::new(e.kind(), plain_error(&e)));
-            let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(plain)?;
+            let mut tmp = new_temporary(&dir).map_err(plain)?;
             let _listed = Listed::new(tmp.path());
             // Written through the plain file: the temporary file's own
             // writer puts its name into errors.
@@ -128,10 +151,11 @@ pub fn write_file(
             write(&mut w).map_err(plain)?;
             w.into_inner().map_err(|e| plain(e.into_error()))?;
             tmp.as_file().sync_all().map_err(plain)?;
-            // The temporary file is private (0600): give it the mode of the
-            // file it replaces, or the one a new file would have had.
-            let old = std::fs::metadata(&file).ok().map(|m| m.permissions());
-            set_mode(tmp.as_file(), old);
+            // The temporary file has a new file's mode (the umask applied
+            // by open(2)); a file it replaces keeps its own.
+            if let Ok(old) = std::fs::metadata(&file) {
+                let _ = tmp.as_file().set_permissions(old.permissions());
+            }
             tmp.persist(&file).map_err(|e| plain(e.error))?;
             Ok(())
         }
@@ -175,27 +199,44 @@ pub fn remove_in_flight() -> usize {
         .count()
 }
 
-/// On Ctrl-C (SIGINT), remove the temporary files of the writes under way,
-/// say so, and exit with status 130, as a shell reports an interrupt: an
-/// interrupted run leaves the old files, never a hidden `.tmp` one. Once
-/// per process; the commands and experiments call it first thing.
+/// On Ctrl-C (SIGINT), `kill`/`timeout` (SIGTERM) or a closed terminal
+/// (SIGHUP): remove the temporary files of the writes under way, say so, and
+/// exit with status 128 + the signal's number (130, 143, 129), as a shell
+/// reports it: an interrupted run leaves the old files, never a hidden
+/// `.tmp` one. Once per process; the commands and experiments call it first
+/// thing.
 pub fn clean_up_on_interrupt() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        // A second handler cannot be set (someone else set one): then
-        // the default, ending the process, stays.
-        let _ = ctrlc::set_handler(|| {
-            let removed = remove_in_flight();
-            eprintln!(
-                "interrupted{}",
-                match removed {
-                    0 => String::new(),
-                    n => format!(": {n} unfinished file(s) removed, the old ones kept"),
+    #[cfg(unix)]
+    {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        static ONCE: std::sync::Once = std::sync::Once::new();
+        ONCE.call_once(|| {
+            // Handlers that cannot be registered leave the default (the
+            // process ends), as before.
+            let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])
+            else {
+                return;
+            };
+            std::thread::spawn(move || {
+                if let Some(sig) = signals.forever().next() {
+                    let removed = remove_in_flight();
+                    let name = match sig {
+                        SIGINT => "interrupted",
+                        SIGTERM => "terminated (SIGTERM)",
+                        _ => "hung up (SIGHUP)",
+                    };
+                    eprintln!(
+                        "{name}{}",
+                        match removed {
+                            0 => String::new(),
+                            n => format!(": {n} unfinished file(s) removed, the old ones kept"),
+                        }
+                    );
+                    std::process::exit(128 + sig);
                 }
-            );
-            std::process::exit(130);
+            });
         });
-    });
+    }
 }
 
 /// [`write_file`] of a byte buffer.
@@ -214,17 +255,6 @@ fn plain_error(e: &std::io::Error) -> String {
         None => e.to_string(),
     }
 }
-
-/// `old`, the permissions of the file being replaced, or rw-r--r--, what
-/// `File::create` gives under the usual umask.
-#[cfg(unix)]
-fn set_mode(f: &File, old: Option<std::fs::Permissions>) {
-    use std::os::unix::fs::PermissionsExt;
-    let _ = f.set_permissions(old.unwrap_or_else(|| std::fs::Permissions::from_mode(0o644)));
-}
-
-#[cfg(not(unix))]
-fn set_mode(_: &File, _: Option<std::fs::Permissions>) {}
 
 #[cfg(test)]
 mod tests {
@@ -278,7 +308,9 @@ mod tests {
     }
 
     /// Overwriting keeps the file's permissions: a private file stays
-    /// private; a new file gets rw-r--r--.
+    /// private; a new file gets 0666 less the umask (0644 under the usual
+    /// 022; other umasks are tested through the command, in a process of
+    /// its own).
     #[cfg(unix)]
     #[test]
     fn an_overwritten_file_keeps_its_permissions() {
@@ -292,7 +324,13 @@ mod tests {
         assert_eq!(mode(&p), 0o600);
         let fresh = dir.path().join("fresh.csv");
         write_bytes(&fresh, b"x").unwrap();
-        assert_eq!(mode(&fresh), 0o644);
+        // The umask, read without changing it.
+        let status = std::fs::read_to_string("/proc/self/status").unwrap();
+        let umask = (status.lines())
+            .find_map(|l| l.strip_prefix("Umask:"))
+            .map(|m| u32::from_str_radix(m.trim(), 8).unwrap())
+            .unwrap();
+        assert_eq!(mode(&fresh), 0o666 & !umask);
     }
 
     /// An I/O error that a library wrapped with the temporary file's path
@@ -339,6 +377,11 @@ mod tests {
         assert!(check_writable(Path::new("/dev/full")).is_ok());
         let e = check_writable(Path::new("/no/such/dir/x.csv")).unwrap_err();
         assert!(e.to_string().contains("/no/such/dir does not exist"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("plain");
+        std::fs::write(&file, "x").unwrap();
+        let e = check_writable(&file.join("sub/x.csv")).unwrap_err();
+        assert!(e.to_string().ends_with("plain is not a directory"), "{e}");
         let dir = tempfile::tempdir().unwrap();
         let e = check_writable(dir.path()).unwrap_err();
         assert!(e.to_string().contains("it is a directory"), "{e}");

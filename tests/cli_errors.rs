@@ -164,7 +164,10 @@ fn experiments_check_their_arguments_and_output_before_the_work() {
     }
     let partial = env!("CARGO_BIN_EXE_partial_rebuild");
     for (args, msg) in [
-        (&["--step", "0", "--out", o][..], "0 is not in 1.."),
+        (
+            &["--step", "0", "--out", o][..],
+            "0 is less than 1: give a whole number of at least 1",
+        ),
         (&["--frames", "0", "--out", o][..], "0 is not in 1..=100000"),
         (
             &["--from", "5000", "--to", "4000", "--out", o][..],
@@ -392,11 +395,12 @@ fn a_full_standard_output_is_a_one_line_error() {
     }
 }
 
-/// An experiment none of whose scenes loads fails, says so, and leaves the
-/// results of an earlier run as they were (it wrote header-only files and
-/// exited 0).
+/// An experiment one of whose scenes does not load fails before any work,
+/// names the scene, and leaves the results of an earlier run as they were;
+/// an `--out` directory it would have created is not left behind, and an
+/// `--out` that is a file is "not a directory".
 #[test]
-fn an_experiment_with_nothing_to_measure_fails_and_keeps_earlier_results() {
+fn an_experiment_with_a_scene_that_does_not_load_fails_and_keeps_earlier_results() {
     let runs = [
         (
             env!("CARGO_BIN_EXE_spe_scaling"),
@@ -404,59 +408,121 @@ fn an_experiment_with_nothing_to_measure_fails_and_keeps_earlier_results() {
             "--max-spes",
         ),
         (env!("CARGO_BIN_EXE_tradeoff"), "tradeoff.csv", "--spes"),
+        (
+            env!("CARGO_BIN_EXE_sensitivity"),
+            "sensitivity.csv",
+            "--spes",
+        ),
     ];
     for (exe, file, spes) in runs {
+        let run = |out: &Path| {
+            std::process::Command::new(exe)
+                .args(["--scenes", "default,no-such-scene", spes, "1", "--out"])
+                .arg(out)
+                .env_remove("CELLBIH_DATA")
+                .output()
+                .unwrap()
+        };
         let dir = tmp(&format!("nothing-{file}"));
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join(file), "earlier results\n").unwrap();
-        let out = std::process::Command::new(exe)
-            .args([
-                "--scenes",
-                "no-such-scene",
-                spes,
-                "1",
-                "--out",
-                dir.to_str().unwrap(),
-            ])
-            .env_remove("CELLBIH_DATA")
-            .output()
-            .unwrap();
+        let out = run(&dir);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{file}: {err}");
-        assert!(err.contains("no scene could be loaded"), "{err}");
+        assert!(
+            err.starts_with("error: 1 scene of --scenes did not load")
+                && err.contains("no-such-scene"),
+            "{err}"
+        );
         let kept = std::fs::read_to_string(dir.join(file)).unwrap();
         assert_eq!(kept, "earlier results\n", "{file}");
+
+        let fresh = dir.join("fresh/results");
+        assert!(!run(&fresh).status.success());
+        assert!(!dir.join("fresh").exists(), "{file}: --out was created");
+
+        let plain = dir.join("plain");
+        std::fs::write(&plain, "x").unwrap();
+        let out = run(&plain);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("plain is not a directory"), "{err}");
     }
 }
 
-/// Ctrl-C (SIGINT) in the middle of a run: the command says it was
-/// interrupted, exits with 130 as a shell reports an interrupt, and leaves
+/// Ctrl-C (SIGINT), `kill`/`timeout` (SIGTERM) and a closed terminal
+/// (SIGHUP) in the middle of a run: the command says what ended it, exits
+/// with 128 + the signal as a shell reports it (130, 143, 129), and leaves
 /// nothing in the output's directory — no half-written file and no hidden
-/// temporary one (an interrupt during a write removes it: `output`'s
-/// tests list it while it is written).
+/// temporary one (a signal during a write removes it: `output`'s tests list
+/// it while it is written).
 #[test]
-fn an_interrupt_leaves_no_file_behind() {
-    let dir = tmp("interrupted");
+fn a_signal_leaves_no_file_behind() {
+    for (signal, code, said) in [
+        ("INT", 130, "interrupted"),
+        ("TERM", 143, "terminated (SIGTERM)"),
+        ("HUP", 129, "hung up (SIGHUP)"),
+    ] {
+        let dir = tmp(&format!("signalled-{signal}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = dir.join("frame.png");
+        let child = Command::new(env!("CARGO_BIN_EXE_cellbih"))
+            .args(["render", "--on-cell", "--width", "1280", "--height", "960"])
+            .arg("--out")
+            .arg(&out)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(300));
+        let kill = Command::new("kill")
+            .args([&format!("-{signal}"), &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(kill.success());
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(code), "SIG{signal}: {err}");
+        assert!(err.contains(said), "SIG{signal}: {err}");
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+        assert!(left.is_empty(), "SIG{signal}: {left:?}");
+    }
+}
+
+/// A new file gets the mode `open(2)` gives it, `0666 & !umask`: under
+/// `umask 077` the hits, the image, the trace and an experiment's files are
+/// private; an existing file keeps its own mode.
+#[test]
+fn new_files_follow_the_umask() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tmp("umask");
     std::fs::create_dir_all(&dir).unwrap();
-    let out = dir.join("frame.png");
-    let child = Command::new(env!("CARGO_BIN_EXE_cellbih"))
-        .args(["render", "--on-cell", "--width", "1280", "--height", "960"])
-        .arg("--out")
-        .arg(&out)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    std::thread::sleep(Duration::from_millis(300));
-    let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(kill.success());
-    let o = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(130), "{err}");
-    assert!(err.contains("interrupted"), "{err}");
-    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
-    assert!(left.is_empty(), "{left:?}");
+    let rays = rays_file("umask.rays.csv", ONE_RAY);
+    let d = dir.display();
+    let kept = dir.join("kept.csv");
+    std::fs::write(&kept, "old").unwrap();
+    std::fs::set_permissions(&kept, std::fs::Permissions::from_mode(0o640)).unwrap();
+    let bin = env!("CARGO_BIN_EXE_cellbih");
+    let exp = env!("CARGO_BIN_EXE_dma_bandwidth");
+    let script = format!(
+        "umask 077 && {bin} raycast --rays {rays} --out {d}/hits.csv \
+         && {bin} raycast --rays {rays} --out {d}/kept.csv \
+         && {bin} render --width 8 --height 8 --out {d}/a.png \
+         && {bin} build --builder spe_bfs --trace {d}/t.json \
+         && {exp} --mib 1 --max-spes 1 --out {d}/exp"
+    );
+    let out = Command::new("sh").args(["-c", &script]).output().unwrap();
+    assert_ok(&out);
+    let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    for f in ["hits.csv", "a.png", "t.json"] {
+        assert_eq!(mode(&dir.join(f)), 0o600, "{f}");
+    }
+    assert_eq!(mode(&kept), 0o640);
+    let written: Vec<_> = std::fs::read_dir(dir.join("exp"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert!(!written.is_empty());
+    for f in written {
+        assert_eq!(mode(&f), 0o600, "{}", f.display());
+    }
 }

@@ -3,6 +3,7 @@
 //! [`crate::output`]: written whole or not at all, errors naming the path.
 
 pub mod parallel;
+pub mod step;
 pub mod tree_args;
 
 use std::path::{Path, PathBuf};
@@ -10,6 +11,7 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::*;
 
 pub use parallel::{ThreadsArg, side_by_side};
+pub use step::step;
 pub use tree_args::TreeArgs;
 
 pub use crate::output::OutputError;
@@ -28,7 +30,7 @@ pub fn quiet_on_closed_pipe() {
 }
 
 /// A standard output that cannot be written (a full disk, `> /dev/full`)
-/// ends the program `name` with a one-line error and exit code 1, not a
+/// ends the program with a one-line error and exit code 1, not a
 /// panic: `println!` panics when a write fails, and this hook turns that
 /// panic, and only that one, into the error. Call first thing in `main`.
 pub fn one_line_on_failed_stdout(name: &'static str) {
@@ -38,11 +40,37 @@ pub fn one_line_on_failed_stdout(name: &'static str) {
             .or_else(|| info.payload().downcast_ref::<&str>().copied())
             .unwrap_or("");
         if let Some(why) = msg.strip_prefix("failed printing to stdout: ") {
-            eprintln!("{name}: cannot write to standard output: {why}");
+            eprintln!("error: cannot write to standard output ({name}): {why}");
             std::process::exit(1);
         }
         default(info);
     }));
+}
+
+/// `n` and `noun`, plural unless `n` is 1: "1 SPE", "6 SPEs", "1 triangle".
+pub fn count(n: impl Into<u64>, noun: &str) -> String {
+    match n.into() {
+        1 => format!("1 {noun}"),
+        n => format!("{n} {noun}s"),
+    }
+}
+
+/// A command-line value parser for a whole number of at least 1, whose
+/// error says so in words (clap's own range check prints the type's
+/// largest value: `1..=4294967295`).
+pub fn at_least_one<T>(text: &str) -> Result<T, String>
+where
+    T: std::str::FromStr + PartialOrd + From<u8>,
+{
+    match text.trim().parse::<T>() {
+        Ok(v) if v >= T::from(1) => Ok(v),
+        Ok(_) => Err(format!(
+            "{text} is less than 1: give a whole number of at least 1"
+        )),
+        Err(_) => Err(format!(
+            "'{text}' is not a whole number of at least 1 (or it is too large)"
+        )),
+    }
 }
 
 /// `text` wrapped at spaces into lines of at most `width` characters (a
@@ -67,17 +95,60 @@ pub fn wrap(text: &str, width: usize) -> String {
 
 /// An experiment's `main`: a closed pipe ends it quietly, its `--out`
 /// directory is checked before `run` does any work, and an error is
-/// printed as `name: error` with exit code 1.
+/// printed as `error: …` (as the `cellbih` command and the argument parser
+/// print theirs) with exit code 1.
 pub fn experiment_main(name: &'static str, out: &Path, run: impl FnOnce() -> Result<(), String>) {
     quiet_on_closed_pipe();
     one_line_on_failed_stdout(name);
     crate::output::clean_up_on_interrupt();
+    // The directories `--out` creates, removed again if the run fails
+    // before writing into them.
+    let created: Vec<PathBuf> = (out.ancestors())
+        .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+        .map(Path::to_path_buf)
+        .collect();
     if let Err(e) = prepare_dir(out)
         .map_err(|e| e.to_string())
         .and_then(|()| run())
     {
-        eprintln!("{name}: {e}");
+        // Deepest first; a directory with anything in it stays.
+        for dir in &created {
+            if std::fs::remove_dir(dir).is_err() {
+                break;
+            }
+        }
+        eprintln!("error: {e}");
         std::process::exit(1);
+    }
+}
+
+/// Every scene of an experiment's `--scenes`, loaded before any work: one
+/// that does not load is an error naming it (an experiment never measures
+/// some of its scenes and writes its files as if that were all of them).
+pub fn load_scenes(
+    specs: &[String],
+    data: Option<&Path>,
+) -> Result<Vec<crate::scene::Scene>, String> {
+    let data = crate::scene::data_dir(data);
+    let mut scenes = Vec::new();
+    let mut failed = Vec::new();
+    for spec in specs {
+        match crate::scene::load(spec, data.as_deref()) {
+            Ok(s) => scenes.push(s),
+            Err(e) => failed.push(e.to_string()),
+        }
+    }
+    match failed.len() {
+        0 if scenes.is_empty() => Err("--scenes names no scene: nothing measured".into()),
+        0 => Ok(scenes),
+        n => Err(format!(
+            "{} of --scenes did not load: nothing measured, no file written\n  {}\n(leave {} \
+             out of --scenes, or give the data directory: --data DIR or {})",
+            count(n as u64, "scene"),
+            failed.join("\n  "),
+            if n == 1 { "it" } else { "them" },
+            crate::scene::DATA_ENV,
+        )),
     }
 }
 
@@ -106,6 +177,41 @@ pub fn print_rows(
     Ok(())
 }
 
+/// A numeric column of a printed table: header, JSON key, decimals, width.
+pub type Column<'a> = (&'a str, &'a str, usize, usize);
+
+/// Prints `rows` as several narrow tables, one per `(title, columns)`, each
+/// row led by the text columns `keys` (header, JSON key, width; left
+/// aligned): a wide result in 80 columns. A missing number prints as `-`.
+pub fn print_tables(
+    rows: &[serde_json::Value],
+    keys: &[(&str, &str, usize)],
+    tables: &[(&str, &[Column])],
+) {
+    let lead = |text: &dyn Fn(&str, &str) -> String| -> String {
+        let cells: Vec<String> = (keys.iter())
+            .map(|(h, k, w)| format!("{:<w$}", text(h, k)))
+            .collect();
+        cells.join(" ")
+    };
+    for (title, cols) in tables {
+        let mut head = lead(&|h, _| h.to_string());
+        for (h, _, _, w) in *cols {
+            head += &format!(" {h:>w$}");
+        }
+        println!("{title}\n{head}");
+        for r in rows {
+            let mut line = lead(&|_, k| r[k].as_str().unwrap_or("").to_string());
+            for (_, k, d, w) in *cols {
+                let v = r[*k].as_f64().map_or("-".into(), |x| format!("{x:.d$}"));
+                line += &format!(" {v:>w$}");
+            }
+            println!("{line}");
+        }
+        println!();
+    }
+}
+
 /// A line of a plot: its name, points, colour (an index into a fixed
 /// palette, so that related lines can share one) and whether it is dashed.
 pub struct Series {
@@ -125,6 +231,12 @@ pub fn prepare_dir(dir: &Path) -> Result<(), OutputError> {
             source: std::io::Error::other(
                 "--out names a directory for several files; '-' (the standard output) cannot hold them",
             ),
+        });
+    }
+    if let Some(file) = crate::output::not_a_directory(dir) {
+        return Err(OutputError {
+            path: dir.to_path_buf(),
+            source: std::io::Error::other(format!("{} is not a directory", file.display())),
         });
     }
     std::fs::create_dir_all(dir).map_err(|source| OutputError {
