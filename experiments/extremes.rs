@@ -174,15 +174,17 @@ fn print_table(rows: &[Value]) {
             );
         }
     }
-    let knobs: Vec<String> = (BuilderKind::every_run(BihConfig::SAH_CUT).iter())
+    let knobs: Vec<&str> = (BuilderKind::every_run(BihConfig::SAH_CUT).iter())
         .filter(|(_, cfg)| !cfg.paper_quality())
-        .map(|(b, cfg)| format!("{b} {}", cfg.flags()))
+        .map(|(b, _)| b.name())
         .collect();
-    println!(
-        "valid: builder runs whose tree is valid, of every builder with the paper's settings and {}; disagree: the \
-         most rays of one run whose hit differs from brute force; depth, leaf max: over the runs; f32 stalls: \
-         halvings the global heuristic could not make in f32 (paper's tree / {})",
+    let flags = BihConfig::SAH_CUT.flags();
+    let note = format!(
+        "valid: builder runs whose tree is valid, of every builder with the paper's settings \
+         and {} with {flags}; disagree: the most rays of one run whose hit differs from brute \
+         force; depth, leaf max: over the runs; f32 stalls: halvings the global heuristic could \
+         not make in f32 (paper's tree / {flags})",
         knobs.join(", "),
-        BihConfig::SAH_CUT.flags()
     );
+    println!("{}", cellbih::report::wrap(&note, 80));
 }

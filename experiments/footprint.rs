@@ -32,13 +32,23 @@ use cellbih::scene::procedural::rtperf;
 use cellbih::strategy::machinery::footprint::{Footprint, Purpose};
 
 #[derive(Parser)]
+#[command(
+    about = "Each emulated builder's main memory by purpose, and the largest rtperf:N it \
+             builds in the emulated memory, predicted and verified",
+    after_help = "What to expect: the default run (256 MiB) takes about 30 s and at most \
+                  0.85 GB of host memory on a 2-core machine; both grow with --memory-mib \
+                  (about 3.3 bytes of host memory per byte emulated, since the verification \
+                  builds scenes that fill it). A verification that would take more host \
+                  memory than --host-memory-mib is reported as not verified instead."
+)]
 struct Args {
-    /// Main memory of the emulated Cell, MiB (the PS3 model has 256).
+    /// Main memory of the emulated Cell, MiB (the PS3 model has 256); from
+    /// 1 (every builder fits one rtPerf sphere) to 4,096.
     #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u64).range(1..=4096))]
     memory_mib: u64,
     /// Host memory the verification builds may use, MiB (default:
     /// half the host's available memory, /proc/meminfo).
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, value_parser = cellbih::report::at_least_one::<u64>)]
     host_memory_mib: Option<u64>,
     /// text (a table) or json (the rows).
     #[arg(long, value_enum, default_value = "text")]
@@ -51,6 +61,8 @@ struct Args {
 /// Host bytes a verification build takes per triangle of its scene beside
 /// the emulated memory it fills (the module's note).
 const HOST_BYTES_PER_TRIANGLE: f64 = 115.0;
+/// The process itself (code, the fitting builds' heap), MiB.
+const HOST_BASE_MIB: u64 = 64;
 
 /// Half the host's available memory, MiB, if the host says.
 fn host_budget_mib() -> Option<u64> {
@@ -63,10 +75,42 @@ fn host_budget_mib() -> Option<u64> {
 /// The two sizes the prediction is fitted on.
 const SMALL: usize = 50_000;
 const LARGE: usize = 100_000;
+/// The smallest rtPerf scene: one sphere.
+const TINY: usize = 200;
+/// The verification never builds more than this over the prediction (the
+/// host memory it may take is judged at that size).
+const OVER: f64 = 1.1;
 
 fn main() {
     let args = Args::parse();
     cellbih::report::experiment_main("footprint", &args.out.clone(), || run(&args));
+}
+
+/// The footprints the prediction is made from, for every emulated builder:
+/// (builder, one sphere, SMALL, LARGE), built in a memory large enough for
+/// them (a footprint does not depend on the memory's size). A `--memory-mib`
+/// that cannot hold one sphere for some builder is an error that says the
+/// smallest that works.
+fn fit(mib: u64) -> Result<Vec<(BuilderKind, Footprint, Footprint, Footprint)>, String> {
+    let mut cell = CellConfig::ps3();
+    cell.cost = CostModel::functional();
+    cell.main_memory_bytes = mib.max(256) << 20;
+    let mut fits = Vec::new();
+    for &b in BuilderKind::ALL.iter().filter(|b| b.emulated()) {
+        progress(&format!("{b} ..."));
+        let at = |n| footprint(b, n, &cell).map_err(|e| format!("{b}, rtperf:{n}: {e}"));
+        fits.push((b, at(TINY)?, at(SMALL)?, at(LARGE)?));
+    }
+    let need = |f: &Footprint| f.total.div_ceil(1 << 20);
+    let smallest = fits.iter().map(|(_, t, ..)| need(t)).max().unwrap_or(1);
+    if let Some((b, t, ..)) = fits.iter().find(|(_, t, ..)| need(t) > mib) {
+        return Err(format!(
+            "--memory-mib {mib}: too small for any scene: {b} needs {} MiB for rtperf:{TINY} \
+             (one sphere); the smallest --memory-mib that works for every builder is {smallest}",
+            need(t)
+        ));
+    }
+    Ok(fits)
 }
 
 fn run(args: &Args) -> Result<(), String> {
@@ -75,16 +119,14 @@ fn run(args: &Args) -> Result<(), String> {
     cell.main_memory_bytes = args.memory_mib * 1024 * 1024;
     let budget = args.host_memory_mib.or_else(host_budget_mib);
     let mut rows = Vec::new();
-    for &b in BuilderKind::ALL.iter().filter(|b| b.emulated()) {
-        progress(&format!("{b} ..."));
-        let small = footprint(b, SMALL, &cell).map_err(|e| format!("{b}: {e}"))?;
-        let large = footprint(b, LARGE, &cell).map_err(|e| format!("{b}: {e}"))?;
+    for (b, _, small, large) in fit(args.memory_mib)? {
         let per_tri = (large.total - small.total) as f64 / (LARGE - SMALL) as f64;
         let fixed = large.total as f64 - per_tri * LARGE as f64;
-        let predicted = ((cell.main_memory_bytes as f64 - fixed) / per_tri) as usize;
-        // The largest build the bracket may try: 10 % over the prediction.
-        let host_bytes = predicted as f64 * 1.1 * (per_tri + HOST_BYTES_PER_TRIANGLE);
-        let host_mib = (host_bytes / 1048576.0).ceil() as u64;
+        let predicted =
+            ((cell.main_memory_bytes as f64 - fixed) / per_tri).max(TINY as f64) as usize;
+        // The largest build the bracket may try: OVER the prediction.
+        let host_bytes = predicted as f64 * OVER * (per_tri + HOST_BYTES_PER_TRIANGLE);
+        let host_mib = (host_bytes / 1048576.0).ceil() as u64 + HOST_BASE_MIB;
         let mut row = json!({
             "builder": b.name(), "bytes_per_triangle": per_tri, "fixed_bytes": fixed,
             "predicted_n": predicted, "memory_mib": args.memory_mib,
@@ -100,10 +142,10 @@ fn run(args: &Args) -> Result<(), String> {
                 ));
             }
             _ => {
-                let (fits, fails, named) = verify(b, predicted, &cell)?;
+                let (fits, failed) = verify(b, predicted, &cell)?;
                 row["fits_n"] = json!(fits);
-                row["fails_n"] = json!(fails);
-                row["oom_buffer"] = json!(named);
+                row["fails_n"] = json!(failed.as_ref().map(|f| f.0));
+                row["oom_buffer"] = json!(failed.map(|f| f.1));
             }
         }
         for p in Purpose::ALL {
@@ -162,12 +204,14 @@ fn footprint(b: BuilderKind, n: usize, cell: &CellConfig) -> Result<Footprint, C
 
 /// Brackets the largest `rtperf:N` that fits around `predicted`: the
 /// largest size tried that built, the smallest that ran out of memory, and
-/// the buffer the error named. Sizes are rounded to whole rtPerf spheres.
+/// the buffer the error named; never above OVER the prediction (then the
+/// failing size is `None`: the prediction is too low). Sizes are rounded to
+/// whole rtPerf spheres.
 fn verify(
     b: BuilderKind,
     predicted: usize,
     cell: &CellConfig,
-) -> Result<(usize, usize, String), String> {
+) -> Result<(usize, Option<(usize, String)>), String> {
     let sphere = |n: f64| ((n / 200.0).round() as usize).max(1) * 200;
     let try_n = |n: usize| -> Result<Option<String>, String> {
         progress(&format!("{b} rtperf:{n} ..."));
@@ -177,20 +221,21 @@ fn verify(
             Err(e) => Err(format!("{b}, rtperf:{n}: {e}")),
         }
     };
+    let cap = sphere(predicted as f64 * OVER);
     let (mut lo, mut hi) = (
         sphere(predicted as f64 * 0.98),
         sphere(predicted as f64 * 1.02),
     );
-    while try_n(lo)?.is_some() {
+    while lo > 200 && try_n(lo)?.is_some() {
         (hi, lo) = (lo, sphere(lo as f64 * 0.9));
     }
-    let named = loop {
+    loop {
         match try_n(hi)? {
-            Some(what) => break what,
-            None => (lo, hi) = (hi, sphere(hi as f64 * 1.1)),
+            Some(what) => return Ok((lo, Some((hi, what)))),
+            None if hi >= cap => return Ok((hi, None)),
+            None => (lo, hi) = (hi, sphere(hi as f64 * 1.05).min(cap)),
         }
-    };
-    Ok((lo, hi, named))
+    }
 }
 
 /// One line of progress on stderr, when it is a terminal.
@@ -228,10 +273,14 @@ fn print_table(rows: &[Value], mib: u64) {
             f(r, "per_triangle_nodes"),
             f(r, "unused_node_bytes_per_triangle"),
             f(r, "per_triangle_keys"),
-            r["predicted_n"],
+            r["predicted_n"].as_u64().unwrap_or(0),
             r["fits_n"].as_u64().map_or("—".into(), |n| n.to_string()),
             r["fails_n"].as_u64().map_or("—".into(), |n| n.to_string()),
-            r["oom_buffer"].as_str().unwrap_or("(not verified)"),
+            match (r["fits_n"].is_null(), r["oom_buffer"].as_str()) {
+                (true, _) => "(not verified)",
+                (false, Some(b)) => b,
+                (false, None) => "(none up to 1.1x the prediction)",
+            },
         );
     }
     for r in rows {

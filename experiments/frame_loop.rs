@@ -93,9 +93,29 @@ fn size_of(s: &str) -> Result<(u32, u32), String> {
 
 fn run(args: &Args) -> Result<(), String> {
     args.threads.install()?;
-    let builder = BuilderKind::from_name(&args.builder)
-        .filter(|b| b.emulated())
-        .ok_or_else(|| format!("--builder {}: an emulated builder", args.builder))?;
+    let emulated = || -> Vec<&str> {
+        (BuilderKind::ALL.iter())
+            .filter(|b| b.emulated())
+            .map(|b| b.name())
+            .collect()
+    };
+    let builder = match BuilderKind::from_name(&args.builder) {
+        Some(b) if b.emulated() => b,
+        Some(b) => {
+            return Err(format!(
+                "--builder {b}: builds on the host, and the frame is timed on the Cell; \
+                 the emulated builders: {}",
+                emulated().join(", ")
+            ));
+        }
+        None => {
+            return Err(format!(
+                "--builder {}: no such builder; the emulated builders: {}",
+                args.builder,
+                emulated().join(", ")
+            ));
+        }
+    };
     let sizes: Vec<(u32, u32)> = args
         .sizes
         .iter()

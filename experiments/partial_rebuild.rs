@@ -42,7 +42,7 @@ struct Args {
     #[arg(long, default_value_t = 100_000, value_parser = clap::value_parser!(u64).range(1..=MAX_TRIANGLES))]
     to: u64,
     /// Triangles added from one size to the next (at least 1).
-    #[arg(long, default_value_t = 10_000, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, default_value_t = 10_000, value_parser = cellbih::report::at_least_one::<u64>)]
     step: u64,
     /// Frames (moves) per scene size, 1 to 100,000.
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=MAX_FRAMES as u64))]
@@ -324,43 +324,55 @@ fn plots(dir: &Path, method: &str, rows: &[Value]) -> Result<(), Box<dyn std::er
     Ok(())
 }
 
+/// The rows in 80 columns: three tables (triangles per update, host times,
+/// simulated times and tree quality), each row named by update and size.
 fn print_table(rows: &[Value]) {
-    // (header, key, decimals)
-    let cols = [
-        ("tris", "triangles", 0),
-        ("full", "rebuilds", 0),
-        ("trans", "transformed", 0),
-        ("rec", "rebuilt", 0),
-        ("rec/part", "rebuilt_partial", 0),
-        ("delta", "delta", 0),
-        ("kept", "kept", 0),
-        ("depth", "depth", 1),
-        ("min ms", "host_min_ms", 3),
-        ("mean ms", "host_mean_ms", 3),
-        ("max ms", "host_max_ms", 2),
-        ("rebuild", "full_rebuild_host_ms", 2),
-        ("med/full", "partial_over_full", 4),
-        ("ppe mean", "ppe_mean_ms", 2),
-        ("ppe full", "full_rebuild_ppe_ms", 1),
-        ("bfs mean", "bfs_mean_ms", 3),
-        ("bfs full", "full_rebuild_bfs_ms", 2),
-        ("SAH", "sah_over_fresh", 3),
+    let tables: [(&str, &[cellbih::report::Column]); 3] = [
+        (
+            "triangles per update",
+            &[
+                ("full", "rebuilds", 0, 6),
+                ("trans", "transformed", 0, 8),
+                ("rec", "rebuilt", 0, 8),
+                ("rec/part", "rebuilt_partial", 0, 9),
+                ("delta", "delta", 0, 8),
+                ("kept", "kept", 0, 8),
+                ("depth", "depth", 1, 6),
+            ],
+        ),
+        (
+            "host ms (one thread)",
+            &[
+                ("min ms", "host_min_ms", 3, 9),
+                ("mean ms", "host_mean_ms", 3, 9),
+                ("max ms", "host_max_ms", 2, 9),
+                ("rebuild", "full_rebuild_host_ms", 2, 9),
+                ("med/full", "partial_over_full", 4, 9),
+            ],
+        ),
+        (
+            "simulated PS3 ms, and the tree",
+            &[
+                ("ppe mean", "ppe_mean_ms", 2, 9),
+                ("ppe full", "full_rebuild_ppe_ms", 1, 9),
+                ("bfs mean", "bfs_mean_ms", 3, 9),
+                ("bfs full", "full_rebuild_bfs_ms", 2, 9),
+                ("SAH", "sah_over_fresh", 3, 7),
+            ],
+        ),
     ];
-    let mut head = format!("{:<6}", "update");
-    for (h, _, _) in cols {
-        head += &format!(" {h:>9}");
-    }
-    println!("{head}");
-    for r in rows {
-        let mut line = format!("{:<6}", r["method"].as_str().unwrap_or(""));
-        for (_, k, d) in cols {
-            let v = r[k].as_f64().map_or("-".into(), |x| format!("{x:.d$}"));
-            line += &format!(" {v:>9}");
-        }
-        println!("{line}");
-    }
-    println!(
-        "rec: mean over all frames; rec/part: over partial updates only; med/full: median \
-         partial update over a complete rebuild (host); SAH: last tree over a fresh build"
-    );
+    // The size as text, so that it leads each row.
+    let rows: Vec<Value> = (rows.iter())
+        .map(|r| {
+            let mut r = r.clone();
+            r["tris"] = Value::String(r["triangles"].to_string());
+            r
+        })
+        .collect();
+    let keys = [("update", "method", 6), ("tris", "tris", 8)];
+    cellbih::report::print_tables(&rows, &keys, &tables);
+    let note = "rec: mean over all frames; rec/part: over partial updates only; med/full: \
+                median partial update over a complete rebuild (host); SAH: last tree over a \
+                fresh build";
+    println!("{}", cellbih::report::wrap(note, 80));
 }

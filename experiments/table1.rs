@@ -114,7 +114,10 @@ fn run(args: &Args) -> Result<(), String> {
     for (name, count, file, paper) in PAPER {
         let (scene, stand_in) = model(name, count, file, args.data.as_deref())?;
         if let Some(spec) = &stand_in {
-            eprintln!("{name}: not in the data directory; stand-in `{spec}` ({count} triangles)");
+            eprintln!(
+                "{name}: not in the data directory; stand-in `{spec}` ({})",
+                cellbih::report::count(count as u64, "triangle")
+            );
         }
         models.push((name, scene, stand_in, paper));
     }

@@ -145,46 +145,55 @@ fn run(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
+/// The rows in 80 columns: three tables (updates and host times, simulated
+/// times, triangles per update), each row named by scene, source and method.
 fn print_table(rows: &[Value]) {
-    // (header, key, decimals)
-    let cols = [
-        ("tris", "triangles", 0),
-        ("upd", "updates", 0),
-        ("rebld", "rebuilds", 0),
-        ("ratio", "ratio", 2),
-        ("tmin", "tmin_ms", 3),
-        ("tmax", "tmax_ms", 2),
-        ("t", "t_ms", 3),
-        ("ppe tmin", "ppe_tmin_ms", 2),
-        ("ppe tmax", "ppe_tmax_ms", 2),
-        ("ppe t", "ppe_t_ms", 2),
-        ("bfs t", "bfs_t_ms", 2),
-        ("trans", "trans", 1),
-        ("rec", "rec", 1),
-        ("delta", "delta", 1),
-        ("kept", "kept", 1),
-        ("trav", "trav", 2),
+    // (title, [(header, key, decimals, width)])
+    let tables: [(&str, &[cellbih::report::Column]); 3] = [
+        (
+            "updates and times (ms)",
+            &[
+                ("tris", "triangles", 0, 6),
+                ("upd", "updates", 0, 7),
+                ("rebld", "rebuilds", 0, 7),
+                ("ratio", "ratio", 2, 7),
+                ("tmin", "tmin_ms", 3, 7),
+                ("tmax", "tmax_ms", 2, 7),
+                ("t", "t_ms", 3, 7),
+            ],
+        ),
+        (
+            "simulated PS3 times (ms)",
+            &[
+                ("ppe tmin", "ppe_tmin_ms", 2, 7),
+                ("ppe tmax", "ppe_tmax_ms", 2, 7),
+                ("ppe t", "ppe_t_ms", 2, 7),
+                ("bfs t", "bfs_t_ms", 2, 7),
+            ],
+        ),
+        (
+            "triangles per update",
+            &[
+                ("trans", "trans", 1, 7),
+                ("rec", "rec", 1, 7),
+                ("delta", "delta", 1, 7),
+                ("kept", "kept", 1, 7),
+                ("trav", "trav", 2, 7),
+            ],
+        ),
     ];
-    let mut head = format!("{:<7} {:<12} {:<6}", "scene", "source", "method");
-    for (h, _, _) in cols {
-        head += &format!(" {h:>8}");
-    }
-    println!("{head}");
-    for r in rows {
-        let mut line = format!(
-            "{:<7} {:<12} {:<6}",
-            r["scene"].as_str().unwrap_or(""),
-            r["source"].as_str().unwrap_or(""),
-            r["method"].as_str().unwrap_or("")
-        );
-        for (_, k, d) in cols {
-            let v = r[k].as_f64().map_or("-".into(), |x| format!("{x:.d$}"));
-            line += &format!(" {v:>8}");
-        }
-        println!("{line}");
-    }
+    let keys = [
+        ("scene", "scene", 6),
+        ("source", "source", 11),
+        ("method", "method", 6),
+    ];
+    cellbih::report::print_tables(rows, &keys, &tables);
     println!(
-        "ms: paper = PS3 (update on the PPE); ours tmin/tmax/t = host (one thread); ppe/bfs = \
-         simulated PS3 with the rebuilds on ppe_naive/spe_bfs"
+        "{}",
+        cellbih::report::wrap(
+            "ms: paper = PS3 (update on the PPE); ours tmin/tmax/t = host (one thread); ppe/bfs = \
+             simulated PS3 with the rebuilds on ppe_naive/spe_bfs",
+            80
+        )
     );
 }

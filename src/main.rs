@@ -16,7 +16,9 @@ use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
 use cellbih::registry::BuilderKind;
 use cellbih::render::{Camera, Frame, trace};
+use cellbih::report::step;
 use cellbih::scene::{self, Scene};
+use cellbih::strategy::machinery::layout::TriRecord;
 use cellbih::update::{MAX_FRAMES, Method, Updater};
 use cellbih::{rays_csv, render};
 
@@ -73,25 +75,17 @@ struct SceneArg {
 }
 
 impl SceneArg {
-    /// Before any work: an `rtperf:N` scene whose triangle records alone
-    /// (48 bytes each, every emulated build uploads them) exceed the
-    /// emulated Cell's main memory is refused at once, not after the scene
-    /// is made and the build has run out of room.
-    fn check_fits(&self, c: &build_args::Chosen) -> Res<()> {
-        let Some(n) = scene::procedural::rtperf_triangles(&self.scene) else {
-            return Ok(());
-        };
-        let need = n as u64 * size_of::<cellbih::strategy::machinery::layout::TriRecord>() as u64;
-        if c.builder.emulated() && need > c.cell.main_memory_bytes {
-            return Err(format!(
-                "{}: its {n} triangle records alone take {:.0} MiB, more than the emulated Cell's {} MiB (--memory-mib): nothing built",
-                self.scene,
-                need as f64 / (1 << 20) as f64,
-                c.cell.main_memory_bytes >> 20
-            )
-            .into());
+    /// Before any work: an `rtperf:N` scene that does not fit in the
+    /// emulated Cell's main memory — its triangle records (48 bytes each,
+    /// every emulated build uploads them) or, with `cast_rays`, what the
+    /// cast on the Cell takes — is refused at once, not after the scene is
+    /// made and the build has run out of room. Other scenes are checked by
+    /// [`check_memory`] once loaded.
+    fn check_fits(&self, c: &build_args::Chosen, cast_rays: Option<usize>) -> Res<()> {
+        match scene::procedural::rtperf_triangles(&self.scene) {
+            Some(n) => check_memory(&self.scene, n, 0, cast_rays, c),
+            None => Ok(()),
         }
-        Ok(())
     }
 
     /// The scene; a built-in name that is also a file here is the built-in
@@ -283,8 +277,14 @@ fn run(cli: Cli) -> Res<()> {
     match cli.command {
         None => compare::demo(),
         Some(Command::Builders) => {
+            // 80 columns: each builder's name, what it is (indented 4),
+            // then its knobs (`  --name`, their help indented 6).
+            let wrapped = |indent: usize, text: &str| {
+                let pad = " ".repeat(indent);
+                let body = cellbih::report::wrap(text, 80 - indent);
+                format!("{pad}{}", body.replace('\n', &format!("\n{pad}")))
+            };
             for b in BuilderKind::ALL {
-                let width = BuilderKind::ALL.iter().map(|b| b.name().len()).max();
                 let q = b.quality();
                 let knobs = match (q.binned_sah, q.empty_cut) {
                     (true, true) => "; builds --split sah and --empty-cut",
@@ -292,14 +292,15 @@ fn run(cli: Cli) -> Res<()> {
                     (true, false) => "; builds --split sah",
                     (false, false) => "",
                 };
-                let w = width.unwrap_or(0);
-                println!("{:<w$} {}{knobs}", b.name(), b.describe());
+                println!("{}", b.name());
+                println!("{}", wrapped(4, &format!("{}{knobs}", b.describe())));
                 for k in b.knobs() {
                     let range = match k.is_flag() {
                         true => String::new(),
                         false => format!(" ({}; default {})", k.range(), k.default_text()),
                     };
-                    println!("{:<w$}   --{:<15} {}{range}", "", k.name, k.help);
+                    println!("  --{}", k.name);
+                    println!("{}", wrapped(6, &format!("{}{range}", k.help)));
                 }
             }
             Ok(())
@@ -354,8 +355,10 @@ fn run(cli: Cli) -> Res<()> {
                 cache: &cache,
             };
             let cfg = frame::config(&c, &asked)?;
-            scene.check_fits(&c)?;
+            let rays = Some(width as usize * height as usize);
+            scene.check_fits(&c, rays)?;
             let (s, anim) = anim.load(&scene, frames)?;
+            check_memory(&s.name, s.len(), 0, rays, &c)?;
             frame::run(&s, &anim, &cfg, &c, format)
         }
         Some(Command::Update {
@@ -371,11 +374,15 @@ fn run(cli: Cli) -> Res<()> {
             let method = Method::from_name(&strategy).ok_or_else(|| {
                 format!("unknown --strategy '{strategy}': local, deep or rebuild")
             })?;
-            scene.check_fits(&c)?;
+            scene.check_fits(&c, None)?;
             let (s, anim) = anim.load(&scene, frames)?;
-            let mut u = Updater::new_on(s, c.builder, &c.cfg, c.cell, method)?;
-            u.deep_stop_below = deep_stop_below;
-            update(&mut u, &anim, format)
+            check_memory(&s.name, s.len(), 0, None, &c)?;
+            // The first build and every rebuild on the builder's threads.
+            c.install(|| {
+                let mut u = Updater::new_on(s, c.builder, &c.cfg, c.cell.clone(), method)?;
+                u.deep_stop_below = deep_stop_below;
+                update(&mut u, &anim, format, &c.describe())
+            })
         }
         Some(Command::Build {
             scene,
@@ -400,10 +407,13 @@ fn run(cli: Cli) -> Res<()> {
                 }
                 check_writable(path)?;
             }
-            scene.check_fits(&c)?;
+            scene.check_fits(&c, None)?;
             let s = scene.load()?;
+            check_memory(&s.name, s.len(), 0, None, &c)?;
             c.cell.trace = trace.is_some();
-            let mut report = c.build(&s)?;
+            let mut report = step(&format!("building {} with {}", s.name, c.builder), || {
+                c.build(&s)
+            })?;
             print_build(&s, &report, format);
             if let Some(path) = &trace {
                 let timeline = report
@@ -428,7 +438,7 @@ fn run(cli: Cli) -> Res<()> {
             cast,
         }) => {
             let c = parse_build(&build)?;
-            let on_cell = cast.config(c.cell.cost.charge_compute)?;
+            let on_cell = cast.config(c.cell.cost.charge_compute, &out)?;
             check_writable(&out)?;
             // `-`: the rays come on the standard input.
             let rays = if rays.as_os_str() == "-" {
@@ -438,14 +448,21 @@ fn run(cli: Cli) -> Res<()> {
                 let file = File::open(&rays).map_err(|e| format!("{path}: cannot open: {e}"))?;
                 rays_csv::read_rays(&path, BufReader::new(file))?
             };
-            scene.check_fits(&c)?;
+            let cast_rays = on_cell.is_some().then_some(rays.len());
+            scene.check_fits(&c, cast_rays)?;
             let s = scene.load()?;
-            let report = c.build(&s)?;
+            check_memory(&s.name, s.len(), 0, cast_rays, &c)?;
+            let report = step(&format!("building {} with {}", s.name, c.builder), || {
+                c.build(&s)
+            })?;
             let (hits, cell_report) = match &on_cell {
                 Some(cfg) => {
+                    check_memory(&s.name, s.len(), report.bih.nodes.len(), cast_rays, &c)?;
                     let mut cell = c.cell.clone();
                     cell.trace = cast.trace.is_some();
-                    let r = cast_on_cell(&report.bih, &s, &rays, cfg, &cell)?;
+                    let r = step("casting the rays on the Cell", || {
+                        cast_on_cell(&report.bih, &s, &rays, cfg, &cell)
+                    })?;
                     (r.hits.clone(), Some(r))
                 }
                 None => {
@@ -481,18 +498,27 @@ fn run(cli: Cli) -> Res<()> {
             cast,
         }) => {
             let c = parse_build(&build)?;
-            let on_cell = cast.config(c.cell.cost.charge_compute)?;
+            let on_cell = cast.config(c.cell.cost.charge_compute, &out)?;
             render::check_size(width, height)?;
             check_png(&out)?;
-            scene.check_fits(&c)?;
+            let cast_rays = on_cell
+                .is_some()
+                .then_some(width as usize * height as usize);
+            scene.check_fits(&c, cast_rays)?;
             let s = scene.load()?;
-            let report = c.build(&s)?;
+            check_memory(&s.name, s.len(), 0, cast_rays, &c)?;
+            let report = step(&format!("building {} with {}", s.name, c.builder), || {
+                c.build(&s)
+            })?;
             let cam = Camera::framing(&s.bounds(), width, height);
             let (frame, cell_report) = match &on_cell {
                 Some(cfg) => {
+                    check_memory(&s.name, s.len(), report.bih.nodes.len(), cast_rays, &c)?;
                     let mut cell = c.cell.clone();
                     cell.trace = cast.trace.is_some();
-                    let r = cast_on_cell(&report.bih, &s, &cam.rays(), cfg, &cell)?;
+                    let r = step("casting the rays on the Cell", || {
+                        cast_on_cell(&report.bih, &s, &cam.rays(), cfg, &cell)
+                    })?;
                     let f = Frame::of_hits(&cam, &s.triangles, &r.hits, &r.costs, r.stats());
                     (f, Some(r))
                 }
@@ -529,12 +555,54 @@ fn run(cli: Cli) -> Res<()> {
     }
 }
 
+/// Refuses, naming what and `--memory-mib`, a scene of `triangles` that
+/// the emulated Cell's main memory cannot hold: the build's triangle
+/// records (an emulated builder), or the cast's tree, triangles, rays and
+/// hits (`cast_rays`: rays cast on the Cell; `nodes` 0 before the tree is
+/// built, a lower bound).
+fn check_memory(
+    scene: &str,
+    triangles: usize,
+    nodes: usize,
+    cast_rays: Option<usize>,
+    c: &build_args::Chosen,
+) -> Res<()> {
+    let have = c.cell.main_memory_bytes;
+    let mib = |b: u64| b as f64 / (1 << 20) as f64;
+    let records = triangles as u64 * size_of::<TriRecord>() as u64;
+    if c.builder.emulated() && records > have {
+        return Err(format!(
+            "{scene}: its {triangles} triangle records alone take {:.0} MiB, more than the \
+             emulated Cell's {} MiB (--memory-mib): nothing built",
+            mib(records),
+            have >> 20
+        )
+        .into());
+    }
+    if let Some(rays) = cast_rays {
+        let need = cellbih::cast::memory_needed(nodes, triangles, rays);
+        if need > have {
+            let (least, fits, done) = match nodes {
+                0 => ("at least ", "above", "nothing built or cast"),
+                _ => ("", "from", "the tree was built, nothing cast"),
+            };
+            return Err(format!(
+                "{scene}: the cast on the Cell ({rays} rays) needs {least}{:.0} MiB of its main \
+                 memory for the tree, {triangles} triangles in leaf order, the rays and their \
+                 hits; the emulated Cell has {} MiB (--memory-mib: {fits} {} up): {done}",
+                mib(need),
+                have >> 20,
+                need.div_ceil(1 << 20),
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
 /// "1 SPE", "6 SPEs".
 fn spes(n: usize) -> String {
-    match n {
-        1 => "1 SPE".into(),
-        n => format!("{n} SPEs"),
-    }
+    cellbih::report::count(n as u64, "SPE")
 }
 
 /// The builders of `failed`, by name.

@@ -49,11 +49,18 @@ fn build_trace_writes_chrome_json() {
 fn the_registry_and_spes_reach_every_command() {
     let listed = String::from_utf8_lossy(&cellbih(&["builders"]).stdout).into_owned();
     for b in cellbih::registry::BuilderKind::ALL {
-        let line = listed.lines().find(|l| l.starts_with(b.name()));
-        assert!(line.is_some(), "{b} in {listed}");
-        // Each line says whether the builder builds the quality knobs.
-        let says = line
-            .unwrap()
+        // Each builder's name on a line of its own, what it is indented
+        // under it (wrapped to 80 columns), saying whether it builds the
+        // quality knobs.
+        let at = listed.lines().position(|l| l == b.name());
+        assert!(at.is_some(), "{b} in {listed}");
+        let block: Vec<&str> = (listed.lines().skip(at.unwrap() + 1))
+            .take_while(|l| l.starts_with("    "))
+            .map(str::trim)
+            .collect();
+        assert!(listed.lines().all(|l| l.chars().count() <= 80), "{listed}");
+        let says = block
+            .join(" ")
             .ends_with("builds --split sah and --empty-cut");
         assert_eq!(says, b.quality().binned_sah && b.quality().empty_cut, "{b}");
         let json = |spes: &str| -> serde_json::Value {

@@ -52,7 +52,10 @@ fn sizes_past_their_limits_are_refused_at_once() {
             &["build", "--max-depth", "127"][..],
             "127 is not in 0..=126",
         ),
-        (&["build", "--leaf-size", "0"][..], "0 is not in 1.."),
+        (
+            &["build", "--leaf-size", "0"][..],
+            "0 is less than 1: give a whole number of at least 1",
+        ),
         (&["build", "--spes", "17"][..], "17 is not in 1..=16"),
         // A knob's range is its table's, checked once, when it is set.
         (
@@ -338,4 +341,70 @@ fn a_procedural_scene_too_big_for_the_emulated_memory_is_refused_up_front() {
         "1",
     ]);
     assert_ok(&fits);
+}
+
+/// A cast on the Cell that its main memory cannot hold is refused before
+/// any work when even its lower bound (triangles, rays, hits) does not fit,
+/// and after the build, before the cast, when the tree's nodes tip it over;
+/// both name the cast and `--memory-mib`.
+#[test]
+fn a_cast_too_big_for_the_emulated_memory_is_refused_naming_it() {
+    let out = cellbih(&[
+        "render",
+        "--scene",
+        "rtperf:6000000",
+        "--on-cell",
+        "--out",
+        "never.png",
+    ]);
+    assert_fails_with(
+        &out,
+        "rtperf:6000000: the cast on the Cell (480000 rays) needs at least 319 MiB",
+    );
+    assert!(stderr(&out).contains("--memory-mib: above 319 up): nothing built or cast"));
+    assert!(!std::path::Path::new("never.png").exists());
+
+    // The default scene's host tree: enough rays that everything but the
+    // nodes fits in 1 MiB, and the nodes do not.
+    let s = cellbih::scene::load("default", None).unwrap();
+    let nodes = (cellbih::registry::BuilderKind::HOST)
+        .build(&s, &cellbih::bih::BihConfig::default())
+        .unwrap()
+        .bih
+        .nodes
+        .len();
+    let mib = 1 << 20;
+    let rays = (1..200_000)
+        .find(|&k| {
+            cellbih::cast::memory_needed(0, s.len(), k) <= mib
+                && cellbih::cast::memory_needed(nodes, s.len(), k) > mib
+        })
+        .expect("a ray count between the bounds");
+    let mut csv = String::from("ox,oy,oz,dx,dy,dz,tmin,tmax\n");
+    for _ in 0..rays {
+        csv.push_str("0,1,8,0,0,-1,0,inf\n");
+    }
+    let file = tmp("cast-memory.rays.csv");
+    std::fs::write(&file, csv).unwrap();
+    let hits = tmp("cast-memory.hits.csv");
+    let out = cellbih(&[
+        "raycast",
+        "--on-cell",
+        "--memory-mib",
+        "1",
+        "--rays",
+        file.to_str().unwrap(),
+        "--out",
+        hits.to_str().unwrap(),
+    ]);
+    assert_fails_with(
+        &out,
+        &format!("default: the cast on the Cell ({rays} rays) needs 1 MiB"),
+    );
+    assert!(
+        stderr(&out).contains("(--memory-mib: from 2 up): the tree was built, nothing cast"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!hits.exists());
 }

@@ -121,6 +121,12 @@ fn footprint_brackets_the_largest_scene_each_builder_fits() {
             r["fails_n"].as_u64().unwrap(),
         );
         assert!(fits < fails && fails as f64 <= fits as f64 * 1.25, "{r}");
+        // Never a build above 1.1 times the prediction (in whole spheres).
+        let predicted = r["predicted_n"].as_u64().unwrap() as f64;
+        assert!(
+            fails <= ((predicted * 1.1 / 200.0).round() as u64) * 200,
+            "{r}"
+        );
         let bpt = r["bytes_per_triangle"].as_f64().unwrap();
         // The records alone are 48 bytes a triangle.
         assert!(
@@ -130,6 +136,29 @@ fn footprint_brackets_the_largest_scene_each_builder_fits() {
         assert!(!r["oom_buffer"].as_str().unwrap().is_empty());
     }
     assert!(dir.join("footprint.csv").exists());
+}
+
+/// The smallest memory works: the footprints are fitted in a larger one
+/// (they do not depend on its size), and every builder builds at least one
+/// rtPerf sphere in 1 MiB, verified.
+#[test]
+fn footprint_in_one_mib_predicts_and_verifies() {
+    let (rows, _) = run_experiment(
+        env!("CARGO_BIN_EXE_footprint"),
+        "footprint-1",
+        &["--memory-mib", "1"],
+    );
+    assert_eq!(
+        rows.len(),
+        BuilderKind::ALL.iter().filter(|b| b.emulated()).count()
+    );
+    for r in rows {
+        let fits = r["fits_n"].as_u64().unwrap();
+        assert!(fits >= 200, "{r}");
+        if let Some(fails) = r["fails_n"].as_u64() {
+            assert!(fails > fits && r["oom_buffer"].is_string(), "{r}");
+        }
+    }
 }
 
 /// A prediction whose verification builds would need more host memory

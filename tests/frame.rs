@@ -143,7 +143,7 @@ fn the_frame_command_reports_every_frame() {
     ];
     let out = cellbih(&args);
     assert_ok(&out);
-    let text = String::from_utf8_lossy(&out.stdout);
+    let text = String::from_utf8_lossy(&out.stdout).replace('\n', " ");
     assert!(
         text.contains("2 SPEs build the next frame while 4 SPEs render"),
         "{text}"

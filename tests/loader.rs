@@ -211,3 +211,33 @@ fn colours_on_some_vertices_and_latin1_bytes_load() {
     let e = parse_obj("t.obj", b"v 0 0 0\0\n").unwrap_err().to_string();
     assert!(e.contains("not text"), "{e}");
 }
+
+/// A face of fewer than three corners, and a last face cut short, are
+/// errors naming the file and line (tobj drops them without a word).
+#[test]
+fn a_face_of_fewer_than_three_corners_names_the_line() {
+    let e = err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n");
+    assert_eq!(
+        e,
+        "t.obj:5: a face with 2 corners: a face needs at least 3 (a file cut short?)"
+    );
+    let e = err("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1");
+    assert_eq!(
+        e,
+        "t.obj:4: a face with 1 corner: a face needs at least 3 (a file cut short?)"
+    );
+    // A face line of three corners with slashes loads.
+    assert!(parse_obj("t.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/2 3/3\n").is_ok());
+}
+
+/// A UTF-16 file (with or without its byte-order mark) is named as such.
+#[test]
+fn utf16_is_named_as_unsupported() {
+    let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let le: Vec<u8> = text.encode_utf16().flat_map(u16::to_le_bytes).collect();
+    let be: Vec<u8> = text.encode_utf16().flat_map(u16::to_be_bytes).collect();
+    for bytes in [[&[0xff, 0xfe][..], &le].concat(), le, be] {
+        let e = parse_obj("t.obj", &bytes).unwrap_err().to_string();
+        assert!(e.contains("UTF-16 text, which is not supported"), "{e}");
+    }
+}

@@ -213,6 +213,19 @@ impl Quality {
             && (self.empty_cut || cfg.empty_cut.is_none())
     }
 
+    /// The options of `cfg` a builder with these does not build, as the
+    /// command line spells them (empty where it builds `cfg`).
+    pub fn missing(self, cfg: &BihConfig) -> Vec<&'static str> {
+        let mut m = Vec::new();
+        if !self.binned_sah && cfg.split != SplitChoice::GlobalHeuristic {
+            m.push("--split sah");
+        }
+        if !self.empty_cut && cfg.empty_cut.is_some() {
+            m.push("--empty-cut");
+        }
+        m
+    }
+
     /// `cfg` without the knobs a builder with these does not build (the
     /// paper's setting in their place).
     pub fn reach(self, cfg: &BihConfig) -> BihConfig {

@@ -291,6 +291,22 @@ const TAIL: u64 = 16 * 1024;
 /// Casts `rays` through `bih` (built over `scene`) on a Cell configured by
 /// `cell_cfg`, every SPE taking tiles: the closest hits, as the host
 /// tracer gives them, and what it cost in simulated time.
+/// Bytes of emulated main memory a cast takes: the tree's `nodes`, the
+/// `triangles` in leaf order, the `rays` and their hits, the tile counter,
+/// each allocation padded and aligned as [`cast_on_cell`] makes it. With
+/// `nodes` 0 it is a lower bound, known before the tree is built.
+pub fn memory_needed(nodes: usize, triangles: usize, rays: usize) -> u64 {
+    const ALIGN: u64 = 128;
+    let bytes = [
+        (nodes * size_of::<crate::bih::BihNode>()) as u64 + TAIL,
+        (triangles * size_of::<TriRecord>()) as u64 + TAIL,
+        (rays * size_of::<CellRay>()) as u64,
+        (rays * size_of::<CellHit>()) as u64,
+        128,
+    ];
+    bytes.iter().map(|b| b.next_multiple_of(ALIGN)).sum()
+}
+
 pub fn cast_on_cell(
     bih: &Bih,
     scene: &Scene,

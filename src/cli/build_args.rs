@@ -92,18 +92,25 @@ pub struct Chosen {
 
 impl Chosen {
     pub fn build(&self, s: &Scene) -> Res<BuildReport> {
-        let build = || {
-            self.builder
-                .build_with(s, s.bounds(), &self.cfg, &self.cell, &self.knobs)
-        };
-        Ok(match self.threads {
+        self.install(|| {
+            Ok(self
+                .builder
+                .build_with(s, s.bounds(), &self.cfg, &self.cell, &self.knobs)?)
+        })
+    }
+
+    /// Runs `work` on the builder's `--threads` (a pool of that many), or
+    /// on the current pool for a builder that builds on one thread.
+    pub fn install<T: Send>(&self, work: impl FnOnce() -> Res<T> + Send) -> Res<T> {
+        match self.threads {
             Some(n) => rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
                 .build()
                 .map_err(|e| format!("--threads {n}: {e}"))?
-                .install(build)?,
-            None => build()?,
-        })
+                .install(|| work().map_err(|e| e.to_string()))
+                .map_err(Into::into),
+            None => work(),
+        }
     }
 
     /// "builder B" and, for an emulated one, "on N SPEs".

@@ -66,12 +66,17 @@ impl CastArgs {
     /// The cast's configuration with `--on-cell`, `None` without; an
     /// option of the Cell's cast given without `--on-cell` is an error
     /// that names it, and so is a trace of an untimed cast (`timed`:
-    /// whether the Cell's mode keeps time) or one that cannot be written.
-    pub fn config(&self, timed: bool) -> Res<Option<CastConfig>> {
+    /// whether the Cell's mode keeps time), one that cannot be written, or
+    /// one sent to the standard output where `out` (the hits or the image)
+    /// already goes.
+    pub fn config(&self, timed: bool, out: &std::path::Path) -> Res<Option<CastConfig>> {
         if self.on_cell {
             if let Some(path) = &self.trace {
                 if !timed {
                     return Err("--trace: --mode functional keeps no timeline".into());
+                }
+                if path.as_os_str() == "-" && out.as_os_str() == "-" {
+                    return Err("--trace - and --out -: both would go to the standard output; give one of them a file".into());
                 }
                 cellbih::output::check_writable(path)?;
             }
@@ -140,29 +145,38 @@ pub fn describe(r: &CastReport, spes: usize) -> String {
     } else {
         String::new()
     };
-    let time = match r.rays_per_s() {
-        Some(rps) => format!(
-            "{:.2} ms simulated on the PS3 model with {} ({:.2} M rays/s)",
-            r.run.ms,
-            super::spes(spes),
-            rps / 1e6
+    let (time, shares) = match r.rays_per_s() {
+        Some(rps) => (
+            format!(
+                "{:.2} ms simulated on the PS3 model with {} ({:.2} M rays/s)",
+                r.run.ms,
+                super::spes(spes),
+                rps / 1e6
+            ),
+            format!(
+                "; SPEs busy {:.0} % (least {:.0} %, most {:.0} %), waiting for DMA {:.0} %{switched}, atomic {:.1} %",
+                sh.busy * 100.0,
+                sh.busy_min * 100.0,
+                sh.busy_max * 100.0,
+                sh.dma_wait * 100.0,
+                sh.atomic * 100.0,
+            ),
         ),
-        None => format!(
-            "on {} in the functional mode (no timing)",
-            super::spes(spes)
+        // Nothing was timed: no time and no shares of it.
+        None => (
+            format!(
+                "on {} in the functional mode (nothing timed)",
+                super::spes(spes)
+            ),
+            String::new(),
         ),
     };
     format!(
-        "on the Cell: {time}; per ray {:.1} nodes, {:.1} triangles; software cache hit rate {:.1} % ({} misses); SPEs busy {:.0} % (least {:.0} %, most {:.0} %), waiting for DMA {:.0} %{switched}, atomic {:.1} %",
+        "on the Cell: {time}; per ray {:.1} nodes, {:.1} triangles; software cache hit rate {:.1} % ({} misses){shares}",
         per(st.nodes_visited),
         per(st.triangles_tested),
         cache.hit_rate() * 100.0,
         cache.misses,
-        sh.busy * 100.0,
-        sh.busy_min * 100.0,
-        sh.busy_max * 100.0,
-        sh.dma_wait * 100.0,
-        sh.atomic * 100.0,
     )
 }
 

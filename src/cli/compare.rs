@@ -26,6 +26,14 @@ use super::Format;
 /// currency.
 pub const CAST_SIZE: (u32, u32) = (320, 240);
 
+/// Node visits and triangle tests (estimated from the primary rays' cost
+/// on the host) that the cast on the SPEs may emulate for one builder:
+/// about two seconds of host time. A tree whose camera rays would cost more
+/// (a shallow tree's huge leaves) is cast on every k-th ray, its simulated
+/// time scaled by k, and the row says so. The dragon's trees take about
+/// 4 M.
+pub const CAST_BUDGET: f64 = 8e6;
+
 /// One builder's row.
 pub struct Row {
     pub builder: BuilderKind,
@@ -34,6 +42,9 @@ pub struct Row {
     /// Emulated builders: simulated ms to cast the camera's
     /// [`CAST_SIZE`] primary rays through the tree on the SPEs.
     pub render_ms: Option<f64>,
+    /// Where the cast would have cost more than [`CAST_BUDGET`]: the rays
+    /// cast (every k-th), `render_ms` scaled to all of them.
+    pub render_sampled: Option<usize>,
     /// Why the cast on the SPEs could not run (it needs the tree, the
     /// triangles and the rays in the emulated memory), if it could not.
     pub render_error: Option<String>,
@@ -80,9 +91,19 @@ pub fn rows(
     let cam = Camera::framing(&s.bounds(), CAST_SIZE.0, CAST_SIZE.1).rays();
     let mut out = Vec::new();
     let (mut last, mut failed) = (None, Vec::new());
+    // On a terminal a bar; elsewhere a line for each builder that takes
+    // more than a moment.
+    let quietly = |what: &str, work: &mut dyn FnMut()| match bar.is_hidden() {
+        true => cellbih::report::step(what, work),
+        false => work(),
+    };
     for b in builders {
         bar.set_message(b.name());
-        let r = match b.build_with(s, s.bounds(), cfg, cell, &Knobs::default()) {
+        let mut built = None;
+        quietly(&format!("building with {b}"), &mut || {
+            built = Some(b.build_with(s, s.bounds(), cfg, cell, &Knobs::default()));
+        });
+        let r = match built.expect("built") {
             Ok(r) => r,
             Err(e) => {
                 failed.push((b, e.to_string()));
@@ -93,10 +114,29 @@ pub fn rows(
         r.bih.validate(s).map_err(|e| format!("builder {b}: {e}"))?;
         let q = r.bih.quality();
         let tracer = Tracer::new(&r.bih, s);
-        let (primary, incoherent) = rays.measure(&tracer);
-        let (mut render_ms, mut render_error) = (None, None);
+        let mut costs = None;
+        quietly(&format!("measuring {b}'s tree"), &mut || {
+            costs = Some(rays.measure(&tracer))
+        });
+        let (primary, incoherent) = costs.expect("measured");
+        let (mut render_ms, mut render_error, mut render_sampled) = (None, None, None);
         if r.simulated.as_ref().is_some_and(|m| m.run.timed) {
-            match cast_on_cell(&r.bih, s, &cam, &CastConfig::DEFAULT, cell) {
+            let k = (primary.per_ray() * cam.len() as f64 / CAST_BUDGET)
+                .ceil()
+                .max(1.0) as usize;
+            let sample: Vec<_> = cam.iter().step_by(k).copied().collect();
+            if k > 1 {
+                render_sampled = Some(sample.len());
+            }
+            let mut cast = None;
+            quietly(
+                &format!("casting through {b}'s tree on the Cell"),
+                &mut || cast = Some(cast_on_cell(&r.bih, s, &sample, &CastConfig::DEFAULT, cell)),
+            );
+            match cast.expect("cast") {
+                Ok(c) if k > 1 => {
+                    render_ms = Some(c.run.ms * cam.len() as f64 / sample.len() as f64)
+                }
                 Ok(c) => render_ms = Some(c.run.ms),
                 Err(e) => render_error = Some(e.to_string()),
             }
@@ -107,6 +147,7 @@ pub fn rows(
             simulated_ms: r.simulated.as_ref().map(|m| m.run.ms),
             render_ms,
             render_error,
+            render_sampled,
             nodes: q.nodes,
             depth: q.max_depth,
             sah: q.sah_cost,
@@ -151,6 +192,7 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
                     "builder": r.builder.name(), "host_ms": r.host_ms,
                     "simulated_ms": r.simulated_ms, "speedup_over_spe_bfs": speedup(r),
                     "cell_render_ms": r.render_ms, "cell_render_error": r.render_error,
+                    "cell_render_rays_cast": r.render_sampled,
                     "nodes": r.nodes, "depth": r.depth, "sah_cost": r.sah,
                     "ray_nodes": r.primary.nodes, "ray_triangles": r.primary.triangles,
                     "mrays_per_s": r.primary.mrays_per_s, "incoherent": r.incoherent,
@@ -203,23 +245,69 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
             r.primary.mrays_per_s,
             format!("{:.1}+{:.1}", r.incoherent.nodes, r.incoherent.triangles),
             r.incoherent.mrays_per_s,
-            opt(r.render_ms, 2),
+            match r.render_sampled {
+                Some(_) => format!("{}*", opt(r.render_ms, 2)),
+                None => opt(r.render_ms, 2),
+            },
         );
     }
-    if !left_out.is_empty() {
+    let sampled = |c: RayCost| c.sampled.is_some();
+    if rows
+        .iter()
+        .any(|r| sampled(r.primary) || sampled(r.incoherent))
+    {
+        let line = format!(
+            "(rays whose whole set would take more than {} node visits and triangle tests \
+             are measured on an even sample of the set; --format json gives its size)",
+            cellbih::quality::rays::WORK_BUDGET
+        );
+        println!("{}", cellbih::report::wrap(&line, 80));
+    }
+    if rows.iter().any(|r| r.render_sampled.is_some()) {
+        let line = format!(
+            "(*: the tree's rays would cost the emulation more than {CAST_BUDGET:.0} node visits \
+             and triangle tests; cast on every k-th ray, its time scaled by k)"
+        );
+        println!("{}", cellbih::report::wrap(&line, 80));
+    }
+    // Grouped by what excludes them: only the options they do not build.
+    let mut groups: Vec<(Vec<&str>, Vec<&str>)> = Vec::new();
+    for b in BuilderKind::ALL.iter().filter(|b| !b.builds(cfg)) {
+        let missing = b.quality().missing(cfg);
+        match groups.iter_mut().find(|(m, _)| *m == missing) {
+            Some((_, names)) => names.push(b.name()),
+            None => groups.push((missing, vec![b.name()])),
+        }
+    }
+    for (missing, names) in &groups {
         println!(
-            "\nnot built: {} (they do not build {})",
-            left_out.join(", "),
-            cfg.flags()
+            "\n{}",
+            cellbih::report::wrap(
+                &format!(
+                    "not built: {} ({} not build {})",
+                    names.join(", "),
+                    if names.len() == 1 {
+                        "it does"
+                    } else {
+                        "they do"
+                    },
+                    missing.join(" or ")
+                ),
+                80
+            )
         );
     }
     for r in rows {
         if let Some(e) = &r.render_error {
-            println!("\nnot cast on the SPEs, builder {}: {e}", r.builder);
+            let line = format!("not cast on the SPEs, builder {}: {e}", r.builder);
+            println!("\n{}", cellbih::report::wrap(&line, 80));
         }
     }
     for (b, e) in &c.failed {
-        println!("\nFAILED: builder {b}: {e}");
+        println!(
+            "\n{}",
+            cellbih::report::wrap(&format!("FAILED: builder {b}: {e}"), 80)
+        );
     }
     let with = if cfg.flags().is_empty() {
         String::new()

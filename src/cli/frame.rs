@@ -71,14 +71,19 @@ pub fn run(s: &Scene, anim: &Animation, cfg: &FrameConfig, c: &Chosen, format: F
 }
 
 fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format: Format) {
-    let arrangement = if cfg.all_spes_build() {
-        format!("all {} SPEs build, then all render", cfg.spes)
-    } else {
-        format!(
-            "{} build the next frame while {} render (the paper's arrangement)",
-            super::spes(cfg.build_spes),
-            super::spes(cfg.render_spes())
-        )
+    // "1 SPE builds", "2 SPEs build".
+    let verb = |n: usize, what: &str| match n {
+        1 => format!("1 SPE {what}s"),
+        n => format!("{n} SPEs {what}"),
+    };
+    let arrangement = match (cfg.all_spes_build(), cfg.spes) {
+        (true, 1) => "the one SPE builds, then renders".to_string(),
+        (true, n) => format!("all {n} SPEs build, then all render"),
+        (false, _) => format!(
+            "{} the next frame while {} (the paper's arrangement)",
+            verb(cfg.build_spes, "build"),
+            verb(cfg.render_spes(), "render")
+        ),
     };
     if let Format::Json = format {
         let v = json!({
@@ -104,32 +109,26 @@ fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format:
         );
         return;
     }
-    println!(
-        "{} on {} ({} triangles), {} × {}, policy {}, builder {}; {arrangement}",
+    let title = format!(
+        "{} on {} ({}), {} × {}, policy {}, builder {}; {arrangement}",
         anim.name,
         s.name,
-        s.len(),
+        cellbih::report::count(s.len() as u64, "triangle"),
         cfg.width,
         cfg.height,
         cfg.policy.name(),
         cfg.builder
     );
+    println!("{}", cellbih::report::wrap(&title, 80));
     let oracle = run.frames.iter().any(|f| f.oracle_ms.is_some());
     let predicted = run.frames.iter().any(|f| f.predicted.is_some());
-    print!(
+    println!(
         "{:>5} {:>8} {:>8} {:>10} {:>10} {:>10} {:>9} {:>6}",
         "frame", "choice", "rebuilt", "update ms", "render ms", "frame ms", "ray cost", "cache"
     );
-    if predicted {
-        print!(" {:>11} {:>11}", "pred upd ms", "pred ren ms");
-    }
-    if oracle {
-        print!(" {:>10} {:>10} {:>10}", "rebuild ms", "local ms", "deep ms");
-    }
-    println!();
     for f in &run.frames {
         let choice = if f.full_rebuild { "rebuild" } else { f.choice };
-        print!(
+        println!(
             "{:>5} {choice:>8} {:>8} {:>10.2} {:>10.2} {:>10.2} {:>9.1} {:>5.1}%",
             f.frame,
             f.rebuilt,
@@ -139,25 +138,45 @@ fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format:
             f.ray_cost,
             f.cache_hit_rate * 100.0
         );
-        if let Some(p) = f.predicted {
-            print!(" {:>11.2} {:>11.2}", p.update_ms, p.render_ms);
+    }
+    // What the metric predicted and what every option measured: a second
+    // table, so that each fits 80 columns.
+    if predicted || oracle {
+        print!("\n{:>5} {:>8}", "frame", "choice");
+        if predicted {
+            print!(" {:>11} {:>11}", "pred upd ms", "pred ren ms");
         }
-        if let Some([r, l, d]) = f.oracle_ms {
-            print!(" {r:>10.2} {l:>10.2} {d:>10.2}");
+        if oracle {
+            print!(" {:>10} {:>10} {:>10}", "rebuild ms", "local ms", "deep ms");
         }
         println!();
+        for f in &run.frames {
+            let choice = if f.full_rebuild { "rebuild" } else { f.choice };
+            print!("{:>5} {choice:>8}", f.frame);
+            if let Some(p) = f.predicted {
+                print!(" {:>11.2} {:>11.2}", p.update_ms, p.render_ms);
+            }
+            if let Some([r, l, d]) = f.oracle_ms {
+                print!(" {r:>10.2} {l:>10.2} {d:>10.2}");
+            }
+            println!();
+        }
     }
-    println!(
-        "total {:.2} ms for {} frames: {:.2} frames per second (simulated PS3 time; ray cost: nodes + triangles per ray; cache: the software cache's hit rate)",
+    let total = format!(
+        "total {:.2} ms for {}: {:.2} frames per second (simulated PS3 time; ray cost: nodes + \
+         triangles per ray; cache: the software cache's hit rate)",
         run.total_ms,
-        run.frames.len(),
+        cellbih::report::count(run.frames.len() as u64, "frame"),
         run.fps
     );
+    println!("\n{}", cellbih::report::wrap(&total, 80));
     if let (Some(near), Some(best)) = (run.near_best, run.oracle_total_ms) {
-        println!(
-            "oracle: {:.0} % of the frames within 10 % of the best option; every frame at its best: {best:.2} ms ({:+.1} %)",
+        let line = format!(
+            "oracle: {:.0} % of the frames within 10 % of the best option; every frame at its \
+             best: {best:.2} ms ({:+.1} %)",
             near * 100.0,
             (run.total_ms / best - 1.0) * 100.0
         );
+        println!("{}", cellbih::report::wrap(&line, 80));
     }
 }

@@ -8,6 +8,7 @@ use cellbih::quality::rays::RaySets;
 use cellbih::registry::BuildReport;
 use cellbih::scene::Scene;
 use cellbih::strategy::machinery::footprint::{Footprint, Purpose, work_ppe_jobs};
+use cellbih::strategy::machinery::top::TRIS_PER_SPE;
 
 use super::{Format, Res};
 
@@ -39,20 +40,48 @@ pub fn info(s: &Scene, format: Format) -> Res<()> {
 
 /// The SPEs a build ran programs on: those that report work (a
 /// multi-SPE builder on a small scene uses fewer), else every SPE that
-/// was busy.
+/// computed or moved data (the functional mode counts no cycles).
 fn spes_used(m: &cellbih::strategy::Simulated) -> usize {
     match m.spe_work.len() {
         0 => m.run.cores[1..]
             .iter()
-            .filter(|(_, c)| c.busy.0 > 0)
+            .filter(|(_, c)| c.busy.0 > 0 || c.gets + c.puts > 0)
             .count(),
         k => k,
     }
 }
 
+/// The counters of a core that are times, left out where nothing was
+/// timed (the functional mode).
+const TIMED_COUNTERS: [&str; 7] = [
+    "busy",
+    "dma_wait",
+    "mailbox_wait",
+    "atomic",
+    "atomic_wait",
+    "memory_wait",
+    "idle",
+];
+
+/// Every core's counters as JSON; without the times in the functional mode.
+fn cores_json(m: &cellbih::strategy::Simulated) -> serde_json::Value {
+    let mut v = json!(m.run.cores);
+    if !m.run.timed {
+        for core in v.as_array_mut().into_iter().flatten() {
+            if let Some(c) = core.get_mut(1).and_then(|c| c.as_object_mut()) {
+                c.retain(|k, _| !TIMED_COUNTERS.contains(&k.as_str()));
+            }
+        }
+    }
+    v
+}
+
 pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
     let q = r.bih.quality();
-    let (primary, incoherent) = RaySets::standard(&s.bounds()).measure(&Tracer::new(&r.bih, s));
+    let sets = RaySets::standard(&s.bounds());
+    let (primary, incoherent) = cellbih::report::step("measuring the tree's ray cost", || {
+        sets.measure(&Tracer::new(&r.bih, s))
+    });
     let ms = r.host_time.as_secs_f64() * 1e3;
     let sim = r.simulated.as_ref();
     let timed = sim.filter(|m| m.run.timed);
@@ -70,7 +99,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                 "spes_used": sim.map(spes_used),
                 "simulated_cycles": timed.map(|m| m.run.cycles.0),
                 "timing": sim.map(|m| if m.run.timed { "simulated" } else { "none: functional mode" }),
-                "cores": sim.map(|m| &m.run.cores),
+                "cores": sim.map(cores_json),
                 "work": sim.map(|m| m.stats),
                 "spe_work": sim.map(|m| &m.spe_work),
                 "phases": sim.map(|m| m.phase_ms().iter()
@@ -79,69 +108,98 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
             })
         ),
         Format::Text => {
-            println!("scene       {} ({} triangles)", s.name, s.len());
+            field(&format!(
+                "scene       {} ({})",
+                s.name,
+                cellbih::report::count(s.len() as u64, "triangle")
+            ));
             match r.threads {
-                Some(n) => println!(
+                Some(n) => field(&format!(
                     "builder     {} on {n} host thread{}",
                     r.builder,
                     if n == 1 { "" } else { "s" }
-                ),
-                None => println!("builder     {}", r.builder),
+                )),
+                None => field(&format!("builder     {}", r.builder)),
             }
             match sim {
-                Some(m) if !m.run.timed => println!(
+                Some(m) if !m.run.timed => field(&format!(
                     "simulated   none: functional mode (no timing) with {}",
                     super::spes(m.run.cores.len() - 1)
-                ),
-                Some(m) => println!(
+                )),
+                Some(m) => field(&format!(
                     "simulated   {:.2} ms on the PS3 model with {} ({} cycles)",
                     m.run.ms,
                     super::spes(m.run.cores.len() - 1),
                     m.run.cycles.0
-                ),
+                )),
                 None => {}
             }
-            if let Some(m) = sim.filter(|m| spes_used(m) < m.run.cores.len() - 1) {
-                println!(
-                    "SPEs used   {} of {}: a small scene runs on fewer (--tris-per-spe 1 uses every SPE)",
+            // Said only of builders that decide how many SPEs to use (a
+            // knob for it); the others use the SPEs they were made for.
+            let decides = r
+                .builder
+                .knobs()
+                .iter()
+                .any(|k| k.name == TRIS_PER_SPE.name);
+            if let Some(m) = sim.filter(|m| decides && spes_used(m) < m.run.cores.len() - 1) {
+                field(&format!(
+                    "SPEs used   {} of {}: a small scene runs on fewer (--{} 1 uses every SPE)",
                     spes_used(m),
-                    m.run.cores.len() - 1
-                );
+                    m.run.cores.len() - 1,
+                    TRIS_PER_SPE.name
+                ));
             }
             if sim.is_some() {
-                println!("host time   {ms:.2} ms (the emulation)");
+                field(&format!("host time   {ms:.2} ms (the emulation)"));
             } else {
-                println!(
+                field(&format!(
                     "host time   {ms:.2} ms ({:.2} Mtris/s)",
                     s.len() as f64 / ms / 1e3
-                );
+                ));
             }
-            println!(
-                "nodes       {} ({} inner, {} leaves)",
-                q.nodes, q.inner_nodes, q.leaves
-            );
-            println!(
+            field(&format!(
+                "nodes       {} ({} inner, {})",
+                q.nodes,
+                q.inner_nodes,
+                match q.leaves {
+                    1 => "1 leaf".to_string(),
+                    n => format!("{n} leaves"),
+                }
+            ));
+            field(&format!(
                 "depth       max {}, mean {:.1} (per triangle)",
                 q.max_depth, q.mean_leaf_depth
-            );
-            println!(
+            ));
+            field(&format!(
                 "leaves      mean {:.2} triangles, max {}",
                 q.mean_leaf_triangles, q.max_leaf_triangles
-            );
-            println!(
+            ));
+            field(&format!(
                 "SAH cost    {:.2} (node steps + triangle tests of a ray through the scene box, by area)",
                 q.sah_cost
-            );
-            for (name, c) in [("primary", primary), ("incoherent", incoherent)] {
-                println!(
-                    "{name:<11} {:.1} nodes + {:.1} triangles per ray, {:.2} Mrays/s (measured, one thread)",
+            ));
+            let sizes = [sets.primary.len(), sets.incoherent.len()];
+            for ((name, c), all) in [("primary", primary), ("incoherent", incoherent)]
+                .into_iter()
+                .zip(sizes)
+            {
+                let on = match c.sampled {
+                    Some(n) => format!(
+                        "measured on {n} of the {all} rays, evenly spread: all of them would \
+                         take more than {} node visits and triangle tests",
+                        cellbih::quality::rays::WORK_BUDGET
+                    ),
+                    None => "measured".into(),
+                };
+                field(&format!(
+                    "{name:<11} {:.1} nodes + {:.1} triangles per ray, {:.2} Mrays/s ({on}, one thread)",
                     c.nodes, c.triangles, c.mrays_per_s
-                );
+                ));
             }
-            println!(
+            field(&format!(
                 "tree        {} bytes (nodes and triangle ids)",
                 q.memory_bytes
-            );
+            ));
             if let Some(m) = sim {
                 print_footprint(&m.footprint, s.len(), r.bih.config.leaf_size);
                 print_cores(m);
@@ -151,11 +209,19 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                         .iter()
                         .map(|(n, ms)| format!("{n} {ms:.2} ms"))
                         .collect();
-                    println!("phases      {}", list.join(", "));
+                    field(&format!("phases      {}", list.join(", ")));
                 }
             }
         }
     }
+}
+
+/// One line of the report: a label in its first 12 columns, the rest
+/// wrapped to 80 columns under it.
+fn field(line: &str) {
+    let (label, text) = line.split_at(line.char_indices().nth(12).map_or(line.len(), |(i, _)| i));
+    let text = cellbih::report::wrap(text, 80 - 12);
+    println!("{label}{}", text.replace('\n', &format!("\n{:12}", "")));
 }
 
 /// Main memory by purpose, the widest level against the paper's sizing of
@@ -166,94 +232,99 @@ fn print_footprint(f: &Footprint, n: usize, leaf: u32) {
         .filter(|(_, b)| *b > 0)
         .map(|(p, b)| format!("{} {:.2}", p.name(), mb(*b)))
         .collect();
-    println!(
+    field(&format!(
         "main memory {:.2} MiB: {} MiB; {:.2} MiB of node slots unused",
         mb(f.total),
         parts.join(", "),
         mb(f.unused_node_bytes)
-    );
+    ));
     let hw = f.ls_high_water.iter().max().copied().unwrap_or(0);
-    println!(
+    field(&format!(
         "            local store high-water {} KiB (most of the SPEs)",
         hw / 1024
-    );
+    ));
     if f.bytes(Purpose::WorkPpe) > 0 {
-        println!(
+        field(&format!(
             "            widest level {} jobs; WorkAPPE/WorkBPPE sized for {} (the paper's sizing: {n})",
             f.work_ppe_needed,
             work_ppe_jobs(n, leaf),
-        );
+        ));
     }
 }
 
-/// Every core's counters; for a multi-SPE build also each SPE's jobs and
-/// ObjectArena blocks.
+/// Every core's counters in two tables that fit 80 columns: where its time
+/// went (cycles; not in the functional mode, which times nothing), and what
+/// it moved and, for a multi-SPE build, each SPE's jobs and ObjectArena
+/// blocks.
 fn print_cores(m: &cellbih::registry::Simulated) {
     let work = !m.spe_work.is_empty();
+    let note = |text: &str| println!("{}", cellbih::report::wrap(text, 80));
+    if m.run.timed {
+        println!(
+            "\n{:<7} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
+            "core", "busy", "DMA wait", "mem shared", "mbox wait", "atomic", "idle"
+        );
+        for (name, c) in &m.run.cores {
+            println!(
+                "{name:<7} {:>11} {:>11} {:>11} {:>11} {:>11} {:>11}",
+                c.busy.0, c.dma_wait.0, c.memory_wait.0, c.mailbox_wait.0, c.atomic.0, c.idle.0,
+            );
+        }
+        note(
+            "(cycles; \"mem shared\": what sharing the memory interface added to the \
+             core's transfers; \"mbox wait\": mailboxes and signals, a barrier's wait is one)",
+        );
+    } else {
+        println!("\n(the functional mode times nothing: no cycles per core)");
+    }
     print!(
-        "\n{:<7} {:>11} {:>11} {:>11} {:>11} {:>10} {:>5} {:>11} {:>8} {:>8}",
-        "core",
-        "busy",
-        "DMA wait",
-        "mem shared",
-        "mbox wait",
-        "atomic",
-        "lost",
-        "idle",
-        "MB in",
-        "MB out"
+        "\n{:<7} {:>9} {:>9} {:>6}",
+        "core", "MB in", "MB out", "lost"
     );
     if work {
         print!(
-            " {:>8} {:>6} {:>6} {:>7} {:>7}",
+            " {:>9} {:>7} {:>7} {:>8} {:>8}",
             "jobs", "taken", "stolen", "blocks", "unused"
         );
     }
     println!();
     for (i, (name, c)) in m.run.cores.iter().enumerate() {
         print!(
-            "{name:<7} {:>11} {:>11} {:>11} {:>11} {:>10} {:>5} {:>11} {:>8.2} {:>8.2}",
-            c.busy.0,
-            c.dma_wait.0,
-            c.memory_wait.0,
-            c.mailbox_wait.0,
-            c.atomic.0,
-            c.reservations_lost,
-            c.idle.0,
+            "{name:<7} {:>9.2} {:>9.2} {:>6}",
             c.bytes_get as f64 / 1e6,
             c.bytes_put as f64 / 1e6,
+            c.reservations_lost,
         );
         if let Some(w) = i.checked_sub(1).and_then(|k| m.spe_work.get(k)) {
             print!(
-                " {:>8} {:>6} {:>6} {:>7} {:>7}",
+                " {:>9} {:>7} {:>7} {:>8} {:>8}",
                 w.jobs, w.taken, w.stolen, w.arena_blocks, w.arena_unused
             );
         }
         println!();
     }
-    println!(
-        "(cycles; \"mem shared\": what sharing the memory interface added to the core's \
-         transfers; \"mbox wait\": mailboxes and signals (a barrier's wait is one); lost: reservations lost; MB moved by \
-         DMA{})",
+    note(&format!(
+        "(MB moved by DMA; lost: reservations lost{})",
         if work {
-            "; jobs: nodes made; taken: takes from the shared job queue that found jobs (spe_bfs_shared) or regions built (spe_morton); stolen: \
-             dealt jobs taken from another SPE's list; blocks: \
-             ObjectArena blocks taken, unused: their slots without a node"
+            "; jobs: nodes made; taken: takes from the shared job queue that found jobs \
+             (spe_bfs_shared) or regions built (spe_morton); stolen: dealt jobs taken from \
+             another SPE's list; blocks: ObjectArena blocks taken, unused: their slots \
+             without a node"
         } else {
             ""
         }
-    );
+    ));
     let mut cache = cellbih::cast::CacheStats::default();
     for w in &m.spe_work {
         cache += w.job_cache;
     }
     if cache.lookups > 0 {
-        println!(
+        note(&format!(
             "job-queue software cache (--job-cache): {} line lookups, {} misses (hit rate {:.1} %), emptied {} times",
             cache.lookups,
             cache.misses,
             cache.hit_rate() * 100.0,
             cache.invalidations
-        );
+        ));
     }
 }

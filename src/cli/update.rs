@@ -31,24 +31,20 @@ impl AnimationArg {
     }
 }
 
-pub fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
+/// Plays `anim`, printing each frame; `builder` says which builder on what
+/// ("builder host_shared on 2 host threads").
+pub fn update(u: &mut Updater, anim: &Animation, format: Format, builder: &str) -> Res<()> {
     let text = matches!(format, Format::Text);
     if text {
         println!(
-            "{} on {} ({} triangles), {} update, builder {}{}",
+            "{} on {} ({}), {} update, {builder}",
             anim.name,
             u.scene.name,
-            u.scene.len(),
+            cellbih::report::count(u.scene.len() as u64, "triangle"),
             u.method.name(),
-            u.builder,
-            if u.builder.emulated() {
-                format!(" on {}", super::spes(u.cell.spes))
-            } else {
-                String::new()
-            }
         );
         println!(
-            "{:>5} {:>5} {:>8} {:>5} {:>13} {:>7} {:>7} {:>7} {:>9} {:>9}",
+            "{:>5} {:>5} {:>7} {:>5} {:>12} {:>7} {:>7} {:>7} {:>8} {:>8}",
             "frame", "moves", "kind", "depth", "stop", "trans", "rec", "kept", "host ms", "sim ms"
         );
     }
@@ -64,7 +60,7 @@ pub fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
             let stop = r.stop.map_or("-".to_string(), |s| format!("{s:?}"));
             let sim = r.simulated_ms.map_or("-".into(), |ms| format!("{ms:.3}"));
             println!(
-                "{f:>5} {:>5} {kind:>8} {:>5} {stop:>13} {:>7} {:>7} {:>7} {:>9.3} {sim:>9}",
+                "{f:>5} {:>5} {kind:>7} {:>5} {stop:>12} {:>7} {:>7} {:>7} {:>8.3} {sim:>8}",
                 r.moves, r.depth, r.transformed, r.rebuilt, r.kept, r.host_ms
             );
         }
@@ -98,10 +94,12 @@ pub fn update(u: &mut Updater, anim: &Animation, format: Format) -> Res<()> {
         if let Some([lo, hi, avg]) = sum.simulated_ms {
             println!("simulated ms per frame: min {lo:.3} · max {hi:.3} · mean {avg:.3}");
         }
-        println!(
-            "mean triangles: transformed {:.1} · rebuilt {:.1} · difference {:.1} · kept {:.1}; mean depth {:.2}",
-            sum.transformed, sum.rebuilt, sum.delta, sum.kept, sum.depth
+        let line = format!(
+            "mean triangles: transformed {:.1} · rebuilt {:.1} · difference {:.1} · kept {:.1}",
+            sum.transformed, sum.rebuilt, sum.delta, sum.kept
         );
+        println!("{}", cellbih::report::wrap(&line, 80));
+        println!("mean depth of the subtrees rebuilt {:.2}", sum.depth);
         println!(
             "SAH cost after the last frame {sah:.2}, of a fresh build by {} {fresh:.2} ({:+.1}%)",
             u.builder,

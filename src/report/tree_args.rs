@@ -14,7 +14,7 @@ use crate::kernels::sah::{DEFAULT_BINS, MAX_BINS};
 pub struct TreeArgs {
     /// Largest leaf, in triangles (at least 1).
     #[arg(long, default_value_t = BihConfig::default().leaf_size,
-          value_parser = clap::value_parser!(u32).range(1..))]
+          value_parser = crate::report::at_least_one::<u32>)]
     pub leaf_size: u32,
     /// How inner nodes choose their plane: gh (the paper's global
     /// heuristic: halve the candidate box) or sah (binned surface-area

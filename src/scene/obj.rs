@@ -100,9 +100,25 @@ fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Scene, SceneEr
     let Some(text) = normalize(text) else {
         return Err(SceneError::NotObj {
             path: path.into(),
-            why: "it is not text (a NUL byte)".into(),
+            why: match utf16(text) {
+                true => {
+                    "it is UTF-16 text, which is not supported: save it as UTF-8 or ASCII".into()
+                }
+                false => "it is not text (a NUL byte)".into(),
+            },
         });
     };
+    // tobj drops a face of fewer than three corners without a word.
+    if let Some((line, corners)) = short_face(&text) {
+        return Err(SceneError::Malformed {
+            path: path.into(),
+            line,
+            what: format!(
+                "a face with {corners} corner{}: a face needs at least 3 (a file cut short?)",
+                if corners == 1 { "" } else { "s" }
+            ),
+        });
+    }
     let text = &text[..];
     let opts = tobj::LoadOptions {
         triangulate: true,
@@ -159,6 +175,30 @@ fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Scene, SceneEr
         });
     }
     Scene::new(name, triangles, geometry_ids, geometry_names)
+}
+
+/// Whether `text` looks like UTF-16: a byte-order mark, or a NUL byte
+/// beside every character of an ASCII start.
+fn utf16(text: &[u8]) -> bool {
+    let bom = text.starts_with(b"\xff\xfe") || text.starts_with(b"\xfe\xff");
+    let head = &text[..text.len().min(64) & !1];
+    let zeros = |first: usize| head.iter().skip(first).step_by(2).all(|&b| b == 0);
+    bom || (head.len() >= 4 && (zeros(0) || zeros(1)))
+}
+
+/// The first face line (1-based) with fewer than three corners, and its
+/// corners.
+fn short_face(text: &[u8]) -> Option<(usize, usize)> {
+    (text.split(|&b| b == b'\n').enumerate()).find_map(|(n, line)| {
+        let mut words = line
+            .split(u8::is_ascii_whitespace)
+            .filter(|w| !w.is_empty());
+        if words.next() != Some(b"f") {
+            return None;
+        }
+        let corners = words.count();
+        (corners < 3).then_some((n + 1, corners))
+    })
 }
 
 /// Turns a tobj failure into an error that names the line and element, when
