@@ -1,4 +1,4 @@
-//! Issue 29: the host's parallel builders (every builder of the registry
+//! The host's parallel builders (every builder of the registry
 //! that builds on the host's threads) beside the serial host builder,
 //! under criterion: build time on the default scene and, when CELLBIH_DATA
 //! is set, on bunny and dragon, with 1, 2 and the machine's available

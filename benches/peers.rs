@@ -1,4 +1,4 @@
-//! cellbih beside a peer (issue 15, item 8): obvhs's CWBVH, built with its
+//! cellbih beside a peer: obvhs's CWBVH, built with its
 //! fastest and medium presets on one thread (a rayon pool of one: obvhs's
 //! `parallel` feature is on for `host_scaling`), and
 //! cellbih's host builder and tracer — the paper's tree and the best

@@ -1,4 +1,4 @@
-//! Memory modelled to the scene (issue 15, item 5): each emulated builder's
+//! Memory modelled to the scene: each emulated builder's
 //! main-memory footprint by purpose, in bytes per triangle, and the largest
 //! `rtperf:N` it can build in a PS3's 256 MiB — predicted from two builds,
 //! then verified: a build just under the prediction fits, one just over it

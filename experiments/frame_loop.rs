@@ -1,4 +1,4 @@
-//! The whole frame on the Cell (issue 27): for each animated scene, image
+//! The whole frame on the Cell: for each animated scene, image
 //! size and arrangement of the SPEs, every policy of the frame loop —
 //! rebuild, local, deep, and section 5's `auto` judged by the oracle —
 //! played frame by frame, every time simulated PS3 time: frames per
@@ -34,6 +34,9 @@ use cellbih::scene;
 use cellbih::update::{Animation, Method};
 
 #[derive(Parser)]
+#[command(
+    about = "The whole frame on the Cell: each policy and arrangement on animated scenes, section 5's metric against the oracle (default run: about 6 min)"
+)]
 struct Args {
     /// Scenes, comma-separated: car, cup and rtperf:N[:SEED] play their
     /// own animations; any other scene (a mesh of the data directory) plays

@@ -1,4 +1,4 @@
-//! Issue 29, item 4: section 5's strategies on the host's own cores. Every
+//! Section 5's strategies on the host's own cores. Every
 //! builder of the registry that builds on the host's threads, beside the
 //! serial host builder and a peer (obvhs's CWBVH with its `parallel`
 //! feature, its fastest preset), on each scene and thread count: wall time
@@ -41,6 +41,9 @@ use cellbih::report::{
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
+#[command(
+    about = "Section 5's strategies on the host's own cores, 1 to N threads, the machine's ceiling and obvhs beside them (default run: about 7 min)"
+)]
 struct Args {
     /// Directory of the real meshes (default: $CELLBIH_DATA).
     #[arg(long)]

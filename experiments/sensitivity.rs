@@ -1,4 +1,4 @@
-//! The sensitivity report (issue 26): how the headline speedups of
+//! The sensitivity report: how the headline speedups of
 //! section 5's strategies move when a rate no measurement pins moves across
 //! its plausible band — each machine estimate of `CostModel::ESTIMATES`
 //! from half to twice its value, each derived or estimated kernel rate of

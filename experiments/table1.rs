@@ -25,6 +25,9 @@ use cellbih::report::{
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
+#[command(
+    about = "Table 1: the paper's four builders (and section 5's) on the paper's models, simulated PS3 ms (default run: a few seconds)"
+)]
 struct Args {
     /// Directory of the real meshes (default: $CELLBIH_DATA).
     #[arg(long)]

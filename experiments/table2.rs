@@ -24,6 +24,9 @@ use cellbih::scene;
 use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play};
 
 #[derive(Parser)]
+#[command(
+    about = "Table 2: the paper's local update on the car and the cup, host and simulated PS3 times (default run: about 15 s)"
+)]
 struct Args {
     /// text (a table) or json (the rows).
     #[arg(long, value_enum, default_value = "text")]

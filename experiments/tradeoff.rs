@@ -1,4 +1,4 @@
-//! The speed/accuracy trade, measured (issue 15): every builder, and each
+//! The speed/accuracy trade, measured: every builder, and each
 //! setting of the knobs it has, on the scenes that matter — build cost
 //! against tree quality, the quality measured on real rays.
 //!

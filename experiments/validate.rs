@@ -1,4 +1,4 @@
-//! The machine model held against real PS3s (issue 26): each published
+//! The machine model held against real PS3s: each published
 //! measurement of several SPEs at once (`../shared/CELL-FACTS.md`,
 //! `docs/validation.md`) reproduced through the emulator's public API as
 //! its source's kernel does it — the same transfer sizes, DMAs in flight,
@@ -16,9 +16,12 @@ use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea, LsAddr, 
 use cellbih::report::{ThreadsArg, output, prepare_dir, side_by_side, write_csv, write_json};
 
 #[derive(Parser)]
+#[command(
+    about = "The machine model held against published PS3 measurements with several SPEs (default run: under a second)"
+)]
 struct Args {
     /// The cost model to hold against the PS3: `measured` (the default
-    /// model, `CostModel::ps3`) or `legacy` (the model before issue 26,
+    /// model, `CostModel::ps3`) or `legacy` (the model before the validated one,
     /// `CostModel::ps3_legacy`).
     #[arg(long, value_enum, default_value = "measured")]
     model: Model,

@@ -206,10 +206,10 @@ enum Command {
         /// local (Algorithm 1) | deep (section 5) | rebuild (every frame).
         #[arg(long, default_value = "local")]
         strategy: String,
-        /// Deep update: rebuild a touched subtree whole when it holds at
-        /// most this many triangles.
-        #[arg(long, default_value_t = cellbih::update::DEEP_STOP_BELOW)]
-        deep_stop_below: usize,
+        /// With --strategy deep: rebuild a touched subtree whole when it
+        /// holds at most this many triangles [default: 48]
+        #[arg(long)]
+        deep_stop_below: Option<usize>,
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
     },
@@ -345,7 +345,7 @@ fn run(cli: Cli) -> Res<()> {
             cache,
             format,
         }) => {
-            let c = parse_build(&build)?;
+            let c = build_args::parse_build_or(&build, BuilderKind::SPE_BFS, true)?;
             let asked = frame::Asked {
                 policy: &policy,
                 oracle,
@@ -370,10 +370,17 @@ fn run(cli: Cli) -> Res<()> {
             deep_stop_below,
             format,
         }) => {
-            let c = parse_build(&build)?;
+            let c = parse_build(&build, false)?;
             let method = Method::from_name(&strategy).ok_or_else(|| {
                 format!("unknown --strategy '{strategy}': local, deep or rebuild")
             })?;
+            if deep_stop_below.is_some() && method != Method::Deep {
+                return Err(format!(
+                    "--deep-stop-below applies to --strategy deep only (here: {strategy})"
+                )
+                .into());
+            }
+            let deep_stop_below = deep_stop_below.unwrap_or(cellbih::update::DEEP_STOP_BELOW);
             scene.check_fits(&c, None)?;
             let (s, anim) = anim.load(&scene, frames)?;
             check_memory(&s.name, s.len(), 0, None, &c)?;
@@ -390,7 +397,7 @@ fn run(cli: Cli) -> Res<()> {
             format,
             trace,
         }) => {
-            let mut c = parse_build(&build)?;
+            let mut c = parse_build(&build, false)?;
             if let Some(path) = &trace {
                 if !c.builder.emulated() {
                     return Err(format!(
@@ -402,7 +409,7 @@ fn run(cli: Cli) -> Res<()> {
                 if path.as_os_str() == "-" {
                     return Err("--trace -: the build's report is on the standard output; give the trace a file".into());
                 }
-                if matches!(build.mode, build_args::Mode::Functional) {
+                if matches!(build.mode, Some(build_args::Mode::Functional)) {
                     return Err("--trace: --mode functional has no timing, so no timeline; use --mode timed or checked".into());
                 }
                 check_writable(path)?;
@@ -437,7 +444,7 @@ fn run(cli: Cli) -> Res<()> {
             out,
             cast,
         }) => {
-            let c = parse_build(&build)?;
+            let c = parse_build(&build, cast.on_cell)?;
             let on_cell = cast.config(c.cell.cost.charge_compute, &out)?;
             check_writable(&out)?;
             // `-`: the rays come on the standard input.
@@ -497,7 +504,7 @@ fn run(cli: Cli) -> Res<()> {
             height,
             cast,
         }) => {
-            let c = parse_build(&build)?;
+            let c = parse_build(&build, cast.on_cell)?;
             let on_cell = cast.config(c.cell.cost.charge_compute, &out)?;
             render::check_size(width, height)?;
             check_png(&out)?;

@@ -224,7 +224,7 @@ impl BuilderKind {
 
     /// Whether the builder builds on the host's cores, on the threads of
     /// the current rayon pool (`ThreadPool::install` gives it the caller's):
-    /// the host counterparts of section 5's strategies (issue 29).
+    /// the host counterparts of section 5's strategies.
     pub fn host_threads(self) -> bool {
         matches!(self.0, Family::Host(b) if b.grained.is_some())
     }

@@ -235,7 +235,10 @@ fn a_knob_is_taken_by_the_builders_that_declare_it_and_refused_by_the_rest() {
         for k in &knobs {
             let flag = format!("--{}", k.name);
             let mut args = vec!["build", "--scene", "default", "--builder", b.name()];
-            args.extend(["--mode", "functional", flag.as_str()]);
+            if b.emulated() {
+                args.extend(["--mode", "functional"]);
+            }
+            args.push(flag.as_str());
             if !k.is_flag() {
                 args.push(k.sweep[0]);
             }
@@ -407,4 +410,90 @@ fn a_cast_too_big_for_the_emulated_memory_is_refused_naming_it() {
         stderr(&out)
     );
     assert!(!hits.exists());
+}
+
+/// An option of the emulated Cell where nothing runs on it — a builder of
+/// the host without `--on-cell` — is refused, naming it; with `--on-cell`
+/// the cast uses it. `--deep-stop-below` needs the deep update.
+#[test]
+fn options_that_do_not_apply_are_refused_by_name() {
+    let cell_options: [&[&str]; 5] = [
+        &["--spes", "8"],
+        &["--memory-mib", "1"],
+        &["--mode", "timed"],
+        &["--model", "legacy"],
+        &["--mailboxes", "ps3-kernel"],
+    ];
+    let rays = tmp("apply.rays.csv");
+    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
+    let hits = tmp("apply.hits.csv");
+    let (rays, hits) = (rays.to_str().unwrap(), hits.to_str().unwrap());
+    for b in cellbih::registry::BuilderKind::ALL
+        .iter()
+        .filter(|b| !b.emulated())
+    {
+        for option in cell_options {
+            let name = option[0];
+            for cmd in [
+                &["build"][..],
+                &["raycast", "--rays", rays, "--out", hits][..],
+                &["update", "--animation", "rtperf", "--frames", "1"][..],
+            ] {
+                let mut args = cmd.to_vec();
+                args.extend(["--builder", b.name()]);
+                args.extend(option);
+                let out = cellbih(&args);
+                assert_fails_with(&out, name);
+                assert_fails_with(&out, "nothing here runs on the emulated Cell");
+            }
+        }
+        // Cast on the Cell, the Cell's options apply.
+        let out = cellbih(&[
+            "raycast",
+            "--on-cell",
+            "--rays",
+            rays,
+            "--out",
+            hits,
+            "--builder",
+            b.name(),
+            "--spes",
+            "2",
+        ]);
+        assert_ok(&out);
+    }
+    let out = cellbih(&["update", "--animation", "rtperf", "--deep-stop-below", "10"]);
+    assert_fails_with(&out, "--deep-stop-below applies to --strategy deep only");
+    let out = cellbih(&[
+        "update",
+        "--animation",
+        "rtperf",
+        "--frames",
+        "1",
+        "--strategy",
+        "deep",
+        "--deep-stop-below",
+        "10",
+    ]);
+    assert_ok(&out);
+}
+
+/// `frame` runs with its defaults: the baseline builds on the Cell.
+#[test]
+fn frame_runs_with_its_defaults() {
+    let out = cellbih(&[
+        "frame",
+        "--scene",
+        "car",
+        "--animation",
+        "car",
+        "--frames",
+        "1",
+        "--width",
+        "16",
+        "--height",
+        "16",
+    ]);
+    assert_ok(&out);
+    assert!(stdout(&out).contains("builder spe_bfs"), "{}", stdout(&out));
 }

@@ -1,5 +1,5 @@
 //! Ray casting on the emulated Cell: the render half of DESIGN.md's "The
-//! whole frame on the Cell" (issue 27; the paper's ray tracer rendered on
+//! whole frame on the Cell" (the paper's ray tracer rendered on
 //! the SPEs between tree updates, section 4). The tree's nodes (12 bytes
 //! each), the triangle records in the tree's leaf order (48 bytes, each
 //! with its triangle id) and the rays (64 bytes) are in emulated main

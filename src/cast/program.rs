@@ -1,4 +1,4 @@
-//! The SPE ray caster (issue 27): each SPE takes tiles of rays from a
+//! The SPE ray caster: each SPE takes tiles of rays from a
 //! shared counter (a fetch-and-add on a lock line), gets the tile's rays,
 //! casts each through the tree in main memory — nodes and triangle
 //! records read through its [`SoftwareCache`] — and puts the tile's hits

@@ -159,7 +159,7 @@ pub struct CostModel {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum LockLines {
     /// Every atomic command takes the line exclusively, one after another
-    /// (`ps3_legacy()`: the model of the figures before issue 26; a
+    /// (`ps3_legacy()`: the model before the validated one; a
     /// holder's putllc pays the miss cost).
     Exclusive,
     /// As the atomic caches share them: a getllar is a read several SPEs
@@ -192,7 +192,7 @@ impl CostModel {
         }
     }
 
-    /// The PS3 model every figure was measured on before issue 26: the
+    /// The PS3 model before the validated one (`--model legacy`): the
     /// memory interface at its peak for any number of SPEs, transfers
     /// between local stores unlimited by ports or the EIB, exclusive lock
     /// lines, puts without a write acknowledgement (`--model legacy`,

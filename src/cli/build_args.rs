@@ -17,26 +17,28 @@ use super::Res;
 
 #[derive(clap::Args)]
 pub struct BuildArgs {
-    /// Which builder makes the tree (see `cellbih builders`).
-    #[arg(long, default_value = "host")]
-    pub builder: String,
+    /// Which builder makes the tree (see `cellbih builders`) [default:
+    /// host; for `frame`, timed on the Cell: spe_bfs, the baseline]
+    #[arg(long)]
+    pub builder: Option<String>,
     #[command(flatten)]
     pub tree: TreeArgs,
     /// SPEs of the emulated Cell, 1 to 16 (a PS3 program gets 6; 8 is a
     /// whole Cell; 9 to 16 is a what-if: more SPEs on the same memory
     /// interface, docs/many-spes.md). Builders that use fewer leave the
-    /// others idle.
-    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=16))]
-    pub spes: u64,
+    /// others idle [default: 6]
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=16))]
+    pub spes: Option<u64>,
     /// Main memory of the emulated Cell, MiB (a PS3 has 256). A build
-    /// that does not fit fails, naming the buffer.
-    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u64).range(1..=4096))]
-    pub memory_mib: u64,
+    /// that does not fit fails, naming the buffer [default: 256]
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=4096))]
+    pub memory_mib: Option<u64>,
     /// How the Cell is emulated: checked (timed, every DMA rule and race
     /// checked: the reference), timed (the same cycles, no race checks),
-    /// or functional (no timing: fastest, for correctness runs).
-    #[arg(long, value_enum, default_value = "checked")]
-    pub mode: Mode,
+    /// or functional (no timing: fastest, for correctness runs)
+    /// [default: checked]
+    #[arg(long, value_enum)]
+    pub mode: Option<Mode>,
     /// The PS3 model: measured (held against real PS3s with several SPEs,
     /// docs/validation.md; every figure of the README and docs/ is
     /// measured on it) or legacy (the model before that validation)
@@ -130,19 +132,57 @@ impl Chosen {
     }
 }
 
-pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
-    let builder = BuilderKind::from_name(&args.builder).ok_or_else(|| {
-        let names: Vec<_> = BuilderKind::ALL.iter().map(|b| b.name()).collect();
-        format!(
-            "unknown builder '{}'; the builders are: {}",
-            args.builder,
-            names.join(", ")
+/// What the options ask for, with `host` where `--builder` is not given;
+/// `casts_on_cell`: whether the command uses the emulated Cell whatever
+/// builds the tree (`--on-cell`).
+pub fn parse_build(args: &BuildArgs, casts_on_cell: bool) -> Res<Chosen> {
+    parse_build_or(args, BuilderKind::HOST, casts_on_cell)
+}
+
+impl BuildArgs {
+    /// The options of the emulated Cell given, by name.
+    fn cell_options(&self) -> Vec<&'static str> {
+        [
+            ("--spes", self.spes.is_some()),
+            ("--memory-mib", self.memory_mib.is_some()),
+            ("--mode", self.mode.is_some()),
+            ("--model", self.model.is_some()),
+            ("--mailboxes", self.mailboxes.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(name, given)| given.then_some(name))
+        .collect()
+    }
+}
+
+/// What the options ask for, with `default` where `--builder` is not given;
+/// an option of the emulated Cell where nothing runs on it (a host builder,
+/// no cast on the Cell) is an error that names it.
+pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: bool) -> Res<Chosen> {
+    let builder = match &args.builder {
+        None => default,
+        Some(name) => BuilderKind::from_name(name).ok_or_else(|| {
+            let names: Vec<_> = BuilderKind::ALL.iter().map(|b| b.name()).collect();
+            format!(
+                "unknown builder '{name}'; the builders are: {}",
+                names.join(", ")
+            )
+        })?,
+    };
+    let given = args.cell_options();
+    if !builder.emulated() && !casts_on_cell && !given.is_empty() {
+        return Err(format!(
+            "{}: builder {builder} builds on the host and nothing here runs on the emulated \
+             Cell (an emulated builder, or --on-cell, would)",
+            given.join(", ")
         )
-    })?;
+        .into());
+    }
+    let mode = args.mode.unwrap_or(Mode::Checked);
     let cfg = args.tree.config()?;
-    let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
-    cell.main_memory_bytes = args.memory_mib * 1024 * 1024;
-    cell.checked = matches!(args.mode, Mode::Checked);
+    let mut cell = CellConfig::ps3().with_spes(args.spes.unwrap_or(6) as usize);
+    cell.main_memory_bytes = args.memory_mib.unwrap_or(256) * 1024 * 1024;
+    cell.checked = matches!(mode, Mode::Checked);
     cell.cost = match args.model.unwrap_or(MachineModel::Measured) {
         MachineModel::Legacy => cellbih::cell::CostModel::ps3_legacy(),
         MachineModel::Measured => cellbih::cell::CostModel::ps3(),
@@ -150,7 +190,7 @@ pub fn parse_build(args: &BuildArgs) -> Res<Chosen> {
     if let Some(Mailboxes::Ps3Kernel) = args.mailboxes {
         cell.cost = cell.cost.with_ps3_kernel_mailboxes();
     }
-    if let Mode::Functional = args.mode {
+    if let Mode::Functional = mode {
         if args.model.is_some() || args.mailboxes.is_some() {
             return Err(
                 "--mode functional has no timing: --model and --mailboxes do not apply".into(),

@@ -1,5 +1,5 @@
 //! The options of `raycast` and `render` that cast on the emulated Cell
-//! (`--on-cell`, issue 27), and what they print.
+//! (`--on-cell`), and what they print.
 
 use cellbih::cast::{CacheConfig, CastConfig, CastReport, Precision};
 

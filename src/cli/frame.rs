@@ -1,4 +1,4 @@
-//! `cellbih frame`: the frame loop on the Cell (issue 27): per frame the
+//! `cellbih frame`: the frame loop on the Cell: per frame the
 //! objects move, the tree follows by the policy, the primary rays are cast
 //! on the SPEs; every time is simulated PS3 time.
 

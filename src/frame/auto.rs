@@ -1,7 +1,7 @@
 //! Section 5's metric: "a metric for estimation of needed time for
 //! reorganization steps", so that each frame can choose between a
 //! complete rebuild, the local update and the deep update before doing
-//! any of them (issue 27, `--policy auto`).
+//! any of them (`--policy auto`).
 //!
 //! The prediction is made from cheap counts and from what earlier frames
 //! measured, in simulated milliseconds:

@@ -1,5 +1,5 @@
-//! The frame loop on the Cell (DESIGN.md "The whole frame on the Cell";
-//! issue 27): per frame, the animation moves objects, the tree is brought
+//! The frame loop on the Cell (DESIGN.md "The whole frame on the Cell"):
+//! per frame, the animation moves objects, the tree is brought
 //! up to date by a policy — rebuilt with a builder on the SPEs it has,
 //! locally updated (section 3, Algorithm 1) or deeply updated (section 5)
 //! — and the frame's primary rays are cast on the SPEs ([`crate::cast`]).

@@ -1,4 +1,4 @@
-//! The cooperative top (issue 29; section 5's strategies partition the
+//! The cooperative top (section 5's strategies partition the
 //! top levels cooperatively, as `spe_bfs_private`'s top does on the SPEs):
 //! a job larger than the cooperative threshold is made by every thread of
 //! the pool together — the binning and the partition of its one step

@@ -1,7 +1,7 @@
 //! The builders that run on the host's own cores: `host`, the serial
 //! reference, which runs the shared recursion
 //! ([`crate::kernels::recursion`]) on the scene's triangle boxes in one
-//! thread, and the host counterparts of section 5's strategies (issue 29),
+//! thread, and the host counterparts of section 5's strategies,
 //! which build its tree on the threads of the current rayon pool:
 //! [`shared`] (one job queue a level), [`private`] (per-thread deques
 //! with work stealing) and [`morton`] (Morton keys, a parallel radix sort,

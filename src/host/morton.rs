@@ -1,5 +1,5 @@
-//! `host_morton` — section 5's **Morton route** on the host's own cores
-//! (issue 29): the host counterpart of `spe_morton` ("a pre-processing
+//! `host_morton` — section 5's **Morton route** on the host's own cores:
+//! the host counterpart of `spe_morton` ("a pre-processing
 //! step using Morton curves is performed to find regions of primitives
 //! that then could be built-up totally independent"; "a radix sort needs
 //! to be performed"), with the shared kernels of [`crate::kernels::morton`]

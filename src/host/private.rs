@@ -1,5 +1,5 @@
-//! `host_private` — section 5's **private queues** on the host's own cores
-//! (issue 29): the host counterpart of `spe_bfs_private`, with the work
+//! `host_private` — section 5's **private queues** on the host's own cores:
+//! the host counterpart of `spe_bfs_private`, with the work
 //! stealing the SPEs' static deal lacks. Each thread of the current rayon
 //! pool has its own deque (`crossbeam::deque::Worker`, last in first out:
 //! it goes on depth first with the child it just made); a thread whose

@@ -1,5 +1,5 @@
 //! `host_shared` — section 5's **one common job queue** on the host's own
-//! cores (issue 29): the host counterpart of `spe_bfs_shared`. The tree is
+//! cores: the host counterpart of `spe_bfs_shared`. The tree is
 //! built level by level; the jobs of a level lie in one array and the
 //! threads of the current rayon pool take them, largest first, in batches
 //! from one atomic counter (guided takes, as the shared queue's: an equal

@@ -1,5 +1,5 @@
 //! Binned SAH split choice — the high-quality end of the speed/accuracy
-//! trade (issue 15; not in the paper, whose builders all use the global
+//! trade (not in the paper, whose builders all use the global
 //! heuristic of [`super::split::choose_split`]).
 //!
 //! Binning after Wald ("On fast construction of SAH-based bounding volume

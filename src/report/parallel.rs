@@ -1,5 +1,5 @@
-//! Experiments run their independent emulations side by side (issue 29,
-//! item 5): `--threads N` sets the threads ([`ThreadsArg`]), and
+//! Experiments run their independent emulations side by side:
+//! `--threads N` sets the threads ([`ThreadsArg`]), and
 //! [`side_by_side`] runs a list of independent jobs (scenes, builders, SPE
 //! counts) on them with rayon, the results in the list's order. Simulated
 //! time is deterministic — the same cycles and the same tree with any

@@ -1,4 +1,4 @@
-//! Scenes at the numerical extremes (issue 15, item 4): what
+//! Scenes at the numerical extremes: what
 //! `experiments/extremes.rs` builds with every builder and what
 //! `tests/extremes.rs` checks, one test per case. Each is deterministic
 //! (seeded) and small enough (2,000 triangles or so) for a brute-force

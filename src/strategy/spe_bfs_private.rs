@@ -61,7 +61,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &STEAL,
 ])
 // The paper's queue (none of section 5's three improvements), and the
-// defaults before issue 28 (docs/many-spes.md).
+// older defaults of the knobs (docs/many-spes.md).
 .with_combos(&[
     &[(&NO_DOUBLE_BUFFER, ""), (&NO_DMA_LISTS, ""), (&NO_PREFETCH, "")],
     &[
@@ -95,7 +95,7 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
 /// never split later, so the deal must be balanced. Measured best of five
 /// (split or balanced, 1, 2 or 4 jobs per SPE) over 13 scenes on 2–8 SPEs:
 /// 5.7 % faster in geometric mean than the balanced end at two jobs per
-/// SPE, the issue 28 default before (sibenik and the ogre on 8 SPEs 35 %,
+/// SPE, the older default (sibenik and the ogre on 8 SPEs 35 %,
 /// the default scene 4 % slower; docs/many-spes.md, "Balance").
 const DEFAULT_TOP: TopKnobs = TopKnobs {
     coop: true,

@@ -77,8 +77,8 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &FIXED_TAKES,
     &JOB_CACHE,
 ])
-// Section 5's three queue improvements together, and the defaults before
-// issue 28 (docs/many-spes.md).
+// Section 5's three queue improvements together, and the older defaults
+// of the knobs (docs/many-spes.md).
 .with_combos(&[
     &[(&DOUBLE_BUFFER, ""), (&DMA_LISTS, "")],
     &[

@@ -198,7 +198,7 @@ impl Animation {
                     })
                     .collect()
             }
-            // A real mesh with a moving part (issue 27): the part that
+            // A real mesh with a moving part: the part that
             // [`Animation::prepare`] split off moves 0.5 % of the scene's
             // extent up and back down, every fifth frame marked only.
             "part" => {

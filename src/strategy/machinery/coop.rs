@@ -19,7 +19,7 @@
 //! Traffic: every record is read twice and written twice, against once
 //! and once for Fig. 1 — the price of the parallelism, charged as DMA.
 //!
-//! In place (`CoopArea::scratch` `None`, issue 28's `--coop-partition
+//! In place (`CoopArea::scratch` `None`, `--coop-partition
 //! in-place`): step 1 is Fig. 1's own in-place partition of the chunk
 //! (buffers A–D and OUT, [`partition_in_place`]), which leaves each chunk
 //! as its left part then its right part; step 3 then moves only the
@@ -29,7 +29,7 @@
 //! Traffic: every record read and written once, and the misplaced ones
 //! (at most half) once more; no scratch array.
 //!
-//! Before the first level, the root's bounds ([`Coop::bounds`], issue 28):
+//! Before the first level, the root's bounds ([`Coop::bounds`]):
 //! every SPE streams an equal chunk of the records and writes its chunk's
 //! bounds to the table; after a barrier every SPE merges the table (min
 //! and max: the same bounds as one SPE's pass over all of them).

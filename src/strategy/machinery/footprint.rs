@@ -1,4 +1,4 @@
-//! Memory modelled to the scene (issue 15, item 5): an emulated build's
+//! Memory modelled to the scene: an emulated build's
 //! main-memory footprint by purpose, made of the allocations its programs
 //! labelled with a [`Purpose`] ([`Purpose::buffer`], carried by the
 //! emulator as an opaque group: [`crate::cell::Allocation`]), and each

@@ -1,6 +1,6 @@
 //! The software cache an SPE reads main memory through (the frame of
 //! DESIGN.md's "The whole frame on the Cell", and section 5's proposal for
-//! the job queue; issue 27): as the IBM SDK's
+//! the job queue): as the IBM SDK's
 //! `cache-api.h` and Codeplay's Offload cache do it, 128-byte lines in a
 //! set-associative array in the local store, least recently used within a
 //! set. Read-only: nothing is written through it, so there is nothing to

@@ -59,7 +59,7 @@ pub(in crate::strategy) enum EndRule {
 /// docs/many-spes.md) and no scratch array (48 bytes a triangle).
 pub const COOP_PARTITION: Knob = Knob::word(
     "coop-partition",
-    "how the SPEs partition a top level's interval together: Fig. 1 in place on each chunk, then only the misplaced records swapped (in-place), or each chunk through a scratch array and back (scratch, before issue 28)",
+    "how the SPEs partition a top level's interval together: Fig. 1 in place on each chunk, then only the misplaced records swapped (in-place), or each chunk through a scratch array and back (scratch, the older default)",
     &["in-place", "scratch"],
     &["scratch"],
 );

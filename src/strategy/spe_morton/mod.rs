@@ -117,7 +117,7 @@ pub const STATIC_REGIONS: Knob = Knob::flag(
 /// `--permute`: `MortonKnobs::permute`.
 pub const PERMUTE: Knob = Knob::flag(
     "permute",
-    "the records gathered into a second array in key order before the top of the tree, each region loaded from there (before issue 28; default: each region gathers its own records by their keys, no second array)",
+    "the records gathered into a second array in key order before the top of the tree, each region loaded from there (the older default; now each region gathers its own records by their keys, no second array)",
 );
 
 /// The queue knobs of regions too large for a local store: the next

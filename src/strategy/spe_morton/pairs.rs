@@ -1,5 +1,4 @@
-//! `spe_morton`'s key pairs (issue 28, item 6: keys and sort buffers to
-//! the scene): a Morton key and the index of its triangle record, 8 bytes
+//! `spe_morton`'s key pairs (keys and sort buffers sized to the scene): a Morton key and the index of its triangle record, 8 bytes
 //! (a 32-bit key, the index) for keys of up to 32 bits, 16 (a 64-bit key,
 //! the index, 4 bytes of padding) beyond; and their DMA. The MFC moves 8
 //! bytes only as one 8-byte transfer whose local-store address agrees

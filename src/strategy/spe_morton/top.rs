@@ -1,5 +1,5 @@
 //! `spe_morton`, phase 4 (section 5's "regions of primitives that then
-//! could be built-up totally independent"; issue 28: on every SPE): the top
+//! could be built-up totally independent", on every SPE): the top
 //! of the tree from the sorted keys. A node splits where its range's keys
 //! first differ (Karras 2012), found by binary search over the sorted keys
 //! in main memory, down to **regions** of at most `--region-size`

@@ -17,7 +17,7 @@
 //!
 //! What a job makes is the one node decision ([`crate::kernels::decide`]),
 //! so the tree is the host tree with its nodes numbered breadth first. So
-//! with the quality knobs (issue 15, not in the paper): with the
+//! with the quality knobs (not in the paper): with the
 //! empty-space cut-off ([`crate::kernels::cutoff`]) a job carries its region
 //! and its triangles' box (128 bytes) and a clip node is a job that moves
 //! no triangle; with binned SAH ([`crate::kernels::sah`]) a split job bins
