@@ -34,7 +34,7 @@ use cellbih::strategy::machinery::footprint::{Footprint, Purpose};
 #[derive(Parser)]
 #[command(
     about = "Each emulated builder's main memory by purpose, and the largest rtperf:N it \
-             builds in the emulated memory, predicted and verified",
+             builds in the emulated memory, predicted and verified (default run: about 30 s)",
     after_help = "What to expect: the default run (256 MiB) takes about 30 s and at most \
                   0.85 GB of host memory on a 2-core machine; both grow with --memory-mib \
                   (about 3.3 bytes of host memory per byte emulated, since the verification \

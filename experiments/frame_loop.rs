@@ -162,6 +162,7 @@ fn run(args: &Args) -> Result<(), String> {
             let cfg = FrameConfig {
                 builder,
                 tree: BihConfig::default(),
+                knobs: Default::default(),
                 policy,
                 oracle: policy == Policy::Auto,
                 spes,

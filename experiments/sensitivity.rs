@@ -24,6 +24,9 @@ use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
 
 #[derive(Parser)]
+#[command(
+    about = "How the headline speedups move when every unpinned rate crosses its documented band (default run: about 4 min)"
+)]
 struct Args {
     /// Scenes, comma-separated (names, OBJ files or procedural specs).
     #[arg(long, default_value = "bunny,dragon", value_delimiter = ',')]

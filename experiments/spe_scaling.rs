@@ -28,6 +28,9 @@ use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
 
 #[derive(Parser)]
+#[command(
+    about = "Section 5's strategies on 1 to 8 SPEs beside the single-SPE baseline: simulated time, speedup, where the time goes (default run: about 11 min)"
+)]
 struct Args {
     /// Directory of the real meshes (default: $CELLBIH_DATA).
     #[arg(long)]

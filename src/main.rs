@@ -17,8 +17,6 @@ use cellbih::output::{check_writable, write_file};
 use cellbih::registry::BuilderKind;
 use cellbih::render::{Camera, Frame, trace};
 use cellbih::report::step;
-use cellbih::scene::{self, Scene};
-use cellbih::strategy::machinery::layout::TriRecord;
 use cellbih::update::{MAX_FRAMES, Method, Updater};
 use cellbih::{rays_csv, render};
 
@@ -32,12 +30,15 @@ mod compare;
 mod frame;
 #[path = "cli/print.rs"]
 mod print;
+#[path = "cli/scene_arg.rs"]
+mod scene_arg;
 #[path = "cli/update.rs"]
 mod update;
 
 use build_args::{BuildArgs, TreeArgs, parse_build};
 
 use print::{info, print_build};
+use scene_arg::{SceneArg, check_memory};
 use update::{AnimationArg, update};
 
 /// Where the demo writes its image: the current directory.
@@ -60,47 +61,6 @@ struct Cli {
 enum Format {
     Text,
     Json,
-}
-
-#[derive(clap::Args)]
-struct SceneArg {
-    /// default | rtperf:N[:SEED] (N up to 50,000,000) | car | cup | a mesh
-    /// name in the data directory (bunny, dragon, …) | a path to an .obj or
-    /// .obj.gz file.
-    #[arg(long, default_value = "default")]
-    scene: String,
-    /// Directory of real meshes (bunny, dragon, …); default: $CELLBIH_DATA.
-    #[arg(long)]
-    data: Option<PathBuf>,
-}
-
-impl SceneArg {
-    /// Before any work: an `rtperf:N` scene that does not fit in the
-    /// emulated Cell's main memory — its triangle records (48 bytes each,
-    /// every emulated build uploads them) or, with `cast_rays`, what the
-    /// cast on the Cell takes — is refused at once, not after the scene is
-    /// made and the build has run out of room. Other scenes are checked by
-    /// [`check_memory`] once loaded.
-    fn check_fits(&self, c: &build_args::Chosen, cast_rays: Option<usize>) -> Res<()> {
-        match scene::procedural::rtperf_triangles(&self.scene) {
-            Some(n) => check_memory(&self.scene, n, 0, cast_rays, c),
-            None => Ok(()),
-        }
-    }
-
-    /// The scene; a built-in name that is also a file here is the built-in
-    /// scene, and the note says so (and how to read the file).
-    fn load(&self) -> Res<Scene> {
-        let s = scene::load(&self.scene, self.data.as_deref())?;
-        let path = Path::new(&self.scene);
-        if path.is_file() && s.name == self.scene && !self.scene.contains('/') {
-            eprintln!(
-                "note: '{0}' is the built-in scene {0}; the file {0} here is not read (give ./{0} to read it)",
-                self.scene
-            );
-        }
-        Ok(s)
-    }
 }
 
 #[derive(Subcommand)]
@@ -386,9 +346,16 @@ fn run(cli: Cli) -> Res<()> {
             check_memory(&s.name, s.len(), 0, None, &c)?;
             // The first build and every rebuild on the builder's threads.
             c.install(|| {
-                let mut u = Updater::new_on(s, c.builder, &c.cfg, c.cell.clone(), method)?;
+                let mut u = Updater::new_with(
+                    s,
+                    c.builder,
+                    &c.cfg,
+                    c.cell.clone(),
+                    method,
+                    c.knobs.clone(),
+                )?;
                 u.deep_stop_below = deep_stop_below;
-                update(&mut u, &anim, format, &c.describe())
+                update(&mut u, &anim, format, &c.describe(), &c.settings(None))
             })
         }
         Some(Command::Build {
@@ -421,7 +388,7 @@ fn run(cli: Cli) -> Res<()> {
             let mut report = step(&format!("building {} with {}", s.name, c.builder), || {
                 c.build(&s)
             })?;
-            print_build(&s, &report, format);
+            print_build(&s, &report, format, &c.settings(None));
             if let Some(path) = &trace {
                 let timeline = report
                     .simulated
@@ -489,6 +456,7 @@ fn run(cli: Cli) -> Res<()> {
                 c.describe(),
                 shown(&out)
             );
+            eprintln!("settings: {}", c.settings(on_cell).line());
             if let Some(r) = &cell_report {
                 eprintln!("{}", cast_args::describe(r, c.cell.spes));
                 cast_args::write_trace(&cast, r)?;
@@ -553,6 +521,7 @@ fn run(cli: Cli) -> Res<()> {
                     String::new()
                 }
             );
+            eprintln!("settings: {}", c.settings(on_cell).line());
             if let Some(r) = &cell_report {
                 eprintln!("{}", cast_args::describe(r, c.cell.spes));
                 cast_args::write_trace(&cast, r)?;
@@ -560,51 +529,6 @@ fn run(cli: Cli) -> Res<()> {
             Ok(())
         }
     }
-}
-
-/// Refuses, naming what and `--memory-mib`, a scene of `triangles` that
-/// the emulated Cell's main memory cannot hold: the build's triangle
-/// records (an emulated builder), or the cast's tree, triangles, rays and
-/// hits (`cast_rays`: rays cast on the Cell; `nodes` 0 before the tree is
-/// built, a lower bound).
-fn check_memory(
-    scene: &str,
-    triangles: usize,
-    nodes: usize,
-    cast_rays: Option<usize>,
-    c: &build_args::Chosen,
-) -> Res<()> {
-    let have = c.cell.main_memory_bytes;
-    let mib = |b: u64| b as f64 / (1 << 20) as f64;
-    let records = triangles as u64 * size_of::<TriRecord>() as u64;
-    if c.builder.emulated() && records > have {
-        return Err(format!(
-            "{scene}: its {triangles} triangle records alone take {:.0} MiB, more than the \
-             emulated Cell's {} MiB (--memory-mib): nothing built",
-            mib(records),
-            have >> 20
-        )
-        .into());
-    }
-    if let Some(rays) = cast_rays {
-        let need = cellbih::cast::memory_needed(nodes, triangles, rays);
-        if need > have {
-            let (least, fits, done) = match nodes {
-                0 => ("at least ", "above", "nothing built or cast"),
-                _ => ("", "from", "the tree was built, nothing cast"),
-            };
-            return Err(format!(
-                "{scene}: the cast on the Cell ({rays} rays) needs {least}{:.0} MiB of its main \
-                 memory for the tree, {triangles} triangles in leaf order, the rays and their \
-                 hits; the emulated Cell has {} MiB (--memory-mib: {fits} {} up): {done}",
-                mib(need),
-                have >> 20,
-                need.div_ceil(1 << 20),
-            )
-            .into());
-        }
-    }
-    Ok(())
 }
 
 /// "1 SPE", "6 SPEs".

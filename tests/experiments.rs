@@ -626,3 +626,34 @@ fn host_scaling_builds_with_the_quality_knobs() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("--sah-above"), "{err}");
 }
+
+/// Every experiment's `--help` opens with one line on what it measures and
+/// how long its default run takes.
+#[test]
+fn every_experiment_says_what_it_measures_and_how_long_it_takes() {
+    let exes = [
+        env!("CARGO_BIN_EXE_dma_bandwidth"),
+        env!("CARGO_BIN_EXE_table1"),
+        env!("CARGO_BIN_EXE_partial_rebuild"),
+        env!("CARGO_BIN_EXE_table2"),
+        env!("CARGO_BIN_EXE_spe_scaling"),
+        env!("CARGO_BIN_EXE_tradeoff"),
+        env!("CARGO_BIN_EXE_extremes"),
+        env!("CARGO_BIN_EXE_footprint"),
+        env!("CARGO_BIN_EXE_validate"),
+        env!("CARGO_BIN_EXE_sensitivity"),
+        env!("CARGO_BIN_EXE_frame_loop"),
+    ];
+    for exe in exes {
+        let out = std::process::Command::new(exe)
+            .arg("--help")
+            .output()
+            .unwrap();
+        let help = String::from_utf8_lossy(&out.stdout);
+        let first = help.lines().next().unwrap_or("");
+        assert!(
+            first.contains("(default run: ") && !first.starts_with("Usage"),
+            "{exe}: {first}"
+        );
+    }
+}

@@ -19,6 +19,7 @@ fn cfg(builder: &str, policy: Method, spes: usize, build_spes: usize) -> FrameCo
     FrameConfig {
         builder: BuilderKind::from_name(builder).unwrap(),
         tree: BihConfig::default(),
+        knobs: Default::default(),
         policy: Policy::Fixed(policy),
         oracle: false,
         spes,

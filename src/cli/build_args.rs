@@ -6,8 +6,10 @@
 use clap::ValueEnum;
 
 use cellbih::bih::BihConfig;
+use cellbih::cast::CastConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::{BuildReport, BuilderKind};
+use cellbih::report::{CellSettings, Settings};
 use cellbih::scene::Scene;
 use cellbih::strategy::{Knob, Knobs};
 
@@ -90,9 +92,25 @@ pub struct Chosen {
     pub knobs: Knobs,
     /// `--threads`, for a builder that builds on the host's cores.
     pub threads: Option<usize>,
+    /// The emulated Cell as the options name it, where something runs on
+    /// it (an emulated builder, or a cast on the Cell).
+    pub cell_named: Option<CellSettings>,
 }
 
 impl Chosen {
+    /// The settings of this build, with `cast` the cast on the Cell if
+    /// there is one: what every report names.
+    pub fn settings(&self, cast: Option<CastConfig>) -> Settings<'_> {
+        Settings {
+            builder: self.builder,
+            knobs: &self.knobs,
+            tree: &self.cfg,
+            cell: self.cell_named,
+            threads: self.threads,
+            cast,
+        }
+    }
+
     pub fn build(&self, s: &Scene) -> Res<BuildReport> {
         self.install(|| {
             Ok(self
@@ -220,12 +238,31 @@ pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: boo
         (None, true) => Some(std::thread::available_parallelism().map_or(1, |n| n.get())),
         (None, false) => None,
     };
+    let timed = !matches!(mode, Mode::Functional);
+    let cell_named = (builder.emulated() || casts_on_cell).then(|| CellSettings {
+        spes: cell.spes,
+        memory_mib: cell.main_memory_bytes >> 20,
+        mode: match mode {
+            Mode::Checked => "checked",
+            Mode::Timed => "timed",
+            Mode::Functional => "functional",
+        },
+        model: timed.then_some(match args.model.unwrap_or(MachineModel::Measured) {
+            MachineModel::Legacy => "legacy",
+            MachineModel::Measured => "measured",
+        }),
+        mailboxes: timed.then_some(match args.mailboxes.unwrap_or(Mailboxes::Raw) {
+            Mailboxes::Raw => "raw",
+            Mailboxes::Ps3Kernel => "ps3-kernel",
+        }),
+    });
     Ok(Chosen {
         builder,
         cfg,
         cell,
         knobs,
         threads,
+        cell_named,
     })
 }
 

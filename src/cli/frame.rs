@@ -43,6 +43,7 @@ pub fn config(c: &Chosen, a: &Asked) -> Res<FrameConfig> {
     Ok(FrameConfig {
         builder: c.builder,
         tree: c.cfg,
+        knobs: c.knobs.clone(),
         policy,
         oracle: a.oracle,
         spes,
@@ -66,11 +67,18 @@ pub fn run(s: &Scene, anim: &Animation, cfg: &FrameConfig, c: &Chosen, format: F
     };
     let run = play(s, anim, cfg, &c.cell, |_| bar.inc(1))?;
     bar.finish_and_clear();
-    print(s, anim, cfg, &run, format);
+    print(s, anim, cfg, &run, format, &c.settings(Some(cfg.cast)));
     Ok(())
 }
 
-fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format: Format) {
+fn print(
+    s: &Scene,
+    anim: &Animation,
+    cfg: &FrameConfig,
+    run: &FrameRun,
+    format: Format,
+    settings: &cellbih::report::Settings,
+) {
     // "1 SPE builds", "2 SPEs build".
     let verb = |n: usize, what: &str| match n {
         1 => format!("1 SPE {what}s"),
@@ -87,6 +95,7 @@ fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format:
     };
     if let Format::Json = format {
         let v = json!({
+            "settings": settings.to_json(),
             "scene": s.name,
             "triangles": s.len(),
             "animation": anim.name,
@@ -120,6 +129,8 @@ fn print(s: &Scene, anim: &Animation, cfg: &FrameConfig, run: &FrameRun, format:
         cfg.builder
     );
     println!("{}", cellbih::report::wrap(&title, 80));
+    let line = format!("settings: {}", settings.line());
+    println!("{}", cellbih::report::wrap(&line, 80));
     let oracle = run.frames.iter().any(|f| f.oracle_ms.is_some());
     let predicted = run.frames.iter().any(|f| f.predicted.is_some());
     println!(

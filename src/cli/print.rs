@@ -6,6 +6,7 @@ use serde_json::json;
 use cellbih::bih::Tracer;
 use cellbih::quality::rays::RaySets;
 use cellbih::registry::BuildReport;
+use cellbih::report::Settings;
 use cellbih::scene::Scene;
 use cellbih::strategy::machinery::footprint::{Footprint, Purpose, work_ppe_jobs};
 use cellbih::strategy::machinery::top::TRIS_PER_SPE;
@@ -76,7 +77,9 @@ fn cores_json(m: &cellbih::strategy::Simulated) -> serde_json::Value {
     v
 }
 
-pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
+/// The build's report: its settings, time, tree, ray cost and, for an
+/// emulated builder, memory and every core's counters.
+pub fn print_build(s: &Scene, r: &BuildReport, format: Format, settings: &Settings) {
     let q = r.bih.quality();
     let sets = RaySets::standard(&s.bounds());
     let (primary, incoherent) = cellbih::report::step("measuring the tree's ray cost", || {
@@ -89,6 +92,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
         Format::Json => println!(
             "{}",
             json!({
+                "settings": settings.to_json(),
                 "scene": s.name, "triangles": s.len(), "builder": r.builder.name(),
                 "threads": r.threads,
                 "host_ms": ms, "quality": q,
@@ -121,6 +125,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format) {
                 )),
                 None => field(&format!("builder     {}", r.builder)),
             }
+            field(&format!("settings    {}", settings.line()));
             match sim {
                 Some(m) if !m.run.timed => field(&format!(
                     "simulated   none: functional mode (no timing) with {}",

@@ -5,6 +5,8 @@ use serde_json::json;
 
 use cellbih::update::{Animation, Summary, Updater};
 
+use cellbih::report::Settings;
+
 use super::{Format, Res, SceneArg};
 use cellbih::scene::Scene;
 
@@ -33,7 +35,13 @@ impl AnimationArg {
 
 /// Plays `anim`, printing each frame; `builder` says which builder on what
 /// ("builder host_shared on 2 host threads").
-pub fn update(u: &mut Updater, anim: &Animation, format: Format, builder: &str) -> Res<()> {
+pub fn update(
+    u: &mut Updater,
+    anim: &Animation,
+    format: Format,
+    builder: &str,
+    settings: &Settings,
+) -> Res<()> {
     let text = matches!(format, Format::Text);
     if text {
         println!(
@@ -43,6 +51,8 @@ pub fn update(u: &mut Updater, anim: &Animation, format: Format, builder: &str) 
             cellbih::report::count(u.scene.len() as u64, "triangle"),
             u.method.name(),
         );
+        let line = format!("settings: {}", settings.line());
+        println!("{}", cellbih::report::wrap(&line, 80));
         println!(
             "{:>5} {:>5} {:>7} {:>5} {:>12} {:>7} {:>7} {:>7} {:>8} {:>8}",
             "frame", "moves", "kind", "depth", "stop", "trans", "rec", "kept", "host ms", "sim ms"
@@ -109,6 +119,7 @@ pub fn update(u: &mut Updater, anim: &Animation, format: Format, builder: &str) 
         println!(
             "{}",
             json!({
+                "settings": settings.to_json(), "deep_stop_below": u.deep_stop_below,
                 "scene": u.scene.name, "triangles": u.scene.len(), "animation": anim.name,
                 "method": u.method, "builder": u.builder.name(),
                 "spes": u.builder.emulated().then_some(u.cell.spes), "frames": reports,

@@ -67,6 +67,8 @@ impl Policy {
 pub struct FrameConfig {
     pub builder: BuilderKind,
     pub tree: BihConfig,
+    /// The builder's strategy knobs, for every build of the frame loop.
+    pub knobs: crate::strategy::Knobs,
     /// How the tree follows the moves each frame.
     pub policy: Policy,
     /// Also run every option from the same state each frame (three times
@@ -220,12 +222,13 @@ pub fn play(
     // The camera frames the scene as it starts, and stays.
     let cam = Camera::framing(&scene.bounds(), cfg.width, cfg.height);
     let rays = cam.rays();
-    let mut u = Updater::new_on(
+    let mut u = Updater::new_with(
         scene.clone(),
         cfg.builder,
         &cfg.tree,
         build_cell,
         Method::Rebuild,
+        cfg.knobs.clone(),
     )?;
     let mut predictor = auto::Predictor::new(cfg.tree.leaf_size, scene.len(), u.first_build_ms);
     if cfg.policy == Policy::Auto {

@@ -3,6 +3,7 @@
 //! [`crate::output`]: written whole or not at all, errors naming the path.
 
 pub mod parallel;
+pub mod settings;
 pub mod step;
 pub mod tree_args;
 
@@ -11,6 +12,7 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::*;
 
 pub use parallel::{ThreadsArg, side_by_side};
+pub use settings::{CellSettings, Settings};
 pub use step::step;
 pub use tree_args::TreeArgs;
 

@@ -86,7 +86,7 @@ impl Knob {
     }
 
     /// Whether it takes `auto` (and reads it as 0).
-    fn takes_auto(&self) -> bool {
+    pub(crate) fn takes_auto(&self) -> bool {
         matches!(self.kind, Kind::Int { default: 0, min, .. } if min > 0)
     }
 
@@ -244,6 +244,18 @@ impl Knobs {
             (Some(Value::Word(w)), _) => w,
             (_, Kind::Word(words)) => words[0],
             _ => panic!("--{} is not a word", knob.name),
+        }
+    }
+
+    /// `knob`'s value as the command line spells it, its default when not
+    /// given: "on"/"off" for a flag, a number or "auto", a word.
+    pub fn text(&self, knob: &Knob) -> String {
+        match self.get(knob) {
+            Some(Value::On) => "on".into(),
+            Some(Value::Int(0)) if knob.takes_auto() => "auto".into(),
+            Some(Value::Int(v)) => v.to_string(),
+            Some(Value::Word(w)) => w.into(),
+            None => knob.default_text(),
         }
     }
 

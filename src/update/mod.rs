@@ -40,6 +40,7 @@ use crate::cell::{CellConfig, CellError};
 use crate::kernels::recursion::{PrimRef, build_items};
 use crate::registry::BuilderKind;
 use crate::scene::{Scene, SceneError, Triangle};
+use crate::strategy::Knobs;
 
 /// How a frame's moves are brought into the tree.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -232,6 +233,9 @@ pub struct Updater {
     /// Deep update: a touched subtree of at most this many triangles is
     /// rebuilt whole instead of descended into.
     pub deep_stop_below: usize,
+    /// The builder's strategy knobs, for every build it makes (the first
+    /// tree, complete rebuilds, rebuilt subtrees).
+    pub knobs: Knobs,
     /// Simulated time of the first tree's build, for an emulated builder.
     pub first_build_ms: Option<f64>,
     /// Triangle ids of each geometry id.
@@ -264,7 +268,20 @@ impl Updater {
         cell: CellConfig,
         method: Method,
     ) -> Result<Self, UpdateError> {
-        let first = builder.build_on(&scene, cfg, &cell)?;
+        Self::new_with(scene, builder, cfg, cell, method, Knobs::default())
+    }
+
+    /// [`Updater::new_on`] with the builder's strategy `knobs`, which every
+    /// build of the update then uses.
+    pub fn new_with(
+        scene: Scene,
+        builder: BuilderKind,
+        cfg: &BihConfig,
+        cell: CellConfig,
+        method: Method,
+        knobs: Knobs,
+    ) -> Result<Self, UpdateError> {
+        let first = builder.build_with(&scene, scene.bounds(), cfg, &cell, &knobs)?;
         let first_build_ms = (first.simulated.as_ref())
             .filter(|s| s.run.timed)
             .map(|s| s.run.ms);
@@ -280,6 +297,7 @@ impl Updater {
             method,
             cell,
             deep_stop_below: DEEP_STOP_BELOW,
+            knobs,
             first_build_ms,
             members,
             free: Vec::new(),
@@ -412,9 +430,13 @@ impl Updater {
     }
 
     fn full_rebuild(&mut self, r: &mut UpdateReport) -> Result<(), UpdateError> {
-        let b = self
-            .builder
-            .build_on(&self.scene, &self.bih.config, &self.cell)?;
+        let b = self.builder.build_with(
+            &self.scene,
+            self.scene.bounds(),
+            &self.bih.config,
+            &self.cell,
+            &self.knobs,
+        )?;
         self.bih = b.bih;
         self.free.clear();
         r.full_rebuild = true;
@@ -498,7 +520,7 @@ impl Updater {
                 .collect(),
             self.scene.geometry_names.clone(),
         )?;
-        let b = self.builder.build_in(&sub, region, cfg, &self.cell)?;
+        let b = (self.builder).build_with(&sub, region, cfg, &self.cell, &self.knobs)?;
         let mut bih = b.bih;
         for p in &mut bih.prim_ids {
             *p = ids[*p as usize];

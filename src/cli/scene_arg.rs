@@ -1,0 +1,97 @@
+//! The scene a command reads (`--scene`, `--data`), and the checks that it
+//! and a cast on the Cell fit the emulated Cell's main memory before any
+//! work.
+
+use std::path::{Path, PathBuf};
+
+use cellbih::scene::{self, Scene};
+use cellbih::strategy::machinery::layout::TriRecord;
+
+use super::Res;
+use super::build_args;
+
+#[derive(clap::Args)]
+pub struct SceneArg {
+    /// default | rtperf:N[:SEED] (N up to 50,000,000) | car | cup | a mesh
+    /// name in the data directory (bunny, dragon, …) | a path to an .obj or
+    /// .obj.gz file.
+    #[arg(long, default_value = "default")]
+    pub scene: String,
+    /// Directory of real meshes (bunny, dragon, …); default: $CELLBIH_DATA.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+}
+
+impl SceneArg {
+    /// Before any work: an `rtperf:N` scene that does not fit in the
+    /// emulated Cell's main memory — its triangle records (48 bytes each,
+    /// every emulated build uploads them) or, with `cast_rays`, what the
+    /// cast on the Cell takes — is refused at once, not after the scene is
+    /// made and the build has run out of room. Other scenes are checked by
+    /// [`check_memory`] once loaded.
+    pub fn check_fits(&self, c: &build_args::Chosen, cast_rays: Option<usize>) -> Res<()> {
+        match scene::procedural::rtperf_triangles(&self.scene) {
+            Some(n) => check_memory(&self.scene, n, 0, cast_rays, c),
+            None => Ok(()),
+        }
+    }
+
+    /// The scene; a built-in name that is also a file here is the built-in
+    /// scene, and the note says so (and how to read the file).
+    pub fn load(&self) -> Res<Scene> {
+        let s = scene::load(&self.scene, self.data.as_deref())?;
+        let path = Path::new(&self.scene);
+        if path.is_file() && s.name == self.scene && !self.scene.contains('/') {
+            eprintln!(
+                "note: '{0}' is the built-in scene {0}; the file {0} here is not read (give ./{0} to read it)",
+                self.scene
+            );
+        }
+        Ok(s)
+    }
+}
+
+/// Refuses, naming what and `--memory-mib`, a scene of `triangles` that
+/// the emulated Cell's main memory cannot hold: the build's triangle
+/// records (an emulated builder), or the cast's tree, triangles, rays and
+/// hits (`cast_rays`: rays cast on the Cell; `nodes` 0 before the tree is
+/// built, a lower bound).
+pub fn check_memory(
+    scene: &str,
+    triangles: usize,
+    nodes: usize,
+    cast_rays: Option<usize>,
+    c: &build_args::Chosen,
+) -> Res<()> {
+    let have = c.cell.main_memory_bytes;
+    let mib = |b: u64| b as f64 / (1 << 20) as f64;
+    let records = triangles as u64 * size_of::<TriRecord>() as u64;
+    if c.builder.emulated() && records > have {
+        return Err(format!(
+            "{scene}: its {triangles} triangle records alone take {:.0} MiB, more than the \
+             emulated Cell's {} MiB (--memory-mib): nothing built",
+            mib(records),
+            have >> 20
+        )
+        .into());
+    }
+    if let Some(rays) = cast_rays {
+        let need = cellbih::cast::memory_needed(nodes, triangles, rays);
+        if need > have {
+            let (least, fits, done) = match nodes {
+                0 => ("at least ", "above", "nothing built or cast"),
+                _ => ("", "from", "the tree was built, nothing cast"),
+            };
+            return Err(format!(
+                "{scene}: the cast on the Cell ({rays} rays) needs {least}{:.0} MiB of its main \
+                 memory for the tree, {triangles} triangles in leaf order, the rays and their \
+                 hits; the emulated Cell has {} MiB (--memory-mib: {fits} {} up): {done}",
+                mib(need),
+                have >> 20,
+                need.div_ceil(1 << 20),
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
