@@ -77,6 +77,11 @@ impl BuilderKind {
         BuilderKind(Family::Cell(s))
     }
 
+    /// The longest name a builder may have: the tables of `compare`, the
+    /// demo and the experiments give builder names this many columns of
+    /// their 80 (a test holds every name of the registry to it).
+    pub const MAX_NAME: usize = 16;
+
     pub fn name(self) -> &'static str {
         match self.0 {
             Family::Host(b) => b.name,
@@ -368,4 +373,30 @@ pub struct BuildReport {
     /// The host threads it built on, for builders that build on the
     /// current rayon pool's ([`BuilderKind::host_threads`]).
     pub threads: Option<usize>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::BuilderKind;
+
+    /// Every builder's name is a word of at most `MAX_NAME` characters, and
+    /// no two builders share one.
+    #[test]
+    fn names_are_short_distinct_words() {
+        for b in BuilderKind::ALL {
+            let name = b.name();
+            assert!(
+                name.len() <= BuilderKind::MAX_NAME,
+                "builder name '{name}' is {} characters: at most {} keep the \
+                 80-column tables whole",
+                name.len(),
+                BuilderKind::MAX_NAME
+            );
+            assert!(
+                !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+            );
+            let same = BuilderKind::ALL.iter().filter(|o| o.name() == name).count();
+            assert_eq!(same, 1, "two builders named {name}");
+        }
+    }
 }

@@ -3,12 +3,14 @@
 //! knobs it builds and each knob of its table moved once, on the default
 //! scene; every builder on the bunny) is compared with a recording, on
 //! both machine models: `tests/golden/runs.txt` (the default, validated
-//! model) and `tests/golden/runs-legacy.txt` (the model before issue 26,
-//! recorded before issue 25's moves and unchanged since).
+//! model) and `tests/golden/runs-legacy.txt` (the model before the
+//! validated one, recorded before the layout by role and unchanged since).
 //!
 //! When the machine model changes on purpose, re-record with
 //! `CELLBIH_RECORD=1 CELLBIH_DATA=../shared/data cargo test --release
-//! --test unchanged` and say in the commit which figures moved and why.
+//! --test unchanged` and say in the commit which figures moved and why;
+//! recording without the data directory is refused (the bunny's runs would
+//! drop out).
 
 use std::collections::BTreeMap;
 
@@ -121,6 +123,13 @@ fn every_builder_keeps_its_cycles_and_its_tree_on_the_legacy_model() {
 fn compare_with(path: &str, cost: &CostModel) {
     let now = runs(cost);
     if std::env::var_os("CELLBIH_RECORD").is_some() {
+        // Without the data directory the bunny's runs would silently drop
+        // out of the recording.
+        assert!(
+            now.keys().any(|k| k.starts_with("bunny")),
+            "recording refused: CELLBIH_DATA is not set, so the bunny's runs would be \
+             dropped from {path}; record with CELLBIH_DATA=../shared/data"
+        );
         let text: String = (now.iter()).map(|(k, v)| format!("{k}: {v}\n")).collect();
         std::fs::write(path, text).unwrap();
         return;
