@@ -5,8 +5,8 @@
 
 use std::hint::black_box;
 
-use cellbih::bih::{BihConfig, RayStats, Tracer};
-use cellbih::registry::BuilderKind;
+use cellbih::bih::{RayStats, Tracer};
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::Camera;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
@@ -20,11 +20,7 @@ fn build(c: &mut Criterion) {
     for s in scenes() {
         g.throughput(Throughput::Elements(s.len() as u64));
         g.bench_function(&s.name, |b| {
-            b.iter(|| {
-                BuilderKind::HOST
-                    .build(black_box(&s), &BihConfig::default())
-                    .unwrap()
-            })
+            b.iter(|| Build::new(BuilderKind::HOST).run(black_box(&s)).unwrap())
         });
     }
     g.finish();
@@ -34,10 +30,7 @@ fn raycast(c: &mut Criterion) {
     let mut g = c.benchmark_group("host_raycast_primary");
     g.sample_size(10);
     for s in scenes() {
-        let bih = BuilderKind::HOST
-            .build(&s, &BihConfig::default())
-            .unwrap()
-            .bih;
+        let bih = Build::new(BuilderKind::HOST).run(&s).unwrap().bih;
         let tracer = Tracer::new(&bih, &s);
         let rays = Camera::framing(&s.bounds(), 512, 512).rays();
         g.throughput(Throughput::Elements(rays.len() as u64));

@@ -10,7 +10,7 @@
 use std::hint::black_box;
 
 use cellbih::bih::BihConfig;
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
 #[path = "common/scenes.rs"]
@@ -32,7 +32,12 @@ fn build(c: &mut Criterion) {
     for s in scenes() {
         g.throughput(Throughput::Elements(s.len() as u64));
         g.bench_function(format!("{}/host", s.name), |b| {
-            b.iter(|| BuilderKind::HOST.build(black_box(&s), &cfg).unwrap())
+            b.iter(|| {
+                Build::new(BuilderKind::HOST)
+                    .with_tree(cfg)
+                    .run(black_box(&s))
+                    .unwrap()
+            })
         });
         for t in threads() {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -41,7 +46,9 @@ fn build(c: &mut Criterion) {
                 .unwrap();
             for p in BuilderKind::ALL.iter().filter(|b| b.host_threads()) {
                 g.bench_function(format!("{}/{p}/{t}", s.name), |b| {
-                    b.iter(|| pool.install(|| p.build(black_box(&s), &cfg).unwrap()))
+                    b.iter(|| {
+                        pool.install(|| Build::new(*p).with_tree(cfg).run(black_box(&s)).unwrap())
+                    })
                 });
             }
         }

@@ -28,7 +28,7 @@ use obvhs::triangle::Triangle as OTri;
 
 use cellbih::bih::{Bih, BihConfig, Ray, RayStats, SplitChoice, Tracer};
 use cellbih::quality::rays::RaySets;
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{self, Scene};
 
 fn main() {
@@ -123,7 +123,13 @@ fn compare(s: &Scene, runs: usize, above: &[u32]) {
         ..BihConfig::SAH_CUT
     }));
     let trees: Vec<Bih> = (settings.iter())
-        .map(|cfg| BuilderKind::HOST.build(s, cfg).unwrap().bih)
+        .map(|cfg| {
+            Build::new(BuilderKind::HOST)
+                .with_tree(*cfg)
+                .run(s)
+                .unwrap()
+                .bih
+        })
         .collect();
     let mut contenders: Vec<Contender> = Vec::new();
     for (cfg, bih) in settings.into_iter().zip(&trees) {
@@ -132,7 +138,13 @@ fn compare(s: &Scene, runs: usize, above: &[u32]) {
         contenders.push(Contender {
             name: format!("cellbih host {}", cfg.flags()).trim_end().into(),
             build: Box::new(move || {
-                let (built, bih) = time(|| BuilderKind::HOST.build(s, &cfg).unwrap().bih);
+                let (built, bih) = time(|| {
+                    Build::new(BuilderKind::HOST)
+                        .with_tree(cfg)
+                        .run(s)
+                        .unwrap()
+                        .bih
+                });
                 let (prep, _) = time(|| Tracer::new(&bih, s));
                 (built, built + prep)
             }),

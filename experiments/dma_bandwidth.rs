@@ -208,7 +208,7 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .map(|r| json!({"spes": r.spes, "dma_bytes": r.size, "buffering": if r.double {"double"} else {"single"}, "bytes_streamed": r.bytes, "gb_per_s": r.gb_per_s, "host_s": r.host_s}))
         .collect();
-    write_json(&output(&args.out, "dma_bandwidth.json")?, &json!(js))?;
+    write_json(&output(&args.out, "dma_bandwidth.json")?, &json!(js), None)?;
     let series: Vec<Series> = [false, true]
         .iter()
         .flat_map(|&double| {

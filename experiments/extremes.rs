@@ -21,7 +21,7 @@ use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::kernels::recursion::{PrimRef, build_items};
 use cellbih::quality::agree::{examine, rays_for};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{
     Format, ThreadsArg, output, print_rows, side_by_side, write_json, write_rows_csv,
 };
@@ -68,7 +68,7 @@ fn run(args: &Args) -> Result<(), String> {
     let rows = side_by_side("builds", &jobs, |&(c, k)| {
         let (name, scene, rays) = &cases[c];
         let (b, cfg) = runs[k];
-        let e = examine(b, &cfg, &cell, scene, rays);
+        let e = examine(&Build::new(b).with_tree(cfg).on(&cell), scene, rays);
         json!({
             "case": name, "triangles": scene.len(), "degenerate": scene.degenerate_count(),
             "builder": b.name(), "setting": cfg.flags(),
@@ -100,7 +100,12 @@ fn run(args: &Args) -> Result<(), String> {
     )
     .map_err(io)?;
     let doc = json!({ "rows": rows, "note": "disagree: rays whose closest or any hit differs from brute force, of `rays`; f32_stalls: halvings of the global heuristic f32 could not make (host recursion)" });
-    write_json(&output(&args.out, "extremes.json").map_err(io)?, &doc).map_err(io)?;
+    write_json(
+        &output(&args.out, "extremes.json").map_err(io)?,
+        &doc,
+        Some(&Build::new(BuilderKind::HOST).on(&cell)),
+    )
+    .map_err(io)?;
     let bad = rows
         .iter()
         .filter(|r| r["valid"] == false || r["disagree"] != 0)

@@ -24,9 +24,8 @@ use std::path::PathBuf;
 use clap::Parser;
 use serde_json::{Value, json};
 
-use cellbih::bih::BihConfig;
 use cellbih::cell::{CellConfig, CellError, CostModel};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::procedural::rtperf;
 use cellbih::strategy::machinery::footprint::{Footprint, Purpose};
@@ -182,7 +181,12 @@ fn run(args: &Args) -> Result<(), String> {
     )
     .map_err(io)?;
     let doc = json!({ "rows": rows, "note": "bytes of emulated main memory per triangle of rtperf, by purpose (fitted on rtperf:50000 and rtperf:100000); fits_n builds, fails_n runs out of memory naming oom_buffer" });
-    write_json(&output(&args.out, "footprint.json").map_err(io)?, &doc).map_err(io)?;
+    write_json(
+        &output(&args.out, "footprint.json").map_err(io)?,
+        &doc,
+        Some(&Build::new(BuilderKind::HOST).on(&cell)),
+    )
+    .map_err(io)?;
     Ok(())
 }
 
@@ -198,7 +202,7 @@ fn key(p: Purpose) -> &'static str {
 
 /// The footprint of building `rtperf:n` with `b`.
 fn footprint(b: BuilderKind, n: usize, cell: &CellConfig) -> Result<Footprint, CellError> {
-    let r = b.build_on(&rtperf(n, 1), &BihConfig::default(), cell)?;
+    let r = Build::new(b).on(cell).run(&rtperf(n, 1))?;
     Ok(r.simulated.expect("an emulated builder").footprint)
 }
 

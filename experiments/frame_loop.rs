@@ -21,11 +21,10 @@ use std::path::PathBuf;
 use clap::Parser;
 use serde_json::{Value, json};
 
-use cellbih::bih::BihConfig;
 use cellbih::cast::CastConfig;
 use cellbih::cell::CellConfig;
 use cellbih::frame::{FrameConfig, Policy, play};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{
     Format, Series, ThreadsArg, line_plot, output, print_rows, side_by_side, write_json,
     write_rows_csv,
@@ -160,19 +159,15 @@ fn run(args: &Args) -> Result<(), String> {
         |&(si, (w, h), (ai, (arrangement, build_spes)), (pi, policy))| {
             let (spec, anim_name, s, anim) = &played[si];
             let cfg = FrameConfig {
-                builder,
-                tree: BihConfig::default(),
-                knobs: Default::default(),
+                build: Build::new(builder).on(&CellConfig::ps3().with_spes(spes)),
                 policy,
                 oracle: policy == Policy::Auto,
-                spes,
                 build_spes,
                 width: w,
                 height: h,
                 cast: CastConfig::DEFAULT,
             };
-            let r = play(s, anim, &cfg, &CellConfig::ps3(), |_| {})
-                .map_err(|e| format!("{spec}: {e}"))?;
+            let r = play(s, anim, &cfg, |_| {}).map_err(|e| format!("{spec}: {e}"))?;
             let n = r.frames.len() as f64;
             let mean = |f: &dyn Fn(&cellbih::frame::FrameReport) -> f64| {
                 r.frames.iter().map(f).sum::<f64>() / n
@@ -280,6 +275,7 @@ fn run(args: &Args) -> Result<(), String> {
     write_json(
         &output(&args.out, "frame_loop.json").map_err(|e| e.to_string())?,
         &json!({ "note": note, "builder": builder.name(), "spes": spes, "rows": rows }),
+        Some(&Build::new(builder).on(&CellConfig::ps3().with_spes(spes))),
     )
     .map_err(|e| e.to_string())?;
     print_rows(args.format, &flat, |rows| table(rows, note))?;

@@ -34,7 +34,7 @@ use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::bih::{BihConfig, BihNode};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{
     Format, Series, TreeArgs, line_plot, output, print_rows, write_json, write_rows_csv,
 };
@@ -160,7 +160,6 @@ fn run(args: &Args) -> Result<(), String> {
     let cfg = args.tree.config()?;
     let scenes = cellbih::report::load_scenes(&args.scenes, args.data.as_deref())?;
     let machine = json!({
-        "settings": cfg.flags(),
         "hardware_threads": hardware_threads(),
         "cpu": cpu_model(),
         "runs": args.runs,
@@ -187,6 +186,7 @@ fn run(args: &Args) -> Result<(), String> {
     write_json(
         &output(&args.out, "host_scaling.json").map_err(|e| e.to_string())?,
         &doc,
+        Some(&Build::new(BuilderKind::HOST).with_tree(cfg)),
     )
     .map_err(|e| e.to_string())?;
     let keys = [
@@ -276,7 +276,9 @@ fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, Str
     let ours =
         |b: BuilderKind| -> Box<dyn Fn() -> Result<Option<Vec<BihNode>>, String> + Sync + '_> {
             Box::new(move || {
-                b.build(s, cfg)
+                Build::new(b)
+                    .with_tree(*cfg)
+                    .run(s)
                     .map(|r| Some(r.bih.nodes))
                     .map_err(|e| e.to_string())
             })
@@ -309,7 +311,9 @@ fn scene_rows(s: &Scene, cfg: &BihConfig, args: &Args) -> Result<Vec<Value>, Str
                 build: Box::new(move || {
                     rayon::scope(|sc| {
                         for _ in 0..threads {
-                            sc.spawn(|_| drop(BuilderKind::HOST.build(s, cfg)));
+                            sc.spawn(|_| {
+                                drop(Build::new(BuilderKind::HOST).with_tree(*cfg).run(s))
+                            });
                         }
                     });
                     Ok(None)

@@ -22,7 +22,7 @@ use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
 use cellbih::host;
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::procedural::rtperf;
 use cellbih::update::{
@@ -77,7 +77,8 @@ fn frames(
     builder: BuilderKind,
     method: Method,
 ) -> Result<(Vec<UpdateReport>, f64), String> {
-    let (u, reports) = play(scene, anim, builder, method).map_err(|e| e.to_string())?;
+    let (u, reports) =
+        play(scene, anim, &Build::new(builder), method).map_err(|e| e.to_string())?;
     let fresh = host::build(&u.scene, &u.bih.config).quality().sah_cost;
     Ok((reports, u.bih.quality().sah_cost / fresh))
 }
@@ -157,7 +158,10 @@ fn run(args: &Args) -> Result<(), String> {
                 "partial_over_full": median.map(|m| m / full_host),
             });
             for (p, builder) in SIMULATED_BUILDERS.iter().filter(|_| !args.no_sim) {
-                let full = builder.build(&scene, &cfg).map_err(|e| e.to_string())?;
+                let full = Build::new(*builder)
+                    .with_tree(cfg)
+                    .run(&scene)
+                    .map_err(|e| e.to_string())?;
                 let s = Summary::of(&frames(&scene, &anim, *builder, method)?.0)
                     .and_then(|s| s.simulated_ms);
                 row[format!("{p}_min_ms")] = json!(s.map(|s| s[0]));
@@ -218,6 +222,7 @@ fn run(args: &Args) -> Result<(), String> {
     write_json(
         &output(&args.out, "partial_rebuild.json").map_err(io)?,
         &doc,
+        Some(&Build::new(BuilderKind::HOST).with_tree(cfg)),
     )
     .map_err(io)?;
     for method in ["local", "deep"] {

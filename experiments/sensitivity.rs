@@ -15,13 +15,11 @@ use std::path::PathBuf;
 use clap::{Parser, ValueEnum};
 use serde_json::json;
 
-use cellbih::bih::BihConfig;
 use cellbih::cell::{CellConfig, CostModel, Cycles};
 use cellbih::kernels::rates::RateOverrides;
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{ThreadsArg, output, prepare_dir, side_by_side, write_csv, write_json};
 use cellbih::scene::{self, Scene};
-use cellbih::strategy::Knobs;
 
 #[derive(Parser)]
 #[command(
@@ -105,14 +103,10 @@ fn ms(b: BuilderKind, s: &Scene, spes: usize, v: &Variant) -> Result<f64, String
     let mut cell = CellConfig::ps3().with_spes(spes);
     cell.cost = v.cost.clone();
     cell.checked = false;
-    let r = b
-        .build_with_rates(
-            s,
-            s.bounds(),
-            &BihConfig::default(),
-            &cell,
-            (&Knobs::default(), &v.rates),
-        )
+    let r = Build::new(b)
+        .on(&cell)
+        .with_rates(&v.rates)
+        .run(s)
         .map_err(|e| format!("{b} on {}: {e}", s.name))?;
     Ok(r.simulated.expect("an emulated builder").run.ms)
 }
@@ -268,7 +262,12 @@ fn run(args: &Args) -> Result<(), String> {
     let path = output(&args.out, "sensitivity.csv").map_err(|e| e.to_string())?;
     write_csv(&path, &header, &csv).map_err(|e| e.to_string())?;
     let path = output(&args.out, "sensitivity.json").map_err(|e| e.to_string())?;
-    write_json(&path, &json!({ "rows": rows })).map_err(|e| e.to_string())?;
+    write_json(
+        &path,
+        &json!({ "rows": rows }),
+        Some(&Build::new(BuilderKind::HOST)),
+    )
+    .map_err(|e| e.to_string())?;
     println!(
         "written: {}",
         args.out.join("sensitivity.{csv,json}").display()

@@ -19,7 +19,7 @@ use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{
     Format, Series, ThreadsArg, line_plot, output, print_rows, side_by_side, write_json,
     write_rows_csv,
@@ -106,10 +106,12 @@ fn row(
 ) -> Result<(Value, cellbih::bih::Bih), String> {
     let cfg = BihConfig::default();
     let cell = CellConfig::ps3().with_spes(spes);
-    let r = v
-        .builder
-        .build_with(scene, scene.bounds(), &cfg, &cell, &v.knobs)
-        .map_err(|e| format!("{} / {} / {spes} SPEs: {e}", scene.name, v.name))?;
+    let r = (Build::new(v.builder)
+        .with_tree(cfg)
+        .on(&cell)
+        .with_knobs(&v.knobs))
+    .run(scene)
+    .map_err(|e| format!("{} / {} / {spes} SPEs: {e}", scene.name, v.name))?;
     let sim = r.simulated.expect("a multi-SPE builder runs on the Cell");
     let cycles = sim.run.cycles.0.max(1) as f64;
     let spe_cores = &sim.run.cores[1..];
@@ -165,8 +167,8 @@ fn run(args: &Args) -> Result<(), String> {
     let scenes = cellbih::report::load_scenes(&args.scenes, args.data.as_deref())?;
     // Each scene's baseline: simulated ms, SAH cost and ray cost.
     let bases = side_by_side("baselines", &scenes, |scene| {
-        let base = BuilderKind::SPE_BFS
-            .build(scene, &BihConfig::default())
+        let base = Build::new(BuilderKind::SPE_BFS)
+            .run(scene)
             .map_err(|e| format!("{} / spe_bfs: {e}", scene.name))?;
         let rays = ray_cost(scene, &base.bih);
         let sim = base.simulated.expect("emulated").run.ms;
@@ -238,7 +240,12 @@ fn run(args: &Args) -> Result<(), String> {
         "rows": rows,
         "note": "simulated ms on the PS3 model; baseline: spe_bfs (one SPE); busy..idle: mean share of the run per SPE; memory_utilisation: bytes moved / (cycles x 25.6 GB/s)",
     });
-    write_json(&output(&args.out, "spe_scaling.json").map_err(io)?, &doc).map_err(io)?;
+    write_json(
+        &output(&args.out, "spe_scaling.json").map_err(io)?,
+        &doc,
+        Some(&Build::new(BuilderKind::HOST)),
+    )
+    .map_err(io)?;
     plots(&args.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(
         "written: {}/spe_scaling.{{csv,json}}, spe_scaling_*.svg",

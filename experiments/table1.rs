@@ -18,7 +18,7 @@ use serde_json::json;
 
 use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{
     Format, ThreadsArg, output, print_rows, side_by_side, write_json, write_rows_csv,
 };
@@ -137,8 +137,10 @@ fn run(args: &Args) -> Result<(), String> {
     let done = side_by_side("builds", &jobs, |&(mi, bi)| {
         let (name, scene, ..) = &models[mi];
         let b = builders[bi];
-        let r = b
-            .build_on(scene, &cfg, &six)
+        let r = Build::new(b)
+            .with_tree(cfg)
+            .on(&six)
+            .run(scene)
             .map_err(|e| format!("{name}, {b}: {e}"))?;
         let sim = r
             .simulated
@@ -201,7 +203,12 @@ fn run(args: &Args) -> Result<(), String> {
     )
     .map_err(io)?;
     let doc = json!({ "rows": rows, "note": "simulated_ms on the PS3 model; paper_ms null = out of memory in the paper" });
-    write_json(&output(&args.out, "table1.json").map_err(io)?, &doc).map_err(io)?;
+    write_json(
+        &output(&args.out, "table1.json").map_err(io)?,
+        &doc,
+        Some(&Build::new(BuilderKind::HOST).with_tree(cfg).on(&six)),
+    )
+    .map_err(io)?;
     Ok(())
 }
 

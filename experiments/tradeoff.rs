@@ -29,7 +29,7 @@ use cellbih::cast::{CastConfig, cast_on_cell};
 use cellbih::cell::CellConfig;
 use cellbih::quality::pareto_front;
 use cellbih::quality::rays::RaySets;
-use cellbih::registry::{BuilderKind, Quality};
+use cellbih::registry::{Build, BuilderKind, Quality};
 use cellbih::render::Camera;
 use cellbih::report::{
     Format, Series, ThreadsArg, output, print_rows, scatter_plot, side_by_side, write_json,
@@ -202,7 +202,12 @@ fn run(args: &Args) -> Result<(), String> {
         "spes": args.spes,
         "note": "simulated_ms: PS3 model (timed mode), multi-SPE builders on `spes` SPEs; host_ms: this machine, one thread (median of 3 for the host builder, the emulation's time for the others); *_cost: nodes visited + triangles tested per ray, closest hit; cell_render_ms: simulated PS3 ms to cast the camera's 320 x 240 primary rays on `spes` SPEs (emulated builders' rows); fronts: Pareto fronts of build ms against primary cost; frames: for R rays a frame, the host setting with the least build + trace ms (one thread) and the emulated setting with the least simulated build + cast ms (ps3)",
     });
-    write_json(&output(&args.out, "tradeoff.json").map_err(io)?, &doc).map_err(io)?;
+    write_json(
+        &output(&args.out, "tradeoff.json").map_err(io)?,
+        &doc,
+        Some(&Build::new(BuilderKind::HOST).on(&cell)),
+    )
+    .map_err(io)?;
     plots(&args.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(
         "written: {}/tradeoff.{{csv,json}}, tradeoff_*.svg",
@@ -232,8 +237,11 @@ fn measure(
         .map_err(|e| e.to_string())?;
     let build = || {
         one.install(|| {
-            st.builder
-                .build_with(s, s.bounds(), &st.cfg, cell, &st.knobs)
+            Build::new(st.builder)
+                .with_tree(st.cfg)
+                .on(cell)
+                .with_knobs(&st.knobs)
+                .run(s)
         })
         .map_err(|e| e.to_string())
     };

@@ -502,7 +502,7 @@ fn run(args: &Args) -> Result<(), String> {
     let path = output(&args.out, "validate.csv").map_err(|e| e.to_string())?;
     write_csv(&path, header, &csv).map_err(|e| e.to_string())?;
     let path = output(&args.out, "validate.json").map_err(|e| e.to_string())?;
-    write_json(&path, &json!({ "rows": rows })).map_err(|e| e.to_string())?;
+    write_json(&path, &json!({ "rows": rows }), None).map_err(|e| e.to_string())?;
     println!(
         "written: {}",
         args.out.join("validate.{csv,json}").display()

@@ -16,16 +16,18 @@
 //! [`quality`], [`render`] and [`report`].
 //!
 //! Load a scene, build its tree with a builder of the registry on the
-//! emulated PS3, check the tree, and cast a ray through it:
+//! emulated PS3 (one [`registry::Build`] request), check the tree, and cast a ray through it:
 //!
 //! ```
 //! use cellbih::bih::{BihConfig, Ray, RayStats, Tracer, brute_force_closest};
-//! use cellbih::registry::BuilderKind;
+//! use cellbih::registry::{Build, BuilderKind};
 //! use glam::DVec3;
 //!
 //! let scene = cellbih::scene::load("default", None)?;
 //! let spe_bfs = BuilderKind::from_name("spe_bfs").expect("the baseline is registered");
-//! let report = spe_bfs.build(&scene, &BihConfig::default())?;
+//! // A build request: the builder with the paper's tree on the PS3 model
+//! // (`with_tree`, `on`, `with_knobs` change it).
+//! let report = Build::new(spe_bfs).with_tree(BihConfig::default()).run(&scene)?;
 //! report.bih.validate(&scene)?;
 //! let simulated = report.simulated.as_ref().expect("an emulated builder reports its run");
 //! println!("{} nodes in {:.2} simulated ms", report.bih.nodes.len(), simulated.run.ms);

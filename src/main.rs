@@ -14,9 +14,9 @@ use cellbih::bih::{RayStats, Tracer};
 use cellbih::cast::cast_on_cell;
 use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::{Camera, Frame, trace};
-use cellbih::report::step;
+use cellbih::report::{Settings, step};
 use cellbih::update::{MAX_FRAMES, Method, Updater};
 use cellbih::{rays_csv, render};
 
@@ -277,16 +277,17 @@ fn run(cli: Cli) -> Res<()> {
             let s = scene.load()?;
             let mut cell = CellConfig::ps3().with_spes(spes as usize);
             cell.main_memory_bytes = memory_mib * 1024 * 1024;
-            let cfg = tree.config()?;
             let threads = threads.map_or_else(
                 || std::thread::available_parallelism().map_or(1, |n| n.get()),
                 |n| n as usize,
             );
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()?;
-            let c = pool.install(|| compare::rows(&s, &cell, &cfg).map_err(|e| e.to_string()))?;
-            compare::print(&s, spes as usize, &cfg, &c, format);
+            // What every builder shares; each runs with its default knobs.
+            let shared = Build::new(BuilderKind::HOST)
+                .with_tree(tree.config()?)
+                .on(&cell)
+                .on_threads(threads);
+            let c = shared.install(|| compare::rows(&s, &shared).map_err(|e| e.to_string()))??;
+            compare::print(&s, &shared, &c, format);
             match c.failed.len() {
                 0 => Ok(()),
                 n => Err(format!("{n} builder(s) failed: {}", names(&c.failed)).into()),
@@ -319,7 +320,7 @@ fn run(cli: Cli) -> Res<()> {
             scene.check_fits(&c, rays)?;
             let (s, anim) = anim.load(&scene, frames)?;
             check_memory(&s.name, s.len(), 0, rays, &c)?;
-            frame::run(&s, &anim, &cfg, &c, format)
+            frame::run(&s, &anim, &cfg, format)
         }
         Some(Command::Update {
             scene,
@@ -346,17 +347,18 @@ fn run(cli: Cli) -> Res<()> {
             check_memory(&s.name, s.len(), 0, None, &c)?;
             // The first build and every rebuild on the builder's threads.
             c.install(|| {
-                let mut u = Updater::new_with(
-                    s,
-                    c.builder,
-                    &c.cfg,
-                    c.cell.clone(),
-                    method,
-                    c.knobs.clone(),
-                )?;
+                let mut u = Updater::new(s, c.clone(), method).map_err(|e| e.to_string())?;
                 u.deep_stop_below = deep_stop_below;
-                update(&mut u, &anim, format, &c.describe(), &c.settings(None))
-            })
+                update(
+                    &mut u,
+                    &anim,
+                    format,
+                    &c.describe(),
+                    &Settings::new(&c, None),
+                )
+                .map_err(|e| e.to_string())
+            })??;
+            Ok(())
         }
         Some(Command::Build {
             scene,
@@ -386,9 +388,9 @@ fn run(cli: Cli) -> Res<()> {
             check_memory(&s.name, s.len(), 0, None, &c)?;
             c.cell.trace = trace.is_some();
             let mut report = step(&format!("building {} with {}", s.name, c.builder), || {
-                c.build(&s)
+                c.run(&s)
             })?;
-            print_build(&s, &report, format, &c.settings(None));
+            print_build(&s, &report, format, &Settings::new(&c, None));
             if let Some(path) = &trace {
                 let timeline = report
                     .simulated
@@ -427,7 +429,7 @@ fn run(cli: Cli) -> Res<()> {
             let s = scene.load()?;
             check_memory(&s.name, s.len(), 0, cast_rays, &c)?;
             let report = step(&format!("building {} with {}", s.name, c.builder), || {
-                c.build(&s)
+                c.run(&s)
             })?;
             let (hits, cell_report) = match &on_cell {
                 Some(cfg) => {
@@ -456,7 +458,7 @@ fn run(cli: Cli) -> Res<()> {
                 c.describe(),
                 shown(&out)
             );
-            eprintln!("settings: {}", c.settings(on_cell).line());
+            eprintln!("settings: {}", Settings::new(&c, on_cell).line());
             if let Some(r) = &cell_report {
                 eprintln!("{}", cast_args::describe(r, c.cell.spes));
                 cast_args::write_trace(&cast, r)?;
@@ -483,7 +485,7 @@ fn run(cli: Cli) -> Res<()> {
             let s = scene.load()?;
             check_memory(&s.name, s.len(), 0, cast_rays, &c)?;
             let report = step(&format!("building {} with {}", s.name, c.builder), || {
-                c.build(&s)
+                c.run(&s)
             })?;
             let cam = Camera::framing(&s.bounds(), width, height);
             let (frame, cell_report) = match &on_cell {
@@ -521,7 +523,7 @@ fn run(cli: Cli) -> Res<()> {
                     String::new()
                 }
             );
-            eprintln!("settings: {}", c.settings(on_cell).line());
+            eprintln!("settings: {}", Settings::new(&c, on_cell).line());
             if let Some(r) = &cell_report {
                 eprintln!("{}", cast_args::describe(r, c.cell.spes));
                 cast_args::write_trace(&cast, r)?;

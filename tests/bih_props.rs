@@ -6,7 +6,7 @@
 mod common;
 
 use cellbih::bih::{BihConfig, Ray, RayStats, SplitChoice, Tracer};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{Scene, Triangle};
 use cellbih::strategy::machinery::footprint::{widest_level, work_ppe_jobs};
 use common::{check_ray, make_scene, rays_for, scene_strategy};
@@ -15,7 +15,7 @@ use proptest::prelude::*;
 
 fn check_scene(scene: &Scene, cfg: &BihConfig, rays: usize) -> Result<(), TestCaseError> {
     for &b in BuilderKind::ALL {
-        let built = b.build(scene, cfg);
+        let built = Build::new(b).with_tree(*cfg).run(scene);
         if !b.builds(cfg) {
             // A builder refuses the knobs it does not build, by name.
             let e = built.err().map(|e| e.to_string()).unwrap_or_default();
@@ -104,7 +104,7 @@ fn large_random_scenes_at_every_scale() {
 fn one_triangle() {
     let s =
         Scene::from_triangles("one", vec![Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)]).unwrap();
-    let r = BuilderKind::HOST.build(&s, &BihConfig::default()).unwrap();
+    let r = Build::new(BuilderKind::HOST).run(&s).unwrap();
     r.bih.validate(&s).unwrap();
     assert_eq!(r.bih.nodes.len(), 1);
     let tracer = Tracer::new(&r.bih, &s);
@@ -121,7 +121,7 @@ fn one_triangle() {
 fn a_stack_of_identical_triangles_is_one_leaf() {
     let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
     let s = Scene::from_triangles("stack", vec![t; 1000]).unwrap();
-    let r = BuilderKind::HOST.build(&s, &BihConfig::default()).unwrap();
+    let r = Build::new(BuilderKind::HOST).run(&s).unwrap();
     r.bih.validate(&s).unwrap();
     assert_eq!(
         r.bih.nodes.len(),
@@ -150,14 +150,12 @@ fn zero_area_triangles_are_kept_and_never_hit() {
     ];
     let s = Scene::from_triangles("degenerate", tris).unwrap();
     assert_eq!(s.degenerate_count(), 2);
-    let r = BuilderKind::HOST
-        .build(
-            &s,
-            &BihConfig {
-                leaf_size: 1,
-                ..BihConfig::default()
-            },
-        )
+    let r = Build::new(BuilderKind::HOST)
+        .with_tree(BihConfig {
+            leaf_size: 1,
+            ..BihConfig::default()
+        })
+        .run(&s)
         .unwrap();
     r.bih.validate(&s).unwrap();
     let tracer = Tracer::new(&r.bih, &s);
@@ -176,7 +174,7 @@ fn zero_area_triangles_are_kept_and_never_hit() {
 #[test]
 fn axis_parallel_rays_stay_cheap() {
     let s = cellbih::scene::procedural::rtperf(20_000, 3);
-    let r = BuilderKind::HOST.build(&s, &BihConfig::default()).unwrap();
+    let r = Build::new(BuilderKind::HOST).run(&s).unwrap();
     let tracer = Tracer::new(&r.bih, &s);
     let c = (s.bounds().min + s.bounds().max).as_dvec3() * 0.5;
     for axis in 0..3 {
@@ -200,10 +198,7 @@ fn axis_parallel_rays_stay_cheap() {
 fn validate_catches_corrupt_trees() {
     use cellbih::bih::{BihNode, Violation};
     let s = make_scene(500, 0, 0, 0, 11);
-    let good = BuilderKind::HOST
-        .build(&s, &BihConfig::default())
-        .unwrap()
-        .bih;
+    let good = Build::new(BuilderKind::HOST).run(&s).unwrap().bih;
     good.validate(&s).unwrap();
     let inner = good.nodes.iter().position(|n| !n.is_leaf()).unwrap();
     let leaf = good.nodes.iter().position(|n| n.is_leaf()).unwrap();
@@ -271,10 +266,7 @@ fn a_ray_lying_in_a_face_plane_of_a_box_is_inside_it() {
         ],
     )
     .unwrap();
-    let bih = BuilderKind::HOST
-        .build(&scene, &BihConfig::default())
-        .unwrap()
-        .bih;
+    let bih = Build::new(BuilderKind::HOST).run(&scene).unwrap().bih;
     let tracer = Tracer::new(&bih, &scene);
     for dir in [DVec3::Z, DVec3::new(-0.0, 0.0, 1.0)] {
         let ray = Ray::new(DVec3::new(0.0, 0.25, 0.0), dir);
@@ -300,15 +292,16 @@ fn the_empty_space_cut_off_emits_clip_nodes_that_rays_skip() {
     let far = Vec3::splat(100.0);
     tris.push(Triangle::new(far, far + Vec3::X, far + Vec3::Y));
     let s = Scene::from_triangles("cluster and one far", tris).unwrap();
-    let paper = BuilderKind::HOST
-        .build(&s, &BihConfig::default())
-        .unwrap()
-        .bih;
+    let paper = Build::new(BuilderKind::HOST).run(&s).unwrap().bih;
     let cut = BihConfig {
         empty_cut: Some(20),
         ..BihConfig::default()
     };
-    let clipped = BuilderKind::HOST.build(&s, &cut).unwrap().bih;
+    let clipped = Build::new(BuilderKind::HOST)
+        .with_tree(cut)
+        .run(&s)
+        .unwrap()
+        .bih;
     clipped.validate(&s).unwrap();
     let clip_nodes = (clipped.nodes.iter().filter(|n| !n.is_leaf()))
         .filter(|n| n.clip().iter().any(|c| c.is_infinite()))

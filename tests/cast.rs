@@ -10,7 +10,7 @@ mod common;
 use cellbih::bih::{BihConfig, Hit, Ray, RayStats, Tracer};
 use cellbih::cast::{CacheConfig, CastConfig, CastReport, Precision, cast_on_cell};
 use cellbih::cell::{CellConfig, CostModel};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::Camera;
 use cellbih::scene::{self, Scene};
 use common::{check_ray, rays_for, scene_strategy};
@@ -45,7 +45,7 @@ fn cast(
 /// The default scene and `b`'s tree of it (the paper's settings).
 fn default_scene_tree(b: BuilderKind) -> (Scene, cellbih::registry::BuildReport) {
     let s = scene::load("default", None).unwrap();
-    let r = b.build(&s, &BihConfig::default()).unwrap();
+    let r = Build::new(b).run(&s).unwrap();
     (s, r)
 }
 
@@ -94,7 +94,7 @@ proptest! {
         let cfg = CastConfig { tile_rays, ..shaped(kib, ways, fetch_lines, rays_in_flight) };
         let rays = rays_for(&scene, 40, scene.len() as u64 + 7);
         for &b in BuilderKind::ALL {
-            let r = b.build(&scene, &BihConfig::default())
+            let r = Build::new(b).run(&scene)
                 .map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
             let want = host(&scene, &r.bih, &rays);
             let got = cast(&scene, &r.bih, &rays, &cfg, spes);
@@ -121,7 +121,7 @@ fn every_builders_tree_is_cast_as_the_host_casts_it() {
             if !b.builds(&cfg) {
                 continue;
             }
-            let r = b.build(&s, &cfg).unwrap();
+            let r = Build::new(b).with_tree(cfg).run(&s).unwrap();
             let want = host(&s, &r.bih, &rays);
             let got = cast(&s, &r.bih, &rays, &CastConfig::DEFAULT, 6);
             let differ = (got.hits.iter().zip(&want))

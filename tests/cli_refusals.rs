@@ -370,8 +370,8 @@ fn a_cast_too_big_for_the_emulated_memory_is_refused_naming_it() {
     // The default scene's host tree: enough rays that everything but the
     // nodes fits in 1 MiB, and the nodes do not.
     let s = cellbih::scene::load("default", None).unwrap();
-    let nodes = (cellbih::registry::BuilderKind::HOST)
-        .build(&s, &cellbih::bih::BihConfig::default())
+    let nodes = cellbih::registry::Build::new(cellbih::registry::BuilderKind::HOST)
+        .run(&s)
         .unwrap()
         .bih
         .nodes

@@ -77,7 +77,11 @@ fn compare_with_knobs_builds_them_where_they_are_built() {
     ]);
     assert_ok(&out);
     let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(doc["settings"], "--split sah --empty-cut 30");
+    let settings = &doc["settings"];
+    assert_eq!(settings["tree"]["split"], "sah", "{settings}");
+    assert_eq!(settings["tree"]["empty_cut"], 30, "{settings}");
+    assert_eq!(settings["cell"]["spes"], 6, "{settings}");
+    assert_eq!(settings["cell"]["model"], "measured", "{settings}");
     let cfg = cellbih::bih::BihConfig {
         split: cellbih::bih::SplitChoice::BinnedSah { bins: 16, above: 0 },
         empty_cut: Some(30),

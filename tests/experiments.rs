@@ -8,6 +8,8 @@
 
 mod common;
 
+use serde_json::json;
+
 use common::{assert_ok, run_experiment, tmp};
 
 /// `tradeoff`: every builder setting on a scene, each row with its build
@@ -614,9 +616,11 @@ fn host_scaling_builds_with_the_quality_knobs() {
     }
     let doc: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("host_scaling.json")).unwrap()).unwrap();
+    let tree = &doc["settings"]["tree"];
     assert_eq!(
-        doc["settings"],
-        "--split sah --sah-above 2000 --empty-cut 10"
+        (&tree["split"], &tree["sah_above"], &tree["empty_cut"]),
+        (&json!("sah"), &json!(2000), &json!(10)),
+        "{tree}"
     );
     let out = std::process::Command::new(&exe)
         .args(["--scenes", "default", "--sah-above", "10"])

@@ -8,8 +8,8 @@
 
 use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
-use cellbih::quality::agree::{examine, examine_with, rays_for};
-use cellbih::registry::BuilderKind;
+use cellbih::quality::agree::{examine, rays_for};
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::extremes;
 use cellbih::strategy::Knobs;
 
@@ -18,7 +18,7 @@ fn check_case(name: &str) {
     let rays = rays_for(&scene, 300, 5);
     let runs = BuilderKind::every_run(BihConfig::SAH_CUT);
     for (b, cfg) in runs {
-        let e = examine(b, &cfg, &CellConfig::ps3(), &scene, &rays);
+        let e = examine(&Build::new(b).with_tree(cfg), &scene, &rays);
         assert!(e.ok(), "{name}, {b} {cfg:?}: {e:?}");
         assert!(
             e.depth <= cfg.max_depth && e.largest_leaf >= 1,
@@ -29,7 +29,8 @@ fn check_case(name: &str) {
             b.set_knob(&mut every, "tris-per-spe", "1").unwrap();
             for spes in [1, 8] {
                 let cell = CellConfig::ps3().with_spes(spes);
-                let e = examine_with(b, (&cfg, &every), &cell, &scene, &rays);
+                let request = Build::new(b).with_tree(cfg).on(&cell).with_knobs(&every);
+                let e = examine(&request, &scene, &rays);
                 assert!(e.ok(), "{name}, {b} {cfg:?} on {spes} SPEs: {e:?}");
             }
         }

@@ -7,7 +7,7 @@
 mod common;
 
 use cellbih::bih::{BihConfig, Tracer, brute_force_closest};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::{Camera, trace};
 use cellbih::scene::{Scene, SplitMix64, Triangle};
 use cellbih::update::{Method, Move, Updater};
@@ -44,8 +44,9 @@ fn check_every_builder(scene: &Scene) -> Result<(), TestCaseError> {
     let runs = BuilderKind::every_run(BihConfig::SAH_CUT);
     for (builder, cfg) in runs {
         let fail = |e: String| TestCaseError::fail(format!("{builder}: {e}"));
-        let r = builder
-            .build(scene, &cfg)
+        let r = Build::new(builder)
+            .with_tree(cfg)
+            .run(scene)
             .map_err(|e| fail(e.to_string()))?;
         r.bih.validate(scene).map_err(|v| fail(v.to_string()))?;
         let q = r.bih.quality();
@@ -89,9 +90,7 @@ fn corners_at_plus_and_minus_3e38() {
     let scene = Scene::from_triangles("corners", vec![t(-3e38, 1e37), t(3e38, -1e37), t(0.0, 1.0)])
         .unwrap();
     check_every_builder(&scene).unwrap();
-    let host = BuilderKind::HOST
-        .build(&scene, &BihConfig::default())
-        .unwrap();
+    let host = Build::new(BuilderKind::HOST).run(&scene).unwrap();
     let tracer = Tracer::new(&host.bih, &scene);
     let frame = trace(
         &tracer,
@@ -123,7 +122,7 @@ fn the_update_handles_scenes_wider_than_f32() {
     let scene = Scene::new("wide", tris, ids, vec!["corners".into(), "small".into()]).unwrap();
     for &builder in BuilderKind::ALL {
         for method in [Method::Local, Method::Deep] {
-            let mut u = Updater::new(scene.clone(), builder, &BihConfig::default(), method)
+            let mut u = Updater::new(scene.clone(), Build::new(builder), method)
                 .unwrap_or_else(|e| panic!("{builder}: {e}"));
             for k in 0..4 {
                 let by = Vec3::new(if k % 2 == 0 { 0.25 } else { -0.25 }, 0.0, 0.0);

@@ -8,7 +8,7 @@ mod common;
 
 use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene;
 use cellbih::strategy::Knobs;
 use cellbih::strategy::machinery::footprint::{Purpose, widest_level, work_ppe_jobs};
@@ -24,7 +24,7 @@ fn every_buffer_has_a_purpose_and_the_sums_add_up() {
                 ..BihConfig::default()
             };
             for &b in BuilderKind::ALL.iter().filter(|b| b.emulated()) {
-                let r = b.build_on(&s, &cfg, &CellConfig::ps3()).unwrap();
+                let r = Build::new(b).with_tree(cfg).run(&s).unwrap();
                 let f = r.simulated.unwrap().footprint;
                 assert!(
                     f.unknown.is_empty(),
@@ -208,7 +208,7 @@ fn the_in_place_top_keeps_one_record_array_and_the_pool_fits_the_tree() {
     let mut checked = 0;
     for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
         let f = |knobs: &Knobs| {
-            let r = b.build_with(&s, s.bounds(), &BihConfig::default(), &cell, knobs);
+            let r = Build::new(b).on(&cell).with_knobs(knobs).run(&s);
             r.unwrap().simulated.unwrap().footprint
         };
         let nodes = f(&Knobs::default()).bytes(Purpose::Nodes);

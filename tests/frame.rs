@@ -5,24 +5,22 @@
 
 mod common;
 
-use cellbih::bih::{BihConfig, RayStats, Tracer};
+use cellbih::bih::{RayStats, Tracer};
 use cellbih::cast::CastConfig;
 use cellbih::cell::CellConfig;
 use cellbih::frame::{FrameConfig, FrameError, Policy, play};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::Camera;
 use cellbih::scene;
 use cellbih::update::{Animation, Method, Updater};
 use common::{assert_fails_with, assert_ok, cellbih};
 
 fn cfg(builder: &str, policy: Method, spes: usize, build_spes: usize) -> FrameConfig {
+    let b = BuilderKind::from_name(builder).unwrap();
     FrameConfig {
-        builder: BuilderKind::from_name(builder).unwrap(),
-        tree: BihConfig::default(),
-        knobs: Default::default(),
+        build: Build::new(b).on(&CellConfig::ps3().with_spes(spes)),
         policy: Policy::Fixed(policy),
         oracle: false,
-        spes,
         build_spes,
         width: 48,
         height: 36,
@@ -37,22 +35,15 @@ fn cfg(builder: &str, policy: Method, spes: usize, build_spes: usize) -> FrameCo
 fn a_frame_is_its_update_and_its_render_as_the_arrangement_says() {
     let s = scene::load("rtperf:5000:1", None).unwrap();
     let anim = Animation::named("rtperf", &s, 4, 3).unwrap();
-    let cell = CellConfig::ps3();
     for policy in [Method::Rebuild, Method::Local, Method::Deep] {
         let run = |build_spes| {
             let c = cfg("spe_bfs_private", policy, 6, build_spes);
-            play(&s, &anim, &c, &cell, |_| {}).unwrap()
+            play(&s, &anim, &c, |_| {}).unwrap()
         };
         let (all, again, paper) = (run(6), run(6), run(1));
         assert_eq!(all.frames.len(), 4);
-        let mut u = Updater::new_on(
-            s.clone(),
-            BuilderKind::from_name("spe_bfs_private").unwrap(),
-            &BihConfig::default(),
-            cell.clone().with_spes(6),
-            policy,
-        )
-        .unwrap();
+        let private = BuilderKind::from_name("spe_bfs_private").unwrap();
+        let mut u = Updater::new(s.clone(), Build::new(private), policy).unwrap();
         for (n, ((a, b), p)) in
             (all.frames.iter().zip(&again.frames).zip(&paper.frames)).enumerate()
         {
@@ -83,12 +74,9 @@ fn the_frames_cast_the_updated_tree() {
     let anim = Animation::named("car", &s, 3, 0).unwrap();
     let c = cfg("spe_bfs", Method::Local, 6, 6);
     let mut last = None;
-    let run = play(&s, &anim, &c, &CellConfig::ps3(), |f| {
-        last = Some(f.clone())
-    })
-    .unwrap();
+    let run = play(&s, &anim, &c, |f| last = Some(f.clone())).unwrap();
     assert_eq!(last.unwrap().frame, 2);
-    let (u, _) = cellbih::update::play(&s, &anim, c.builder, Method::Local).unwrap();
+    let (u, _) = cellbih::update::play(&s, &anim, &c.build, Method::Local).unwrap();
     let cam = Camera::framing(&s.bounds(), c.width, c.height);
     let t = Tracer::new(&u.bih, &u.scene);
     let mut st = RayStats::default();
@@ -108,7 +96,7 @@ fn a_frame_needs_an_emulated_builder_and_room_for_the_render() {
     let anim = Animation::named("car", &s, 1, 0).unwrap();
     let refused = |builder: &str, build_spes: usize, says: &str| {
         let c = cfg(builder, Method::Local, 6, build_spes);
-        let e = play(&s, &anim, &c, &CellConfig::ps3(), |_| {});
+        let e = play(&s, &anim, &c, |_| {});
         assert!(
             matches!(&e, Err(FrameError::Config(m)) if m.contains(says)),
             "{builder}"
@@ -219,7 +207,7 @@ fn auto_picks_near_the_best_option_and_beats_the_fixed_policies() {
             let mut c = cfg("spe_bfs_private", Method::Local, 6, build_spes);
             c.policy = Policy::Auto;
             c.oracle = true;
-            let auto = play(&s, &a, &c, &CellConfig::ps3(), |_| {}).unwrap();
+            let auto = play(&s, &a, &c, |_| {}).unwrap();
             let near = auto.near_best.unwrap();
             assert!(near >= 0.9, "{scene}, {build_spes} building: {near}");
             assert!(
@@ -230,9 +218,7 @@ fn auto_picks_near_the_best_option_and_beats_the_fixed_policies() {
             let best_fixed = (Method::ALL.iter())
                 .map(|&m| {
                     let c = cfg("spe_bfs_private", m, 6, build_spes);
-                    play(&s, &a, &c, &CellConfig::ps3(), |_| {})
-                        .unwrap()
-                        .total_ms
+                    play(&s, &a, &c, |_| {}).unwrap().total_ms
                 })
                 .fold(f64::INFINITY, f64::min);
             assert!(

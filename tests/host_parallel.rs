@@ -10,7 +10,7 @@
 mod common;
 
 use cellbih::bih::{Bih, BihConfig, SplitChoice, Tracer};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{self, Scene};
 use proptest::prelude::*;
 
@@ -62,7 +62,9 @@ fn build_in_pool(b: BuilderKind, s: &Scene, cfg: &BihConfig, threads: usize) -> 
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| b.build(s, cfg)).unwrap().bih
+    pool.install(|| Build::new(b).with_tree(*cfg).run(s))
+        .unwrap()
+        .bih
 }
 
 /// `tree` is `serial`: the same nodes, numbered alike, and each leaf the
@@ -78,7 +80,11 @@ fn same_tree(serial: &Bih, tree: &Bih) -> Result<(), String> {
 /// Every parallel builder that builds `cfg` gives the serial host
 /// builder's tree of `s`.
 fn check(s: &Scene, cfg: &BihConfig, threads: &[usize]) -> Result<(), String> {
-    let serial = BuilderKind::HOST.build(s, cfg).unwrap().bih;
+    let serial = Build::new(BuilderKind::HOST)
+        .with_tree(*cfg)
+        .run(s)
+        .unwrap()
+        .bih;
     for b in parallel().into_iter().filter(|b| b.builds(cfg)) {
         for &t in threads {
             let tree = build_in_pool(b, s, cfg, t);
@@ -92,7 +98,11 @@ fn check(s: &Scene, cfg: &BihConfig, threads: &[usize]) -> Result<(), String> {
 /// [`check`] with jobs of at most `grain` items finished by one thread,
 /// and every ray of the trees against brute force.
 fn check_grained(s: &Scene, cfg: &BihConfig, threads: usize, grain: usize) -> Result<(), String> {
-    let serial = BuilderKind::HOST.build(s, cfg).unwrap().bih;
+    let serial = Build::new(BuilderKind::HOST)
+        .with_tree(*cfg)
+        .run(s)
+        .unwrap()
+        .bih;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

@@ -8,7 +8,7 @@ mod common;
 
 use cellbih::bih::{BihConfig, Tracer};
 use cellbih::kernels::morton::{KeyOrder, build_scene};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene;
 use common::same_tree_structure;
 use proptest::prelude::*;
@@ -19,7 +19,11 @@ fn global_heuristic_keys_give_the_host_tree_on_real_scenes() {
     let cfg = BihConfig::default();
     for spec in ["default", "car", "rtperf:30000:3"] {
         let s = scene::load(spec, None).unwrap();
-        let host = BuilderKind::HOST.build(&s, &cfg).unwrap().bih;
+        let host = Build::new(BuilderKind::HOST)
+            .with_tree(cfg)
+            .run(&s)
+            .unwrap()
+            .bih;
         for bits in [32, 64] {
             let t = build_scene(&s, KeyOrder::GlobalHeuristic, bits, &cfg);
             t.validate(&s).unwrap();
@@ -44,7 +48,7 @@ proptest! {
     ) {
         let cfg = BihConfig { leaf_size: leaf, max_depth: depth, ..BihConfig::default() };
         let bits = if wide { 64 } else { 32 };
-        let host = BuilderKind::HOST.build(&scene, &cfg).unwrap().bih;
+        let host = Build::new(BuilderKind::HOST).with_tree(cfg).run(&scene).unwrap().bih;
         let gh = build_scene(&scene, KeyOrder::GlobalHeuristic, bits, &cfg);
         gh.validate(&scene).map_err(|v| TestCaseError::fail(format!("global heuristic: {v}")))?;
         same_tree_structure(&host, &gh).map_err(TestCaseError::fail)?;
@@ -85,8 +89,11 @@ fn morton_build(
 ) -> cellbih::registry::BuildReport {
     let cell = CellConfig::ps3().with_spes(spes);
     let build = || {
-        spe_morton()
-            .build_with(s, s.bounds(), cfg, &cell, knobs)
+        Build::new(spe_morton())
+            .with_tree(*cfg)
+            .on(&cell)
+            .with_knobs(knobs)
+            .run(s)
             .unwrap_or_else(|e| panic!("{what}: {e}"))
     };
     let r = build();
@@ -105,7 +112,10 @@ fn spe_morton_builds_the_baseline_tree_at_the_ends_of_its_region_size() {
     let cfg = BihConfig::default();
     for spec in ["default", "car", "rtperf:30000:3"] {
         let s = scene::load(spec, None).unwrap();
-        let base = BuilderKind::SPE_BFS.build(&s, &cfg).unwrap();
+        let base = Build::new(BuilderKind::SPE_BFS)
+            .with_tree(cfg)
+            .run(&s)
+            .unwrap();
         for regions in ["64", "100000000"] {
             let k = knobs(&[("region-size", regions)]);
             for spes in [1, 3, 8] {

@@ -9,7 +9,7 @@ mod common;
 
 use cellbih::bih::{BihConfig, SplitChoice, Tracer};
 use cellbih::cell::CellConfig;
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::{Kind, Knobs};
 use common::same_tree_structure;
@@ -47,10 +47,20 @@ fn check_build(
     what: &str,
 ) -> u64 {
     let cell = CellConfig::ps3().with_spes(spes);
-    let build = || b.build_with(s, s.bounds(), cfg, &cell, knobs).unwrap();
+    let build = || {
+        Build::new(b)
+            .with_tree(*cfg)
+            .on(&cell)
+            .with_knobs(knobs)
+            .run(s)
+            .unwrap()
+    };
     let r = build();
     r.bih.validate(s).unwrap_or_else(|v| panic!("{what}: {v}"));
-    let base = BuilderKind::SPE_BFS.build(s, cfg).unwrap();
+    let base = Build::new(BuilderKind::SPE_BFS)
+        .with_tree(*cfg)
+        .run(s)
+        .unwrap();
     if !knobs.change_the_tree() {
         same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{what}: {e}"));
     }
@@ -60,8 +70,13 @@ fn check_build(
         // The SPEs the builder used (a small scene uses fewer).
         let used = a.spe_work.len();
         assert!(used >= 1 && used <= spes, "{what}: {used} SPEs used");
+        // The strategy's own count is the SPEs that worked; the rest idle.
+        assert_eq!(a.spes_used, used, "{what}");
         for (name, c) in &a.run.cores[1..=used] {
             assert!(c.busy.0 > 0, "{what}: {name} did nothing");
+        }
+        for (name, c) in &a.run.cores[used + 1..] {
+            assert_eq!(c.busy.0, 0, "{what}: {name} worked but is not counted");
         }
         let base_cycles = base.simulated.unwrap().run.cycles;
         assert!(
@@ -140,14 +155,24 @@ fn every_multi_spe_builder_builds_the_baseline_tree_on_1_to_8_spes_with_every_kn
 fn twelve_and_sixteen_spes_build_the_baseline_tree() {
     let s = scene::load("rtperf:60000:2", None).unwrap();
     let cfg = BihConfig::default();
-    let base = BuilderKind::SPE_BFS.build(&s, &cfg).unwrap();
+    let base = Build::new(BuilderKind::SPE_BFS)
+        .with_tree(cfg)
+        .run(&s)
+        .unwrap();
     for b in multi_spe() {
         for knobs in [Knobs::default(), b.sweeps().pop().unwrap()] {
             let mut mem_wait = Vec::new();
             for spes in [8, 12, 16] {
                 let what = format!("{b} {} on {spes} SPEs", knobs.spelled());
                 let cell = CellConfig::ps3().with_spes(spes);
-                let build = || b.build_with(&s, s.bounds(), &cfg, &cell, &knobs).unwrap();
+                let build = || {
+                    Build::new(b)
+                        .with_tree(cfg)
+                        .on(&cell)
+                        .with_knobs(&knobs)
+                        .run(&s)
+                        .unwrap()
+                };
                 let r = build();
                 r.bih.validate(&s).unwrap_or_else(|v| panic!("{what}: {v}"));
                 if !knobs.change_the_tree() {
@@ -187,7 +212,7 @@ fn host_threads_change_nothing() {
         // Its last sweep setting: the most knobs at once.
         let knobs = b.sweeps().pop().unwrap();
         let build = || {
-            let r = b.build_with(&s, s.bounds(), &BihConfig::default(), &cell, &knobs);
+            let r = Build::new(b).on(&cell).with_knobs(&knobs).run(&s);
             let r = r.unwrap();
             let sim = r.simulated.unwrap();
             (
@@ -283,9 +308,14 @@ fn a_take_larger_than_work_a_is_refused() {
         let mut knobs = Knobs::default();
         b.set_knob(&mut knobs, "agglomerate", "129").unwrap();
         let cell = CellConfig::ps3();
-        let e = (b.build_with(&s, s.bounds(), &cut, &cell, &knobs)).unwrap_err();
+        let e = (Build::new(b)
+            .with_tree(cut)
+            .on(&cell)
+            .with_knobs(&knobs)
+            .run(&s))
+        .unwrap_err();
         assert!(e.to_string().contains("--agglomerate 129"), "{e}");
-        let paper = b.build_with(&s, s.bounds(), &BihConfig::default(), &cell, &knobs);
+        let paper = Build::new(b).on(&cell).with_knobs(&knobs).run(&s);
         assert!(paper.is_ok(), "64-byte jobs: 256 fit");
         checked += 1;
     }
@@ -306,12 +336,15 @@ fn the_job_queue_cache_reads_the_same_jobs_and_is_emptied_every_level() {
     let users = (BuilderKind::ALL.iter()).filter(|b| b.knob("job-cache").is_ok());
     let mut checked = 0;
     for &b in users {
-        let plain = b
-            .build_with(&s, s.bounds(), &cfg, &cell, &Knobs::default())
-            .unwrap();
+        let plain = Build::new(b).with_tree(cfg).on(&cell).run(&s).unwrap();
         let mut knobs = Knobs::default();
         b.set_knob(&mut knobs, "job-cache", "4").unwrap();
-        let cached = b.build_with(&s, s.bounds(), &cfg, &cell, &knobs).unwrap();
+        let cached = Build::new(b)
+            .with_tree(cfg)
+            .on(&cell)
+            .with_knobs(&knobs)
+            .run(&s)
+            .unwrap();
         assert_eq!(plain.bih.nodes, cached.bih.nodes, "{b}");
         assert_eq!(plain.bih.prim_ids, cached.bih.prim_ids, "{b}");
         let work = &cached.simulated.as_ref().unwrap().spe_work;
@@ -338,8 +371,11 @@ fn the_job_queue_cache_reads_the_same_jobs_and_is_emptied_every_level() {
         if b.knob("double-buffer").is_ok() {
             b.set_knob(&mut knobs, "double-buffer", "").unwrap();
         }
-        let e = b
-            .build_with(&s, s.bounds(), &cfg, &cell, &knobs)
+        let e = Build::new(b)
+            .with_tree(cfg)
+            .on(&cell)
+            .with_knobs(&knobs)
+            .run(&s)
             .unwrap_err();
         assert!(e.to_string().contains("--job-cache 32"), "{b}: {e}");
         checked += 1;
@@ -399,12 +435,11 @@ proptest! {
         let cfg = b.quality().reach(&cfg);
         let cell = CellConfig::ps3().with_spes(spes);
         let fail = |e: String| TestCaseError::fail(format!("{b} {} {} on {spes} SPEs: {e}", knobs.spelled(), cfg.flags()));
-        let r = b
-            .build_with(&scene, scene.bounds(), &cfg, &cell, &knobs)
+        let r = Build::new(b).with_tree(cfg).on(&cell).with_knobs(&knobs).run(&scene)
             .map_err(|e| fail(e.to_string()))?;
         r.bih.validate(&scene).map_err(|v| fail(v.to_string()))?;
         if !knobs.change_the_tree() {
-            let base = BuilderKind::SPE_BFS.build(&scene, &cfg).unwrap();
+            let base = Build::new(BuilderKind::SPE_BFS).with_tree(cfg).run(&scene).unwrap();
             same_tree_structure(&base.bih, &r.bih).map_err(fail)?;
         }
         let tracer = Tracer::new(&r.bih, &scene);
@@ -425,7 +460,7 @@ fn every_phase_of_a_phased_build_runs_on_every_spe() {
     let cfg = BihConfig::default();
     let durations = |b: BuilderKind, spes: usize| {
         let cell = CellConfig::ps3().with_spes(spes);
-        let r = b.build_with(&s, s.bounds(), &cfg, &cell, &Knobs::default());
+        let r = Build::new(b).with_tree(cfg).on(&cell).run(&s);
         let phases = r.unwrap().simulated.unwrap().phases;
         let mut start = 0;
         (phases.iter())
@@ -482,7 +517,12 @@ fn a_split_top_keeps_the_spes_from_waiting_on_a_crowded_scene() {
             let what = format!("{b} --top-end {end}");
             let cycles = check_build(b, &s, 8, (&knobs, &cfg), &what);
             let cell = CellConfig::ps3().with_spes(8);
-            let r = b.build_with(&s, s.bounds(), &cfg, &cell, &knobs).unwrap();
+            let r = Build::new(b)
+                .with_tree(cfg)
+                .on(&cell)
+                .with_knobs(&knobs)
+                .run(&s)
+                .unwrap();
             let run = r.simulated.unwrap().run;
             let waiting: u64 = (run.cores.iter())
                 .filter(|(name, _)| name.starts_with("SPE"))

@@ -10,9 +10,9 @@
 
 mod common;
 
-use cellbih::bih::{BihConfig, Tracer};
+use cellbih::bih::Tracer;
 use cellbih::cell::CellConfig;
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{self, DATA_ENV};
 use cellbih::strategy::Knobs;
 use common::{check_ray, rays_for};
@@ -58,8 +58,8 @@ fn check_mesh(
         .into());
     }
     for &b in BuilderKind::ALL {
-        let r = b
-            .build(&s, &BihConfig::default())
+        let r = Build::new(b)
+            .run(&s)
             .map_err(|e| format!("{name} / {b}: {e}"))?;
         r.bih
             .validate(&s)
@@ -76,8 +76,10 @@ fn check_mesh(
             };
             for k in b.knobs().iter().filter(|k| k.is_flag()) {
                 let knobs = Knobs::default().with(k, "").unwrap();
-                let f = b
-                    .build_with(&s, s.bounds(), &BihConfig::default(), &cell, &knobs)
+                let f = Build::new(b)
+                    .on(&cell)
+                    .with_knobs(&knobs)
+                    .run(&s)
                     .map_err(|e| format!("{name} / {b} --{}: {e}", k.name))?;
                 f.bih
                     .validate(&s)

@@ -129,3 +129,93 @@ fn casts_name_their_settings() {
         "{err}"
     );
 }
+
+/// `compare` names what its builders share: two runs on different Cells
+/// print two settings lines and two `settings` objects.
+#[test]
+fn compare_names_its_settings() {
+    let a = ["compare", "--scene", "rtperf:3000", "--max-depth", "4"];
+    let b = [&a[..], &["--spes", "3"]].concat();
+    let line = |args: &[&str]| -> String {
+        let text = stdout(&cellbih(args));
+        let from = text.find("settings: ").expect(&text);
+        text[from..]
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let (la, lb) = (line(&a), line(&b));
+    assert!(
+        la.contains("--spes 6") && lb.contains("--spes 3"),
+        "{la}\n{lb}"
+    );
+    assert!(la.contains("tree --max-depth 4"), "{la}");
+    let (ja, jb) = (json(&a), json(&b));
+    assert_eq!(ja["settings"]["cell"]["spes"], 6);
+    assert_eq!(jb["settings"]["cell"]["spes"], 3);
+    assert_eq!(ja["settings"]["tree"]["max_depth"], 4);
+}
+
+/// Every family of settings `build` takes — a strategy knob, the tree, the
+/// emulated Cell — changes `update`'s simulated time as it changes
+/// `build`'s, and its settings name it.
+#[test]
+fn update_honours_every_family_of_settings() {
+    let run = |cmd: &str, extra: &[&str]| -> (f64, serde_json::Value) {
+        let mut args = vec![cmd, "--builder", "spe_morton", "--scene", "rtperf:4000"];
+        if cmd == "update" {
+            args.extend(["--strategy", "rebuild", "--animation", "rtperf"]);
+            args.extend(["--frames", "1"]);
+        }
+        args.extend(extra);
+        let v = json(&args);
+        let ms = match cmd {
+            "update" => v["frames"][0]["simulated_ms"].as_f64(),
+            _ => v["simulated_ms"].as_f64(),
+        };
+        (ms.unwrap(), v["settings"].clone())
+    };
+    let families: [(&[&str], &str, serde_json::Value); 3] = [
+        (&["--key-bits", "64"], "/knobs/key-bits", "64".into()),
+        (&["--leaf-size", "2"], "/tree/leaf_size", 2.into()),
+        (&["--model", "legacy"], "/cell/model", "legacy".into()),
+    ];
+    let (plain_update, _) = run("update", &[]);
+    let (plain_build, _) = run("build", &[]);
+    for (extra, pointer, value) in families {
+        let (update, settings) = run("update", extra);
+        let (build, _) = run("build", extra);
+        assert_ne!(build, plain_build, "{extra:?} changes nothing in build");
+        assert_ne!(update, plain_update, "update ignored {extra:?}");
+        assert_eq!(settings.pointer(pointer), Some(&value), "{settings}");
+    }
+}
+
+/// A library caller's request is carried whole: for every emulated builder
+/// and every knob setting its table sweeps, an update's complete rebuild
+/// costs what the same request's build of the moved scene costs.
+#[test]
+fn an_update_rebuilds_with_the_whole_request() {
+    use cellbih::registry::{Build, BuilderKind};
+    use cellbih::update::{Animation, Method, Updater};
+    let s = cellbih::scene::load("rtperf:3000:4", None).unwrap();
+    let anim = Animation::named("rtperf", &s, 1, 2).unwrap();
+    let mut checked = 0;
+    for &b in BuilderKind::ALL.iter().filter(|b| b.emulated()) {
+        for knobs in b.sweeps() {
+            let cell = cellbih::cell::CellConfig::ps3().with_spes(3);
+            let request = Build::new(b).on(&cell).with_knobs(&knobs);
+            let mut u = Updater::new(s.clone(), request.clone(), Method::Rebuild).unwrap();
+            let r = u.step(&anim.frames[0]).unwrap();
+            let fresh = request.run(&u.scene).unwrap().simulated.unwrap();
+            assert_eq!(
+                r.simulated_ms,
+                Some(fresh.run.ms),
+                "{b} {}",
+                knobs.spelled()
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > BuilderKind::ALL.len(), "{checked} requests");
+}

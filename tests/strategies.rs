@@ -8,7 +8,7 @@
 mod common;
 
 use cellbih::bih::{Bih, BihConfig, SplitChoice};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene;
 
 #[test]
@@ -22,10 +22,8 @@ fn ppe_naive_builds_the_host_tree() {
         common::make_scene(2000, -15, 0, 3, 5),
     ];
     for s in &scenes {
-        let host = BuilderKind::HOST.build(s, &BihConfig::default()).unwrap();
-        let ppe = BuilderKind::PPE_NAIVE
-            .build(s, &BihConfig::default())
-            .unwrap();
+        let host = Build::new(BuilderKind::HOST).run(s).unwrap();
+        let ppe = Build::new(BuilderKind::PPE_NAIVE).run(s).unwrap();
         assert_eq!(ppe.bih, host.bih, "{}", s.name);
         let sim = ppe.simulated.expect("an emulated build reports its run");
         assert!(sim.run.cycles.0 > 0);
@@ -108,8 +106,11 @@ fn spe_dfs_builds_the_host_tree_with_the_partitions_on_an_spe() {
     .iter()
     .flat_map(|s| SETTINGS.map(|c| (s, c)))
     {
-        let host = BuilderKind::HOST.build(s, &cfg).unwrap();
-        let dfs = BuilderKind::SPE_DFS.build(s, &cfg).unwrap();
+        let host = Build::new(BuilderKind::HOST).with_tree(cfg).run(s).unwrap();
+        let dfs = Build::new(BuilderKind::SPE_DFS)
+            .with_tree(cfg)
+            .run(s)
+            .unwrap();
         same_tree_up_to_leaf_order(&dfs.bih, &host.bih)
             .unwrap_or_else(|e| panic!("{} {cfg:?}: {e}", s.name));
         let sim = dfs.simulated.as_ref().unwrap();
@@ -153,8 +154,11 @@ fn spe_bfs_builds_the_host_tree_breadth_first() {
     .iter()
     .flat_map(|s| SETTINGS.map(|c| (s, c)))
     {
-        let host = BuilderKind::HOST.build(s, &cfg).unwrap();
-        let bfs = BuilderKind::SPE_BFS.build(s, &cfg).unwrap();
+        let host = Build::new(BuilderKind::HOST).with_tree(cfg).run(s).unwrap();
+        let bfs = Build::new(BuilderKind::SPE_BFS)
+            .with_tree(cfg)
+            .run(s)
+            .unwrap();
         common::same_tree_structure(&bfs.bih, &host.bih)
             .unwrap_or_else(|e| panic!("{} {cfg:?}: {e}", s.name));
         // Breadth first: a node's children come after every node of its level.
@@ -215,7 +219,7 @@ fn an_emulated_build_gives_the_same_cycles_and_tree_every_run() {
     );
     assert!(runs.iter().any(|(b, c)| b.emulated() && *c == above));
     for (b, cfg) in runs.into_iter().filter(|(b, _)| b.emulated()) {
-        let run = || b.build(&s, &cfg).unwrap();
+        let run = || Build::new(b).with_tree(cfg).run(&s).unwrap();
         let (x, y) = (run(), run());
         assert_eq!(x.bih, y.bih, "{}", b.name());
         let (x, y) = (x.simulated.unwrap(), y.simulated.unwrap());
@@ -234,9 +238,7 @@ fn an_emulated_build_gives_the_same_cycles_and_tree_every_run() {
 #[test]
 fn ppe_naive_time_is_kernels_plus_traffic() {
     let s = scene::load("car", None).unwrap();
-    let r = BuilderKind::PPE_NAIVE
-        .build(&s, &BihConfig::default())
-        .unwrap();
+    let r = Build::new(BuilderKind::PPE_NAIVE).run(&s).unwrap();
     let sim = r.simulated.unwrap();
     let k = cellbih::cell::CostModel::ps3();
     let r = cellbih::kernels::rates::KernelRates::PS3;
@@ -259,8 +261,14 @@ fn ppe_approx_sorts_buckets_then_finishes_naively_for_fewer_cycles() {
         scene::load("car", None).unwrap(),
     ] {
         let cfg = BihConfig::default();
-        let naive = BuilderKind::PPE_NAIVE.build(&s, &cfg).unwrap();
-        let approx = BuilderKind::PPE_APPROX.build(&s, &cfg).unwrap();
+        let naive = Build::new(BuilderKind::PPE_NAIVE)
+            .with_tree(cfg)
+            .run(&s)
+            .unwrap();
+        let approx = Build::new(BuilderKind::PPE_APPROX)
+            .with_tree(cfg)
+            .run(&s)
+            .unwrap();
         approx.bih.validate(&s).unwrap();
         assert_ne!(
             approx.bih, naive.bih,
@@ -455,7 +463,7 @@ fn every_knob_table_states_its_range_and_each_sweep_value_moves_its_builders() {
         // --region-size 8192 --double-buffer fills a local store): no
         // result, not a candidate.
         let run = |s: &scene::Scene, k: &Knobs| {
-            let r = (b.build_with(s, s.bounds(), &BihConfig::default(), &cell, k)).ok()?;
+            let r = (Build::new(b).on(&cell).with_knobs(k).run(s)).ok()?;
             Some((r.simulated.unwrap().run.cycles, r.bih.nodes, r.bih.prim_ids))
         };
         for &k in b.knobs() {

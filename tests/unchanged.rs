@@ -16,7 +16,7 @@ use std::collections::BTreeMap;
 
 use cellbih::bih::{Bih, BihConfig, SplitChoice};
 use cellbih::cell::{CellConfig, CostModel};
-use cellbih::registry::{BuildReport, BuilderKind};
+use cellbih::registry::{Build, BuildReport, BuilderKind};
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
 
@@ -59,7 +59,7 @@ fn runs(cost: &CostModel) -> BTreeMap<String, String> {
     let build = |s: &Scene, b: BuilderKind, cfg: &BihConfig, spes: usize, k: &Knobs| {
         let mut cell = CellConfig::ps3().with_spes(spes);
         cell.cost = cost.clone();
-        let run = || b.build_with(s, s.bounds(), cfg, &cell, k);
+        let run = || Build::new(b).with_tree(*cfg).on(&cell).with_knobs(k).run(s);
         match b.host_threads() {
             true => two.install(run),
             false => run(),

@@ -112,7 +112,7 @@ fn animations_are_deterministic_and_move_like_the_papers() {
 mod common;
 
 use cellbih::bih::{BihConfig, SplitChoice, Tracer};
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{Scene, SplitMix64, Triangle};
 use cellbih::update::{Method, Stop, Updater};
 use common::{check_ray, rays_for};
@@ -200,7 +200,7 @@ proptest! {
         let cfg = BihConfig { leaf_size: leaf, split, empty_cut, ..BihConfig::default() };
         let scale = 10f32.powi(exp);
         for &method in Method::ALL {
-            let mut u = Updater::new(scene.clone(), BuilderKind::HOST, &cfg, method).unwrap();
+            let mut u = Updater::new(scene.clone(), Build::new(BuilderKind::HOST).with_tree(cfg), method).unwrap();
             u.deep_stop_below = (seed % 3) as usize * 8;
             let mut rng = SplitMix64::new(seed ^ 0x5eed);
             for f in 0..6 {
@@ -220,13 +220,7 @@ proptest! {
 fn an_empty_update_changes_nothing_and_a_marked_one_keeps_the_answers() {
     let scene = cluster_scene(30, 0, 3);
     for &method in Method::ALL {
-        let mut u = Updater::new(
-            scene.clone(),
-            BuilderKind::HOST,
-            &BihConfig::default(),
-            method,
-        )
-        .unwrap();
+        let mut u = Updater::new(scene.clone(), Build::new(BuilderKind::HOST), method).unwrap();
         let before = u.bih.clone();
         let r = u.step(&[]).unwrap();
         assert_eq!(u.bih, before);
@@ -246,8 +240,18 @@ fn algorithm_1_narrows_to_a_small_interval_and_deep_rebuilds_no_more() {
     let scene = cellbih::scene::load("rtperf:20000:3", None).unwrap();
     let anim = Animation::named("rtperf", &scene, 30, 1).unwrap();
     let cfg = BihConfig::default();
-    let mut local = Updater::new(scene.clone(), BuilderKind::HOST, &cfg, Method::Local).unwrap();
-    let mut deep = Updater::new(scene.clone(), BuilderKind::HOST, &cfg, Method::Deep).unwrap();
+    let mut local = Updater::new(
+        scene.clone(),
+        Build::new(BuilderKind::HOST).with_tree(cfg),
+        Method::Local,
+    )
+    .unwrap();
+    let mut deep = Updater::new(
+        scene.clone(),
+        Build::new(BuilderKind::HOST).with_tree(cfg),
+        Method::Deep,
+    )
+    .unwrap();
     let (mut l_sum, mut d_sum, mut partial) = (0, 0, 0);
     for f in &anim.frames {
         let (l, d) = (local.step(f).unwrap(), deep.step(f).unwrap());
@@ -275,7 +279,7 @@ fn algorithm_1_narrows_to_a_small_interval_and_deep_rebuilds_no_more() {
 #[test]
 fn a_move_that_grows_the_scene_box_rebuilds_everything() {
     let cup = cellbih::scene::load("cup", None).unwrap();
-    let mut u = Updater::new(cup, BuilderKind::HOST, &BihConfig::default(), Method::Local).unwrap();
+    let mut u = Updater::new(cup, Build::new(BuilderKind::HOST), Method::Local).unwrap();
     let r = u.step(&[Move::translate(0, Vec3::X * 0.05)]).unwrap();
     assert!(r.full_rebuild && r.rebuilt == 7040 && r.stop.is_none());
     // Marked only: the whole glass is the EBB, the root the enclosing node.
@@ -294,8 +298,18 @@ fn an_emulated_builder_rebuilds_the_interval_on_the_cell() {
     let anim = Animation::named("car", &scene, 6, 0).unwrap();
     let cfg = BihConfig::default();
     for method in [Method::Local, Method::Deep] {
-        let mut host = Updater::new(scene.clone(), BuilderKind::HOST, &cfg, method).unwrap();
-        let mut cell = Updater::new(scene.clone(), BuilderKind::PPE_NAIVE, &cfg, method).unwrap();
+        let mut host = Updater::new(
+            scene.clone(),
+            Build::new(BuilderKind::HOST).with_tree(cfg),
+            method,
+        )
+        .unwrap();
+        let mut cell = Updater::new(
+            scene.clone(),
+            Build::new(BuilderKind::PPE_NAIVE).with_tree(cfg),
+            method,
+        )
+        .unwrap();
         for f in &anim.frames {
             let (h, c) = (host.step(f).unwrap(), cell.step(f).unwrap());
             assert_eq!(h.rebuilt, c.rebuilt);
@@ -309,13 +323,7 @@ fn an_emulated_builder_rebuilds_the_interval_on_the_cell() {
 #[test]
 fn a_bad_move_leaves_the_updater_as_it_was() {
     let scene = cluster_scene(10, 0, 9);
-    let mut u = Updater::new(
-        scene.clone(),
-        BuilderKind::HOST,
-        &BihConfig::default(),
-        Method::Local,
-    )
-    .unwrap();
+    let mut u = Updater::new(scene.clone(), Build::new(BuilderKind::HOST), Method::Local).unwrap();
     let before = u.bih.clone();
     let blow_up = Move {
         geometry: 3,
@@ -335,14 +343,8 @@ fn a_bad_move_leaves_the_updater_as_it_was() {
 fn a_builder_error_puts_the_scene_back_and_keeps_a_valid_tree() {
     let scene = cluster_scene(20, 0, 11);
     for method in [Method::Local, Method::Deep, Method::Rebuild] {
-        let mut u = Updater::new(
-            scene.clone(),
-            BuilderKind::SPE_BFS,
-            &BihConfig::default(),
-            method,
-        )
-        .unwrap();
-        u.cell.spes = 0; // the next emulated build cannot start
+        let mut u = Updater::new(scene.clone(), Build::new(BuilderKind::SPE_BFS), method).unwrap();
+        u.build.cell.spes = 0; // the next emulated build cannot start
         let e = u.step(&[Move::translate(2, Vec3::splat(0.5))]).unwrap_err();
         assert!(e.to_string().contains("SPEs"), "{e}");
         assert_eq!(u.scene.triangles, scene.triangles);
@@ -375,8 +377,7 @@ fn a_mesh_with_a_moving_part_plays_and_plans_ahead() {
     assert!(e.contains("Animation::prepare"), "{e}");
     let anim = Animation::named("part", &p, 6, 0).unwrap();
     for &method in Method::ALL {
-        let mut u =
-            Updater::new(p.clone(), BuilderKind::HOST, &BihConfig::default(), method).unwrap();
+        let mut u = Updater::new(p.clone(), Build::new(BuilderKind::HOST), method).unwrap();
         for (f, moves) in anim.frames.iter().enumerate() {
             let plan = u.plan(moves).unwrap();
             let before = (u.scene.triangles.clone(), u.bih.nodes.clone());

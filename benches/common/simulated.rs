@@ -7,9 +7,8 @@
 use std::cell::Cell;
 use std::hint::black_box;
 
-use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
-use cellbih::registry::BuilderKind;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
 use criterion::Throughput;
@@ -23,14 +22,10 @@ thread_local! {
 /// Builds `scene` with `method` on `cell` with `knobs` and advances the
 /// simulated clock by the build's simulated time.
 pub fn build(method: BuilderKind, scene: &Scene, cell: &CellConfig, knobs: &Knobs) {
-    let r = method
-        .build_with(
-            black_box(scene),
-            scene.bounds(),
-            &BihConfig::default(),
-            cell,
-            knobs,
-        )
+    let r = Build::new(method)
+        .on(cell)
+        .with_knobs(knobs)
+        .run_in(black_box(scene), scene.bounds())
         .unwrap();
     let ms = r.simulated.expect("an emulated builder").run.ms;
     SIMULATED_NS.with(|c| c.set(c.get() + ms * 1e6));

@@ -5,12 +5,8 @@
 
 use clap::ValueEnum;
 
-use cellbih::bih::BihConfig;
-use cellbih::cast::CastConfig;
 use cellbih::cell::CellConfig;
-use cellbih::registry::{BuildReport, BuilderKind};
-use cellbih::report::{CellSettings, Settings};
-use cellbih::scene::Scene;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::strategy::{Knob, Knobs};
 
 pub use cellbih::report::TreeArgs;
@@ -84,76 +80,10 @@ pub enum Mailboxes {
     Ps3Kernel,
 }
 
-/// What `--builder` and its options ask for.
-pub struct Chosen {
-    pub builder: BuilderKind,
-    pub cfg: BihConfig,
-    pub cell: CellConfig,
-    pub knobs: Knobs,
-    /// `--threads`, for a builder that builds on the host's cores.
-    pub threads: Option<usize>,
-    /// The emulated Cell as the options name it, where something runs on
-    /// it (an emulated builder, or a cast on the Cell).
-    pub cell_named: Option<CellSettings>,
-}
-
-impl Chosen {
-    /// The settings of this build, with `cast` the cast on the Cell if
-    /// there is one: what every report names.
-    pub fn settings(&self, cast: Option<CastConfig>) -> Settings<'_> {
-        Settings {
-            builder: self.builder,
-            knobs: &self.knobs,
-            tree: &self.cfg,
-            cell: self.cell_named,
-            threads: self.threads,
-            cast,
-        }
-    }
-
-    pub fn build(&self, s: &Scene) -> Res<BuildReport> {
-        self.install(|| {
-            Ok(self
-                .builder
-                .build_with(s, s.bounds(), &self.cfg, &self.cell, &self.knobs)?)
-        })
-    }
-
-    /// Runs `work` on the builder's `--threads` (a pool of that many), or
-    /// on the current pool for a builder that builds on one thread.
-    pub fn install<T: Send>(&self, work: impl FnOnce() -> Res<T> + Send) -> Res<T> {
-        match self.threads {
-            Some(n) => rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build()
-                .map_err(|e| format!("--threads {n}: {e}"))?
-                .install(|| work().map_err(|e| e.to_string()))
-                .map_err(Into::into),
-            None => work(),
-        }
-    }
-
-    /// "builder B" and, for an emulated one, "on N SPEs".
-    pub fn describe(&self) -> String {
-        if self.builder.emulated() {
-            format!(
-                "builder {} on {}",
-                self.builder,
-                super::spes(self.cell.spes)
-            )
-        } else if let Some(n) = self.threads {
-            let s = if n == 1 { "" } else { "s" };
-            format!("builder {} on {n} host thread{s}", self.builder)
-        } else {
-            format!("builder {}", self.builder)
-        }
-    }
-}
-
 /// What the options ask for, with `host` where `--builder` is not given;
 /// `casts_on_cell`: whether the command uses the emulated Cell whatever
 /// builds the tree (`--on-cell`).
-pub fn parse_build(args: &BuildArgs, casts_on_cell: bool) -> Res<Chosen> {
+pub fn parse_build(args: &BuildArgs, casts_on_cell: bool) -> Res<Build> {
     parse_build_or(args, BuilderKind::HOST, casts_on_cell)
 }
 
@@ -176,7 +106,7 @@ impl BuildArgs {
 /// What the options ask for, with `default` where `--builder` is not given;
 /// an option of the emulated Cell where nothing runs on it (a host builder,
 /// no cast on the Cell) is an error that names it.
-pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: bool) -> Res<Chosen> {
+pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: bool) -> Res<Build> {
     let builder = match &args.builder {
         None => default,
         Some(name) => BuilderKind::from_name(name).ok_or_else(|| {
@@ -197,7 +127,6 @@ pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: boo
         .into());
     }
     let mode = args.mode.unwrap_or(Mode::Checked);
-    let cfg = args.tree.config()?;
     let mut cell = CellConfig::ps3().with_spes(args.spes.unwrap_or(6) as usize);
     cell.main_memory_bytes = args.memory_mib.unwrap_or(256) * 1024 * 1024;
     cell.checked = matches!(mode, Mode::Checked);
@@ -222,48 +151,17 @@ pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: boo
     for (name, value) in &args.knobs.given {
         builder.set_knob(&mut knobs, name, value)?;
     }
-    let threads = match (args.threads, builder.host_threads()) {
-        (Some(_), false) => {
-            let with: Vec<&str> = (BuilderKind::ALL.iter())
-                .filter(|b| b.host_threads())
-                .map(|b| b.name())
-                .collect();
-            return Err(format!(
-                "--threads: builder {builder} builds on one thread; the builders that take it: {}",
-                with.join(", ")
-            )
-            .into());
-        }
-        (Some(n), true) => Some(n as usize),
-        (None, true) => Some(std::thread::available_parallelism().map_or(1, |n| n.get())),
-        (None, false) => None,
-    };
-    let timed = !matches!(mode, Mode::Functional);
-    let cell_named = (builder.emulated() || casts_on_cell).then(|| CellSettings {
-        spes: cell.spes,
-        memory_mib: cell.main_memory_bytes >> 20,
-        mode: match mode {
-            Mode::Checked => "checked",
-            Mode::Timed => "timed",
-            Mode::Functional => "functional",
-        },
-        model: timed.then_some(match args.model.unwrap_or(MachineModel::Measured) {
-            MachineModel::Legacy => "legacy",
-            MachineModel::Measured => "measured",
-        }),
-        mailboxes: timed.then_some(match args.mailboxes.unwrap_or(Mailboxes::Raw) {
-            Mailboxes::Raw => "raw",
-            Mailboxes::Ps3Kernel => "ps3-kernel",
-        }),
-    });
-    Ok(Chosen {
-        builder,
-        cfg,
-        cell,
-        knobs,
-        threads,
-        cell_named,
-    })
+    let mut build = Build::new(builder)
+        .with_tree(args.tree.config()?)
+        .on(&cell)
+        .with_knobs(&knobs);
+    if let Some(n) = args.threads {
+        build = build.on_threads(n as usize);
+    } else if builder.host_threads() {
+        build = build.on_threads(std::thread::available_parallelism().map_or(1, |n| n.get()));
+    }
+    build.check()?;
+    Ok(build)
 }
 
 /// The options of every strategy knob of the registry (`--NAME` for a

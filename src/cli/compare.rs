@@ -10,14 +10,13 @@ use std::path::Path;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
-use cellbih::bih::{BihConfig, Tracer};
+use cellbih::bih::Tracer;
 use cellbih::cast::{CastConfig, cast_on_cell};
-use cellbih::cell::CellConfig;
 use cellbih::quality::rays::{RayCost, RaySets};
-use cellbih::registry::{BuildReport, BuilderKind};
+use cellbih::registry::{Build, BuildReport, BuilderKind};
 use cellbih::render::Camera;
+use cellbih::report::Settings;
 use cellbih::scene::Scene;
-use cellbih::strategy::Knobs;
 
 use super::Format;
 
@@ -67,16 +66,13 @@ pub struct Compared {
     pub last: Option<BuildReport>,
 }
 
-/// Builds `s` with `cfg` by every builder that builds it on a Cell of
-/// `cell`, checks each tree and casts the standard ray sets ([`RaySets`])
+/// Builds `s` as `shared` asks (its tree, Cell and host threads) by every
+/// builder that builds that tree, with its default knobs, checks each tree and casts the standard ray sets ([`RaySets`])
 /// through it. A builder that fails (a build that does not fit the
 /// emulated memory, say) is a failure named by builder, and the others go
 /// on. Progress on stderr when it is a terminal.
-pub fn rows(
-    s: &Scene,
-    cell: &CellConfig,
-    cfg: &BihConfig,
-) -> Result<Compared, Box<dyn std::error::Error>> {
+pub fn rows(s: &Scene, shared: &Build) -> Result<Compared, Box<dyn std::error::Error>> {
+    let (cfg, cell) = (&shared.tree, &shared.cell);
     let builders: Vec<BuilderKind> = (BuilderKind::ALL.iter().copied())
         .filter(|b| b.builds(cfg))
         .collect();
@@ -101,7 +97,7 @@ pub fn rows(
         bar.set_message(b.name());
         let mut built = None;
         quietly(&format!("building with {b}"), &mut || {
-            built = Some(b.build_with(s, s.bounds(), cfg, cell, &Knobs::default()));
+            built = Some(shared.for_builder(b).run(s));
         });
         let r = match built.expect("built") {
             Ok(r) => r,
@@ -174,7 +170,9 @@ fn baseline_ms(rows: &[Row]) -> Option<f64> {
 }
 
 /// Prints the rows as a table or as JSON, and the builders that failed.
-pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Format) {
+pub fn print(s: &Scene, shared: &Build, c: &Compared, format: Format) {
+    let (spes, cfg) = (shared.cell.spes, &shared.tree);
+    let settings = Settings::shared(shared);
     let rows = &c.rows[..];
     let failed: Vec<serde_json::Value> = (c.failed.iter())
         .map(|(b, e)| json!({"builder": b.name(), "error": e}))
@@ -201,7 +199,8 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
             })
             .collect();
         let doc = json!({
-            "scene": s.name, "triangles": s.len(), "spes": spes, "settings": cfg.flags(),
+            "scene": s.name, "triangles": s.len(), "spes": spes,
+            "settings": settings.to_json(),
             "rows": rows, "not_built_by": left_out, "failed": failed,
         });
         println!("{doc}");
@@ -342,6 +341,8 @@ pub fn print(s: &Scene, spes: usize, cfg: &BihConfig, c: &Compared, format: Form
     );
     let note = cellbih::report::wrap(&note, 80).replace('\u{1}', " ");
     println!("\n{note}");
+    let line = format!("settings: {}", settings.line());
+    println!("\n{}", cellbih::report::wrap(&line, 80));
 }
 
 /// Where the demo writes its image (the current directory).
@@ -358,10 +359,9 @@ pub fn demo() -> super::Res<()> {
         s.len(),
         s.geometry_names.len()
     );
-    let cell = CellConfig::ps3();
-    let cfg = cellbih::bih::BihConfig::default();
-    let c = rows(&s, &cell, &cfg)?;
-    print(&s, cell.spes, &cfg, &c, Format::Text);
+    let shared = Build::new(BuilderKind::HOST);
+    let c = rows(&s, &shared)?;
+    print(&s, &shared, &c, Format::Text);
     if !c.failed.is_empty() {
         return Err(format!("builder(s) failed: {}", super::names(&c.failed)).into());
     }

@@ -12,8 +12,8 @@ use cellbih::scene::Scene;
 use cellbih::update::Animation;
 
 use super::Format;
-use super::build_args::Chosen;
 use super::cast_args::CacheArgs;
+use cellbih::registry::Build;
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
 
@@ -28,7 +28,7 @@ pub struct Asked<'a> {
 }
 
 /// Checks the options before any work; the frame loop's configuration.
-pub fn config(c: &Chosen, a: &Asked) -> Res<FrameConfig> {
+pub fn config(c: &Build, a: &Asked) -> Res<FrameConfig> {
     let policy = Policy::from_name(a.policy).ok_or_else(|| {
         format!(
             "unknown --policy '{}': rebuild, local, deep or auto",
@@ -41,12 +41,9 @@ pub fn config(c: &Chosen, a: &Asked) -> Res<FrameConfig> {
     cellbih::render::check_size(a.width, a.height)?;
     let spes = c.cell.spes;
     Ok(FrameConfig {
-        builder: c.builder,
-        tree: c.cfg,
-        knobs: c.knobs.clone(),
+        build: c.clone(),
         policy,
         oracle: a.oracle,
-        spes,
         build_spes: a.build_spes.map_or(spes, |k| k as usize),
         width: a.width,
         height: a.height,
@@ -55,7 +52,7 @@ pub fn config(c: &Chosen, a: &Asked) -> Res<FrameConfig> {
 }
 
 /// Plays the animation and prints every frame and the totals.
-pub fn run(s: &Scene, anim: &Animation, cfg: &FrameConfig, c: &Chosen, format: Format) -> Res<()> {
+pub fn run(s: &Scene, anim: &Animation, cfg: &FrameConfig, format: Format) -> Res<()> {
     let bar = if std::io::stderr().is_terminal() {
         let b = ProgressBar::new(anim.frames.len() as u64);
         b.set_style(ProgressStyle::with_template(
@@ -65,9 +62,10 @@ pub fn run(s: &Scene, anim: &Animation, cfg: &FrameConfig, c: &Chosen, format: F
     } else {
         ProgressBar::hidden()
     };
-    let run = play(s, anim, cfg, &c.cell, |_| bar.inc(1))?;
+    let run = play(s, anim, cfg, |_| bar.inc(1))?;
     bar.finish_and_clear();
-    print(s, anim, cfg, &run, format, &c.settings(Some(cfg.cast)));
+    let settings = cellbih::report::Settings::new(&cfg.build, Some(cfg.cast));
+    print(s, anim, cfg, &run, format, &settings);
     Ok(())
 }
 
@@ -84,7 +82,7 @@ fn print(
         1 => format!("1 SPE {what}s"),
         n => format!("{n} SPEs {what}"),
     };
-    let arrangement = match (cfg.all_spes_build(), cfg.spes) {
+    let arrangement = match (cfg.all_spes_build(), cfg.spes()) {
         (true, 1) => "the one SPE builds, then renders".to_string(),
         (true, n) => format!("all {n} SPEs build, then all render"),
         (false, _) => format!(
@@ -99,9 +97,9 @@ fn print(
             "scene": s.name,
             "triangles": s.len(),
             "animation": anim.name,
-            "builder": cfg.builder.name(),
+            "builder": cfg.build.builder.name(),
             "policy": cfg.policy.name(),
-            "spes": cfg.spes,
+            "spes": cfg.spes(),
             "build_spes": cfg.build_spes,
             "width": cfg.width,
             "height": cfg.height,
@@ -126,7 +124,7 @@ fn print(
         cfg.width,
         cfg.height,
         cfg.policy.name(),
-        cfg.builder
+        cfg.build.builder
     );
     println!("{}", cellbih::report::wrap(&title, 80));
     let line = format!("settings: {}", settings.line());

@@ -39,19 +39,6 @@ pub fn info(s: &Scene, format: Format) -> Res<()> {
     Ok(())
 }
 
-/// The SPEs a build ran programs on: those that report work (a
-/// multi-SPE builder on a small scene uses fewer), else every SPE that
-/// computed or moved data (the functional mode counts no cycles).
-fn spes_used(m: &cellbih::strategy::Simulated) -> usize {
-    match m.spe_work.len() {
-        0 => m.run.cores[1..]
-            .iter()
-            .filter(|(_, c)| c.busy.0 > 0 || c.gets + c.puts > 0)
-            .count(),
-        k => k,
-    }
-}
-
 /// The counters of a core that are times, left out where nothing was
 /// timed (the functional mode).
 const TIMED_COUNTERS: [&str; 7] = [
@@ -100,7 +87,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format, settings: &Settin
                 "rays": { "primary": primary, "incoherent": incoherent },
                 "simulated_ms": timed.map(|m| m.run.ms),
                 "spes": sim.map(|m| m.run.cores.len() - 1),
-                "spes_used": sim.map(spes_used),
+                "spes_used": sim.map(|m| m.spes_used),
                 "simulated_cycles": timed.map(|m| m.run.cycles.0),
                 "timing": sim.map(|m| if m.run.timed { "simulated" } else { "none: functional mode" }),
                 "cores": sim.map(cores_json),
@@ -139,19 +126,27 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format, settings: &Settin
                 )),
                 None => {}
             }
-            // Said only of builders that decide how many SPEs to use (a
-            // knob for it); the others use the SPEs they were made for.
-            let decides = r
-                .builder
-                .knobs()
-                .iter()
-                .any(|k| k.name == TRIS_PER_SPE.name);
-            if let Some(m) = sim.filter(|m| decides && spes_used(m) < m.run.cores.len() - 1) {
+            // The strategy's own decision, said of builders that put
+            // every SPE to work (the paper's use one or none by design).
+            if let Some(m) =
+                sim.filter(|m| r.builder.multi_spe() && m.spes_used < m.run.cores.len() - 1)
+            {
+                let why = match r
+                    .builder
+                    .knobs()
+                    .iter()
+                    .any(|k| k.name == TRIS_PER_SPE.name)
+                {
+                    true => format!(
+                        ": a small scene runs on fewer (--{} 1 uses every SPE)",
+                        TRIS_PER_SPE.name
+                    ),
+                    false => String::new(),
+                };
                 field(&format!(
-                    "SPEs used   {} of {}: a small scene runs on fewer (--{} 1 uses every SPE)",
-                    spes_used(m),
+                    "SPEs used   {} of {}{why}",
+                    m.spes_used,
                     m.run.cores.len() - 1,
-                    TRIS_PER_SPE.name
                 ));
             }
             if sim.is_some() {

@@ -4,11 +4,11 @@
 
 use std::path::{Path, PathBuf};
 
+use cellbih::registry::Build;
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::machinery::layout::TriRecord;
 
 use super::Res;
-use super::build_args;
 
 #[derive(clap::Args)]
 pub struct SceneArg {
@@ -29,7 +29,7 @@ impl SceneArg {
     /// cast on the Cell takes — is refused at once, not after the scene is
     /// made and the build has run out of room. Other scenes are checked by
     /// [`check_memory`] once loaded.
-    pub fn check_fits(&self, c: &build_args::Chosen, cast_rays: Option<usize>) -> Res<()> {
+    pub fn check_fits(&self, c: &Build, cast_rays: Option<usize>) -> Res<()> {
         match scene::procedural::rtperf_triangles(&self.scene) {
             Some(n) => check_memory(&self.scene, n, 0, cast_rays, c),
             None => Ok(()),
@@ -61,7 +61,7 @@ pub fn check_memory(
     triangles: usize,
     nodes: usize,
     cast_rays: Option<usize>,
-    c: &build_args::Chosen,
+    c: &Build,
 ) -> Res<()> {
     let have = c.cell.main_memory_bytes;
     let mib = |b: u64| b as f64 / (1 << 20) as f64;

@@ -80,12 +80,7 @@ pub fn update(
     let sah = u.bih.quality().sah_cost;
     // A fresh build by the update's own builder, so that the comparison
     // shows what the update did to the tree, not how builders differ.
-    let fresh = u
-        .builder
-        .build_on(&u.scene, &u.bih.config, &u.cell)?
-        .bih
-        .quality()
-        .sah_cost;
+    let fresh = (u.build.run(&u.scene)?).bih.quality().sah_cost;
     if text {
         let Some(sum) = sum else {
             println!("\nno frames ran (--frames 0): nothing to sum up");
@@ -112,7 +107,7 @@ pub fn update(
         println!("mean depth of the subtrees rebuilt {:.2}", sum.depth);
         println!(
             "SAH cost after the last frame {sah:.2}, of a fresh build by {} {fresh:.2} ({:+.1}%)",
-            u.builder,
+            u.build.builder,
             (sah / fresh - 1.0) * 100.0
         );
     } else {
@@ -121,8 +116,8 @@ pub fn update(
             json!({
                 "settings": settings.to_json(), "deep_stop_below": u.deep_stop_below,
                 "scene": u.scene.name, "triangles": u.scene.len(), "animation": anim.name,
-                "method": u.method, "builder": u.builder.name(),
-                "spes": u.builder.emulated().then_some(u.cell.spes), "frames": reports,
+                "method": u.method, "builder": u.build.builder.name(),
+                "spes": u.build.builder.emulated().then_some(u.build.cell.spes), "frames": reports,
                 "summary": sum, "sah_after": sah, "sah_fresh_build": fresh,
             })
         );

@@ -28,10 +28,9 @@
 
 pub mod auto;
 
-use crate::bih::BihConfig;
 use crate::cast::{CastConfig, CastReport, cast_on_cell};
 use crate::cell::CellConfig;
-use crate::registry::BuilderKind;
+use crate::registry::{Build, BuilderKind};
 use crate::render::Camera;
 use crate::scene::Scene;
 use crate::update::{Animation, Method, Move, UpdateError, UpdateReport, Updater};
@@ -65,17 +64,14 @@ impl Policy {
 /// How the frames are made.
 #[derive(Clone, Debug)]
 pub struct FrameConfig {
-    pub builder: BuilderKind,
-    pub tree: BihConfig,
-    /// The builder's strategy knobs, for every build of the frame loop.
-    pub knobs: crate::strategy::Knobs,
+    /// The build request of every build of the frame loop; its Cell
+    /// (SPEs in all, the model) is the frame's.
+    pub build: Build,
     /// How the tree follows the moves each frame.
     pub policy: Policy,
     /// Also run every option from the same state each frame (three times
     /// the work), to judge the policy's choices.
     pub oracle: bool,
-    /// SPEs of the Cell in all.
-    pub spes: usize,
     /// SPEs that update the tree; the others render meanwhile (the
     /// paper's arrangement) unless it is all of them (section 5's).
     pub build_spes: usize,
@@ -85,9 +81,14 @@ pub struct FrameConfig {
 }
 
 impl FrameConfig {
+    /// SPEs of the Cell in all.
+    pub fn spes(&self) -> usize {
+        self.build.cell.spes
+    }
+
     /// Section 5's arrangement: every SPE builds, then every SPE renders.
     pub fn all_spes_build(&self) -> bool {
-        self.build_spes == self.spes
+        self.build_spes == self.spes()
     }
 
     /// A frame's time from its update's and its render's, as the
@@ -103,9 +104,9 @@ impl FrameConfig {
     /// The SPEs that render.
     pub fn render_spes(&self) -> usize {
         if self.all_spes_build() {
-            self.spes
+            self.spes()
         } else {
-            self.spes - self.build_spes
+            self.spes() - self.build_spes
         }
     }
 }
@@ -194,43 +195,40 @@ pub enum FrameError {
 }
 
 /// Plays `anim` on `scene`: the first tree built with the builder, then
-/// every frame updated by the policy and cast on the SPEs. `cell` is the
-/// Cell's model (its SPE count is the config's); `done` hears of each
-/// frame as it ends (a progress bar).
+/// every frame updated by the policy and cast on the SPEs, all on the
+/// config's Cell; `done` hears of each frame as it ends (a progress bar).
 pub fn play(
     scene: &Scene,
     anim: &Animation,
     cfg: &FrameConfig,
-    cell: &CellConfig,
     mut done: impl FnMut(&FrameReport),
 ) -> Result<FrameRun, FrameError> {
-    if !cfg.builder.emulated() {
+    if !cfg.build.builder.emulated() {
         return Err(FrameError::Config(format!(
             "builder {} runs on the host: a frame on the Cell needs an emulated builder ({})",
-            cfg.builder,
+            cfg.build.builder,
             emulated_names()
         )));
     }
-    if cfg.build_spes == 0 || cfg.build_spes > cfg.spes {
+    if cfg.build_spes == 0 || cfg.build_spes > cfg.spes() {
         return Err(FrameError::Config(format!(
             "--build-spes {}: 1 to --spes ({})",
-            cfg.build_spes, cfg.spes
+            cfg.build_spes,
+            cfg.spes()
         )));
     }
-    let build_cell = cell.clone().with_spes(cfg.build_spes);
+    let cell = &cfg.build.cell;
+    let build = cfg
+        .build
+        .clone()
+        .on(&cell.clone().with_spes(cfg.build_spes));
     let render_cell = cell.clone().with_spes(cfg.render_spes());
     // The camera frames the scene as it starts, and stays.
     let cam = Camera::framing(&scene.bounds(), cfg.width, cfg.height);
     let rays = cam.rays();
-    let mut u = Updater::new_with(
-        scene.clone(),
-        cfg.builder,
-        &cfg.tree,
-        build_cell,
-        Method::Rebuild,
-        cfg.knobs.clone(),
-    )?;
-    let mut predictor = auto::Predictor::new(cfg.tree.leaf_size, scene.len(), u.first_build_ms);
+    let mut u = Updater::new(scene.clone(), build, Method::Rebuild)?;
+    let mut predictor =
+        auto::Predictor::new(cfg.build.tree.leaf_size, scene.len(), u.first_build_ms);
     if cfg.policy == Policy::Auto {
         // The frame before the first, as a running renderer has it: the
         // first tree's render, so that the first prediction has one (not

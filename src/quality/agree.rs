@@ -115,33 +115,10 @@ impl Examined {
     }
 }
 
-/// Builds `scene` with `builder` (on a Cell of `cell` if emulated) and
-/// checks the tree and every ray of `rays` against brute force.
-pub fn examine(
-    builder: crate::registry::BuilderKind,
-    cfg: &crate::bih::BihConfig,
-    cell: &crate::cell::CellConfig,
-    scene: &Scene,
-    rays: &[Ray],
-) -> Examined {
-    examine_with(
-        builder,
-        (cfg, &crate::strategy::Knobs::default()),
-        cell,
-        scene,
-        rays,
-    )
-}
-
-/// [`examine`] with knobs.
-pub fn examine_with(
-    builder: crate::registry::BuilderKind,
-    (cfg, knobs): (&crate::bih::BihConfig, &crate::strategy::Knobs),
-    cell: &crate::cell::CellConfig,
-    scene: &Scene,
-    rays: &[Ray],
-) -> Examined {
-    let r = match builder.build_with(scene, scene.bounds(), cfg, cell, knobs) {
+/// Builds `scene` as `build` asks and checks the tree and every ray of
+/// `rays` against brute force.
+pub fn examine(build: &crate::registry::Build, scene: &Scene, rays: &[Ray]) -> Examined {
+    let r = match build.run(scene) {
         Ok(r) => r,
         Err(e) => {
             return Examined {

@@ -138,8 +138,8 @@ mod tests {
     #[test]
     fn a_set_past_the_budget_is_measured_on_a_sample() {
         let s = crate::scene::load("default", None).unwrap();
-        let bih = crate::registry::BuilderKind::HOST
-            .build(&s, &crate::bih::BihConfig::default())
+        let bih = crate::registry::Build::new(crate::registry::BuilderKind::HOST)
+            .run(&s)
             .unwrap()
             .bih;
         let tracer = Tracer::new(&bih, &s);

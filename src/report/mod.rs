@@ -288,10 +288,30 @@ pub fn write_rows_csv(
     write_csv(path, &keys.join(","), &lines)
 }
 
-/// Writes `value` as pretty JSON.
-pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<(), OutputError> {
+/// Writes an experiment's JSON document `doc` (an object; anything else
+/// is written as its `rows`) with its settings: a `settings` object with the command line that made it,
+/// cellbih's version and, where its builds share one request (`shared`:
+/// the tree, the emulated Cell, the host-thread builders' threads, moved
+/// rates; [`Settings::shared`]), that request. What the rows vary (the
+/// builder and its knobs, the SPEs, a rate) each row names.
+pub fn write_json(
+    path: &Path,
+    doc: &serde_json::Value,
+    shared: Option<&crate::registry::Build>,
+) -> Result<(), OutputError> {
+    let mut settings = match shared {
+        Some(b) => Settings::shared(b).to_json(),
+        None => serde_json::json!({ "version": settings::version() }),
+    };
+    let command: Vec<String> = std::env::args().collect();
+    settings["command"] = serde_json::json!(command.join(" "));
+    let mut doc = match doc {
+        serde_json::Value::Object(_) => doc.clone(),
+        rows => serde_json::json!({ "rows": rows }),
+    };
+    doc["settings"] = settings;
     write_file(path, |w| {
-        serde_json::to_writer_pretty(&mut *w, value)?;
+        serde_json::to_writer_pretty(&mut *w, &doc)?;
         writeln!(w)
     })
 }

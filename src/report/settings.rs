@@ -4,35 +4,73 @@
 
 use serde_json::{Value, json};
 
-use crate::bih::{BihConfig, SplitChoice};
+use crate::bih::SplitChoice;
 use crate::cast::{CastConfig, Precision};
-use crate::registry::BuilderKind;
-use crate::strategy::Knobs;
+use crate::cell::{CellConfig, CostModel};
+use crate::registry::Build;
 
 /// The settings of one build, and of a cast on the Cell if there was one.
 pub struct Settings<'a> {
-    pub builder: BuilderKind,
-    pub knobs: &'a Knobs,
-    pub tree: &'a BihConfig,
-    /// The emulated Cell, where something ran on it.
-    pub cell: Option<CellSettings>,
-    /// Host threads of a builder that builds on the host's cores.
-    pub threads: Option<usize>,
+    pub build: &'a Build,
     /// The cast on the Cell's SPEs (`--on-cell`, `frame`).
     pub cast: Option<CastConfig>,
+    /// The settings of a run of several builders (`compare`, the
+    /// experiments): `build` holds what they share (tree, Cell, threads
+    /// of those that build on the host's cores, rates); each row names
+    /// its builder and knobs.
+    pub several: bool,
 }
 
 /// The emulated Cell's settings, as the command line names them.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CellSettings {
     pub spes: usize,
     pub memory_mib: u64,
     /// checked, timed or functional.
     pub mode: &'static str,
-    /// measured or legacy (none in the functional mode).
+    /// measured or legacy (none in the functional mode; "custom" for a
+    /// cost model a caller made).
     pub model: Option<&'static str>,
-    /// raw or ps3-kernel (none in the functional mode).
+    /// raw or ps3-kernel (none in the functional mode; "custom" as above).
     pub mailboxes: Option<&'static str>,
+}
+
+impl CellSettings {
+    /// The names of `cell`'s settings: its cost model is named by the
+    /// model and mailbox path it equals.
+    pub fn of(cell: &CellConfig) -> Self {
+        let named = [
+            ("measured", "raw", CostModel::ps3()),
+            (
+                "measured",
+                "ps3-kernel",
+                CostModel::ps3().with_ps3_kernel_mailboxes(),
+            ),
+            ("legacy", "raw", CostModel::ps3_legacy()),
+            (
+                "legacy",
+                "ps3-kernel",
+                CostModel::ps3_legacy().with_ps3_kernel_mailboxes(),
+            ),
+        ];
+        let functional = cell.cost == CostModel::functional();
+        let (model, mailboxes) = match named.iter().find(|(.., c)| *c == cell.cost) {
+            _ if functional => (None, None),
+            Some(&(model, mailboxes, _)) => (Some(model), Some(mailboxes)),
+            None => (Some("custom"), Some("custom")),
+        };
+        CellSettings {
+            spes: cell.spes,
+            memory_mib: cell.main_memory_bytes >> 20,
+            mode: match (functional, cell.checked) {
+                (true, _) => "functional",
+                (false, true) => "checked",
+                (false, false) => "timed",
+            },
+            model,
+            mailboxes,
+        }
+    }
 }
 
 /// cellbih's version, and the commit it was built from when it was built
@@ -44,17 +82,65 @@ pub fn version() -> String {
     }
 }
 
-impl Settings<'_> {
+impl<'a> Settings<'a> {
+    /// The settings of `build`, with `cast` the cast on the Cell if there
+    /// was one.
+    pub fn new(build: &'a Build, cast: Option<CastConfig>) -> Self {
+        Settings {
+            build,
+            cast,
+            several: false,
+        }
+    }
+
+    /// The settings several builders share (`compare`, an experiment):
+    /// the tree, the Cell, the host-thread builders' threads and the
+    /// rates of `build`; its builder and knobs are not named.
+    pub fn shared(build: &'a Build) -> Self {
+        Settings {
+            build,
+            cast: None,
+            several: true,
+        }
+    }
+
     /// Every knob of the builder with its value, defaults included.
     fn knob_values(&self) -> Vec<(&'static str, String)> {
-        (self.builder.knobs().iter())
-            .map(|k| (k.name, self.knobs.text(k)))
+        (self.build.builder.knobs().iter())
+            .map(|k| (k.name, self.build.knobs.text(k)))
+            .collect()
+    }
+
+    /// The emulated Cell's settings, where something ran on it (an
+    /// emulated builder, or a cast on the Cell).
+    fn cell(&self) -> Option<CellSettings> {
+        (self.several || self.build.builder.emulated() || self.cast.is_some())
+            .then(|| CellSettings::of(&self.build.cell))
+    }
+
+    /// The host threads of the builder (for several: of the builders that
+    /// build on the host's cores, where the request names them).
+    fn threads(&self) -> Option<usize> {
+        match self.several {
+            true => Some(
+                self.build
+                    .threads
+                    .unwrap_or_else(rayon::current_num_threads),
+            ),
+            false => self.build.threads_used(),
+        }
+    }
+
+    /// The kernel rates moved from their PS3 values, by name.
+    fn rates(&self) -> Vec<(&'static str, u64)> {
+        (self.build.rates.names())
+            .map(|n| (n, self.build.rates.get(n).map_or(0, |c| c.0)))
             .collect()
     }
 
     /// The settings as JSON: every field, defaults included.
     pub fn to_json(&self) -> Value {
-        let t = self.tree;
+        let t = &self.build.tree;
         let (split, bins, above) = match t.split {
             SplitChoice::GlobalHeuristic => ("gh", None, None),
             SplitChoice::BinnedSah { bins, above } => ("sah", Some(bins), Some(above)),
@@ -62,18 +148,26 @@ impl Settings<'_> {
         let knobs: serde_json::Map<String, Value> = (self.knob_values().into_iter())
             .map(|(k, v)| (k.to_string(), json!(v)))
             .collect();
+        let (builder, knobs) = match self.several {
+            true => (json!("each row's"), json!("each row's")),
+            false => (json!(self.build.builder.name()), json!(knobs)),
+        };
         json!({
-            "builder": self.builder.name(),
+            "builder": builder,
             "knobs": knobs,
             "tree": {
                 "leaf_size": t.leaf_size, "max_depth": t.max_depth, "split": split,
                 "sah_bins": bins, "sah_above": above, "empty_cut": t.empty_cut,
             },
-            "cell": self.cell.map(|c| json!({
+            "cell": self.cell().map(|c| json!({
                 "spes": c.spes, "memory_mib": c.memory_mib, "mode": c.mode,
                 "model": c.model, "mailboxes": c.mailboxes,
             })),
-            "threads": self.threads,
+            "threads": self.threads(),
+            "rates": self.build.rates.names().next().is_some().then(|| {
+                self.rates().into_iter().map(|(n, v)| (n.to_string(), json!(v)))
+                    .collect::<serde_json::Map<String, Value>>()
+            }),
             "cast": self.cast.map(|c| json!({
                 "cache_kib": c.cache.kib, "cache_ways": c.cache.ways,
                 "fetch_lines": c.cache.fetch_lines, "tile_rays": c.tile_rays,
@@ -91,17 +185,21 @@ impl Settings<'_> {
     /// knob's value), the tree, the Cell and the cast as the command line
     /// spells them, and the version.
     pub fn line(&self) -> String {
-        let mut parts = vec![format!("builder {}", self.builder)];
-        match self.knobs.spelled().as_str() {
-            _ if self.builder.knobs().is_empty() => {}
+        let b = self.build;
+        let mut parts = vec![match self.several {
+            true => "each builder with its default knobs".to_string(),
+            false => format!("builder {}", b.builder),
+        }];
+        match b.knobs.spelled().as_str() {
+            _ if self.several || b.builder.knobs().is_empty() => {}
             "" => parts.push("its default knobs".into()),
             given => parts.push(given.into()),
         }
-        parts.push(match self.tree.flags().as_str() {
+        parts.push(match b.tree.flags().as_str() {
             "" => "the paper's tree (--leaf-size 12 --max-depth 64 --split gh)".into(),
             flags => format!("tree {flags}"),
         });
-        if let Some(c) = self.cell {
+        if let Some(c) = self.cell() {
             let mut cell = vec![
                 format!("--spes {}", c.spes),
                 format!("--memory-mib {}", c.memory_mib),
@@ -111,8 +209,11 @@ impl Settings<'_> {
             cell.extend(c.mailboxes.map(|m| format!("--mailboxes {m}")));
             parts.push(cell.join(" "));
         }
-        if let Some(n) = self.threads {
+        if let Some(n) = self.threads() {
             parts.push(format!("--threads {n}"));
+        }
+        for (name, cycles) in self.rates() {
+            parts.push(format!("rate {name} {cycles} cycles"));
         }
         if let Some(c) = self.cast {
             parts.push(format!(

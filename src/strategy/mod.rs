@@ -133,6 +133,10 @@ pub struct Output {
     pub compact: bool,
     /// Multi-SPE strategies: what each SPE did, by SPE.
     pub spe_work: Vec<SpeWork>,
+    /// The SPEs its programs ran on: the strategy's own decision (a
+    /// multi-SPE strategy uses fewer than the machine has on a small
+    /// scene; the paper's builders use one or none).
+    pub spes: usize,
     /// Where the triangles' final order is, if not in the array of records
     /// they started in.
     pub records: Option<Records>,
@@ -253,6 +257,8 @@ pub struct Simulated {
     pub stats: BuildStats,
     /// Multi-SPE builders: what each SPE did (jobs, arena blocks).
     pub spe_work: Vec<SpeWork>,
+    /// The SPEs the strategy ran its programs on (its own decision).
+    pub spes_used: usize,
     /// Strategies made of phases: each phase's name and the cycle it
     /// ended at.
     pub phases: Vec<(&'static str, u64)>,
@@ -347,6 +353,7 @@ pub fn run_in(
         run,
         stats: o.stats,
         spe_work: o.spe_work,
+        spes_used: o.spes,
         phases: o.phases,
         trace: cell.take_trace(),
     };

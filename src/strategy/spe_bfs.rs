@@ -63,6 +63,7 @@ fn spawn(
         Ok(Output {
             nodes: ppe.take("PPE")?,
             stats: spe.take("SPE 0")?,
+            spes: 1,
             ..Output::default()
         })
     }))

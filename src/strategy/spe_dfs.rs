@@ -332,6 +332,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         Ok(Output {
             nodes: vec![node_array],
             stats,
+            spes: 1,
             ..Output::default()
         })
     });

@@ -36,11 +36,10 @@ pub use local::{Enclosing, Stop, enclosing_node, interval};
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
-use crate::cell::{CellConfig, CellError};
+use crate::cell::CellError;
 use crate::kernels::recursion::{PrimRef, build_items};
-use crate::registry::BuilderKind;
+use crate::registry::{Build, BuilderKind};
 use crate::scene::{Scene, SceneError, Triangle};
-use crate::strategy::Knobs;
 
 /// How a frame's moves are brought into the tree.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -177,15 +176,15 @@ pub const SIMULATED_BUILDERS: [(&str, BuilderKind); 2] = [
     ("bfs", BuilderKind::SPE_BFS),
 ];
 
-/// Plays `anim` on a fresh updater of `scene` (default tree limits);
-/// returns the updater after the last frame and every frame's report.
+/// Plays `anim` on a fresh updater of `scene` that builds as `build`
+/// asks; returns the updater after the last frame and every frame's report.
 pub fn play(
     scene: &Scene,
     anim: &Animation,
-    builder: BuilderKind,
+    build: &Build,
     method: Method,
 ) -> Result<(Updater, Vec<UpdateReport>), UpdateError> {
-    let mut u = Updater::new(scene.clone(), builder, &BihConfig::default(), method)?;
+    let mut u = Updater::new(scene.clone(), build.clone(), method)?;
     let reports = anim
         .frames
         .iter()
@@ -227,15 +226,13 @@ struct Piece {
 pub struct Updater {
     pub scene: Scene,
     pub bih: Bih,
-    pub builder: BuilderKind,
+    /// The build request every build of the update makes (the first tree,
+    /// complete rebuilds, rebuilt subtrees): builder, tree, Cell, knobs.
+    pub build: Build,
     pub method: Method,
-    pub cell: CellConfig,
     /// Deep update: a touched subtree of at most this many triangles is
     /// rebuilt whole instead of descended into.
     pub deep_stop_below: usize,
-    /// The builder's strategy knobs, for every build it makes (the first
-    /// tree, complete rebuilds, rebuilt subtrees).
-    pub knobs: Knobs,
     /// Simulated time of the first tree's build, for an emulated builder.
     pub first_build_ms: Option<f64>,
     /// Triangle ids of each geometry id.
@@ -248,40 +245,10 @@ pub struct Updater {
 pub const DEEP_STOP_BELOW: usize = 48;
 
 impl Updater {
-    /// Builds the first tree of `scene` with `builder` (on the PS3 model if
-    /// it is emulated).
-    pub fn new(
-        scene: Scene,
-        builder: BuilderKind,
-        cfg: &BihConfig,
-        method: Method,
-    ) -> Result<Self, UpdateError> {
-        Self::new_on(scene, builder, cfg, CellConfig::ps3(), method)
-    }
-
-    /// [`Updater::new`] with emulated builds on a Cell configured by `cell`
-    /// (its SPE count, say).
-    pub fn new_on(
-        scene: Scene,
-        builder: BuilderKind,
-        cfg: &BihConfig,
-        cell: CellConfig,
-        method: Method,
-    ) -> Result<Self, UpdateError> {
-        Self::new_with(scene, builder, cfg, cell, method, Knobs::default())
-    }
-
-    /// [`Updater::new_on`] with the builder's strategy `knobs`, which every
-    /// build of the update then uses.
-    pub fn new_with(
-        scene: Scene,
-        builder: BuilderKind,
-        cfg: &BihConfig,
-        cell: CellConfig,
-        method: Method,
-        knobs: Knobs,
-    ) -> Result<Self, UpdateError> {
-        let first = builder.build_with(&scene, scene.bounds(), cfg, &cell, &knobs)?;
+    /// Builds the first tree of `scene` as `build` asks; every later build
+    /// of the update makes the same request.
+    pub fn new(scene: Scene, build: Build, method: Method) -> Result<Self, UpdateError> {
+        let first = build.run(&scene)?;
         let first_build_ms = (first.simulated.as_ref())
             .filter(|s| s.run.timed)
             .map(|s| s.run.ms);
@@ -293,11 +260,9 @@ impl Updater {
         Ok(Updater {
             scene,
             bih,
-            builder,
+            build,
             method,
-            cell,
             deep_stop_below: DEEP_STOP_BELOW,
-            knobs,
             first_build_ms,
             members,
             free: Vec::new(),
@@ -430,13 +395,7 @@ impl Updater {
     }
 
     fn full_rebuild(&mut self, r: &mut UpdateReport) -> Result<(), UpdateError> {
-        let b = self.builder.build_with(
-            &self.scene,
-            self.scene.bounds(),
-            &self.bih.config,
-            &self.cell,
-            &self.knobs,
-        )?;
+        let b = self.build.run(&self.scene)?;
         self.bih = b.bih;
         self.free.clear();
         r.full_rebuild = true;
@@ -503,7 +462,7 @@ impl Updater {
             };
             return Ok((empty, None));
         }
-        if self.builder == BuilderKind::HOST {
+        if self.build.builder == BuilderKind::HOST {
             let mut refs: Vec<PrimRef> = ids
                 .iter()
                 .map(|&i| PrimRef::new(i, self.scene.triangles[i as usize].bounds()))
@@ -520,7 +479,7 @@ impl Updater {
                 .collect(),
             self.scene.geometry_names.clone(),
         )?;
-        let b = (self.builder).build_with(&sub, region, cfg, &self.cell, &self.knobs)?;
+        let b = (self.build.clone().with_tree(*cfg)).run_in(&sub, region)?;
         let mut bih = b.bih;
         for p in &mut bih.prim_ids {
             *p = ids[*p as usize];

@@ -44,6 +44,23 @@ pub fn run_experiment(
         .unwrap();
     assert_ok(&out);
     let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // Every JSON file it wrote names its settings: the command line that
+    // made it and the version.
+    for f in std::fs::read_dir(&dir).unwrap() {
+        let path = f.unwrap().path();
+        if path.extension().is_some_and(|e| e == "json") {
+            let doc: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+            let settings = &doc["settings"];
+            let command = settings["command"].as_str().unwrap_or_default();
+            assert!(
+                command.contains(args.first().copied().unwrap_or_default())
+                    && settings["version"].is_string(),
+                "{}: settings {settings}",
+                path.display()
+            );
+        }
+    }
     (rows.as_array().unwrap().clone(), dir)
 }
 

@@ -300,6 +300,7 @@ impl Pool {
                 nodes: vec![(self.base, slots)],
                 compact: true,
                 records,
+                spes: exits.len(),
                 ..Output::default()
             };
             for (id, exit) in exits.iter().enumerate() {

@@ -4,18 +4,20 @@
 //! every `--builder` name works in every command, test, bench and
 //! experiment.
 
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig};
-use crate::cell::{CellConfig, CellError};
+use crate::cell::CellError;
 use crate::host::HostBuilder;
-use crate::kernels::rates::RateOverrides;
 use crate::scene::Scene;
 use crate::strategy::{self, Strategy};
 
+mod build;
+
 pub use crate::bih::Quality;
 pub use crate::strategy::Simulated;
+pub use build::{Build, BuildReport};
 
 /// A handle on one of the registered builders; what `--builder` names.
 /// Each is a value its own file defines: a [`HostBuilder`] or a
@@ -261,87 +263,60 @@ impl BuilderKind {
         matches!(self.0, Family::Cell(_))
     }
 
-    /// Builds the tree of `scene` (on the PS3 model for emulated builders).
-    pub fn build(self, scene: &Scene, cfg: &BihConfig) -> Result<BuildReport, CellError> {
-        self.build_on(scene, cfg, &CellConfig::ps3())
-    }
-
-    /// Builds the tree of `scene`; emulated builders run on a Cell
-    /// configured by `cell` (its SPE count among the rest). Host time is
-    /// measured either way.
-    pub fn build_on(
-        self,
-        scene: &Scene,
-        cfg: &BihConfig,
-        cell: &CellConfig,
-    ) -> Result<BuildReport, CellError> {
-        self.build_in(scene, scene.bounds(), cfg, cell)
-    }
-
-    /// Builds the tree of `scene` with `region` (which must contain the
-    /// scene) as the scene box of the global heuristic: what a local update
-    /// does when it rebuilds one node's interval.
-    pub fn build_in(
-        self,
-        scene: &Scene,
-        region: Aabb,
-        cfg: &BihConfig,
-        cell: &CellConfig,
-    ) -> Result<BuildReport, CellError> {
-        self.build_with(scene, region, cfg, cell, &strategy::Knobs::default())
-    }
-
-    /// [`BuilderKind::build_in`] with the strategies' knobs.
-    pub fn build_with(
-        self,
-        scene: &Scene,
-        region: Aabb,
-        cfg: &BihConfig,
-        cell: &CellConfig,
-        knobs: &strategy::Knobs,
-    ) -> Result<BuildReport, CellError> {
-        let rates = RateOverrides::default();
-        self.build_with_rates(scene, region, cfg, cell, (knobs, &rates))
-    }
-
-    /// [`BuilderKind::build_with`] with kernel rates moved from their PS3
-    /// values (the sensitivity report); a host builder charges nothing.
-    pub fn build_with_rates(
-        self,
-        scene: &Scene,
-        region: Aabb,
-        cfg: &BihConfig,
-        cell: &CellConfig,
-        (knobs, rates): (&strategy::Knobs, &RateOverrides),
-    ) -> Result<BuildReport, CellError> {
-        if !self.builds(cfg) {
-            let with: Vec<&str> = (Self::ALL.iter())
-                .filter(|b| b.builds(cfg))
-                .map(|b| b.name())
-                .collect();
-            let builds = match (self.quality().binned_sah, self.quality().empty_cut) {
-                (false, false) => {
-                    "the paper's split choice (global heuristic) without empty-space cut-off"
-                }
-                (false, true) => {
-                    "the global heuristic's split choice (with or without the cut-off)"
-                }
-                _ => "no empty-space cut-off",
-            };
-            return Err(CellError::Config(format!(
-                "builder {self} builds {builds} only; {} build these settings",
-                with.join(", ")
-            )));
+    /// Refuses a tree `cfg` the builder does not build, naming the
+    /// builders that do.
+    pub fn check_tree(self, cfg: &BihConfig) -> Result<(), CellError> {
+        if self.builds(cfg) {
+            return Ok(());
         }
-        for k in knobs.given() {
-            self.check_knob(k.name)?;
+        let with: Vec<&str> = (Self::ALL.iter())
+            .filter(|b| b.builds(cfg))
+            .map(|b| b.name())
+            .collect();
+        let builds = match (self.quality().binned_sah, self.quality().empty_cut) {
+            (false, false) => {
+                "the paper's split choice (global heuristic) without empty-space cut-off"
+            }
+            (false, true) => "the global heuristic's split choice (with or without the cut-off)",
+            _ => "no empty-space cut-off",
+        };
+        Err(CellError::Config(format!(
+            "builder {self} builds {builds} only; {} build these settings",
+            with.join(", ")
+        )))
+    }
+
+    /// Refuses host threads for a builder that builds on one thread,
+    /// naming the builders that take them.
+    pub fn check_threads(self) -> Result<(), CellError> {
+        if self.host_threads() {
+            return Ok(());
         }
+        let with: Vec<&str> = (Self::ALL.iter())
+            .filter(|b| b.host_threads())
+            .map(|b| b.name())
+            .collect();
+        Err(CellError::Config(format!(
+            "--threads: builder {self} builds on one thread; the builders that take it: {}",
+            with.join(", ")
+        )))
+    }
+
+    /// Runs a build of `scene` (or of `region`, a box that contains it, as
+    /// the scene box): the [`Build`] runs this.
+    fn run(self, scene: &Scene, region: Aabb, b: &Build) -> Result<BuildReport, CellError> {
         let start = Instant::now();
         let (bih, simulated) = match self.0 {
-            Family::Host(b) => ((b.build)(scene, region, cfg), None),
+            Family::Host(h) => ((h.build)(scene, region, &b.tree), None),
             Family::Cell(s) => {
-                let (bih, simulated) =
-                    strategy::run_in(s.spawn, scene, region, cfg, cell, (knobs, rates))?;
+                let (bih, simulated) = strategy::run_in(
+                    s.spawn,
+                    scene,
+                    region,
+                    &b.tree,
+                    &b.cell,
+                    (&b.knobs, &b.rates),
+                )?;
                 (bih, Some(simulated))
             }
         };
@@ -359,20 +334,6 @@ impl std::fmt::Display for BuilderKind {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
-}
-
-/// What a build produced and what it cost.
-#[derive(Clone, Debug)]
-pub struct BuildReport {
-    pub builder: BuilderKind,
-    pub bih: Bih,
-    /// Host wall time of the build (of the emulation, for emulated builders).
-    pub host_time: Duration,
-    /// Simulated time and counters, for builders that run on the Cell.
-    pub simulated: Option<Simulated>,
-    /// The host threads it built on, for builders that build on the
-    /// current rayon pool's ([`BuilderKind::host_threads`]).
-    pub threads: Option<usize>,
 }
 
 #[cfg(test)]
