@@ -11,6 +11,7 @@
 //! legal (real meshes have them); rays never hit them.
 
 pub mod extremes;
+pub mod manifest;
 mod obj;
 pub mod procedural;
 pub(crate) mod rng;
@@ -237,6 +238,17 @@ impl Scene {
 /// binary so that it runs on a fresh clone with no data.
 pub const DEFAULT_SCENE_OBJ: &str = include_str!("../../scenes/default.obj");
 
+/// Says `why` on stderr, once per mesh `name` in a process (an experiment
+/// loads a mesh more than once).
+fn warn_once(name: &str, why: &str) {
+    static WARNED: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    let mut warned = WARNED.lock().unwrap_or_else(|e| e.into_inner());
+    if !warned.iter().any(|w| w == name) {
+        warned.push(name.to_string());
+        eprintln!("warning: {why}");
+    }
+}
+
 /// The environment variable that names the data directory of real meshes.
 pub const DATA_ENV: &str = "CELLBIH_DATA";
 
@@ -277,7 +289,18 @@ pub fn load(spec: &str, data: Option<&Path>) -> Result<Scene, SceneError> {
     for ext in ["obj.gz", "obj"] {
         let p = dir.join(format!("{spec}.{ext}"));
         if p.exists() {
-            return load_obj_file(&p);
+            let text = obj::read_obj_text(&p)?;
+            if let Some(why) = manifest::differs(spec, &text) {
+                warn_once(spec, &why);
+            }
+            let file = p
+                .file_name()
+                .map(|n| n.to_string_lossy().trim_end_matches(".gz").to_string());
+            return obj::parse_obj_named(
+                &p.display().to_string(),
+                &file.unwrap_or_default(),
+                &text,
+            );
         }
     }
     Err(SceneError::Unknown {

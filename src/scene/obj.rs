@@ -18,6 +18,16 @@ use super::{Scene, SceneError, Triangle};
 
 /// Loads an `.obj` or `.obj.gz` file (gzip is recognised by its magic bytes).
 pub fn load_obj_file(path: &Path) -> Result<Scene, SceneError> {
+    let text = read_obj_text(path)?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().trim_end_matches(".gz").to_string())
+        .unwrap_or_default();
+    parse_obj_named(&path.display().to_string(), &name, &text)
+}
+
+/// The OBJ text of an `.obj` or `.obj.gz` file, gunzipped.
+pub fn read_obj_text(path: &Path) -> Result<Vec<u8>, SceneError> {
     let io = |source| SceneError::Io {
         path: path.to_path_buf(),
         source,
@@ -35,11 +45,7 @@ pub fn load_obj_file(path: &Path) -> Result<Scene, SceneError> {
     } else {
         raw
     };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().trim_end_matches(".gz").to_string())
-        .unwrap_or_default();
-    parse_obj_named(&path.display().to_string(), &name, &text)
+    Ok(text)
 }
 
 /// Parses OBJ text held in memory; `name` names it in errors.
@@ -96,7 +102,7 @@ fn normalize(text: &[u8]) -> Option<Cow<'_, [u8]>> {
     Some(text)
 }
 
-fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Scene, SceneError> {
+pub(super) fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Scene, SceneError> {
     let Some(text) = normalize(text) else {
         return Err(SceneError::NotObj {
             path: path.into(),

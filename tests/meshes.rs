@@ -1,0 +1,129 @@
+//! Getting the real meshes: `scripts/get-meshes` fills a data directory
+//! from a source and verifies each mesh against the manifest; the loader
+//! names a mesh whose checksum is not the manifest's.
+
+mod common;
+
+use std::io::Write;
+use std::path::Path;
+use std::process::Command;
+
+use cellbih::scene::manifest::{meshes, sha256};
+use common::{assert_ok, cellbih, stderr, tmp};
+
+fn gzip(text: &[u8]) -> Vec<u8> {
+    let mut gz = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    gz.write_all(text).unwrap();
+    gz.finish().unwrap()
+}
+
+fn gunzip(path: &Path) -> Vec<u8> {
+    use std::io::Read;
+    let mut out = Vec::new();
+    flate2::read::GzDecoder::new(std::fs::File::open(path).unwrap())
+        .read_to_end(&mut out)
+        .unwrap();
+    out
+}
+
+const CUBE_CORNER: &[u8] = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+/// A local directory stands in for the sources: a mesh whose text is the
+/// manifest's is installed (gzip'd, the same text), one whose text is not
+/// is refused by name and not installed, one with no download address is
+/// listed to convert by hand.
+#[test]
+fn get_meshes_installs_what_verifies_and_nothing_else() {
+    let source = tmp("meshes-source");
+    let data = tmp("meshes-data");
+    let _ = std::fs::remove_dir_all(&data);
+    std::fs::create_dir_all(&source).unwrap();
+    std::fs::write(source.join("good.obj.gz"), gzip(CUBE_CORNER)).unwrap();
+    std::fs::write(source.join("plain.obj"), CUBE_CORNER).unwrap();
+    std::fs::write(
+        source.join("bad.obj"),
+        b"v 0 0 0\nv 1 0 0\nv 0 2 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let sum = sha256(CUBE_CORNER);
+    let manifest = tmp("meshes.tsv");
+    let rows = [
+        format!("good\t1\t{sum}\t-\thttps://example.invalid/good.obj"),
+        format!("plain\t1\t{sum}\t-\thttps://example.invalid/plain.obj"),
+        format!("bad\t1\t{sum}\t-\thttps://example.invalid/bad.obj"),
+        format!("converted\t1\t{sum}\t-\t-"),
+    ];
+    let text = format!(
+        "# test\nname\ttriangles\tobj_sha256\tgz_sha256\tdownload\n{}\n",
+        rows.join("\n")
+    );
+    std::fs::write(&manifest, text).unwrap();
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/get-meshes");
+    let run = |args: &[&str]| {
+        Command::new("bash")
+            .arg(script)
+            .args(args)
+            .env("CELLBIH_MESHES_MANIFEST", &manifest)
+            .output()
+            .unwrap()
+    };
+    let out = run(&[data.to_str().unwrap(), "--from", source.to_str().unwrap()]);
+    let err = stderr(&out);
+    assert!(!out.status.success(), "a mesh failed: {err}");
+    assert!(
+        err.contains("bad: SHA-256") && err.contains("not installed"),
+        "{err}"
+    );
+    assert_eq!(gunzip(&data.join("good.obj.gz")), CUBE_CORNER);
+    assert_eq!(gunzip(&data.join("plain.obj.gz")), CUBE_CORNER);
+    assert!(!data.join("bad.obj.gz").exists());
+    // Without --from: a mesh without a download address is to convert.
+    let out = run(&[data.to_str().unwrap(), "--only", "converted"]);
+    assert_ok(&out);
+    assert!(stderr(&out).contains("convert by hand") && stderr(&out).contains("converted"));
+    // A name not in the manifest is refused, naming the meshes.
+    let out = run(&[data.to_str().unwrap(), "--only", "nope"]);
+    assert!(!out.status.success() && stderr(&out).contains("good plain bad converted"));
+}
+
+/// A mesh read by name whose text is not the manifest's is named on
+/// stderr (once), and still loads; the data directory's meshes, where
+/// there is one, are the manifest's and load without a word.
+#[test]
+fn the_loader_names_a_mesh_that_is_not_the_manifests() {
+    let data = tmp("meshes-other");
+    std::fs::create_dir_all(&data).unwrap();
+    std::fs::write(data.join("teapot.obj"), CUBE_CORNER).unwrap();
+    let out = cellbih(&[
+        "info",
+        "--scene",
+        "teapot",
+        "--data",
+        data.to_str().unwrap(),
+    ]);
+    assert_ok(&out);
+    let err = stderr(&out);
+    assert_eq!(err.matches("warning: mesh teapot").count(), 1, "{err}");
+    assert!(err.contains(&sha256(CUBE_CORNER)), "{err}");
+
+    let Some(real) = std::env::var_os("CELLBIH_DATA") else {
+        eprintln!("the manifest against the meshes did not run: set CELLBIH_DATA");
+        return;
+    };
+    let real = Path::new(&real);
+    for m in meshes() {
+        let path = real.join(format!("{}.obj.gz", m.name));
+        if path.exists() {
+            assert_eq!(sha256(&gunzip(&path)), m.obj_sha256, "{}", m.name);
+        }
+    }
+    let out = cellbih(&[
+        "info",
+        "--scene",
+        "teapot",
+        "--data",
+        real.to_str().unwrap(),
+    ]);
+    assert_ok(&out);
+    assert!(!stderr(&out).contains("warning"), "{}", stderr(&out));
+}
