@@ -28,7 +28,7 @@ use cellbih::cell::{CellConfig, CellError, CostModel};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
 use cellbih::scene::procedural::rtperf;
-use cellbih::strategy::machinery::footprint::{Footprint, Purpose};
+use cellbih::spe::footprint::{Footprint, Purpose};
 
 #[derive(Parser)]
 #[command(

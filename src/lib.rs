@@ -9,7 +9,8 @@
 //! The parts, from the bottom up: [`scene`] (triangles), [`bih`] (the one
 //! tree type: nodes, traversal, validation), [`kernels`] (the plain
 //! functions host and SPE code share), [`cell`] (the emulator, which knows
-//! nothing of trees), [`host`] (builders on the host's cores),
+//! nothing of trees), [`host`] (builders on the host's cores), [`spe`]
+//! (the SPE toolkit both the builders and the ray caster stand on),
 //! [`strategy`] (programs for the emulated Cell), and on top of both
 //! families the [`registry`] of builders, which every command, test, bench
 //! and experiment iterates. Then [`update`] (section 3's local update),
@@ -59,5 +60,6 @@ pub mod registry;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod spe;
 pub mod strategy;
 pub mod update;

@@ -8,7 +8,7 @@ mod common;
 use cellbih::bih::{BihConfig, Ray, RayStats, SplitChoice, Tracer};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{Scene, Triangle};
-use cellbih::strategy::machinery::footprint::{widest_level, work_ppe_jobs};
+use cellbih::spe::footprint::{widest_level, work_ppe_jobs};
 use common::{check_ray, make_scene, rays_for, scene_strategy};
 use glam::{DVec3, Vec3};
 use proptest::prelude::*;

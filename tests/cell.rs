@@ -548,26 +548,6 @@ fn functional_mode_gives_the_same_bytes_at_no_cost() {
     assert_eq!(c.memory().read_pod::<u32>(ea, 64).unwrap(), vec![8; 64]);
 }
 
-/// The machine knows nothing of BIHs: `src/cell/` imports no tree, scene,
-/// builder or strategy module.
-#[test]
-fn the_emulator_imports_nothing_from_the_rest() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/cell");
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let path = entry.unwrap().path();
-        let text = std::fs::read_to_string(&path).unwrap();
-        for m in [
-            "bih", "scene", "build", "strategy", "quality", "render", "update", "report", "aabb",
-        ] {
-            assert!(
-                !text.contains(&format!("crate::{m}")),
-                "{} imports crate::{m}",
-                path.display()
-            );
-        }
-    }
-}
-
 /// The rustdoc example's program (six SPEs, double-buffered 16 KiB gets,
 /// four per SPE) with its cycle count worked out by hand. The six start
 /// together and share the interface equally, so they move in lock step:

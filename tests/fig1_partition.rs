@@ -5,7 +5,7 @@
 
 use cellbih::cell::{Cell, CellConfig, Cycles, Ea};
 use cellbih::kernels::split::{Boxed, Split, side_of};
-use cellbih::strategy::machinery::fig1::{Fig1Buffers, partition_in_place};
+use cellbih::spe::fig1::{Fig1Buffers, partition_in_place};
 use glam::Vec3A;
 use proptest::prelude::*;
 

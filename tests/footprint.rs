@@ -10,8 +10,8 @@ use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene;
+use cellbih::spe::footprint::{Purpose, widest_level, work_ppe_jobs};
 use cellbih::strategy::Knobs;
-use cellbih::strategy::machinery::footprint::{Purpose, widest_level, work_ppe_jobs};
 use common::{assert_ok, cellbih, run_experiment};
 
 #[test]

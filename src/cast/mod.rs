@@ -5,14 +5,14 @@
 //! with its triangle id) and the rays (64 bytes) are in emulated main
 //! memory; every SPE runs `program`'s caster, reading nodes and
 //! triangles through a
-//! [`SoftwareCache`](crate::strategy::machinery::software_cache::SoftwareCache) in its
+//! [`SoftwareCache`](crate::spe::software_cache::SoftwareCache) in its
 //! local store, and the hits (32 bytes) come back by DMA. The answers are
 //! the host tracer's (`bih::Tracer`), ray for ray; the time is simulated
 //! PS3 time, in the same currency as a build's.
 
 mod program;
 
-pub use crate::strategy::machinery::software_cache::{CacheConfig, CacheRates, CacheStats};
+pub use crate::spe::software_cache::{CacheConfig, CacheRates, CacheStats};
 pub use program::SpeCast;
 
 use std::rc::Rc;
@@ -24,7 +24,7 @@ use crate::bih::{Bih, Hit, Ray, RayStats};
 use crate::cell::{Cell, CellConfig, CellError, Cycles, Ea, Label, RunReport, Trace};
 use crate::kernels::rates::FITTED_OVER_DERIVED;
 use crate::scene::Scene;
-use crate::strategy::machinery::layout::{self, TriRecord};
+use crate::spe::layout::{self, TriRecord};
 
 /// A ray in main memory: 64 bytes.
 #[repr(C)]

@@ -22,8 +22,8 @@ use crate::bih::{
 };
 use crate::cell::{CellError, Ea, Spe, WaitMode};
 use crate::scene::Triangle;
-use crate::strategy::machinery::layout::TriRecord;
-use crate::strategy::machinery::software_cache::{CacheStats, LINE, Lookup, SoftwareCache};
+use crate::spe::layout::TriRecord;
+use crate::spe::software_cache::{CacheStats, LINE, Lookup, SoftwareCache};
 
 /// What one SPE did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]

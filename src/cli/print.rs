@@ -8,7 +8,7 @@ use cellbih::quality::rays::RaySets;
 use cellbih::registry::BuildReport;
 use cellbih::report::Settings;
 use cellbih::scene::Scene;
-use cellbih::strategy::machinery::footprint::{Footprint, Purpose, work_ppe_jobs};
+use cellbih::spe::footprint::{Footprint, Purpose, work_ppe_jobs};
 use cellbih::strategy::machinery::top::TRIS_PER_SPE;
 
 use super::{Format, Res};

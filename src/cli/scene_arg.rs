@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use cellbih::registry::Build;
 use cellbih::scene::{self, Scene};
-use cellbih::strategy::machinery::layout::TriRecord;
+use cellbih::spe::layout::TriRecord;
 
 use super::Res;
 

@@ -24,9 +24,9 @@ pub use crate::kernels::morton::KeyOrder;
 use crate::kernels::rates::{RateOverrides, Uncertain};
 use crate::kernels::recursion::BuildStats;
 use crate::scene::Scene;
+use crate::spe::footprint::Purpose;
+use crate::spe::layout;
 pub use knob::{Kind, Knob, Knobs};
-use machinery::footprint::Purpose;
-use machinery::layout;
 
 /// How a strategy starts: it spawns its programs on the Cell for the
 /// triangles of `Setup`, and returns how to read back what they leave
@@ -171,7 +171,7 @@ pub struct SpeWork {
     pub arena_blocks: u64,
     pub arena_unused: u64,
     /// Its job-queue software cache (`spe_bfs_shared --job-cache`).
-    pub job_cache: machinery::software_cache::CacheStats,
+    pub job_cache: crate::spe::software_cache::CacheStats,
 }
 
 /// The PPE allocates a node array in main memory and writes `nodes` into
@@ -265,7 +265,7 @@ pub struct Simulated {
     /// The timeline, if the Cell's config asked for it.
     pub trace: Option<Trace>,
     /// Main memory by purpose, local-store high-water marks.
-    pub footprint: machinery::footprint::Footprint,
+    pub footprint: crate::spe::footprint::Footprint,
 }
 
 impl Simulated {
@@ -349,7 +349,7 @@ pub fn run_in(
         config: *cfg,
     };
     let simulated = Simulated {
-        footprint: machinery::footprint::Footprint::of(&run, &bih),
+        footprint: crate::spe::footprint::Footprint::of(&run, &bih),
         run,
         stats: o.stats,
         spe_work: o.spe_work,

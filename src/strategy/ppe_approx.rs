@@ -11,14 +11,14 @@
 //! scatter, gather), every bucket an upper-level partition touches, and every
 //! item of the naive finish; and at the per-node rate for every node.
 
-use crate::strategy::machinery::footprint::Purpose;
+use crate::spe::footprint::Purpose;
 
-use super::machinery::layout::TriRecord;
 use super::{Output, Readback, Setup};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea};
 use crate::kernels::approx::build_approx;
 use crate::kernels::recursion::BuildStats;
+use crate::spe::layout::TriRecord;
 
 /// `ppe_approx` in the registry of builders.
 pub const STRATEGY: super::Strategy = super::Strategy::new(

@@ -9,11 +9,11 @@
 //! kernel rates of the cost model. It builds every quality knob of
 //! [`BihConfig`] (the split choice, the empty-space cut-off).
 
-use super::machinery::layout::TriRecord;
 use super::{Output, Readback, Setup};
 use crate::bih::{BihConfig, SplitChoice};
 use crate::cell::{Cell, CellError};
 use crate::kernels::recursion::{BuildStats, build_items};
+use crate::spe::layout::TriRecord;
 
 /// `ppe_naive` in the registry of builders.
 pub const STRATEGY: super::Strategy = super::Strategy::new(

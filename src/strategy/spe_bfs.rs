@@ -8,10 +8,10 @@
 
 use super::machinery::arena::{BlockSource, pieces, serve_blocks};
 use super::machinery::breadth_first::{Job, QueueKnobs, SpeBuilder};
-use super::machinery::footprint::Purpose;
 use super::{Output, Readback, Setup};
 use crate::bih::BihConfig;
 use crate::cell::CellError;
+use crate::spe::footprint::Purpose;
 
 /// `spe_bfs`, the baseline, in the registry of builders.
 pub const STRATEGY: super::Strategy = super::Strategy::new(

@@ -26,7 +26,7 @@
 //! The splits are the baseline's, so the tree is the baseline's tree; only
 //! the numbering differs (nodes read back are renumbered breadth first).
 
-use crate::strategy::machinery::footprint::Purpose;
+use crate::spe::footprint::Purpose;
 
 use super::machinery::breadth_first::{
     Job, NO_DMA_LISTS, NO_DOUBLE_BUFFER, NO_PREFETCH, QueueKnobs, SpeBuilder,

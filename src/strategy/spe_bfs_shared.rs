@@ -38,15 +38,13 @@
 //! The splits are the baseline's, so the tree is the baseline's tree; only
 //! the numbering differs (nodes read back are renumbered breadth first).
 
-use crate::strategy::machinery::footprint::Purpose;
+use crate::spe::footprint::Purpose;
 
 use super::machinery::arena::NodeWrites;
-use super::machinery::barrier::Barrier;
 use super::machinery::breadth_first::{
     DMA_LISTS, DOUBLE_BUFFER, Job, NO_PREFETCH, QueueKnobs, SpeBuilder,
 };
 use super::machinery::coop::Coop;
-use super::machinery::software_cache::{CacheConfig, CacheRates, LINE, SoftwareCache};
 use super::machinery::top::{
     COOP_PARTITION, Common, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE,
     TopKnobs, build_top, help_top, spes_used,
@@ -55,6 +53,8 @@ use super::machinery::work_queue::{SharedSpill, WorkQueue, from_wire};
 use super::{Knob, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
+use crate::spe::barrier::Barrier;
+use crate::spe::software_cache::{CacheConfig, CacheRates, LINE, SoftwareCache};
 
 /// `spe_bfs_shared` in the registry of builders.
 pub const STRATEGY: super::Strategy = super::Strategy::new(
@@ -206,7 +206,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1)
     // (footprint::work_ppe_jobs); the level handed over from the top is
     // under 32 jobs per SPE.
-    let jobs = super::machinery::footprint::work_ppe_jobs(n, cfg.leaf_size).max(32 * spes);
+    let jobs = crate::spe::footprint::work_ppe_jobs(n, cfg.leaf_size).max(32 * spes);
     let capacity = u32::try_from(jobs).map_err(|_| {
         CellError::Config(format!(
             "spe_bfs_shared: {n} triangles are too many for one queue"

@@ -5,7 +5,7 @@
 //! The PPE chooses each split by the global heuristic, writes the job (the
 //! interval and the plane) to main memory and signals SPE 0. The SPE fetches
 //! the job by DMA, partitions the interval of the triangle array in place
-//! with the five-buffer stream of Fig. 1 ([`super::machinery::fig1`]), puts back the
+//! with the five-buffer stream of Fig. 1 ([`crate::spe::fig1`]), puts back the
 //! split index and the fitted values of both sides (the left's rightmost and
 //! the right's leftmost, with the sides' bounds of centers), and tells the
 //! PPE through its outbound mailbox. With these the PPE makes the node and
@@ -20,12 +20,10 @@
 //! buffers, bins it and puts the bins back; the PPE sweeps them (a job is
 //! then 64 bytes: the interval's bounds of centers travel with it).
 
-use crate::strategy::machinery::footprint::Purpose;
+use crate::spe::footprint::Purpose;
 
 use glam::Vec3A;
 
-use super::machinery::fig1::{Fig1Buffers, partition_in_place, stream_bounds, stream_fold};
-use super::machinery::layout::TriRecord;
 use super::machinery::work_queue::{from_wire, to_wire};
 use super::{Output, Readback, Setup};
 use crate::aabb::Aabb;
@@ -36,6 +34,8 @@ use crate::kernels::decide::{Decision, NodeView, decide};
 use crate::kernels::recursion::BuildStats;
 use crate::kernels::sah::Bins;
 use crate::kernels::split::{Side, Split, clip_planes};
+use crate::spe::fig1::{Fig1Buffers, partition_in_place, stream_bounds, stream_fold};
+use crate::spe::layout::TriRecord;
 
 const STOP: u32 = 0;
 const PARTITION: u32 = 1;

@@ -32,10 +32,10 @@
 //! handed out is written with [`ObjectArena::emit_foreign`] (a lock-line
 //! update, since one node is 12 bytes and DMA moves multiples of 16).
 
-use super::footprint::Purpose;
 pub use super::pool_server::PoolServer;
 use crate::bih::BihNode;
 use crate::cell::{CellError, Ea, LsAddr, Ppe, Reservation, Spe, WaitMode};
+use crate::spe::footprint::Purpose;
 
 /// Nodes per local-store node buffer: 16,320 bytes, a multiple of 48 so
 /// that every put is a multiple of 16 bytes.

@@ -37,11 +37,11 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3A;
 
-use super::barrier::Barrier;
-use super::fig1::{BLOCK_BYTES, Fig1Buffers, partition_in_place, stream_bounds};
-use super::layout::TriRecord;
 use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe, WaitMode};
 use crate::kernels::split::{Side, Split, partition};
+use crate::spe::barrier::Barrier;
+use crate::spe::fig1::{BLOCK_BYTES, Fig1Buffers, partition_in_place, stream_bounds};
+use crate::spe::layout::TriRecord;
 
 /// Signal-register-1 values from the coordinator.
 pub const GO: u32 = 2;

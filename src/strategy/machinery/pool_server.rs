@@ -3,9 +3,9 @@
 //! a block on request by mailbox). See `arena.rs`.
 
 use super::arena::{BLOCK_BYTES, REQUEST_BLOCK, ea_word};
-use super::footprint::Purpose;
 use crate::bih::BihNode;
 use crate::cell::{CellError, Ea, Ppe};
+use crate::spe::footprint::Purpose;
 
 /// The PPE's side of a pool's growth: allocates an overflow block for each
 /// SPE that asks, at a whole number of nodes (and 128 bytes) past the

@@ -11,13 +11,13 @@
 
 use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource, PoolServer};
 use super::coop::{Coop, CoopArea, GO};
-use super::footprint::Purpose;
-use super::layout::TriRecord;
 use super::work_queue::Level;
 use crate::aabb::Aabb;
 use crate::bih::BihConfig;
 use crate::cell::Exit;
 use crate::cell::{Cell, CellError, Ea, Spe};
+use crate::spe::footprint::Purpose;
+use crate::spe::layout::TriRecord;
 use crate::strategy::machinery::breadth_first::{Job, SpeBuilder, TopEnd};
 use crate::strategy::{Knob, Knobs, Output, Readback, SpeWork};
 
@@ -362,7 +362,7 @@ pub(in crate::strategy) async fn build_top(
         false => b.bounds_of_all(n).await?,
     };
     if spes > 1 && knobs.coop {
-        let per_block = super::fig1::BLOCK_BYTES / size_of::<TriRecord>() as u32;
+        let per_block = crate::spe::fig1::BLOCK_BYTES / size_of::<TriRecord>() as u32;
         b.help_with(Some((helper, spes as u32 * per_block)));
     }
     let root_id = b.arena.alloc(1).await?;

@@ -113,10 +113,10 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
 
     /// Bytes `WorkAPPE` (and `WorkBPPE`) need for a subtree of `triangles`
     /// with leaves of `leaf_size`, jobs of `stride` bytes: room for the
-    /// widest level it can have ([`super::footprint::work_ppe_jobs`]), not
+    /// widest level it can have ([`crate::spe::footprint::work_ppe_jobs`]), not
     /// for one job per triangle as the paper sizes them.
     pub fn spill_bytes_for(triangles: usize, leaf_size: u32, stride: usize) -> u64 {
-        let jobs = super::footprint::work_ppe_jobs(triangles, leaf_size);
+        let jobs = crate::spe::footprint::work_ppe_jobs(triangles, leaf_size);
         Self::spill_bytes(jobs, stride)
     }
 

@@ -42,12 +42,10 @@ mod top;
 
 use pairs::Pairs;
 
-use crate::strategy::machinery::footprint::Purpose;
+use crate::spe::footprint::Purpose;
 
 use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
-use super::machinery::barrier::Barrier;
 use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, NO_PREFETCH, QueueKnobs};
-use super::machinery::layout::TriRecord;
 use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, spes_used};
 use super::{Knob, Knobs, Readback, Records, Setup, SpeWork};
 use crate::bih::BihConfig;
@@ -55,6 +53,8 @@ use crate::cell::{Cell, CellError, Cycles, Ea, LsAddr, Spe};
 use crate::kernels::morton::{KeyOrder, KeySpec, auto_key_bits, auto_region_size};
 use crate::kernels::radix;
 use crate::kernels::rates::{FITTED_OVER_DERIVED, KernelRates, RateOverrides, Uncertain};
+use crate::spe::barrier::Barrier;
+use crate::spe::layout::TriRecord;
 
 /// `spe_morton` in the registry of builders.
 pub const STRATEGY: super::Strategy = super::Strategy::new(

@@ -11,9 +11,9 @@ use crate::bih::BihNode;
 use crate::cell::{CellError, Ea, ListElement, LsAddr};
 use crate::kernels::recursion::build_subtree;
 use crate::kernels::split::{Side, side_of};
+use crate::spe::fig1::stream_bounds;
+use crate::spe::layout::TriRecord;
 use crate::strategy::machinery::breadth_first::{Job, SpeBuilder};
-use crate::strategy::machinery::fig1::stream_bounds;
-use crate::strategy::machinery::layout::TriRecord;
 use crate::strategy::machinery::work_queue::from_wire;
 
 impl Program<'_> {

@@ -9,7 +9,7 @@ use super::{Program, RECORD, RECORDS_PER_BLOCK};
 use crate::cell::{CellError, Cycles, Ea, ListElement, LsAddr, WaitMode};
 use crate::kernels::radix;
 use crate::kernels::split::Boxed;
-use crate::strategy::machinery::layout::TriRecord;
+use crate::spe::layout::TriRecord;
 
 /// `count` elements of `size` bytes at `ea`, read `per_block` a block.
 #[derive(Clone, Copy)]

@@ -12,8 +12,8 @@ use crate::kernels::cutoff::Clip;
 use crate::kernels::decide::{Decision, NodeView, decide};
 use crate::kernels::sah::Bins;
 use crate::kernels::split::{Split, partition};
-use crate::strategy::machinery::fig1::{partition_in_place, stream_fold};
-use crate::strategy::machinery::layout::TriRecord;
+use crate::spe::fig1::{partition_in_place, stream_fold};
+use crate::spe::layout::TriRecord;
 
 /// What a job makes: a leaf, a clip node (the empty-space cut-off: no
 /// triangle moves), or an inner node that splits its interval (with the
@@ -105,8 +105,7 @@ impl SpeBuilder<'_> {
             self.dealt_starts = jobs.iter().map(|j| j.first).collect();
         }
         let k = self.rates;
-        let per_block = (crate::strategy::machinery::fig1::BLOCK_BYTES as usize
-            / size_of::<TriRecord>()) as u32;
+        let per_block = (crate::spe::fig1::BLOCK_BYTES as usize / size_of::<TriRecord>()) as u32;
         let mut steps = Vec::new();
         let mut batch = Batch::default();
         for &job in jobs {

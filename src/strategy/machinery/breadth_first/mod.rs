@@ -31,8 +31,6 @@ mod job;
 use crate::kernels::rates::KernelRates;
 
 use super::arena::{BlockSource, NodeWrites, ObjectArena};
-use super::fig1::{Fig1Buffers, stream_bounds};
-use super::layout::TriRecord;
 use super::work_queue::{Level, WorkQueue};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
@@ -41,6 +39,8 @@ use crate::kernels::cutoff::{Clip, child_regions};
 use crate::kernels::recursion::BuildStats;
 use crate::kernels::sah::Bins;
 use crate::kernels::split::{Side, Split, clip_planes};
+use crate::spe::fig1::{Fig1Buffers, stream_bounds};
+use crate::spe::layout::TriRecord;
 use crate::strategy::{Knob, Knobs};
 pub use job::Job;
 
