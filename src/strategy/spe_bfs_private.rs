@@ -129,130 +129,196 @@ struct PrivateKnobs {
 const RECORD_BYTES: u64 = 128;
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
-    let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
-    let knobs = PrivateKnobs {
-        queue: QueueKnobs::read(&setup.knobs, DEFAULT_QUEUE),
-        top: TopKnobs::read(&setup.knobs, DEFAULT_TOP),
-        steal: setup.knobs.flag(&STEAL),
-    };
-    let rates = setup.rates.kernels();
-    let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
-    let common = Common::alloc(cell, tris, n, (&cfg, &knobs.top), spes)?;
-    let blocks = common.pool.blocks;
-    let mem = || cell.memory_mut();
-    // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
-    // triangles: room for one level of as many jobs as triangles each.
-    // (With stealing, areas go with the dealt jobs: fewer than twice the
-    // deal level's size of them.)
-    let parts = if knobs.steal {
-        knobs.top.max_deal(spes)
-    } else {
-        spes
-    };
-    // Each part's area rounds up to whole buffers and adds one; its bound
-    // adds two jobs.
-    let per_part_slack = 3 * WORK_BYTES as u64;
-    let work_bytes = 2 * (Job::spill_bytes_for(n, &cfg) + parts as u64 * per_part_slack);
-    let work_ppe = mem().alloc(
-        Purpose::WorkPpe.buffer("WorkAPPE/WorkBPPE of every SPE"),
-        work_bytes,
-        128,
-    )?;
-    let records = mem().alloc(
-        Purpose::JobQueues.buffer("deal records"),
-        spes as u64 * RECORD_BYTES,
-        128,
-    )?;
-    let dealt_jobs = mem().alloc(
-        Purpose::JobQueues.buffer("dealt jobs"),
-        WORK_BYTES as u64,
-        128,
-    )?;
-    let lists = mem().alloc(
-        Purpose::JobQueues.buffer("dealt job lists"),
-        spes as u64 * 128,
-        128,
-    )?;
-    let mut exits = Vec::with_capacity(spes);
-    for id in 0..spes {
-        exits.push(cell.spawn_spe(id, move |spe| async move {
-            let mut b = SpeBuilder::new(
-                &spe,
-                tris,
-                ([work_ppe, work_ppe], 0),
-                cfg,
-                blocks,
-                (knobs.queue, rates),
-            )?;
-            let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
-            let tag = spe.tag("deal")?;
-            let mut helper = Coop::new(&spe, common.coop, knobs.queue.prefetch)?;
-            // SPE 0's top arena is counted by build_top.
-            let mut work = SpeWork::default();
-            if id == 0 {
-                let dealt = build_top(&mut b, helper, n, region, knobs.top, &mut work).await?;
-                let own = match dealt {
-                    Some(level) if knobs.steal => {
-                        let to = Lists {
-                            jobs: dealt_jobs,
-                            lists,
-                            records,
-                        };
-                        deal_to_lists(&spe, &mut b, level, spes, to, record, tag).await?;
-                        None
-                    }
-                    Some(level) => {
-                        deal(&spe, &mut b, level, spes, work_ppe, records, record, tag).await?
-                    }
-                    None => {
-                        // The tree ended in the top levels: nothing to deal.
-                        tell_nothing(&spe, spes, records, record, tag).await?;
-                        None
-                    }
-                };
-                if let Some((jobs, areas)) = own {
-                    b.arena.renew(blocks);
-                    b.queue.set_spill(areas, areas[1].0 - areas[0].0);
-                    b.take_dealt();
-                    let level = b.queue.restart_local(&jobs)?;
-                    b.levels(level, None).await?;
-                    let count = b.arena.allocated();
-                    b.arena.close(count).await?;
-                } else if knobs.steal && dealt.is_some() {
-                    b.arena.renew(blocks);
-                    work.stolen =
-                        take_and_steal(&spe, &mut b, spes, work_ppe, record, records, tag).await?;
-                }
-            } else {
-                // Help partition the top levels until the deal comes.
-                help_top(&spe, &b, &mut helper, n, knobs.top).await?;
-                spe.get(record, records.offset(id as u64 * RECORD_BYTES), 32, tag)
-                    .await?;
-                spe.wait_tag(tag).await?;
-                let [count, a, bb, _] = spe.ls_read::<u64>(record, 4)?[..] else {
-                    unreachable!("four words")
-                };
-                if knobs.steal && count > 0 {
-                    work.stolen =
-                        take_and_steal(&spe, &mut b, spes, work_ppe, record, records, tag).await?;
-                } else if count > 0 {
-                    b.queue.set_spill([Ea(a), Ea(bb)], bb - a);
-                    b.take_dealt();
-                    b.levels(Level::InMemory(count as usize), None).await?;
-                    let count = b.arena.allocated();
-                    b.arena.close(count).await?;
-                }
-            }
-            if b.builds_dealt() {
-                // The arena of its own jobs.
-                work.arena_blocks += b.arena.stats.blocks;
-                work.arena_unused += b.arena.unused();
-            }
-            Ok(SpeExit::of(&b, work))
-        }));
+    let p = Program::set_up(cell, setup, cfg)?;
+    let exits = (0..p.spes)
+        .map(|id| cell.spawn_spe(id, move |spe| p.run(spe, id)))
+        .collect();
+    let reach = p.common.pool.spawn_server(cell);
+    Ok(p.common.pool.readback(exits, reach, None))
+}
+
+/// What every SPE's program reads: the triangles, the tree's settings,
+/// the knobs, the pool, every SPE's `WorkAPPE`/`WorkBPPE` and the deal's
+/// records and lists.
+#[derive(Clone, Copy)]
+struct Program {
+    tris: Ea,
+    n: usize,
+    region: crate::aabb::Aabb,
+    cfg: BihConfig,
+    knobs: PrivateKnobs,
+    rates: crate::kernels::rates::KernelRates,
+    spes: usize,
+    common: Common,
+    /// `WorkAPPE`/`WorkBPPE` of every SPE, carved in proportion to its
+    /// triangles.
+    work_ppe: Ea,
+    /// One deal record per SPE.
+    records: Ea,
+    /// The dealt jobs and their per-SPE lists (`--steal`).
+    dealt_jobs: Ea,
+    lists: Ea,
+}
+
+impl Program {
+    /// Reads the knobs, decides the SPEs to use and allocates the pool,
+    /// the SPEs' `WorkAPPE`/`WorkBPPE` and the deal's records.
+    fn set_up(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Self, CellError> {
+        let (n, cfg) = (setup.count, *cfg);
+        let knobs = PrivateKnobs {
+            queue: QueueKnobs::read(&setup.knobs, DEFAULT_QUEUE),
+            top: TopKnobs::read(&setup.knobs, DEFAULT_TOP),
+            steal: setup.knobs.flag(&STEAL),
+        };
+        let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
+        let common = Common::alloc(cell, setup.triangles, n, (&cfg, &knobs.top), spes)?;
+        // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
+        // triangles: room for one level of as many jobs as triangles each.
+        // (With stealing, areas go with the dealt jobs: fewer than twice
+        // the deal level's size of them.)
+        let parts = if knobs.steal {
+            knobs.top.max_deal(spes)
+        } else {
+            spes
+        };
+        // Each part's area rounds up to whole buffers and adds one; its
+        // bound adds two jobs.
+        let per_part_slack = 3 * WORK_BYTES as u64;
+        let work_bytes = 2 * (Job::spill_bytes_for(n, &cfg) + parts as u64 * per_part_slack);
+        let alloc = |purpose: Purpose, what: &str, bytes: u64| {
+            cell.memory_mut().alloc(purpose.buffer(what), bytes, 128)
+        };
+        Ok(Program {
+            tris: setup.triangles,
+            n,
+            region: setup.region,
+            cfg,
+            knobs,
+            rates: setup.rates.kernels(),
+            spes,
+            common,
+            work_ppe: alloc(
+                Purpose::WorkPpe,
+                "WorkAPPE/WorkBPPE of every SPE",
+                work_bytes,
+            )?,
+            records: alloc(
+                Purpose::JobQueues,
+                "deal records",
+                spes as u64 * RECORD_BYTES,
+            )?,
+            dealt_jobs: alloc(Purpose::JobQueues, "dealt jobs", WORK_BYTES as u64)?,
+            lists: alloc(Purpose::JobQueues, "dealt job lists", spes as u64 * 128)?,
+        })
     }
-    let reach = common.pool.spawn_server(cell);
-    Ok(common.pool.readback(exits, reach, None))
+
+    /// One SPE's program: SPE 0 builds the top levels, deals their last
+    /// level and builds its own jobs; the others help partition the top,
+    /// then build the jobs dealt to them (or take and steal them).
+    async fn run(self, spe: Spe, id: usize) -> Result<SpeExit, CellError> {
+        let mut b = SpeBuilder::new(
+            &spe,
+            self.tris,
+            ([self.work_ppe, self.work_ppe], 0),
+            self.cfg,
+            self.common.pool.blocks,
+            (self.knobs.queue, self.rates),
+        )?;
+        let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
+        let tag = spe.tag("deal")?;
+        let mut helper = Coop::new(&spe, self.common.coop, self.knobs.queue.prefetch)?;
+        // SPE 0's top arena is counted by build_top.
+        let mut work = SpeWork::default();
+        if id == 0 {
+            let top = self.knobs.top;
+            let dealt = build_top(&mut b, helper, self.n, self.region, top, &mut work).await?;
+            self.deal_and_build(&spe, &mut b, dealt, (record, tag), &mut work)
+                .await?;
+        } else {
+            // Help partition the top levels until the deal comes.
+            help_top(&spe, &b, &mut helper, self.n, self.knobs.top).await?;
+            self.build_dealt(&spe, &mut b, (record, tag), &mut work)
+                .await?;
+        }
+        if b.builds_dealt() {
+            // The arena of its own jobs.
+            work.arena_blocks += b.arena.stats.blocks;
+            work.arena_unused += b.arena.unused();
+        }
+        Ok(SpeExit::of(&b, work))
+    }
+
+    /// SPE 0 deals the top's last level `dealt` (to each SPE's record, or,
+    /// `--steal`, to per-SPE lists; nothing if the tree ended in the top)
+    /// and builds its own share.
+    async fn deal_and_build(
+        self,
+        spe: &Spe,
+        b: &mut SpeBuilder<'_>,
+        dealt: Option<Level>,
+        (record, tag): (crate::cell::LsAddr, u32),
+        work: &mut SpeWork,
+    ) -> Result<(), CellError> {
+        let (spes, records) = (self.spes, self.records);
+        let own = match dealt {
+            Some(level) if self.knobs.steal => {
+                let to = Lists {
+                    jobs: self.dealt_jobs,
+                    lists: self.lists,
+                    records,
+                };
+                deal_to_lists(spe, b, level, spes, to, record, tag).await?;
+                None
+            }
+            Some(level) => deal(spe, b, level, spes, self.work_ppe, records, record, tag).await?,
+            None => {
+                // The tree ended in the top levels: nothing to deal.
+                tell_nothing(spe, spes, records, record, tag).await?;
+                None
+            }
+        };
+        if let Some((jobs, areas)) = own {
+            b.arena.renew(self.common.pool.blocks);
+            b.queue.set_spill(areas, areas[1].0 - areas[0].0);
+            b.take_dealt();
+            let level = b.queue.restart_local(&jobs)?;
+            b.levels(level, None).await?;
+            let count = b.arena.allocated();
+            b.arena.close(count).await?;
+        } else if self.knobs.steal && dealt.is_some() {
+            b.arena.renew(self.common.pool.blocks);
+            work.stolen = take_and_steal(spe, b, spes, self.work_ppe, record, records, tag).await?;
+        }
+        Ok(())
+    }
+
+    /// Every other SPE reads its deal record and builds the jobs dealt to
+    /// it (or, `--steal`, takes them from its list and steals).
+    async fn build_dealt(
+        self,
+        spe: &Spe,
+        b: &mut SpeBuilder<'_>,
+        (record, tag): (crate::cell::LsAddr, u32),
+        work: &mut SpeWork,
+    ) -> Result<(), CellError> {
+        let at = self.records.offset(spe.id() as u64 * RECORD_BYTES);
+        spe.get(record, at, 32, tag).await?;
+        spe.wait_tag(tag).await?;
+        let [count, a, bb, _] = spe.ls_read::<u64>(record, 4)?[..] else {
+            unreachable!("four words")
+        };
+        if self.knobs.steal && count > 0 {
+            work.stolen =
+                take_and_steal(spe, b, self.spes, self.work_ppe, record, self.records, tag).await?;
+        } else if count > 0 {
+            b.queue.set_spill([Ea(a), Ea(bb)], bb - a);
+            b.take_dealt();
+            b.levels(Level::InMemory(count as usize), None).await?;
+            let count = b.arena.allocated();
+            b.arena.close(count).await?;
+        }
+        Ok(())
+    }
 }
 
 /// SPE 0 deals the jobs of `level` (in `WorkA`): largest first, each to the

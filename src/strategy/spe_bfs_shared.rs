@@ -49,7 +49,7 @@ use super::machinery::top::{
     COOP_PARTITION, Common, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE,
     TopKnobs, build_top, help_top, spes_used,
 };
-use super::machinery::work_queue::{SharedSpill, WorkQueue, from_wire};
+use super::machinery::work_queue::{Level, SharedSpill, WorkQueue, from_wire};
 use super::{Knob, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
@@ -183,138 +183,177 @@ struct Queue {
 }
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
-    let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
-    let knobs = SharedKnobs {
-        queue: QueueKnobs::read(&setup.knobs, DEFAULT_QUEUE),
-        top: TopKnobs::read(&setup.knobs, DEFAULT_TOP),
-        agglomerate: setup.knobs.int(&AGGLOMERATE),
-        guided: !setup.knobs.flag(&FIXED_TAKES),
-        job_cache: setup.knobs.int(&JOB_CACHE),
-    };
-    let job_bytes = Job::bytes(&cfg);
-    let per_buffer = WorkQueue::<Job>::per_buffer(job_bytes);
-    if knobs.agglomerate > per_buffer {
-        return Err(CellError::Config(format!(
-            "spe_bfs_shared: --agglomerate {}: a take must fit WorkA, which holds {per_buffer} jobs of {job_bytes} bytes with these settings",
-            knobs.agglomerate,
-        )));
+    let p = Program::set_up(cell, setup, cfg)?;
+    let exits = (0..p.queue.spes)
+        .map(|id| cell.spawn_spe(id, move |spe| p.run(spe, id)))
+        .collect();
+    let reach = p.common.pool.spawn_server(cell);
+    Ok(p.common.pool.readback(exits, reach, None))
+}
+
+/// What every SPE's program reads: the triangles, the tree's settings,
+/// the knobs, the pool and the shared queue.
+#[derive(Clone, Copy)]
+struct Program {
+    tris: Ea,
+    n: usize,
+    region: crate::aabb::Aabb,
+    cfg: BihConfig,
+    knobs: SharedKnobs,
+    rates: crate::kernels::rates::KernelRates,
+    common: Common,
+    queue: Queue,
+}
+
+impl Program {
+    /// Reads the knobs, decides the SPEs to use and allocates the pool and
+    /// the shared queue in main memory.
+    fn set_up(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Self, CellError> {
+        let (n, cfg) = (setup.count, *cfg);
+        let knobs = SharedKnobs {
+            queue: QueueKnobs::read(&setup.knobs, DEFAULT_QUEUE),
+            top: TopKnobs::read(&setup.knobs, DEFAULT_TOP),
+            agglomerate: setup.knobs.int(&AGGLOMERATE),
+            guided: !setup.knobs.flag(&FIXED_TAKES),
+            job_cache: setup.knobs.int(&JOB_CACHE),
+        };
+        let job_bytes = Job::bytes(&cfg);
+        let per_buffer = WorkQueue::<Job>::per_buffer(job_bytes);
+        if knobs.agglomerate > per_buffer {
+            return Err(CellError::Config(format!(
+                "spe_bfs_shared: --agglomerate {}: a take must fit WorkA, which holds {per_buffer} jobs of {job_bytes} bytes with these settings",
+                knobs.agglomerate,
+            )));
+        }
+        let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
+        let common = Common::alloc(cell, setup.triangles, n, (&cfg, &knobs.top), spes)?;
+        Ok(Program {
+            tris: setup.triangles,
+            n,
+            region: setup.region,
+            cfg,
+            knobs,
+            rates: setup.rates.kernels(),
+            common,
+            queue: Queue::alloc(cell, n, &cfg, knobs.job_cache > 0, spes)?,
+        })
     }
-    let rates = setup.rates.kernels();
-    let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
-    let common = Common::alloc(cell, tris, n, (&cfg, &knobs.top), spes)?;
-    // A level's jobs: two per job of the level before with more than a
-    // leaf's triangles (disjoint intervals), at most 2n / (leaf size + 1)
-    // (footprint::work_ppe_jobs); the level handed over from the top is
-    // under 32 jobs per SPE.
-    let jobs = crate::spe::footprint::work_ppe_jobs(n, cfg.leaf_size).max(32 * spes);
-    let capacity = u32::try_from(jobs).map_err(|_| {
-        CellError::Config(format!(
-            "spe_bfs_shared: {n} triangles are too many for one queue"
-        ))
-    })?;
-    let mut level_bytes = (jobs * job_bytes) as u64;
-    if knobs.job_cache > 0 {
-        // The cache reads whole lines: the arrays end on one.
-        level_bytes = level_bytes.next_multiple_of(LINE);
+
+    /// One SPE's program: the top levels (SPE 0 builds them and hands
+    /// their last level to the queue; the others help partition), then
+    /// the shared levels, then its arena closed.
+    async fn run(self, spe: Spe, id: usize) -> Result<SpeExit, CellError> {
+        let (q, knobs) = (self.queue, self.knobs);
+        let blocks = self.common.pool.blocks;
+        let mut b = SpeBuilder::new(
+            &spe,
+            self.tris,
+            (q.levels, q.level_bytes),
+            self.cfg,
+            blocks,
+            (knobs.queue, self.rates),
+        )?;
+        let mut helper = Coop::new(&spe, self.common.coop, knobs.queue.prefetch)?;
+        let line = spe.ls_alloc(128, 128)?;
+        let mut work = SpeWork::default();
+        if id == 0 {
+            let top = build_top(&mut b, helper, self.n, self.region, knobs.top, &mut work).await?;
+            q.open(&spe, &mut b, top, line).await?;
+        } else {
+            help_top(&spe, &b, &mut helper, self.n, knobs.top).await?;
+        }
+        b.arena.renew(blocks);
+        let writes = NodeWrites::new(&spe, self.common.pool.base, knobs.queue.dma_lists)?;
+        b.share_queue(writes);
+        let mut cache = match knobs.job_cache {
+            0 => None,
+            kib => Some(job_cache(&spe, kib as u32)?),
+        };
+        work.taken = shared_levels(&spe, &mut b, q, knobs, line, cache.as_mut()).await?;
+        if let Some(c) = cache {
+            work.job_cache += c.stats;
+        }
+        let count = b.arena.allocated();
+        b.arena.close(count).await?;
+        work.arena_blocks += b.arena.stats.blocks;
+        work.arena_unused += b.arena.unused();
+        Ok(SpeExit::of(&b, work))
     }
-    let mem = || cell.memory_mut();
-    let level_a = mem().alloc(
-        Purpose::JobQueues.buffer("shared job queue: level A"),
-        level_bytes,
-        128,
-    )?;
-    let level_b = mem().alloc(
-        Purpose::JobQueues.buffer("shared job queue: level B"),
-        level_bytes,
-        128,
-    )?;
-    let take = mem().alloc(
-        Purpose::JobQueues.buffer("shared job queue: take line"),
-        128,
-        128,
-    )?;
-    let push = mem().alloc(
-        Purpose::JobQueues.buffer("shared job queue: push line"),
-        128,
-        128,
-    )?;
-    let arrivals = mem().alloc(
-        Purpose::JobQueues.buffer("shared job queue: arrivals line"),
-        128,
-        128,
-    )?;
-    let queue = Queue {
-        levels: [level_a, level_b],
-        level_bytes,
-        capacity,
-        take,
-        push,
-        arrivals,
-        spes,
-    };
-    let mut exits = Vec::with_capacity(spes);
-    for id in 0..spes {
-        exits.push(cell.spawn_spe(id, move |spe| async move {
-            let mut b = SpeBuilder::new(
-                &spe,
-                tris,
-                (queue.levels, queue.level_bytes),
-                cfg,
-                common.pool.blocks,
-                (knobs.queue, rates),
-            )?;
-            let mut helper = Coop::new(&spe, common.coop, knobs.queue.prefetch)?;
-            let line = spe.ls_alloc(128, 128)?;
-            let mut work = SpeWork::default();
-            if id == 0 {
-                let top = build_top(&mut b, helper, n, region, knobs.top, &mut work).await?;
-                let count = match top {
-                    Some(level) => {
-                        let mut count = 0;
-                        for k in 0..b.queue.blocks(level) {
-                            let jobs = b.queue.load(level, k).await?;
-                            let at = queue.levels[0].offset(count * job_bytes as u64);
-                            b.queue.write_jobs(&jobs, at).await?;
-                            count += jobs.len() as u64;
-                        }
-                        count as u32
-                    }
-                    None => 0,
-                };
-                spe.atomic_update_line(line, queue.take, |w| {
-                    (w[0], w[1]) = (0, count);
-                })
-                .await?;
-                for to in 1..spes {
-                    spe.send_signal(to, 1, 1).await?;
-                }
-            } else {
-                help_top(&spe, &b, &mut helper, n, knobs.top).await?;
+}
+
+impl Queue {
+    /// The shared queue of `spes` SPEs for `n` triangles in main memory:
+    /// two level arrays and three lock lines.
+    fn alloc(
+        cell: &mut Cell,
+        n: usize,
+        cfg: &BihConfig,
+        cached: bool,
+        spes: usize,
+    ) -> Result<Self, CellError> {
+        let job_bytes = Job::bytes(cfg);
+        // A level's jobs: two per job of the level before with more than a
+        // leaf's triangles (disjoint intervals), at most 2n / (leaf size +
+        // 1) (footprint::work_ppe_jobs); the level handed over from the top
+        // is under 32 jobs per SPE.
+        let jobs = crate::spe::footprint::work_ppe_jobs(n, cfg.leaf_size).max(32 * spes);
+        let capacity = u32::try_from(jobs).map_err(|_| {
+            CellError::Config(format!(
+                "spe_bfs_shared: {n} triangles are too many for one queue"
+            ))
+        })?;
+        let mut level_bytes = (jobs * job_bytes) as u64;
+        if cached {
+            // The cache reads whole lines: the arrays end on one.
+            level_bytes = level_bytes.next_multiple_of(LINE);
+        }
+        let alloc = |what: &str, bytes: u64| {
+            let label = Purpose::JobQueues.buffer(format!("shared job queue: {what}"));
+            cell.memory_mut().alloc(label, bytes, 128)
+        };
+        Ok(Queue {
+            levels: [
+                alloc("level A", level_bytes)?,
+                alloc("level B", level_bytes)?,
+            ],
+            level_bytes,
+            capacity,
+            take: alloc("take line", 128)?,
+            push: alloc("push line", 128)?,
+            arrivals: alloc("arrivals line", 128)?,
+            spes,
+        })
+    }
+
+    /// SPE 0 writes the top's last level (if the tree did not end there)
+    /// into the first level array, opens it for taking and signals the
+    /// other SPEs.
+    async fn open(
+        self,
+        spe: &Spe,
+        b: &mut SpeBuilder<'_>,
+        top: Option<Level>,
+        line: LsAddr,
+    ) -> Result<(), CellError> {
+        let job_bytes = b.queue.stride() as u64;
+        let mut count = 0u64;
+        if let Some(level) = top {
+            for k in 0..b.queue.blocks(level) {
+                let jobs = b.queue.load(level, k).await?;
+                let at = self.levels[0].offset(count * job_bytes);
+                b.queue.write_jobs(&jobs, at).await?;
+                count += jobs.len() as u64;
             }
-            b.arena.renew(common.pool.blocks);
-            b.share_queue(NodeWrites::new(
-                &spe,
-                common.pool.base,
-                knobs.queue.dma_lists,
-            )?);
-            let mut cache = match knobs.job_cache {
-                0 => None,
-                kib => Some(job_cache(&spe, kib as u32)?),
-            };
-            let taken = shared_levels(&spe, &mut b, queue, knobs, line, cache.as_mut()).await?;
-            if let Some(c) = cache {
-                work.job_cache += c.stats;
-            }
-            let count = b.arena.allocated();
-            b.arena.close(count).await?;
-            work.taken = taken;
-            work.arena_blocks += b.arena.stats.blocks;
-            work.arena_unused += b.arena.unused();
-            Ok(SpeExit::of(&b, work))
-        }));
+        }
+        spe.atomic_update_line(line, self.take, |w| {
+            (w[0], w[1]) = (0, count as u32);
+        })
+        .await?;
+        for to in 1..self.spes {
+            spe.send_signal(to, 1, 1).await?;
+        }
+        Ok(())
     }
-    let reach = common.pool.spawn_server(cell);
-    Ok(common.pool.readback(exits, reach, None))
 }
 
 /// The job queue's software cache of `kib` KiB in `spe`'s local store

@@ -28,9 +28,10 @@ use super::machinery::work_queue::{from_wire, to_wire};
 use super::{Output, Readback, Setup};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
-use crate::cell::{Cell, CellError, Ea};
+use crate::cell::{Cell, CellError, Ea, Ppe, Spe};
 use crate::kernels::cutoff::child_regions;
 use crate::kernels::decide::{Decision, NodeView, decide};
+use crate::kernels::rates::KernelRates;
 use crate::kernels::recursion::BuildStats;
 use crate::kernels::sah::Bins;
 use crate::kernels::split::{Side, Split, clip_planes};
@@ -119,222 +120,255 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (tris, n, region, cfg) = (setup.triangles, setup.count, setup.region, *cfg);
     let rates = setup.rates.kernels();
-    let job_bytes = DfsJob::bytes(&cfg);
-    let job_ea = cell.memory_mut().alloc(
-        Purpose::JobQueues.buffer("depth-first job"),
-        job_bytes as u64,
-        128,
-    )?;
-    let result_ea = cell.memory_mut().alloc(
-        Purpose::JobQueues.buffer("side records"),
-        2 * size_of::<SideRecord>() as u64,
-        128,
-    )?;
-    // Binned SAH: where the SPE puts the bins it filled.
-    let bins = match cfg.split {
-        SplitChoice::BinnedSah { bins, .. } => Some(bins),
-        SplitChoice::GlobalHeuristic => None,
-    };
-    let bins_bytes = bins.map_or(0, Bins::ls_bytes);
-    let bins_ea = match bins {
-        Some(_) => cell.memory_mut().alloc(
-            Purpose::JobQueues.buffer("SAH bins"),
-            bins_bytes as u64,
+    let x = Exchange::alloc(cell, &cfg)?;
+    cell.spawn_spe(0, move |spe| partitions(spe, x, tris, rates));
+    let ppe = cell.spawn_ppe(move |ppe| recursion(ppe, x, (n, region, cfg), rates));
+    Ok(Box::new(move || ppe.take("PPE")))
+}
+
+/// Where the PPE and SPE 0 exchange a job and its answer in main memory.
+#[derive(Clone, Copy)]
+struct Exchange {
+    job_ea: Ea,
+    job_bytes: usize,
+    /// The two sides' records of a partition (or the bounds).
+    result_ea: Ea,
+    /// Binned SAH: the bins SPE 0 filled (their bytes; none without SAH).
+    bins: Option<u32>,
+    bins_ea: Ea,
+    bins_bytes: u32,
+}
+
+impl Exchange {
+    fn alloc(cell: &mut Cell, cfg: &BihConfig) -> Result<Self, CellError> {
+        let job_bytes = DfsJob::bytes(cfg);
+        let job_ea = cell.memory_mut().alloc(
+            Purpose::JobQueues.buffer("depth-first job"),
+            job_bytes as u64,
             128,
-        )?,
-        None => Ea(0),
+        )?;
+        let result_ea = cell.memory_mut().alloc(
+            Purpose::JobQueues.buffer("side records"),
+            2 * size_of::<SideRecord>() as u64,
+            128,
+        )?;
+        // Binned SAH: where the SPE puts the bins it filled.
+        let bins = match cfg.split {
+            SplitChoice::BinnedSah { bins, .. } => Some(bins),
+            SplitChoice::GlobalHeuristic => None,
+        };
+        let bins_bytes = bins.map_or(0, Bins::ls_bytes);
+        let bins_ea = match bins {
+            Some(_) => cell.memory_mut().alloc(
+                Purpose::JobQueues.buffer("SAH bins"),
+                bins_bytes as u64,
+                128,
+            )?,
+            None => Ea(0),
+        };
+        Ok(Exchange {
+            job_ea,
+            job_bytes,
+            result_ea,
+            bins,
+            bins_ea,
+            bins_bytes,
+        })
+    }
+}
+
+/// SPE 0's program: on each signal it reads the job and partitions (or
+/// bounds, or bins) the interval with Fig. 1's five buffers, and answers;
+/// it ends on STOP.
+async fn partitions(spe: Spe, x: Exchange, tris: Ea, k: KernelRates) -> Result<(), CellError> {
+    let bufs = Fig1Buffers::alloc(&spe)?;
+    let job_ls = spe.ls_alloc(x.job_bytes as u32, 128)?;
+    let result_ls = spe.ls_alloc(2 * size_of::<SideRecord>() as u32, 128)?;
+    let bins_ls = match x.bins {
+        Some(_) => Some(spe.ls_alloc(x.bins_bytes, 128)?),
+        None => None,
     };
-
-    cell.spawn_spe(0, move |spe| async move {
-        let bufs = Fig1Buffers::alloc(&spe)?;
-        let job_ls = spe.ls_alloc(job_bytes as u32, 128)?;
-        let result_ls = spe.ls_alloc(2 * size_of::<SideRecord>() as u32, 128)?;
-        let bins_ls = match bins {
-            Some(_) => Some(spe.ls_alloc(bins_bytes, 128)?),
-            None => None,
-        };
-        let job_tag = spe.tag("depth-first job and result")?;
-        let k = rates;
-        loop {
-            spe.read_signal(1).await?;
-            spe.get(job_ls, job_ea, job_bytes as u32, job_tag).await?;
-            spe.wait_tag(job_tag).await?;
-            let job: DfsJob = from_wire(&spe.ls_read::<u8>(job_ls, job_bytes)?, job_bytes)[0];
-            let at = tris.offset(job.first as u64 * size_of::<TriRecord>() as u64);
-            let (left, right) = match job.kind {
-                STOP => return Ok(()),
-                BINS => {
-                    let centers = Aabb::new(job.centers[0].into(), job.centers[1].into());
-                    let empty = Bins::new(&centers, job.bins);
-                    let add = |b: &mut Bins, items: &[TriRecord]| b.add(items);
-                    let n = job.count as u64;
-                    let filled =
-                        stream_fold(&spe, &bufs, at, n, k.spe_bin_item, empty, add).await?;
-                    let ls = bins_ls.expect("binned SAH has its bins' place");
-                    spe.ls_write(ls, &filled.records())?;
-                    // In puts of at most 16 KiB (256 bins take 24 KiB).
-                    for at in (0..bins_bytes).step_by(MAX_PUT as usize) {
-                        let size = MAX_PUT.min(bins_bytes - at);
-                        spe.put(ls.offset(at), bins_ea.offset(at as u64), size, job_tag)
-                            .await?;
-                    }
-                    spe.wait_tag(job_tag).await?;
-                    spe.write_out_mbox(1).await;
-                    continue;
+    let job_tag = spe.tag("depth-first job and result")?;
+    loop {
+        spe.read_signal(1).await?;
+        spe.get(job_ls, x.job_ea, x.job_bytes as u32, job_tag)
+            .await?;
+        spe.wait_tag(job_tag).await?;
+        let job: DfsJob = from_wire(&spe.ls_read::<u8>(job_ls, x.job_bytes)?, x.job_bytes)[0];
+        let at = tris.offset(job.first as u64 * size_of::<TriRecord>() as u64);
+        let (left, right) = match job.kind {
+            STOP => return Ok(()),
+            BINS => {
+                let centers = Aabb::new(job.centers[0].into(), job.centers[1].into());
+                let empty = Bins::new(&centers, job.bins);
+                let add = |b: &mut Bins, items: &[TriRecord]| b.add(items);
+                let n = job.count as u64;
+                let filled = stream_fold(&spe, &bufs, at, n, k.spe_bin_item, empty, add).await?;
+                let ls = bins_ls.expect("binned SAH has its bins' place");
+                spe.ls_write(ls, &filled.records())?;
+                // In puts of at most 16 KiB (256 bins take 24 KiB).
+                for at in (0..x.bins_bytes).step_by(MAX_PUT as usize) {
+                    let size = MAX_PUT.min(x.bins_bytes - at);
+                    spe.put(ls.offset(at), x.bins_ea.offset(at as u64), size, job_tag)
+                        .await?;
                 }
-                BOUNDS => (
-                    stream_bounds::<TriRecord>(
-                        &spe,
-                        &bufs,
-                        at,
-                        job.count as u64,
-                        k.spe_bounds_item,
-                    )
+                spe.wait_tag(job_tag).await?;
+                spe.write_out_mbox(1).await;
+                continue;
+            }
+            BOUNDS => (
+                stream_bounds::<TriRecord>(&spe, &bufs, at, job.count as u64, k.spe_bounds_item)
                     .await?,
-                    Side::EMPTY,
-                ),
-                _ => {
-                    let split = Split {
-                        axis: job.axis as usize,
-                        plane: job.plane,
-                    };
-                    let p = partition_in_place::<TriRecord>(
-                        &spe,
-                        &bufs,
-                        at,
-                        job.count as u64,
-                        split,
-                        k.spe_partition_item,
-                    )
-                    .await?;
-                    (p.left, p.right)
-                }
-            };
-            spe.ls_write(
-                result_ls,
-                &[SideRecord::from_side(&left), SideRecord::from_side(&right)],
-            )?;
-            spe.put(
-                result_ls,
-                result_ea,
-                2 * size_of::<SideRecord>() as u32,
-                job_tag,
-            )
-            .await?;
-            spe.wait_tag(job_tag).await?;
-            spe.write_out_mbox(1).await;
-        }
-    });
+                Side::EMPTY,
+            ),
+            _ => {
+                let split = Split {
+                    axis: job.axis as usize,
+                    plane: job.plane,
+                };
+                let p = partition_in_place::<TriRecord>(
+                    &spe,
+                    &bufs,
+                    at,
+                    job.count as u64,
+                    split,
+                    k.spe_partition_item,
+                )
+                .await?;
+                (p.left, p.right)
+            }
+        };
+        spe.ls_write(
+            result_ls,
+            &[SideRecord::from_side(&left), SideRecord::from_side(&right)],
+        )?;
+        spe.put(
+            result_ls,
+            x.result_ea,
+            2 * size_of::<SideRecord>() as u32,
+            job_tag,
+        )
+        .await?;
+        spe.wait_tag(job_tag).await?;
+        spe.write_out_mbox(1).await;
+    }
+}
 
-    let ppe = cell.spawn_ppe(move |ppe| async move {
-        let k = rates;
-        // One job on SPE 0, and its two sides.
-        let send = async |job: DfsJob| -> Result<(), CellError> {
-            ppe.write_pod(job_ea, &to_wire(&[job], job_bytes)).await?;
-            ppe.send_signal(0, 1, 1).await?;
-            ppe.read_out_mbox(0).await?;
-            Ok(())
-        };
-        let ask = async |job: DfsJob| -> Result<(Side, Side), CellError> {
-            send(job).await?;
-            let r: Vec<SideRecord> = ppe.read_pod(result_ea, 2).await?;
-            Ok((r[0].to_side(), r[1].to_side()))
-        };
-        // Binned SAH: SPE 0 bins the interval; the PPE sweeps the bins.
-        let bins_of = async |first: usize, count: usize, centers: Aabb, bins: u32| {
-            send(DfsJob {
-                kind: BINS,
-                first: first as u32,
-                count: count as u32,
-                centers: [centers.min.to_array(), centers.max.to_array()],
-                bins,
-                ..Default::default()
-            })
+/// The PPE's program: the recursion, depth first, left first; each
+/// interval's partition is SPE 0's job. Writes the nodes and returns them.
+async fn recursion(
+    ppe: Ppe,
+    x: Exchange,
+    (n, region, cfg): (usize, Aabb, BihConfig),
+    k: KernelRates,
+) -> Result<Output, CellError> {
+    // One job on SPE 0, and its two sides.
+    let send = async |job: DfsJob| -> Result<(), CellError> {
+        ppe.write_pod(x.job_ea, &to_wire(&[job], x.job_bytes))
             .await?;
-            let mut b = Bins::new(&centers, bins);
-            let records = ppe.read_pod(bins_ea, 3 * b.per_axis()).await?;
-            b.add_records(&records);
-            Ok::<_, CellError>(b)
-        };
-        let (all, _) = ask(DfsJob {
-            kind: BOUNDS,
-            count: n as u32,
+        ppe.send_signal(0, 1, 1).await?;
+        ppe.read_out_mbox(0).await?;
+        Ok(())
+    };
+    let ask = async |job: DfsJob| -> Result<(Side, Side), CellError> {
+        send(job).await?;
+        let r: Vec<SideRecord> = ppe.read_pod(x.result_ea, 2).await?;
+        Ok((r[0].to_side(), r[1].to_side()))
+    };
+    // Binned SAH: SPE 0 bins the interval; the PPE sweeps the bins.
+    let bins_of = async |first: usize, count: usize, centers: Aabb, bins: u32| {
+        send(DfsJob {
+            kind: BINS,
+            first: first as u32,
+            count: count as u32,
+            centers: [centers.min.to_array(), centers.max.to_array()],
+            bins,
             ..Default::default()
         })
         .await?;
-        let mut nodes = vec![BihNode::default()];
-        let mut stats = BuildStats::default();
-        // (node, first, count, candidate, side, depth, region), depth
-        // first, left first.
-        let mut stack: Vec<(usize, usize, usize, Aabb, Side, u32, Aabb)> =
-            vec![(0, 0, n, region, all, 0, region)];
-        while let Some((id, first, count, mut candidate, side, depth, region)) = stack.pop() {
-            ppe.compute(k.ppe_node);
-            let leaf = BihNode::leaf(first as u32, count as u32);
-            let view = NodeView::of_side((first, count, depth), region, &side, candidate);
-            let split = match decide(&cfg, &view, &mut 0) {
-                Decision::Leaf => None,
-                Decision::Clip(clip) => {
-                    // A clip node (the empty-space cut-off): no SPE work.
-                    stats.clip_nodes += 1;
-                    let full = clip.make_in(&mut nodes, id);
-                    stack.push((full, first, count, candidate, side, depth + 1, clip.region));
-                    continue;
-                }
-                Decision::Split(split, c) => {
-                    candidate = c;
-                    Some(split)
-                }
-                Decision::Bin(bins) => {
-                    stats.items_binned += count as u64;
-                    stats.sah_sweeps += 1;
-                    let per_axis = crate::kernels::sah::bins_per_axis(bins) as u64;
-                    ppe.compute_items(k.ppe_sah_bin, 3 * per_axis);
-                    let b = bins_of(first, count, view.centers, bins).await?;
-                    b.choose_or_halve(&mut candidate, &mut 0)
-                }
-            };
-            let Some(split) = split else {
-                nodes[id] = leaf;
+        let mut b = Bins::new(&centers, bins);
+        let records = ppe.read_pod(x.bins_ea, 3 * b.per_axis()).await?;
+        b.add_records(&records);
+        Ok::<_, CellError>(b)
+    };
+    let (all, _) = ask(DfsJob {
+        kind: BOUNDS,
+        count: n as u32,
+        ..Default::default()
+    })
+    .await?;
+    let mut nodes = vec![BihNode::default()];
+    let mut stats = BuildStats::default();
+    // (node, first, count, candidate, side, depth, region), depth
+    // first, left first.
+    let mut stack: Vec<(usize, usize, usize, Aabb, Side, u32, Aabb)> =
+        vec![(0, 0, n, region, all, 0, region)];
+    while let Some((id, first, count, mut candidate, side, depth, region)) = stack.pop() {
+        ppe.compute(k.ppe_node);
+        let leaf = BihNode::leaf(first as u32, count as u32);
+        let view = NodeView::of_side((first, count, depth), region, &side, candidate);
+        let split = match decide(&cfg, &view, &mut 0) {
+            Decision::Leaf => None,
+            Decision::Clip(clip) => {
+                // A clip node (the empty-space cut-off): no SPE work.
+                stats.clip_nodes += 1;
+                let full = clip.make_in(&mut nodes, id);
+                stack.push((full, first, count, candidate, side, depth + 1, clip.region));
                 continue;
-            };
-            let job = DfsJob {
-                kind: PARTITION,
-                first: first as u32,
-                count: count as u32,
-                axis: split.axis as u32,
-                plane: split.plane,
-                ..Default::default()
-            };
-            let (l, r) = ask(job).await?;
-            stats.items_partitioned += count as u64;
-            stats.partitions += 1;
-            let children = nodes.len();
-            nodes.push(BihNode::default());
-            nodes.push(BihNode::default());
-            let [cl, cr] = clip_planes(split.axis, &l, &r);
-            nodes[id] = BihNode::inner(children as u32, split.axis, cl, cr);
-            let [lc, rc] = split.candidates(candidate);
-            let [lr, rr] = child_regions(region, split.axis, [cl, cr]);
-            let d = depth + 1;
-            stack.push((children + 1, first + l.count, r.count, rc, r, d, rr));
-            stack.push((children, first, l.count, lc, l, d, lr));
-        }
-        // The SPE ends on STOP without an answer.
-        let stop = DfsJob {
-            kind: STOP,
+            }
+            Decision::Split(split, c) => {
+                candidate = c;
+                Some(split)
+            }
+            Decision::Bin(bins) => {
+                stats.items_binned += count as u64;
+                stats.sah_sweeps += 1;
+                let per_axis = crate::kernels::sah::bins_per_axis(bins) as u64;
+                ppe.compute_items(k.ppe_sah_bin, 3 * per_axis);
+                let b = bins_of(first, count, view.centers, bins).await?;
+                b.choose_or_halve(&mut candidate, &mut 0)
+            }
+        };
+        let Some(split) = split else {
+            nodes[id] = leaf;
+            continue;
+        };
+        let job = DfsJob {
+            kind: PARTITION,
+            first: first as u32,
+            count: count as u32,
+            axis: split.axis as u32,
+            plane: split.plane,
             ..Default::default()
         };
-        ppe.write_pod(job_ea, &to_wire(&[stop], job_bytes)).await?;
-        ppe.send_signal(0, 1, 1).await?;
-        let node_array = super::write_nodes(&ppe, &nodes).await?;
-        stats.nodes = nodes.len() as u64;
-        Ok(Output {
-            nodes: vec![node_array],
-            stats,
-            spes: 1,
-            ..Output::default()
-        })
-    });
-    Ok(Box::new(move || ppe.take("PPE")))
+        let (l, r) = ask(job).await?;
+        stats.items_partitioned += count as u64;
+        stats.partitions += 1;
+        let children = nodes.len();
+        nodes.push(BihNode::default());
+        nodes.push(BihNode::default());
+        let [cl, cr] = clip_planes(split.axis, &l, &r);
+        nodes[id] = BihNode::inner(children as u32, split.axis, cl, cr);
+        let [lc, rc] = split.candidates(candidate);
+        let [lr, rr] = child_regions(region, split.axis, [cl, cr]);
+        let d = depth + 1;
+        stack.push((children + 1, first + l.count, r.count, rc, r, d, rr));
+        stack.push((children, first, l.count, lc, l, d, lr));
+    }
+    // The SPE ends on STOP without an answer.
+    let stop = DfsJob {
+        kind: STOP,
+        ..Default::default()
+    };
+    ppe.write_pod(x.job_ea, &to_wire(&[stop], x.job_bytes))
+        .await?;
+    ppe.send_signal(0, 1, 1).await?;
+    let node_array = super::write_nodes(&ppe, &nodes).await?;
+    stats.nodes = nodes.len() as u64;
+    Ok(Output {
+        nodes: vec![node_array],
+        stats,
+        spes: 1,
+        ..Output::default()
+    })
 }

@@ -35,16 +35,15 @@
 //! With the global heuristic's order the splits are the baseline's, so the
 //! tree is the baseline's tree.
 
+mod areas;
 mod pairs;
 mod regions;
 mod sort;
 mod top;
 
-use pairs::Pairs;
+use areas::{Areas, serve};
 
-use crate::spe::footprint::Purpose;
-
-use super::machinery::arena::{BlockSource, NodeWrites, ObjectArena};
+use super::machinery::arena::{NodeWrites, ObjectArena};
 use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, NO_PREFETCH, QueueKnobs};
 use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, spes_used};
 use super::{Knob, Knobs, Readback, Records, Setup, SpeWork};
@@ -289,39 +288,6 @@ const RECORDS_PER_BLOCK: usize = (16 * 1024) / size_of::<TriRecord>();
 /// Bytes of a region job in main memory: the paper's job.
 const JOB: usize = 64;
 
-/// What the PPE lays out in main memory for the SPEs.
-#[derive(Clone, Copy)]
-struct Areas {
-    n: usize,
-    spes: usize,
-    tris: Ea,
-    /// `--permute`: the records in key order (else the PPE allocates them
-    /// only if a region is too large for a local store: `Program::tables`).
-    sorted: Option<Ea>,
-    /// The key pairs' width, and their two arrays.
-    pairs: Pairs,
-    keys: [Ea; 2],
-    /// The keys array that holds them sorted (and, unless `--permute`, the
-    /// triangle ids in the tree's order).
-    sorted_keys: Ea,
-    /// The radix count table: a row of `1 << digit_bits` words per SPE.
-    counts: Ea,
-    /// The static deal's header line: per SPE, the start and count of its
-    /// positions in the deal array.
-    deal_header: Ea,
-    /// The sub-tops of the top of the tree, and their bounds.
-    subtops: Ea,
-    sub_bounds: Ea,
-    /// Lock lines: barrier arrivals; the regions' line: word 0 the next
-    /// sub-top, then region, to take, word 1 how many, words 2 to 7 where
-    /// the PPE put the region tables (`Program::tables`), word 8 the spill
-    /// units, words 9 on each SPE's first place in the region jobs.
-    arrivals: Ea,
-    take: Ea,
-    pool: Ea,
-    blocks: BlockSource,
-}
-
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let (n, mut knobs, cfg) = (setup.count, MortonKnobs::read(&setup.knobs), *cfg);
     if knobs.region_size == 0 {
@@ -333,45 +299,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     let (rates, kernels) = (MortonRates::with(&setup.rates), setup.rates.kernels());
     let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
     let pool = Pool::alloc(cell, n, &cfg, spes)?;
-    let mut mem = cell.memory_mut();
-    let n64 = n as u64;
-    let line = 128;
-    let subtops = ((top::SUBTOPS_PER_SPE * spes + 1) * top::RANGE) as u64;
-    let pairs = Pairs::for_bits(knobs.key_bits);
-    let key_bytes = n64 * pairs.bytes as u64;
-    let keys = [
-        mem.alloc(Purpose::KeysAndSort.buffer("keys A"), key_bytes, 128)?,
-        mem.alloc(Purpose::KeysAndSort.buffer("keys B"), key_bytes, 128)?,
-    ];
-    let a = Areas {
-        n,
-        spes,
-        tris: setup.triangles,
-        sorted: match knobs.permute {
-            true => Some(mem.alloc(
-                Purpose::TriangleRecords.buffer("records in key order"),
-                n64 * RECORD as u64,
-                128,
-            )?),
-            false => None,
-        },
-        pairs,
-        keys,
-        sorted_keys: keys[radix::passes(knobs.key_bits, knobs.digit_bits) as usize % 2],
-        counts: mem.alloc(
-            Purpose::KeysAndSort.buffer("radix count table"),
-            spes as u64 * (4 << knobs.digit_bits),
-            128,
-        )?,
-        deal_header: mem.alloc(Purpose::JobQueues.buffer("region deal header"), line, 128)?,
-        subtops: mem.alloc(Purpose::JobQueues.buffer("sub-tops"), subtops, 128)?,
-        sub_bounds: mem.alloc(Purpose::JobQueues.buffer("sub-top bounds"), subtops, 128)?,
-        arrivals: mem.alloc(Purpose::JobQueues.buffer("barrier arrivals"), line, 128)?,
-        take: mem.alloc(Purpose::JobQueues.buffer("region counter"), line, 128)?,
-        pool: pool.base,
-        blocks: pool.blocks,
-    };
-    drop(mem);
+    let a = Areas::alloc(cell, setup, &knobs, &pool, spes)?;
     let spec = KeySpec {
         order: knobs.key_order,
         bits: knobs.key_bits,
@@ -385,66 +313,8 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             })
         })
         .collect();
-    // The PPE only allocates: the pool's overflow blocks, and the region
-    // tables once SPE 0 knows how many regions the top of the tree made
-    // (memory to what the scene needs).
-    let mut server = pool.server();
-    let reach = cell.spawn_ppe(move |ppe| async move {
-        while let Some((spe, word)) = server.next(&ppe).await? {
-            if (spe, word) != (0, REGIONS) {
-                return Err(CellError::Program {
-                    core: "PPE".into(),
-                    msg: format!("spe_morton: unknown request {word} from SPE {spe}"),
-                });
-            }
-            let regions = ppe.read_out_mbox(0).await? as u64;
-            // Per SPE: room for the largest region's two levels of jobs.
-            let spill = ppe.read_out_mbox(0).await? as u64 * SPILL_UNIT * spes as u64;
-            // Regions too large for a local store are built in key order in
-            // a second record array.
-            let sorted = match (knobs.permute, spill) {
-                (false, 1..) => n64 * RECORD as u64,
-                _ => 0,
-            };
-            use Purpose::{JobQueues, TriangleRecords, WorkPpe};
-            for (purpose, what, bytes) in [
-                (JobQueues, "spe_morton: region jobs", regions * 64),
-                (JobQueues, "spe_morton: region bounds", regions * 32),
-                (
-                    JobQueues,
-                    "spe_morton: region deal",
-                    (regions * 4).next_multiple_of(16),
-                ),
-                (
-                    JobQueues,
-                    "spe_morton: region positions",
-                    (regions * 4).next_multiple_of(16),
-                ),
-                (
-                    WorkPpe,
-                    "spe_morton: WorkAPPE/WorkBPPE of large regions",
-                    spill,
-                ),
-                (
-                    TriangleRecords,
-                    "spe_morton: records in key order of the regions too large for a local store",
-                    sorted,
-                ),
-            ] {
-                if bytes == 0 {
-                    ppe.write_in_mbox(0, 0).await?;
-                    continue;
-                }
-                let ea = ppe.alloc(purpose.buffer(what), bytes, 128).await?;
-                let word = u32::try_from(ea.0).map_err(|_| CellError::Program {
-                    core: "PPE".into(),
-                    msg: format!("{what} at {ea} does not fit a mailbox word"),
-                })?;
-                ppe.write_in_mbox(0, word).await?;
-            }
-        }
-        Ok(server.end())
-    });
+    let server = pool.server();
+    let reach = cell.spawn_ppe(move |ppe| serve(ppe, server, knobs, n, spes));
     let records = match a.sorted {
         Some(at) => Records::Moved(at),
         None => Records::Ids {
