@@ -12,8 +12,6 @@
 //!
 //! Writes extremes.{csv,json}. `tests/extremes.rs` checks each case.
 
-use std::path::PathBuf;
-
 use clap::Parser;
 use serde_json::{Value, json};
 
@@ -22,9 +20,7 @@ use cellbih::cell::CellConfig;
 use cellbih::kernels::recursion::{PrimRef, build_items};
 use cellbih::quality::agree::{examine, rays_for};
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{
-    Format, ThreadsArg, output, print_rows, side_by_side, write_json, write_rows_csv,
-};
+use cellbih::report::{OutputArgs, ThreadsArg, print_rows, side_by_side};
 use cellbih::scene::{Scene, extremes};
 
 #[derive(Parser)]
@@ -35,19 +31,15 @@ struct Args {
     /// Rays per case and builder, each checked against brute force.
     #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
     rays: u64,
-    /// text (a table) or json (the rows).
-    #[arg(long, value_enum, default_value = "text")]
-    format: Format,
-    /// Directory for the CSV and JSON files.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
     #[command(flatten)]
     threads: ThreadsArg,
+    #[command(flatten)]
+    output: OutputArgs,
 }
 
 fn main() {
     let args = Args::parse();
-    cellbih::report::experiment_main("extremes", &args.out.clone(), || run(&args));
+    cellbih::report::experiment_main("extremes", &args.output.out.clone(), || run(&args));
 }
 
 fn run(args: &Args) -> Result<(), String> {
@@ -77,7 +69,7 @@ fn run(args: &Args) -> Result<(), String> {
             "largest_leaf": e.largest_leaf, "f32_stalls": stalls(scene, &cfg),
         })
     });
-    print_rows(args.format, &rows, print_table)?;
+    print_rows(args.output.format, &rows, print_table)?;
     let keys = [
         "case",
         "triangles",
@@ -92,25 +84,21 @@ fn run(args: &Args) -> Result<(), String> {
         "largest_leaf",
         "f32_stalls",
     ];
-    let io = |e: cellbih::report::OutputError| e.to_string();
-    write_rows_csv(
-        &output(&args.out, "extremes.csv").map_err(io)?,
-        &keys,
-        &rows,
-    )
-    .map_err(io)?;
     let doc = json!({ "rows": rows, "note": "disagree: rays whose closest or any hit differs from brute force, of `rays`; f32_stalls: halvings of the global heuristic f32 could not make (host recursion)" });
-    write_json(
-        &output(&args.out, "extremes.json").map_err(io)?,
+    args.output.write(
+        "extremes",
+        (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).on(&cell)),
-    )
-    .map_err(io)?;
+    )?;
     let bad = rows
         .iter()
         .filter(|r| r["valid"] == false || r["disagree"] != 0)
         .count();
-    eprintln!("written: {}/extremes.{{csv,json}}", args.out.display());
+    eprintln!(
+        "written: {}/extremes.{{csv,json}}",
+        args.output.out.display()
+    );
     if bad > 0 {
         return Err(format!(
             "{bad} rows with an invalid tree or rays that disagree with brute force"

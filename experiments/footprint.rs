@@ -19,14 +19,12 @@
 //! available) is reported unverified, and says why, instead of running
 //! the host out of memory.
 
-use std::path::PathBuf;
-
 use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::cell::{CellConfig, CellError, CostModel};
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
+use cellbih::report::{OutputArgs, print_rows};
 use cellbih::scene::procedural::rtperf;
 use cellbih::spe::footprint::{Footprint, Purpose};
 
@@ -49,12 +47,8 @@ struct Args {
     /// half the host's available memory, /proc/meminfo).
     #[arg(long, value_parser = cellbih::report::at_least_one::<u64>)]
     host_memory_mib: Option<u64>,
-    /// text (a table) or json (the rows).
-    #[arg(long, value_enum, default_value = "text")]
-    format: Format,
-    /// Directory for the CSV and JSON files.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
+    #[command(flatten)]
+    output: OutputArgs,
 }
 
 /// Host bytes a verification build takes per triangle of its scene beside
@@ -82,7 +76,7 @@ const OVER: f64 = 1.1;
 
 fn main() {
     let args = Args::parse();
-    cellbih::report::experiment_main("footprint", &args.out.clone(), || run(&args));
+    cellbih::report::experiment_main("footprint", &args.output.out.clone(), || run(&args));
 }
 
 /// The footprints the prediction is made from, for every emulated builder:
@@ -156,7 +150,9 @@ fn run(args: &Args) -> Result<(), String> {
         rows.push(row);
     }
     progress("");
-    print_rows(args.format, &rows, |r| print_table(r, args.memory_mib))?;
+    print_rows(args.output.format, &rows, |r| {
+        print_table(r, args.memory_mib)
+    })?;
     let mut keys = vec![
         "builder",
         "bytes_per_triangle",
@@ -173,20 +169,13 @@ fn run(args: &Args) -> Result<(), String> {
         .collect();
     keys.extend(purposes.iter().map(String::as_str));
     keys.push("unused_node_bytes_per_triangle");
-    let io = |e: cellbih::report::OutputError| e.to_string();
-    write_rows_csv(
-        &output(&args.out, "footprint.csv").map_err(io)?,
-        &keys,
-        &rows,
-    )
-    .map_err(io)?;
     let doc = json!({ "rows": rows, "note": "bytes of emulated main memory per triangle of rtperf, by purpose (fitted on rtperf:50000 and rtperf:100000); fits_n builds, fails_n runs out of memory naming oom_buffer" });
-    write_json(
-        &output(&args.out, "footprint.json").map_err(io)?,
+    args.output.write(
+        "footprint",
+        (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).on(&cell)),
-    )
-    .map_err(io)?;
+    )?;
     Ok(())
 }
 

@@ -26,8 +26,7 @@ use cellbih::cell::CellConfig;
 use cellbih::frame::{FrameConfig, Policy, play};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{
-    Format, Series, ThreadsArg, line_plot, output, print_rows, side_by_side, write_json,
-    write_rows_csv,
+    OutputArgs, Series, ThreadsArg, line_plot, output, print_rows, side_by_side,
 };
 use cellbih::scene;
 use cellbih::update::{Animation, Method};
@@ -61,18 +60,15 @@ struct Args {
     /// Seed of the animations' pseudo-random moves.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    #[arg(long, value_enum, default_value = "text")]
-    format: Format,
-    /// Directory for frame_loop.csv, frame_loop.json and the plots.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
     #[command(flatten)]
     threads: ThreadsArg,
+    #[command(flatten)]
+    output: OutputArgs,
 }
 
 fn main() {
     let args = Args::parse();
-    cellbih::report::experiment_main("frame_loop", &args.out, || run(&args));
+    cellbih::report::experiment_main("frame_loop", &args.output.out, || run(&args));
 }
 
 /// The animation a scene plays.
@@ -226,7 +222,7 @@ fn run(args: &Args) -> Result<(), String> {
         let (si, (w, h), ..) = jobs[k];
         let spec = played[si].0;
         let file = format!("frame_loop_{}_{w}x{h}.svg", spec.replace(':', "_"));
-        let path = output(&args.out, &file).map_err(|e| e.to_string())?;
+        let path = output(&args.output.out, &file).map_err(|e| e.to_string())?;
         line_plot(
             &path,
             &format!("{spec}, {w} × {h}: frame time on the PS3 model"),
@@ -265,23 +261,17 @@ fn run(args: &Args) -> Result<(), String> {
             r
         })
         .collect();
-    write_rows_csv(
-        &output(&args.out, "frame_loop.csv").map_err(|e| e.to_string())?,
-        &KEYS,
-        &flat,
-    )
-    .map_err(|e| e.to_string())?;
     let note = "simulated PS3 ms on the default model; section 5: every SPE builds, then every SPE renders (frame = update + render); paper: one SPE builds the next frame while the others render (frame = the longer); near_best: auto's frames within 10 % of the oracle's best option; prediction_error: auto's mean |predicted − measured| / measured frame time";
-    write_json(
-        &output(&args.out, "frame_loop.json").map_err(|e| e.to_string())?,
+    args.output.write(
+        "frame_loop",
+        (&KEYS, &flat),
         &json!({ "note": note, "builder": builder.name(), "spes": spes, "rows": rows }),
         Some(&Build::new(builder).on(&CellConfig::ps3().with_spes(spes))),
-    )
-    .map_err(|e| e.to_string())?;
-    print_rows(args.format, &flat, |rows| table(rows, note))?;
+    )?;
+    print_rows(args.output.format, &flat, |rows| table(rows, note))?;
     eprintln!(
         "written: {}/frame_loop.{{csv,json}}, frame_loop_*.svg",
-        args.out.display()
+        args.output.out.display()
     );
     Ok(())
 }

@@ -35,9 +35,7 @@ use serde_json::{Value, json};
 
 use cellbih::bih::{BihConfig, BihNode};
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{
-    Format, Series, TreeArgs, line_plot, output, print_rows, write_json, write_rows_csv,
-};
+use cellbih::report::{OutputArgs, Series, TreeArgs, line_plot, output, print_rows};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -69,16 +67,12 @@ struct Args {
     /// builds.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
     rounds: u64,
-    /// text (a table) or json (the rows).
-    #[arg(long, value_enum, default_value = "text")]
-    format: Format,
     /// The tree every builder makes (the peer, obvhs, has its own): the
     /// paper's by default; the quality knobs as `cellbih build` takes them.
     #[command(flatten)]
     tree: TreeArgs,
-    /// Directory for the CSV, JSON and SVG files.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
+    #[command(flatten)]
+    output: OutputArgs,
 }
 
 fn main() {
@@ -93,7 +87,7 @@ fn main() {
             .chain([most])
             .collect();
     }
-    cellbih::report::experiment_main("host_scaling", &args.out, || run(&args));
+    cellbih::report::experiment_main("host_scaling", &args.output.out, || run(&args));
 }
 
 fn hardware_threads() -> usize {
@@ -183,12 +177,6 @@ fn run(args: &Args) -> Result<(), String> {
     }
     let mut doc = machine.clone();
     doc["rows"] = Value::Array(rows.clone());
-    write_json(
-        &output(&args.out, "host_scaling.json").map_err(|e| e.to_string())?,
-        &doc,
-        Some(&Build::new(BuilderKind::HOST).with_tree(cfg)),
-    )
-    .map_err(|e| e.to_string())?;
     let keys = [
         "scene",
         "triangles",
@@ -201,14 +189,14 @@ fn run(args: &Args) -> Result<(), String> {
         "same_tree",
         "stolen",
     ];
-    write_rows_csv(
-        &output(&args.out, "host_scaling.csv").map_err(|e| e.to_string())?,
-        &keys,
-        &rows,
-    )
-    .map_err(|e| e.to_string())?;
-    plot(&rows, &args.out)?;
-    print_rows(args.format, &rows, |rows| {
+    args.output.write(
+        "host_scaling",
+        (&keys, &rows),
+        &doc,
+        Some(&Build::new(BuilderKind::HOST).with_tree(cfg)),
+    )?;
+    plot(&rows, &args.output.out)?;
+    print_rows(args.output.format, &rows, |rows| {
         println!(
             "{:<16} {:<14} {:>7} {:>10} {:>10} {:>8} {:>9} {:>5} {:>7}",
             "scene",

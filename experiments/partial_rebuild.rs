@@ -14,7 +14,7 @@
 //! fig3a_{local,deep}.svg, fig3b_{local,deep}{,_ppe,_spe_bfs}.svg.
 
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use clap::Parser;
@@ -23,7 +23,7 @@ use serde_json::{Value, json};
 use cellbih::bih::BihConfig;
 use cellbih::host;
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{Format, Series, line_plot, output, print_rows, write_json, write_rows_csv};
+use cellbih::report::{OutputArgs, Series, line_plot, output, print_rows};
 use cellbih::scene::procedural::rtperf;
 use cellbih::update::{
     Animation, MAX_FRAMES, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play,
@@ -56,17 +56,13 @@ struct Args {
     /// Host times only: skip the emulated (simulated-time) runs.
     #[arg(long)]
     no_sim: bool,
-    /// text (a table) or json (the rows).
-    #[arg(long, value_enum, default_value = "text")]
-    format: Format,
-    /// Directory for the CSV, JSON and SVG files.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
+    #[command(flatten)]
+    output: OutputArgs,
 }
 
 fn main() {
     let args = Args::parse();
-    cellbih::report::experiment_main("partial_rebuild", &args.out, || run(&args));
+    cellbih::report::experiment_main("partial_rebuild", &args.output.out, || run(&args));
 }
 
 /// Plays `anim` on a fresh updater; returns every frame's report and the
@@ -175,8 +171,7 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:40}\r", "");
     }
-    print_rows(args.format, &rows, print_table)?;
-    let io = |e: cellbih::report::OutputError| e.to_string();
+    print_rows(args.output.format, &rows, print_table)?;
     let keys = [
         "triangles",
         "method",
@@ -206,12 +201,6 @@ fn run(args: &Args) -> Result<(), String> {
         "bfs_mean_ms",
         "full_rebuild_bfs_ms",
     ];
-    write_rows_csv(
-        &output(&args.out, "partial_rebuild.csv").map_err(io)?,
-        &keys,
-        &rows,
-    )
-    .map_err(io)?;
     let doc = json!({
         "rows": rows,
         "animation": "rtperf: one sphere (200 triangles) per frame, every fifth move marked only",
@@ -219,18 +208,18 @@ fn run(args: &Args) -> Result<(), String> {
         "host": "host builder, one thread; full rebuild = median of 5",
         "simulated": "ppe_*: rebuilds on ppe_naive (the paper's update ran on the PPE), bfs_*: on spe_bfs; PS3 model; PPE traversal and scan not charged",
     });
-    write_json(
-        &output(&args.out, "partial_rebuild.json").map_err(io)?,
+    args.output.write(
+        "partial_rebuild",
+        (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).with_tree(cfg)),
-    )
-    .map_err(io)?;
+    )?;
     for method in ["local", "deep"] {
-        plots(&args.out, method, &rows).map_err(|e| e.to_string())?;
+        plots(&args.output.out, method, &rows).map_err(|e| e.to_string())?;
     }
     eprintln!(
         "written: {}/partial_rebuild.{{csv,json}}, fig3a_*.svg, fig3b_*.svg",
-        args.out.display()
+        args.output.out.display()
     );
     Ok(())
 }

@@ -21,8 +21,7 @@ use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{
-    Format, Series, ThreadsArg, line_plot, output, print_rows, side_by_side, write_json,
-    write_rows_csv,
+    OutputArgs, Series, ThreadsArg, line_plot, output, print_rows, side_by_side,
 };
 use cellbih::scene::{self, Scene};
 use cellbih::strategy::Knobs;
@@ -49,14 +48,10 @@ struct Args {
     /// Only each builder's default knobs (not every setting it sweeps).
     #[arg(long)]
     defaults_only: bool,
-    /// text (a table) or json (the rows).
-    #[arg(long, value_enum, default_value = "text")]
-    format: Format,
-    /// Directory for the CSV, JSON and SVG files.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
     #[command(flatten)]
     threads: ThreadsArg,
+    #[command(flatten)]
+    output: OutputArgs,
 }
 
 /// A builder with one setting of the knobs, as its rows name it.
@@ -94,7 +89,7 @@ fn main() {
     if args.data.is_none() {
         args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
     }
-    cellbih::report::experiment_main("spe_scaling", &args.out, || run(&args));
+    cellbih::report::experiment_main("spe_scaling", &args.output.out, || run(&args));
 }
 
 /// One build's row.
@@ -200,7 +195,7 @@ fn run(args: &Args) -> Result<(), String> {
         r["ray_cost_over_baseline"] = json!((nodes + tris) / (base_rays.0 + base_rays.1));
         rows.push(r);
     }
-    print_rows(args.format, &rows, print_table)?;
+    print_rows(args.output.format, &rows, print_table)?;
     let keys = [
         "scene",
         "triangles",
@@ -229,27 +224,20 @@ fn run(args: &Args) -> Result<(), String> {
         "ray_cost_over_baseline",
         "host_ms",
     ];
-    let io = |e: cellbih::report::OutputError| e.to_string();
-    write_rows_csv(
-        &output(&args.out, "spe_scaling.csv").map_err(io)?,
-        &keys,
-        &rows,
-    )
-    .map_err(io)?;
     let doc = json!({
         "rows": rows,
         "note": "simulated ms on the PS3 model; baseline: spe_bfs (one SPE); busy..idle: mean share of the run per SPE; memory_utilisation: bytes moved / (cycles x 25.6 GB/s)",
     });
-    write_json(
-        &output(&args.out, "spe_scaling.json").map_err(io)?,
+    args.output.write(
+        "spe_scaling",
+        (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST)),
-    )
-    .map_err(io)?;
-    plots(&args.out, &rows).map_err(|e| e.to_string())?;
+    )?;
+    plots(&args.output.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(
         "written: {}/spe_scaling.{{csv,json}}, spe_scaling_*.svg",
-        args.out.display()
+        args.output.out.display()
     );
     Ok(())
 }

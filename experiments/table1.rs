@@ -19,9 +19,7 @@ use serde_json::json;
 use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{
-    Format, ThreadsArg, output, print_rows, side_by_side, write_json, write_rows_csv,
-};
+use cellbih::report::{OutputArgs, ThreadsArg, print_rows, side_by_side};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -32,14 +30,10 @@ struct Args {
     /// Directory of the real meshes (default: $CELLBIH_DATA).
     #[arg(long)]
     data: Option<PathBuf>,
-    /// text (a table) or json (the rows).
-    #[arg(long, value_enum, default_value = "text")]
-    format: Format,
-    /// Directory for table1.csv and table1.json.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
     #[command(flatten)]
     threads: ThreadsArg,
+    #[command(flatten)]
+    output: OutputArgs,
 }
 
 /// The paper's Table 1: model, triangles, file name, milliseconds for
@@ -107,7 +101,7 @@ fn main() {
     if args.data.is_none() {
         args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
     }
-    cellbih::report::experiment_main("table1", &args.out, || run(&args));
+    cellbih::report::experiment_main("table1", &args.output.out, || run(&args));
 }
 
 fn run(args: &Args) -> Result<(), String> {
@@ -182,33 +176,29 @@ fn run(args: &Args) -> Result<(), String> {
             "memory_mib": mib,
         }));
     }
-    print_rows(args.format, &rows, print_table)?;
-    let io = |e: cellbih::report::OutputError| e.to_string();
-    write_rows_csv(
-        &output(&args.out, "table1.csv").map_err(io)?,
-        &[
-            "model",
-            "triangles",
-            "stand_in",
-            "method",
-            "simulated_ms",
-            "paper_ms",
-            "ratio",
-            "speedup",
-            "paper_speedup",
-            "host_ms",
-            "memory_mib",
-        ],
-        &rows,
-    )
-    .map_err(io)?;
+    print_rows(args.output.format, &rows, print_table)?;
     let doc = json!({ "rows": rows, "note": "simulated_ms on the PS3 model; paper_ms null = out of memory in the paper" });
-    write_json(
-        &output(&args.out, "table1.json").map_err(io)?,
+    args.output.write(
+        "table1",
+        (
+            &[
+                "model",
+                "triangles",
+                "stand_in",
+                "method",
+                "simulated_ms",
+                "paper_ms",
+                "ratio",
+                "speedup",
+                "paper_speedup",
+                "host_ms",
+                "memory_mib",
+            ],
+            &rows,
+        ),
         &doc,
         Some(&Build::new(BuilderKind::HOST).with_tree(cfg).on(&six)),
-    )
-    .map_err(io)?;
+    )?;
     Ok(())
 }
 

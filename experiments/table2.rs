@@ -13,13 +13,12 @@
 //! are PS3 milliseconds. Writes table2.csv and table2.json.
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
 
 use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{Format, output, print_rows, write_json, write_rows_csv};
+use cellbih::report::{OutputArgs, print_rows};
 use cellbih::scene;
 use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play};
 
@@ -28,18 +27,14 @@ use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateRepo
     about = "Table 2: the paper's local update on the car and the cup, host and simulated PS3 times (default run: about 15 s)"
 )]
 struct Args {
-    /// text (a table) or json (the rows).
-    #[arg(long, value_enum, default_value = "text")]
-    format: Format,
     /// Host times only: skip the emulated (simulated-time) runs.
     #[arg(long)]
     no_sim: bool,
     /// Seed of the animations' pseudo-random moves.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Directory for table2.csv and table2.json.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
+    #[command(flatten)]
+    output: OutputArgs,
 }
 
 /// The paper's Table 2: scene, our stand-in and animation, then tris,
@@ -63,7 +58,7 @@ const PAPER: [(&str, &str, [f64; 11]); 2] = [
 
 fn main() {
     let args = Args::parse();
-    cellbih::report::experiment_main("table2", &args.out, || run(&args));
+    cellbih::report::experiment_main("table2", &args.output.out, || run(&args));
 }
 
 /// The summary of `anim` played on a fresh updater.
@@ -116,8 +111,7 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:40}\r", "");
     }
-    print_rows(args.format, &rows, print_table)?;
-    let io = |e: cellbih::report::OutputError| e.to_string();
+    print_rows(args.output.format, &rows, print_table)?;
     let keys = [
         "scene",
         "source",
@@ -141,17 +135,16 @@ fn run(args: &Args) -> Result<(), String> {
         "trav",
         "kept",
     ];
-    write_rows_csv(&output(&args.out, "table2.csv").map_err(io)?, &keys, &rows).map_err(io)?;
     let doc = json!({
         "rows": rows,
         "note": "ours: t*_ms host (host builder, one thread); ppe_t*_ms / bfs_t*_ms simulated PS3 ms with the rebuilds on ppe_naive / spe_bfs; paper: PS3 ms (its update ran on the PPE)",
     });
-    write_json(
-        &output(&args.out, "table2.json").map_err(io)?,
+    args.output.write(
+        "table2",
+        (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST)),
-    )
-    .map_err(io)?;
+    )?;
     Ok(())
 }
 

@@ -32,8 +32,7 @@ use cellbih::quality::rays::RaySets;
 use cellbih::registry::{Build, BuilderKind, Quality};
 use cellbih::render::Camera;
 use cellbih::report::{
-    Format, Series, ThreadsArg, output, print_rows, scatter_plot, side_by_side, write_json,
-    write_rows_csv,
+    OutputArgs, Series, ThreadsArg, output, print_rows, scatter_plot, side_by_side,
 };
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
@@ -57,14 +56,10 @@ struct Args {
     /// 8 a what-if).
     #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=16))]
     spes: u64,
-    /// text (tables) or json (the rows).
-    #[arg(long, value_enum, default_value = "text")]
-    format: Format,
-    /// Directory for the CSV, JSON and SVG files.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
     #[command(flatten)]
     threads: ThreadsArg,
+    #[command(flatten)]
+    output: OutputArgs,
 }
 
 /// A builder with one setting, named by its CLI options.
@@ -134,7 +129,7 @@ fn settings() -> Vec<Setting> {
 
 fn main() {
     let args = Args::parse();
-    cellbih::report::experiment_main("tradeoff", &args.out.clone(), || run(&args));
+    cellbih::report::experiment_main("tradeoff", &args.output.out.clone(), || run(&args));
 }
 
 fn run(args: &Args) -> Result<(), String> {
@@ -166,7 +161,7 @@ fn run(args: &Args) -> Result<(), String> {
     for scene_rows in rows.chunks_mut(settings.len()) {
         mark_fronts(scene_rows);
     }
-    print_rows(args.format, &rows, print_tables)?;
+    print_rows(args.output.format, &rows, print_tables)?;
     let keys = [
         "scene",
         "triangles",
@@ -189,29 +184,22 @@ fn run(args: &Args) -> Result<(), String> {
         "front_ps3",
         "front_host",
     ];
-    let io = |e: cellbih::report::OutputError| e.to_string();
-    write_rows_csv(
-        &output(&args.out, "tradeoff.csv").map_err(io)?,
-        &keys,
-        &rows,
-    )
-    .map_err(io)?;
     let doc = json!({
         "rows": rows,
         "frames": frames(&rows),
         "spes": args.spes,
         "note": "simulated_ms: PS3 model (timed mode), multi-SPE builders on `spes` SPEs; host_ms: this machine, one thread (median of 3 for the host builder, the emulation's time for the others); *_cost: nodes visited + triangles tested per ray, closest hit; cell_render_ms: simulated PS3 ms to cast the camera's 320 x 240 primary rays on `spes` SPEs (emulated builders' rows); fronts: Pareto fronts of build ms against primary cost; frames: for R rays a frame, the host setting with the least build + trace ms (one thread) and the emulated setting with the least simulated build + cast ms (ps3)",
     });
-    write_json(
-        &output(&args.out, "tradeoff.json").map_err(io)?,
+    args.output.write(
+        "tradeoff",
+        (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).on(&cell)),
-    )
-    .map_err(io)?;
-    plots(&args.out, &rows).map_err(|e| e.to_string())?;
+    )?;
+    plots(&args.output.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(
         "written: {}/tradeoff.{{csv,json}}, tradeoff_*.svg",
-        args.out.display()
+        args.output.out.display()
     );
     Ok(())
 }

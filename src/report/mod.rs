@@ -474,3 +474,34 @@ pub fn scatter_plot(
     write_bytes(path, svg.as_bytes())?;
     Ok(())
 }
+
+/// The options of every experiment that prints rows and writes files:
+/// how the rows are printed and where the files go.
+#[derive(clap::Args, Clone, Debug)]
+pub struct OutputArgs {
+    /// text (tables) or json (the rows).
+    #[arg(long, value_enum, default_value = "text")]
+    pub format: Format,
+    /// Directory for the experiment's CSV, JSON and SVG files.
+    #[arg(long, default_value = "results")]
+    pub out: PathBuf,
+}
+
+impl OutputArgs {
+    /// Writes `NAME.csv` (the `keys` columns of `rows`) and `NAME.json`
+    /// (`doc` with its settings: [`write_json`]) into `--out`, each whole
+    /// or not at all.
+    pub fn write(
+        &self,
+        name: &str,
+        (keys, rows): (&[&str], &[serde_json::Value]),
+        doc: &serde_json::Value,
+        shared: Option<&crate::registry::Build>,
+    ) -> Result<(), String> {
+        let io = |e: OutputError| e.to_string();
+        let csv = output(&self.out, &format!("{name}.csv")).map_err(io)?;
+        write_rows_csv(&csv, keys, rows).map_err(io)?;
+        let json = output(&self.out, &format!("{name}.json")).map_err(io)?;
+        write_json(&json, doc, shared).map_err(io)
+    }
+}
