@@ -1,4 +1,4 @@
-//! Ray casting on the emulated Cell (`cellbih::cast`, issue 27): the SPE
+//! Ray casting on the emulated Cell (`cellbih::cast`): the SPE
 //! caster answers as the host tracer does, ray for ray and bit for bit,
 //! for every builder's tree, at the numerical extremes of the property
 //! scenes, with any cache shape, tile size and SPE count; its time is

@@ -266,7 +266,7 @@ fn a_knob_is_taken_by_the_builders_that_declare_it_and_refused_by_the_rest() {
     }
 }
 
-/// Small words (issue 24, item 13): a decimal cut-off says it wants a whole
+/// Small words: a decimal cut-off says it wants a whole
 /// percentage; a rays file's control bytes are escaped, not echoed to the
 /// terminal; a file named like a built-in scene is not read silently.
 #[test]
@@ -310,7 +310,7 @@ fn small_inputs_get_plain_answers() {
 }
 
 /// An `rtperf:N` scene whose triangle records alone do not fit the
-/// emulated memory is refused before the scene is made (issue 24 item 6),
+/// emulated memory is refused before the scene is made,
 /// by every command that builds on the Cell; one that fits is not.
 #[test]
 fn a_procedural_scene_too_big_for_the_emulated_memory_is_refused_up_front() {

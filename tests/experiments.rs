@@ -175,7 +175,7 @@ fn extremes_tables_in_the_docs_match(rows: &[serde_json::Value], runs: usize) {
 
 /// `validate`: on the measured model every published PS3 figure is
 /// reproduced within its tolerance (exit 0, each row's ratio inside it,
-/// the files written); on the legacy model — every figure before issue 26
+/// the files written); on the legacy model — every figure before the validation against real PS3s
 /// — the same probes leave their tolerances and the run fails naming
 /// them (the memory interface's ceiling, the hot spot on one local store,
 /// the lock lines).

@@ -190,7 +190,7 @@ fn footprint_does_not_run_the_host_out_of_memory() {
     }
 }
 
-/// Issue 28: the cooperative top partitions in place, so a builder that
+/// the cooperative top partitions in place, so a builder that
 /// offers `--coop-partition` keeps one array of triangle records by
 /// default (as the baseline does) and two only with `scratch`; and the
 /// ObjectArena pool is sized to the tree (under a node a triangle here,

@@ -1,4 +1,4 @@
-//! Issue 29: the host's parallel builders (every builder of the registry
+//! The host's parallel builders (every builder of the registry
 //! that builds on the threads of the current rayon pool) build exactly the
 //! serial host builder's tree — the same nodes, numbered alike, the same
 //! leaves with the same triangles — with 1, 2, 3 and 8 threads, on the

@@ -1,4 +1,4 @@
-//! The Morton route's shared kernels (issue 12, `src/kernels/morton.rs`):
+//! The Morton route's shared kernels (`src/kernels/morton.rs`):
 //! keys in the global heuristic's order give the baseline's tree from the
 //! sorted keys alone, at every width and at the numerical extremes; the
 //! round-robin order gives another valid tree that answers every ray as

@@ -452,7 +452,7 @@ proptest! {
 /// A strategy made of phases runs every phase on every SPE: on 8 SPEs
 /// each phase takes at most two thirds of its simulated time on one SPE
 /// (the memory-bound permutation about a half; a phase left to SPE 0
-/// alone, as spe_morton's top of the tree was before issue 28, about all
+/// alone, as spe_morton's top of the tree was in earlier versions, about all
 /// of it).
 #[test]
 fn every_phase_of_a_phased_build_runs_on_every_spe() {
@@ -499,7 +499,7 @@ fn crowded_corner() -> Scene {
     b.finish("crowded corner")
 }
 
-/// Issue 28, item 4: where the top ends by count, one job holds most of the
+/// where the top ends by count, one job holds most of the
 /// work and the other SPEs wait (at the deal's tail, or at the shared
 /// levels' barriers); `--top-end split` splits that job before the deal.
 /// On 8 SPEs it builds the baseline's tree faster, with less waiting.

@@ -1,4 +1,4 @@
-//! Moving objects and the paper's animations (issue 5, part 1).
+//! Moving objects and the paper's animations.
 
 use cellbih::scene;
 use cellbih::update::{Animation, Move, apply};
@@ -107,7 +107,7 @@ fn animations_are_deterministic_and_move_like_the_papers() {
 }
 
 // ---------------------------------------------------------------------------
-// Algorithm 1 and the deeper update (issue 5, part 2).
+// Algorithm 1 and the deeper update.
 
 mod common;
 
