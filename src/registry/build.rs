@@ -179,3 +179,46 @@ pub struct BuildReport {
     /// host's cores ([`BuilderKind::host_threads`]).
     pub threads: Option<usize>,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{Build, BuilderKind};
+    use crate::bih::BihConfig;
+
+    /// Every builder's request refuses, by name, what does not apply to
+    /// it: a tree it does not build, a knob it does not take, threads for
+    /// a builder that builds on one; and takes what does.
+    #[test]
+    fn a_request_refuses_what_does_not_apply_to_its_builder() {
+        let s = crate::scene::load("rtperf:500:1", None).unwrap();
+        let every_knob: Vec<_> = (BuilderKind::ALL.iter())
+            .flat_map(|b| b.knobs().iter().copied())
+            .collect();
+        for &b in BuilderKind::ALL {
+            let plain = Build::new(b);
+            assert!(plain.check().is_ok(), "{b}");
+            let sah = plain.clone().with_tree(BihConfig::SAH_CUT);
+            let e = sah.check().err().map(|e| e.to_string());
+            assert_eq!(e.is_none(), b.builds(&BihConfig::SAH_CUT), "{b}: {e:?}");
+            for &k in &every_knob {
+                let value = k.sweep[0];
+                let knobs = crate::strategy::Knobs::default().with(k, value).unwrap();
+                let e = plain.clone().with_knobs(&knobs).check().err();
+                let takes = b.knobs().iter().any(|t| t.name == k.name);
+                match e {
+                    None => assert!(takes, "{b} took --{}", k.name),
+                    Some(e) => {
+                        assert!(!takes, "{b} refused its own --{}: {e}", k.name);
+                        assert!(e.to_string().contains(&format!("--{}", k.name)), "{e}");
+                    }
+                }
+            }
+            let threads = plain.clone().on_threads(2);
+            assert_eq!(threads.check().is_ok(), b.host_threads(), "{b}");
+            // A refused request builds nothing.
+            if !b.host_threads() {
+                assert!(threads.run(&s).is_err(), "{b}");
+            }
+        }
+    }
+}
