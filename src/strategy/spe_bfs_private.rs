@@ -130,11 +130,8 @@ const RECORD_BYTES: u64 = 128;
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let p = Program::set_up(cell, setup, cfg)?;
-    let exits = (0..p.spes)
-        .map(|id| cell.spawn_spe(id, move |spe| p.run(spe, id)))
-        .collect();
-    let reach = p.common.pool.spawn_server(cell);
-    Ok(p.common.pool.readback(exits, reach, None))
+    let run = move |spe, id| p.run(spe, id);
+    Ok(p.common.pool.spawn_programs(cell, p.spes, run))
 }
 
 /// What every SPE's program reads: the triangles, the tree's settings,

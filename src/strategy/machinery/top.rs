@@ -282,6 +282,21 @@ impl Pool {
         cell.spawn_ppe(move |ppe| async move { server.serve(&ppe).await })
     }
 
+    /// Spawns `program` on SPEs `0..spes` (it is given the SPE and its
+    /// number) and the pool's server on the PPE; how the build is read back
+    /// ([`Pool::readback`], the records where the strategy left them).
+    pub fn spawn_programs<F, Fut>(self, cell: &mut Cell, spes: usize, program: F) -> Readback
+    where
+        F: Fn(Spe, usize) -> Fut + Copy,
+        Fut: std::future::Future<Output = Result<SpeExit, CellError>> + 'static,
+    {
+        let exits = (0..spes)
+            .map(|id| cell.spawn_spe(id, move |spe| program(spe, id)))
+            .collect();
+        let reach = self.spawn_server(cell);
+        self.readback(exits, reach, None)
+    }
+
     /// How a build whose SPEs return `exits` (in SPE order) and whose PPE
     /// returns the pool's reach is read back: the pool and its overflow
     /// blocks, compacted (the arenas' unused slots and whatever lies
