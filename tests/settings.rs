@@ -54,58 +54,6 @@ fn two_settings_two_headers() {
     assert!(host["settings"]["cell"].is_null(), "{}", host["settings"]);
 }
 
-/// `update` and `frame` build with the strategy knobs given: a knob that
-/// changes `build`'s simulated time changes theirs, and their settings
-/// name it.
-#[test]
-fn update_and_frame_honour_every_knob() {
-    let rebuild = |knob: &[&str]| -> (f64, serde_json::Value) {
-        let mut args = vec!["update", "--strategy", "rebuild", "--builder", "spe_morton"];
-        args.extend(["--animation", "rtperf", "--frames", "1"]);
-        args.extend(knob);
-        let v = json(&args);
-        (
-            v["frames"][0]["simulated_ms"].as_f64().unwrap(),
-            v["settings"].clone(),
-        )
-    };
-    let (plain, _) = rebuild(&[]);
-    let (wide, settings) = rebuild(&["--key-bits", "64"]);
-    assert!(
-        wide > plain * 1.5,
-        "--key-bits 64: {wide} ms, default {plain} ms"
-    );
-    assert_eq!(settings["knobs"]["key-bits"], "64");
-
-    let frame = |knob: &[&str]| -> (f64, serde_json::Value) {
-        let mut args = vec!["frame", "--builder", "spe_morton", "--policy", "rebuild"];
-        args.extend([
-            "--animation",
-            "rtperf",
-            "--frames",
-            "1",
-            "--width",
-            "8",
-            "--height",
-            "8",
-        ]);
-        args.extend(knob);
-        let v = json(&args);
-        (
-            v["frames"][0]["update_ms"].as_f64().unwrap(),
-            v["settings"].clone(),
-        )
-    };
-    let (plain, _) = frame(&[]);
-    let (wide, settings) = frame(&["--key-bits", "64"]);
-    assert!(
-        wide > plain * 1.5,
-        "--key-bits 64: {wide} ms, default {plain} ms"
-    );
-    assert_eq!(settings["knobs"]["key-bits"], "64");
-    assert_eq!(settings["cast"]["cache_kib"], 32);
-}
-
 /// `raycast` and `render` say their settings on stderr, the cast's too.
 #[test]
 fn casts_name_their_settings() {
@@ -157,20 +105,25 @@ fn compare_names_its_settings() {
 }
 
 /// Every family of settings `build` takes — a strategy knob, the tree, the
-/// emulated Cell — changes `update`'s simulated time as it changes
-/// `build`'s, and its settings name it.
+/// emulated Cell — changes the simulated time of `update`'s and `frame`'s
+/// builds as it changes `build`'s, and their settings name it.
 #[test]
-fn update_honours_every_family_of_settings() {
+fn update_and_frame_honour_every_family_of_settings() {
     let run = |cmd: &str, extra: &[&str]| -> (f64, serde_json::Value) {
         let mut args = vec![cmd, "--builder", "spe_morton", "--scene", "rtperf:4000"];
-        if cmd == "update" {
-            args.extend(["--strategy", "rebuild", "--animation", "rtperf"]);
-            args.extend(["--frames", "1"]);
+        match cmd {
+            "update" => args.extend(["--strategy", "rebuild"]),
+            "frame" => args.extend(["--policy", "rebuild", "--width", "8", "--height", "8"]),
+            _ => {}
+        }
+        if cmd != "build" {
+            args.extend(["--animation", "rtperf", "--frames", "1"]);
         }
         args.extend(extra);
         let v = json(&args);
         let ms = match cmd {
             "update" => v["frames"][0]["simulated_ms"].as_f64(),
+            "frame" => v["frames"][0]["update_ms"].as_f64(),
             _ => v["simulated_ms"].as_f64(),
         };
         (ms.unwrap(), v["settings"].clone())
@@ -180,14 +133,19 @@ fn update_honours_every_family_of_settings() {
         (&["--leaf-size", "2"], "/tree/leaf_size", 2.into()),
         (&["--model", "legacy"], "/cell/model", "legacy".into()),
     ];
-    let (plain_update, _) = run("update", &[]);
     let (plain_build, _) = run("build", &[]);
-    for (extra, pointer, value) in families {
-        let (update, settings) = run("update", extra);
-        let (build, _) = run("build", extra);
-        assert_ne!(build, plain_build, "{extra:?} changes nothing in build");
-        assert_ne!(update, plain_update, "update ignored {extra:?}");
-        assert_eq!(settings.pointer(pointer), Some(&value), "{settings}");
+    for cmd in ["update", "frame"] {
+        let (plain, _) = run(cmd, &[]);
+        for (extra, pointer, value) in &families {
+            let (ms, settings) = run(cmd, extra);
+            let (build, _) = run("build", extra);
+            assert_ne!(build, plain_build, "{extra:?} changes nothing in build");
+            assert_ne!(ms, plain, "{cmd} ignored {extra:?}");
+            assert_eq!(settings.pointer(pointer), Some(value), "{cmd}: {settings}");
+            if cmd == "frame" {
+                assert_eq!(settings["cast"]["cache_kib"], 32, "{settings}");
+            }
+        }
     }
 }
 
