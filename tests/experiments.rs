@@ -202,6 +202,30 @@ fn validate_holds_the_measured_model_to_every_published_figure() {
     }
     let csv = std::fs::read_to_string(dir.join("validate.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + rows.len());
+    // The fitted figures (each names the rate it set) and the held-out
+    // ones are printed apart, each group with its pass count.
+    let fitted = rows.iter().filter(|r| r["role"] == "fitted").count();
+    let held_out = rows.iter().filter(|r| r["role"] == "held-out").count();
+    assert_eq!(fitted + held_out, rows.len());
+    assert!(
+        fitted > 0 && held_out > 0,
+        "{fitted} fitted, {held_out} held out"
+    );
+    for r in rows {
+        assert_eq!(r["sets"].is_string(), r["role"] == "fitted", "{r}");
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    for line in [
+        format!("{fitted} of {fitted} pass"),
+        format!("{held_out} of {held_out} pass"),
+    ] {
+        assert!(text.contains(&line), "{line}: {text}");
+    }
+    let (a, b) = (
+        text.find("figures that set a rate"),
+        text.find("held-out figures"),
+    );
+    assert!(a.is_some() && b.is_some() && a < b, "{text}");
 
     let legacy = std::process::Command::new(exe)
         .args(["--model", "legacy", "--out", dir.to_str().unwrap()])
