@@ -3,7 +3,9 @@
 //! `docs/validation.md`) reproduced through the emulator's public API as
 //! its source's kernel does it — the same transfer sizes, DMAs in flight,
 //! windows and retry loops — beside the published figure, with a verdict
-//! per figure and a non-zero exit when one leaves its tolerance.
+//! per figure and a non-zero exit when one leaves its tolerance; then SPU
+//! compute kernels timed on a real PS3 beside their instruction counts
+//! (`validate_compute.rs`).
 //!
 //! `cargo run --release --bin validate -- [--model measured|legacy] [--threads N] [--out results]`
 
@@ -13,11 +15,14 @@ use clap::{Parser, ValueEnum};
 use serde_json::json;
 
 use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea, LsAddr, Reservation};
+
+#[path = "validate_compute.rs"]
+mod compute;
 use cellbih::report::{ThreadsArg, output, prepare_dir, side_by_side, write_csv, write_json};
 
 #[derive(Parser)]
 #[command(
-    about = "The machine model held against published PS3 measurements with several SPEs (default run: under a second)"
+    about = "The machine model held against published PS3 measurements with several SPEs, and SPU kernels timed on a PS3 beside their instruction counts (default run: under a second)"
 )]
 struct Args {
     /// The cost model to hold against the PS3: `measured` (the default
@@ -522,6 +527,9 @@ fn run(args: &Args) -> Result<(), String> {
         }
         println!("{passed} of {} pass", group.len());
     }
+    let (compute_rows, compute_failed) = compute::section(&cost)?;
+    rows.extend(compute_rows);
+    failed.extend(compute_failed);
     let csv: Vec<String> = (rows.iter())
         .map(|r| {
             format!(

@@ -226,6 +226,18 @@ fn validate_holds_the_measured_model_to_every_published_figure() {
         text.find("held-out figures"),
     );
     assert!(a.is_some() && b.is_some() && a < b, "{text}");
+    // The compute section: SPU kernels timed on hardware beside their
+    // instruction counts (a 12-instruction loop and an unhinted taken
+    // branch: 12 + 18 cycles), and the count times the derivation factor.
+    let compute: Vec<_> = rows.iter().filter(|r| r["section"] == "compute").collect();
+    assert!(compute.len() >= 5, "{} compute kernels", compute.len());
+    let branch = compute.iter().find(|r| r["unit"] == "cyc/iter").unwrap();
+    assert_eq!(branch["emulated"], 30.0, "{branch}");
+    for r in &compute {
+        let x1 = r["ratio"].as_f64().unwrap();
+        let x4 = r["ratio_times_derivation_factor"].as_f64().unwrap();
+        assert!((x1 / x4 - 4.0).abs() < 0.01, "{r}");
+    }
 
     let legacy = std::process::Command::new(exe)
         .args(["--model", "legacy", "--out", dir.to_str().unwrap()])
