@@ -465,6 +465,24 @@ fn figures() -> Vec<Figure> {
     v
 }
 
+/// Columns of a row after its name.
+const VALUE_COLUMNS: [usize; 5] = [9, 9, 6, 5, 7];
+
+/// One row in 80 columns: the name wrapped to its column, the values
+/// beside its first line.
+fn row(name: &str, values: [String; 5]) {
+    let width = 80 - VALUE_COLUMNS.iter().map(|w| w + 1).sum::<usize>();
+    let wrapped = cellbih::report::wrap(name, width);
+    let mut lines = wrapped.lines();
+    let cells: Vec<String> = (values.iter().zip(VALUE_COLUMNS))
+        .map(|(v, w)| format!("{v:>w$}"))
+        .collect();
+    println!("{:<width$} {}", lines.next().unwrap_or(""), cells.join(" "));
+    for line in lines {
+        println!("  {line}");
+    }
+}
+
 fn main() {
     let args = Args::parse();
     cellbih::report::experiment_main("validate", &args.out.clone(), || run(&args));
@@ -496,9 +514,9 @@ fn run(args: &Args) -> Result<(), String> {
             .filter(|(f, _)| f.sets.is_some() == fitted)
             .collect();
         println!("\n{title}");
-        println!(
-            "{:<66} {:>9} {:>9} {:>6} {:>6}  verdict",
-            "published figure (retail PS3, 3.2 GHz)", "published", "emulated", "ratio", "tol."
+        row(
+            "published figure (retail PS3, 3.2 GHz)",
+            ["published", "emulated", "ratio", "tol.", "verdict"].map(String::from),
         );
         let mut passed = 0;
         for &&(f, got) in &group {
@@ -508,15 +526,15 @@ fn run(args: &Args) -> Result<(), String> {
                 true => passed += 1,
                 false => failed.push(f.what),
             }
-            println!(
-                "{:<66} {:>9.2} {:>9.2} {:>6.3} {:>5.0}%  {} {}",
-                f.what,
-                f.published,
-                got,
-                ratio,
-                f.tolerance * 100.0,
-                if ok { "pass" } else { "FAIL" },
-                f.unit
+            row(
+                &format!("{} ({})", f.what, f.unit),
+                [
+                    format!("{:.2}", f.published),
+                    format!("{got:.2}"),
+                    format!("{ratio:.3}"),
+                    format!("{:.0}%", f.tolerance * 100.0),
+                    (if ok { "pass" } else { "FAIL" }).to_string(),
+                ],
             );
             rows.push(json!({
                 "figure": f.what, "source": f.source, "unit": f.unit,

@@ -221,6 +221,13 @@ fn validate_holds_the_measured_model_to_every_published_figure() {
     ] {
         assert!(text.contains(&line), "{line}: {text}");
     }
+    for line in text.lines() {
+        assert!(
+            line.chars().count() <= 80,
+            "{} columns: {line}",
+            line.chars().count()
+        );
+    }
     let (a, b) = (
         text.find("figures that set a rate"),
         text.find("held-out figures"),
