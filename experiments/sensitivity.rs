@@ -95,7 +95,46 @@ fn variants(base: &CostModel) -> Vec<Variant> {
             });
         }
     }
+    // The corners: every estimate at one end of its band together with
+    // every uncertain kernel rate at one end of its own.
+    for machine in ["low", "high"] {
+        for kernels in ["low", "high"] {
+            let mut cost = base.clone();
+            for &name in CostModel::ESTIMATES {
+                let at = base.estimate(name).expect("a named estimate").0;
+                let value = if machine == "low" { at / 2 } else { at * 2 };
+                cost = cost
+                    .with_estimate(name, Cycles(value))
+                    .expect("a named estimate");
+            }
+            let mut rates = RateOverrides::default();
+            for u in BuilderKind::uncertain_rates() {
+                rates = rates.with(u.name, if kernels == "low" { u.low } else { u.high });
+            }
+            v.push(Variant {
+                rate: format!("every estimate {machine}, every kernel rate {kernels}"),
+                end: "all",
+                value: 0,
+                cost,
+                rates,
+            });
+        }
+    }
     v
+}
+
+/// Each headline's band: its speedup as calibrated, and the least and
+/// the most it reaches over every variant (each rate alone at each end of
+/// its band, and the corners).
+fn bands(speedups: &[Vec<f64>]) -> Vec<(f64, f64, f64)> {
+    (0..speedups[0].len())
+        .map(|h| {
+            let all = speedups.iter().map(|v| v[h]);
+            let low = all.clone().fold(f64::INFINITY, f64::min);
+            let high = all.fold(f64::NEG_INFINITY, f64::max);
+            (speedups[0][h], low, high)
+        })
+        .collect()
 }
 
 /// The simulated ms of `b` on `s` with `spes` SPEs under variant `v`.
@@ -255,6 +294,38 @@ fn run(args: &Args) -> Result<(), String> {
         }));
     }
     println!("\nheadlines: {}", heads.join(", "));
+    // Each headline with its band, and whether the order of the builders
+    // at it holds over every variant.
+    let flat: Vec<Vec<f64>> = (speedups.iter())
+        .map(|v| v.iter().flatten().flatten().copied().collect())
+        .collect();
+    let bands = bands(&flat);
+    println!(
+        "\n{:<28} {:>8} {:>15}  order of the builders",
+        "headline (scene builder SPEs)", "speedup", "band"
+    );
+    let mut band_rows = Vec::new();
+    for (h, (head, &(at, low, high))) in heads.iter().zip(&bands).enumerate() {
+        let (si, ni) = (
+            h / (args.spes.len() * builders.len()),
+            (h / builders.len()) % args.spes.len(),
+        );
+        let holds =
+            (0..variants.len()).all(|k| order(&speedups[k][si][ni]) == order(&speedups[0][si][ni]));
+        println!(
+            "{head:<28} {at:>7.2}x {:>15}  {}",
+            format!("{low:.2}-{high:.2}x"),
+            if holds {
+                "holds"
+            } else {
+                "FLIPS inside the bands"
+            }
+        );
+        band_rows.push(json!({
+            "headline": head, "speedup": at, "low": low, "high": high,
+            "order_holds": holds,
+        }));
+    }
     let header = format!(
         "rate,end,value,largest_move,flips,{}",
         heads.join(",").replace(' ', "_")
@@ -264,7 +335,7 @@ fn run(args: &Args) -> Result<(), String> {
     let path = output(&args.out, "sensitivity.json").map_err(|e| e.to_string())?;
     write_json(
         &path,
-        &json!({ "rows": rows }),
+        &json!({ "rows": rows, "bands": band_rows }),
         Some(&Build::new(BuilderKind::HOST)),
     )
     .map_err(|e| e.to_string())?;

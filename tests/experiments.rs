@@ -293,7 +293,8 @@ fn sensitivity_moves_every_uncertain_rate_across_its_band() {
     let rows = doc["rows"].as_array().unwrap();
     let uncertain =
         cellbih::cell::CostModel::ESTIMATES.len() + BuilderKind::uncertain_rates().len();
-    assert_eq!(rows.len(), 1 + 2 * uncertain);
+    // The rates as calibrated, each rate alone at each end, the 4 corners.
+    assert_eq!(rows.len(), 1 + 2 * uncertain + 4);
     let heads = 2 * BuilderKind::ALL.iter().filter(|b| b.multi_spe()).count();
     for r in rows {
         assert_eq!(r["speedups"].as_array().unwrap().len(), heads, "{r}");
@@ -301,6 +302,35 @@ fn sensitivity_moves_every_uncertain_rate_across_its_band() {
     assert_eq!(rows[0]["largest_move"], 0.0);
     let moved = (rows.iter()).filter(|r| r["largest_move"].as_f64().unwrap().abs() > 0.001);
     assert!(moved.count() > rows.len() / 4, "moving rates moved little");
+    // A band per headline: its speedup as calibrated inside it, its ends
+    // the least and most over every variant.
+    let bands = doc["bands"].as_array().unwrap();
+    assert_eq!(bands.len(), heads);
+    for (h, b) in bands.iter().enumerate() {
+        let (at, low, high) = (
+            b["speedup"].as_f64().unwrap(),
+            b["low"].as_f64().unwrap(),
+            b["high"].as_f64().unwrap(),
+        );
+        assert!(low <= at && at <= high, "{b}");
+        let seen: Vec<f64> = (rows.iter())
+            .map(|r| r["speedups"][h]["speedup"].as_f64().unwrap())
+            .collect();
+        assert_eq!(
+            low,
+            seen.iter().copied().fold(f64::INFINITY, f64::min),
+            "{b}"
+        );
+        assert_eq!(
+            high,
+            seen.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            "{b}"
+        );
+    }
+    assert!(
+        bands.iter().any(|b| b["low"] != b["high"]),
+        "no band is wider than a point"
+    );
 }
 
 /// The scaling experiment: every multi-SPE builder and knob setting on
