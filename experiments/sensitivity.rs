@@ -23,7 +23,7 @@ use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
 #[command(
-    about = "How the headline speedups move when every unpinned rate crosses its documented band (default run: about 4 min)"
+    about = "How the headline speedups move when every unpinned rate crosses its documented band (default run: about 2 min)"
 )]
 struct Args {
     /// Scenes, comma-separated (names, OBJ files or procedural specs).
