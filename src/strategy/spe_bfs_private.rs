@@ -33,8 +33,8 @@ use super::machinery::breadth_first::{
 };
 use super::machinery::coop::Coop;
 use super::machinery::top::{
-    COOP_PARTITION, Common, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE,
-    TopKnobs, build_top, help_top, largest_first, spes_used,
+    COOP_PARTITION, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE,
+    TopKnobs, build_top, help_top, largest_first,
 };
 use super::machinery::work_queue::{Level, WORK_BYTES};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -131,7 +131,7 @@ const RECORD_BYTES: u64 = 128;
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let p = Program::set_up(cell, setup, cfg)?;
     let run = move |spe, id| p.run(spe, id);
-    Ok(p.common.pool.spawn_programs(cell, p.spes, run))
+    Ok(p.start.common.pool.spawn_programs(cell, p.start.spes, run))
 }
 
 /// What every SPE's program reads: the triangles, the tree's settings,
@@ -139,14 +139,8 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
 /// records and lists.
 #[derive(Clone, Copy)]
 struct Program {
-    tris: Ea,
-    n: usize,
-    region: crate::aabb::Aabb,
-    cfg: BihConfig,
+    start: Start,
     knobs: PrivateKnobs,
-    rates: crate::kernels::rates::KernelRates,
-    spes: usize,
-    common: Common,
     /// `WorkAPPE`/`WorkBPPE` of every SPE, carved in proportion to its
     /// triangles.
     work_ppe: Ea,
@@ -167,8 +161,8 @@ impl Program {
             top: TopKnobs::read(&setup.knobs, DEFAULT_TOP),
             steal: setup.knobs.flag(&STEAL),
         };
-        let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
-        let common = Common::alloc(cell, setup.triangles, n, (&cfg, &knobs.top), spes)?;
+        let start = Start::set_up(cell, setup, &cfg, &knobs.top, AUTO_TRIS_PER_SPE)?;
+        let spes = start.spes;
         // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
         // triangles: room for one level of as many jobs as triangles each.
         // (With stealing, areas go with the dealt jobs: fewer than twice
@@ -186,14 +180,8 @@ impl Program {
             cell.memory_mut().alloc(purpose.buffer(what), bytes, 128)
         };
         Ok(Program {
-            tris: setup.triangles,
-            n,
-            region: setup.region,
-            cfg,
+            start,
             knobs,
-            rates: setup.rates.kernels(),
-            spes,
-            common,
             work_ppe: alloc(
                 Purpose::WorkPpe,
                 "WorkAPPE/WorkBPPE of every SPE",
@@ -215,25 +203,33 @@ impl Program {
     async fn run(self, spe: Spe, id: usize) -> Result<SpeExit, CellError> {
         let mut b = SpeBuilder::new(
             &spe,
-            self.tris,
+            self.start.tris,
             ([self.work_ppe, self.work_ppe], 0),
-            self.cfg,
-            self.common.pool.blocks,
-            (self.knobs.queue, self.rates),
+            self.start.cfg,
+            self.start.common.pool.blocks,
+            (self.knobs.queue, self.start.rates),
         )?;
         let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
         let tag = spe.tag("deal")?;
-        let mut helper = Coop::new(&spe, self.common.coop, self.knobs.queue.prefetch)?;
+        let mut helper = Coop::new(&spe, self.start.common.coop, self.knobs.queue.prefetch)?;
         // SPE 0's top arena is counted by build_top.
         let mut work = SpeWork::default();
         if id == 0 {
             let top = self.knobs.top;
-            let dealt = build_top(&mut b, helper, self.n, self.region, top, &mut work).await?;
+            let dealt = build_top(
+                &mut b,
+                helper,
+                self.start.n,
+                self.start.region,
+                top,
+                &mut work,
+            )
+            .await?;
             self.deal_and_build(&spe, &mut b, dealt, (record, tag), &mut work)
                 .await?;
         } else {
             // Help partition the top levels until the deal comes.
-            help_top(&spe, &b, &mut helper, self.n, self.knobs.top).await?;
+            help_top(&spe, &b, &mut helper, self.start.n, self.knobs.top).await?;
             self.build_dealt(&spe, &mut b, (record, tag), &mut work)
                 .await?;
         }
@@ -256,7 +252,7 @@ impl Program {
         (record, tag): (crate::cell::LsAddr, u32),
         work: &mut SpeWork,
     ) -> Result<(), CellError> {
-        let (spes, records) = (self.spes, self.records);
+        let (spes, records) = (self.start.spes, self.records);
         let own = match dealt {
             Some(level) if self.knobs.steal => {
                 let to = Lists {
@@ -275,7 +271,7 @@ impl Program {
             }
         };
         if let Some((jobs, areas)) = own {
-            b.arena.renew(self.common.pool.blocks);
+            b.arena.renew(self.start.common.pool.blocks);
             b.queue.set_spill(areas, areas[1].0 - areas[0].0);
             b.take_dealt();
             let level = b.queue.restart_local(&jobs)?;
@@ -283,7 +279,7 @@ impl Program {
             let count = b.arena.allocated();
             b.arena.close(count).await?;
         } else if self.knobs.steal && dealt.is_some() {
-            b.arena.renew(self.common.pool.blocks);
+            b.arena.renew(self.start.common.pool.blocks);
             work.stolen = take_and_steal(spe, b, spes, self.work_ppe, record, records, tag).await?;
         }
         Ok(())
@@ -305,8 +301,16 @@ impl Program {
             unreachable!("four words")
         };
         if self.knobs.steal && count > 0 {
-            work.stolen =
-                take_and_steal(spe, b, self.spes, self.work_ppe, record, self.records, tag).await?;
+            work.stolen = take_and_steal(
+                spe,
+                b,
+                self.start.spes,
+                self.work_ppe,
+                record,
+                self.records,
+                tag,
+            )
+            .await?;
         } else if count > 0 {
             b.queue.set_spill([Ea(a), Ea(bb)], bb - a);
             b.take_dealt();

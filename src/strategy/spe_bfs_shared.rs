@@ -46,8 +46,8 @@ use super::machinery::breadth_first::{
 };
 use super::machinery::coop::Coop;
 use super::machinery::top::{
-    COOP_PARTITION, Common, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, TOP_END, TRIS_PER_SPE,
-    TopKnobs, build_top, help_top, spes_used,
+    COOP_PARTITION, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE,
+    TopKnobs, build_top, help_top,
 };
 use super::machinery::work_queue::{Level, SharedSpill, WorkQueue, from_wire};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -185,20 +185,15 @@ struct Queue {
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {
     let p = Program::set_up(cell, setup, cfg)?;
     let run = move |spe, id| p.run(spe, id);
-    Ok(p.common.pool.spawn_programs(cell, p.queue.spes, run))
+    Ok(p.start.common.pool.spawn_programs(cell, p.start.spes, run))
 }
 
 /// What every SPE's program reads: the triangles, the tree's settings,
 /// the knobs, the pool and the shared queue.
 #[derive(Clone, Copy)]
 struct Program {
-    tris: Ea,
-    n: usize,
-    region: crate::aabb::Aabb,
-    cfg: BihConfig,
+    start: Start,
     knobs: SharedKnobs,
-    rates: crate::kernels::rates::KernelRates,
-    common: Common,
     queue: Queue,
 }
 
@@ -222,17 +217,11 @@ impl Program {
                 knobs.agglomerate,
             )));
         }
-        let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
-        let common = Common::alloc(cell, setup.triangles, n, (&cfg, &knobs.top), spes)?;
+        let start = Start::set_up(cell, setup, &cfg, &knobs.top, AUTO_TRIS_PER_SPE)?;
         Ok(Program {
-            tris: setup.triangles,
-            n,
-            region: setup.region,
-            cfg,
+            start,
             knobs,
-            rates: setup.rates.kernels(),
-            common,
-            queue: Queue::alloc(cell, n, &cfg, knobs.job_cache > 0, spes)?,
+            queue: Queue::alloc(cell, n, &cfg, knobs.job_cache > 0, start.spes)?,
         })
     }
 
@@ -241,26 +230,34 @@ impl Program {
     /// the shared levels, then its arena closed.
     async fn run(self, spe: Spe, id: usize) -> Result<SpeExit, CellError> {
         let (q, knobs) = (self.queue, self.knobs);
-        let blocks = self.common.pool.blocks;
+        let blocks = self.start.common.pool.blocks;
         let mut b = SpeBuilder::new(
             &spe,
-            self.tris,
+            self.start.tris,
             (q.levels, q.level_bytes),
-            self.cfg,
+            self.start.cfg,
             blocks,
-            (knobs.queue, self.rates),
+            (knobs.queue, self.start.rates),
         )?;
-        let mut helper = Coop::new(&spe, self.common.coop, knobs.queue.prefetch)?;
+        let mut helper = Coop::new(&spe, self.start.common.coop, knobs.queue.prefetch)?;
         let line = spe.ls_alloc(128, 128)?;
         let mut work = SpeWork::default();
         if id == 0 {
-            let top = build_top(&mut b, helper, self.n, self.region, knobs.top, &mut work).await?;
+            let top = build_top(
+                &mut b,
+                helper,
+                self.start.n,
+                self.start.region,
+                knobs.top,
+                &mut work,
+            )
+            .await?;
             q.open(&spe, &mut b, top, line).await?;
         } else {
-            help_top(&spe, &b, &mut helper, self.n, knobs.top).await?;
+            help_top(&spe, &b, &mut helper, self.start.n, knobs.top).await?;
         }
         b.arena.renew(blocks);
-        let writes = NodeWrites::new(&spe, self.common.pool.base, knobs.queue.dma_lists)?;
+        let writes = NodeWrites::new(&spe, self.start.common.pool.base, knobs.queue.dma_lists)?;
         b.share_queue(writes);
         let mut cache = match knobs.job_cache {
             0 => None,

@@ -152,6 +152,45 @@ impl TopKnobs {
     }
 }
 
+/// What the SPE programs of both breadth-first multi-SPE strategies read
+/// first: the triangles, the tree's settings and kernel rates, the SPEs
+/// the strategy uses and the pool with the cooperative partition's areas.
+#[derive(Clone, Copy)]
+pub(in crate::strategy) struct Start {
+    pub tris: Ea,
+    pub n: usize,
+    pub region: Aabb,
+    pub cfg: BihConfig,
+    pub rates: crate::kernels::rates::KernelRates,
+    pub spes: usize,
+    pub common: Common,
+}
+
+impl Start {
+    /// Decides the SPEs to use (`--tris-per-spe`; `auto`: `auto_tris`
+    /// triangles an SPE) and allocates the pool and the areas for the top
+    /// knobs `top`.
+    pub fn set_up(
+        cell: &mut Cell,
+        setup: &super::super::Setup,
+        cfg: &BihConfig,
+        top: &TopKnobs,
+        auto_tris: usize,
+    ) -> Result<Self, CellError> {
+        let n = setup.count;
+        let spes = spes_used(cell.config().spes, n, &setup.knobs, auto_tris);
+        Ok(Start {
+            tris: setup.triangles,
+            n,
+            region: setup.region,
+            cfg: *cfg,
+            rates: setup.rates.kernels(),
+            spes,
+            common: Common::alloc(cell, setup.triangles, n, (cfg, top), spes)?,
+        })
+    }
+}
+
 /// The ObjectArena pool and the cooperative partition's areas.
 #[derive(Clone, Copy)]
 pub(in crate::strategy) struct Common {
