@@ -231,13 +231,15 @@ fn run(args: &Args) -> Result<(), String> {
             }
         }
     }
-    println!(
-        "Headline speedups over spe_bfs on one SPE (simulated, {} model) with each uncertain rate at the ends of its band\n",
+    let title = format!(
+        "Headline speedups over spe_bfs on one SPE (simulated, {} model) with each \
+         uncertain rate at the ends of its band, then every rate at once (the corners)",
         match args.model {
             Model::Measured => "measured",
             Model::Legacy => "legacy",
         }
     );
+    println!("{}\n", cellbih::report::wrap(&title, 80));
     for (k, v) in variants.iter().enumerate() {
         let mut flips = Vec::new();
         for (si, s) in scenes.iter().enumerate() {
@@ -261,22 +263,21 @@ fn run(args: &Args) -> Result<(), String> {
         let worst = (flat.iter().zip(&base_flat))
             .map(|(a, b)| a / b - 1.0)
             .fold(0.0f64, |m, d| if d.abs() > m.abs() { d } else { m });
-        println!(
-            "{:<40} {:<4} {:>7}  largest move {:>+6.1} %  {}",
-            v.rate,
-            v.end,
-            if v.end.is_empty() {
-                String::new()
-            } else {
-                v.value.to_string()
-            },
-            worst * 100.0,
-            if flips.is_empty() {
-                "no flip".to_string()
-            } else {
-                format!("FLIPS: {}", flips.join("; "))
-            }
-        );
+        // A line for the variant, and one for what it moved: 80 columns.
+        let value = match v.end {
+            "" | "all" => String::new(),
+            _ => format!(" {}", v.value),
+        };
+        let moved = match flips.is_empty() {
+            true => "no flip".to_string(),
+            false => format!("FLIPS: {}", flips.join("; ")),
+        };
+        let line = format!("{} {}{value}", v.rate, v.end);
+        println!("{}", cellbih::report::wrap(&line, 80));
+        let line = format!("largest move {:+.1} %; {moved}", worst * 100.0);
+        for l in cellbih::report::wrap(&line, 76).lines() {
+            println!("    {l}");
+        }
         let speeds: Vec<String> = flat.iter().map(|x| format!("{x:.3}")).collect();
         csv.push(format!(
             "\"{}\",{},{},{:.4},{},{}",
@@ -293,7 +294,8 @@ fn run(args: &Args) -> Result<(), String> {
             "speedups": heads.iter().zip(&flat).map(|(h, x)| json!({"headline": h, "speedup": x})).collect::<Vec<_>>(),
         }));
     }
-    println!("\nheadlines: {}", heads.join(", "));
+    let line = format!("headlines: {}", heads.join(", "));
+    println!("\n{}", cellbih::report::wrap(&line, 80));
     // Each headline with its band, and whether the order of the builders
     // at it holds over every variant.
     let flat: Vec<Vec<f64>> = (speedups.iter())

@@ -287,6 +287,13 @@ fn sensitivity_moves_every_uncertain_rate_across_its_band() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        assert!(
+            line.chars().count() <= 80,
+            "{} columns: {line}",
+            line.chars().count()
+        );
+    }
     let doc: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("sensitivity.json")).unwrap())
             .unwrap();
