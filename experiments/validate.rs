@@ -18,6 +18,8 @@ use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea, LsAddr, 
 
 #[path = "validate_compute.rs"]
 mod compute;
+#[path = "validate_contention.rs"]
+mod contention;
 use cellbih::report::{ThreadsArg, output, prepare_dir, side_by_side, write_csv, write_json};
 
 #[derive(Parser)]
@@ -72,9 +74,12 @@ type Probe = Box<dyn Fn(&CostModel) -> Result<f64, CellError> + Send + Sync>;
 const KIB16: u32 = 16 * 1024;
 
 /// A machine of `spes` SPEs on `cost`, with room for the probes' windows.
+/// Its programs are resident: the sources time runs so long (or time
+/// inside the SPU program) that starting it adds nothing they see.
 fn cell(cost: &CostModel, spes: usize) -> Result<Cell, CellError> {
     let mut cfg = CellConfig::ps3().with_spes(spes);
     cfg.cost = cost.clone();
+    cfg.resident = true;
     Cell::new(cfg)
 }
 
@@ -462,6 +467,7 @@ fn figures() -> Vec<Figure> {
             probe: Box::new(mailbox),
         },
     ]);
+    v.extend(contention::figures());
     v
 }
 

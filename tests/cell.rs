@@ -10,8 +10,17 @@ use cellbih::cell::{
 type Program = std::pin::Pin<Box<dyn std::future::Future<Output = Result<(), CellError>>>>;
 type Case = (&'static str, Box<dyn Fn(cellbih::cell::Spe, Ea) -> Program>);
 
+/// A PS3 whose programs are resident: these tests time the programs
+/// alone (starting them is tested in `cell_contention.rs`).
+fn ps3() -> CellConfig {
+    CellConfig {
+        resident: true,
+        ..CellConfig::ps3()
+    }
+}
+
 fn cell(spes: usize) -> Cell {
-    Cell::new(CellConfig::ps3().with_spes(spes)).unwrap()
+    Cell::new(ps3().with_spes(spes)).unwrap()
 }
 
 /// Runs one SPE program that issues a single command and returns its error.
@@ -179,7 +188,7 @@ fn main_memory_runs_out_like_a_ps3() {
 /// the channel read of the tag status.
 #[test]
 fn one_get_costs_what_the_model_says() {
-    let cfg = CellConfig::ps3();
+    let cfg = ps3();
     let k = cfg.cost.clone();
     let mut c = Cell::new(cfg.with_spes(1)).unwrap();
     let ea = c.memory_mut().alloc("test buffer", 16384, 128).unwrap();
@@ -528,7 +537,7 @@ fn the_same_program_gives_the_same_cycles_and_bytes() {
 
 #[test]
 fn functional_mode_gives_the_same_bytes_at_no_cost() {
-    let mut cfg = CellConfig::ps3().with_spes(1);
+    let mut cfg = ps3().with_spes(1);
     cfg.cost = cellbih::cell::CostModel::functional();
     let mut c = Cell::new(cfg).unwrap();
     let ea = c

@@ -19,6 +19,8 @@ where
 {
     let mut cfg = CellConfig::ps3().with_spes(1);
     cfg.checked = checked;
+    // Resident: the cycles below are the program's alone.
+    cfg.resident = true;
     let mut cell = Cell::new(cfg)?;
     let ea = cell.memory_mut().alloc("line", 256, 128)?;
     cell.spawn_spe(0, move |spe| program(spe, ea));

@@ -1,5 +1,5 @@
-//! The frame loop on the Cell (`cellbih::frame`, `cellbih frame`; issue
-//! 27): per frame the update's and the render's simulated times, combined
+//! The frame loop on the Cell (`cellbih::frame`, `cellbih frame`): per
+//! frame the update's and the render's simulated times, combined
 //! as the arrangement says; every policy; the trees it casts are the
 //! updater's; errors before any work.
 
@@ -42,8 +42,16 @@ fn a_frame_is_its_update_and_its_render_as_the_arrangement_says() {
         };
         let (all, again, paper) = (run(6), run(6), run(1));
         assert_eq!(all.frames.len(), 4);
+        // The frames' programs stay resident: an updater whose programs
+        // do too gives the frames' update times; one that starts its
+        // programs at every build is slower wherever it builds.
         let private = BuilderKind::from_name("spe_bfs_private").unwrap();
-        let mut u = Updater::new(s.clone(), Build::new(private), policy).unwrap();
+        let resident = CellConfig {
+            resident: true,
+            ..CellConfig::ps3()
+        };
+        let mut u = Updater::new(s.clone(), Build::new(private).on(&resident), policy).unwrap();
+        let mut started = Updater::new(s.clone(), Build::new(private), policy).unwrap();
         for (n, ((a, b), p)) in
             (all.frames.iter().zip(&again.frames).zip(&paper.frames)).enumerate()
         {
@@ -55,6 +63,13 @@ fn a_frame_is_its_update_and_its_render_as_the_arrangement_says() {
             assert_eq!(a.choice, policy.name());
             let up = u.step(&anim.frames[n]).unwrap();
             assert_eq!(up.simulated_ms, Some(a.update_ms));
+            let starting = started.step(&anim.frames[n]).unwrap();
+            if up.rebuilt > 0 {
+                assert!(
+                    starting.simulated_ms > up.simulated_ms,
+                    "{policy:?} frame {n}"
+                );
+            }
             assert_eq!(up.rebuilt, a.rebuilt);
             assert!(a.update_ms > 0.0 && a.render_ms > 0.0);
         }

@@ -145,6 +145,37 @@ pub struct CostModel {
     pub put_ack_cycles: Cycles,
     /// How the atomic caches hold lock lines.
     pub lock_lines: LockLines,
+    /// Lines one SPE's atomic cache holds: 4 (512 bytes; Calver 2007,
+    /// "Atomic cache unit", from programming the PS3). An atomic command on
+    /// a fifth line evicts the least recently used one, and with it any
+    /// reservation on it, so a getllar cycling over 5 lines always misses.
+    /// `None` (`ps3_legacy()`): unlimited.
+    pub atomic_cache_lines: Option<usize>,
+    /// A DMA put that writes part of a 128-byte line of main memory claims
+    /// the line first, like a putlluc (`LockLines::Shared`'s
+    /// `claim_cycles`, one claim after another on a line), unless its SPE
+    /// already holds it; a put of whole lines claims nothing. Measured:
+    /// six SPEs putting 32 bytes into one line take 66.4 ns a put together
+    /// (SpuTest `task_put.c` before 2024: 6 × 10 M puts in 3984 ms), as
+    /// their putllucs do (64.2 ns); into their own lines, 152 ns a put and
+    /// its wait, each. Off (`ps3_legacy()`): puts claim nothing.
+    pub partial_puts_claim: bool,
+    /// The EIB's sustained capacity for concurrent transfers between local
+    /// stores when the machine has more than 6 SPEs (a Cell blade; a PS3
+    /// program gets 6): "almost 200 GB/s" over 8 SPEs in collective
+    /// patterns (Kistler, Perrone & Petrini 2006). `None`:
+    /// `eib_total_bandwidth` for any number of SPEs.
+    pub eib_total_bandwidth_blade: Option<Bandwidth>,
+    /// The PPE's cycles to start one SPE program and join it (create the
+    /// context, upload the program, start it; wait for its end): a real
+    /// PS3 starts, runs and joins a trivial SPU task every 2.61 µs (SpuTest
+    /// `test_avalanche.c`: 1,048,576 SPURS tasks in 2740 ms on 6 SPUs).
+    /// The PPE starts a run's programs one after another, each SPE's
+    /// program beginning when its start is through; nothing is charged
+    /// where programs stay resident between runs
+    /// ([`CellConfig::resident`](super::CellConfig::resident)). 0
+    /// (`ps3_legacy()`): programs start at once.
+    pub spe_start_cycles: Cycles,
     /// Extra cycles per PPE–SPE mailbox hand-off when the programs reach
     /// the mailboxes through the operating system, not by raw MMIO: the
     /// PS3 kernel's thread-mode SPUs take 5.8 µs one way, 11.6 µs a round
@@ -163,8 +194,12 @@ pub enum LockLines {
     /// holder's putllc pays the miss cost).
     Exclusive,
     /// As the atomic caches share them: a getllar is a read several SPEs
-    /// hold at once (a miss costs `getllar_cycles`, waits for a claim in
-    /// progress, and a claim waits for reads in progress); a putllc or
+    /// hold at once, but a line is sent to one atomic cache at a time (a
+    /// miss costs `getllar_cycles` after any claim or other miss on the line
+    /// under way, and a claim waits for misses in progress: many SPEs
+    /// polling a line that one writes fetch it one after another; SpuTest's
+    /// ring of the PPE and 6 SPEs handing one lock line on takes 420 ns a
+    /// hand-off, `task_spuspinlock.c`); a putllc or
     /// putlluc by the only holder costs `atomic_hit_cycles`; otherwise it
     /// claims the line — the others' copies and reservations are lost —
     /// in `claim_cycles`, claims one after another. Measured: 6 SPEs
@@ -188,6 +223,11 @@ impl CostModel {
             lock_lines: LockLines::Shared {
                 claim_cycles: Cycles(205),
             },
+            atomic_cache_lines: Some(4),
+            partial_puts_claim: true,
+            eib_total_bandwidth_blade: Some(Bandwidth::from_gb_per_s(200.0, hz)),
+            // 2.61 µs at 3.2 GHz.
+            spe_start_cycles: Cycles(8362),
             ..CostModel::ps3_legacy()
         }
     }
@@ -227,6 +267,10 @@ impl CostModel {
             put_ack_cycles: Cycles::ZERO,
             lock_lines: LockLines::Exclusive,
             mailbox_os_cycles: Cycles::ZERO,
+            atomic_cache_lines: None,
+            partial_puts_claim: false,
+            eib_total_bandwidth_blade: None,
+            spe_start_cycles: Cycles::ZERO,
         }
     }
 
@@ -239,6 +283,14 @@ impl CostModel {
         CostModel {
             mailbox_os_cycles: Cycles(one_way - self.mailbox_latency_cycles.0),
             ..self
+        }
+    }
+
+    /// The EIB's capacity for a machine of `spes` SPEs.
+    pub fn eib_capacity(&self, spes: usize) -> Option<Bandwidth> {
+        match self.eib_total_bandwidth_blade {
+            Some(blade) if spes > 6 => Some(blade),
+            _ => self.eib_total_bandwidth,
         }
     }
 

@@ -6,11 +6,13 @@
 //! checks live here too. Timing is in `docs/cost-model.md`.
 
 use super::clock::Cycles;
-use super::machine::{Dma, EventKind, Flowing, InFlight, Machine, PPE, Status, Unwaited, Wait};
+use super::machine::{
+    Dma, EventKind, Flowing, InFlight, Machine, PPE, Status, Unwaited, Wait, partial_lines,
+};
 use super::memif::Resource;
 use super::mfc::{Direction, Order, Segment};
 use super::trace::SpanKind;
-use super::{CellError, LsAddr};
+use super::{CellError, LockLines, LsAddr};
 
 impl Machine {
     /// Issues a DMA command for SPE `spe` (queue space already checked):
@@ -225,7 +227,8 @@ impl Machine {
             Direction::Put => self.cfg.cost.put_ack_cycles,
             Direction::Get => Cycles::ZERO,
         };
-        let done = at + self.cfg.cost.dma_latency_cycles + ack;
+        let claimed = self.claim_partial_lines(&dma, at);
+        let done = claimed + self.cfg.cost.dma_latency_cycles + ack;
         if let Some(t) = &mut self.trace {
             let mut label = format!("{} {} B tag {}", dma.dir, dma.bytes(), dma.tag);
             if shared > Cycles::ZERO {
@@ -252,6 +255,35 @@ impl Machine {
             self.begin_command(next, start);
         }
         self.schedule(done, EventKind::DmaDone(dma));
+    }
+
+    /// A put's data reaches main memory at `at`: each line it writes only
+    /// part of is claimed first unless its SPE already holds it
+    /// ([`CostModel::partial_puts_claim`](super::CostModel)), one claim
+    /// after another on a line. Returns when the last claim is through.
+    fn claim_partial_lines(&mut self, dma: &Dma, at: Cycles) -> Cycles {
+        let cost = &self.cfg.cost;
+        let LockLines::Shared { claim_cycles } = cost.lock_lines else {
+            return at;
+        };
+        if dma.dir != Direction::Put || dma.eib || !cost.partial_puts_claim {
+            return at;
+        }
+        let core = dma.spe + 1;
+        let mut through = at;
+        for s in &dma.segments {
+            for l in partial_lines(s.ea.0, s.size) {
+                let line = self.lines.entry(l).or_default();
+                if line.writer != Some(core) || line.holders & !(1 << core) != 0 {
+                    let start = line.claim_start(at);
+                    line.busy_until = start + claim_cycles;
+                    line.holders = 0;
+                    line.writer = Some(core);
+                    through = through.max(line.busy_until);
+                }
+            }
+        }
+        through
     }
 
     /// The PPE moves `bytes` to or from main memory at its clock, sharing

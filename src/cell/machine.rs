@@ -149,6 +149,9 @@ pub(crate) struct SpeState {
     pub out_arriving: [usize; 2],
     pub signals: [SignalReg; 2],
     pub reservation: Option<u64>,
+    /// The lines in this SPE's atomic cache (line numbers), least recently
+    /// used first.
+    pub atomic_cache: VecDeque<u64>,
 }
 
 /// What checked mode keeps of a command until it completes.
@@ -194,7 +197,20 @@ pub(crate) struct LockLine {
     pub busy_until: Cycles,
     /// One bit a core (PPE 0, SPE n at n + 1).
     pub holders: u64,
+    /// Until when the misses queued on the line hold it: the line goes to
+    /// one atomic cache at a time, each taking it for a claim's time.
     pub reads_until: Cycles,
+    /// The core whose partial-line DMA put claimed the line last, while no
+    /// other core has stored to it or taken a copy since.
+    pub writer: Option<usize>,
+}
+
+impl LockLine {
+    /// When a claim made at `now` may start: after a claim under way and
+    /// the misses queued before it have had the line.
+    pub fn claim_start(&self, now: Cycles) -> Cycles {
+        now.max(self.busy_until).max(self.reads_until)
+    }
 }
 
 /// What ends when a flow on the memory interface ends.
@@ -294,6 +310,7 @@ impl Machine {
                 out_arriving: [0, 0],
                 signals: Default::default(),
                 reservation: None,
+                atomic_cache: VecDeque::new(),
             })
             .collect();
         let cores = (0..=cfg.spes)
@@ -309,7 +326,7 @@ impl Machine {
             memif: MemoryInterface::new(
                 cfg.cost.memory_bandwidth,
                 cfg.cost.memory_shared_bandwidth,
-                cfg.cost.eib_total_bandwidth,
+                cfg.cost.eib_capacity(cfg.spes),
                 cfg.cost.ls_port_bandwidth,
             ),
             flows: Vec::new(),
@@ -372,25 +389,60 @@ impl Machine {
         let cost = if line.owner == Some(core) { hit } else { miss };
         line.owner = Some(core);
         line.busy_until = start + cost;
+        self.cache_line(core, ea.0 / 128);
         self.charge_atomic(core, now, start, cost);
     }
 
     /// Shared lock lines: a getllar of `core` on the line holding `ea`. A
     /// copy in its atomic cache costs `hit`; otherwise it waits for a claim
-    /// under way and brings the line over in `miss` cycles, beside any
-    /// other core's read.
+    /// under way and for the other cores' misses to have had the line (it
+    /// goes to one atomic cache at a time, each holding it for `hold`
+    /// cycles) and brings the line over in `miss` cycles.
     pub fn read_line(&mut self, core: usize, ea: Ea, hit: Cycles, miss: Cycles) {
         let now = self.cores[core].clock;
+        let hold = match self.cfg.cost.lock_lines {
+            LockLines::Shared { claim_cycles } => claim_cycles,
+            LockLines::Exclusive => miss,
+        };
         let line = self.lines.entry(ea.0 / 128).or_default();
         let (start, cost) = if line.holders >> core & 1 == 1 {
             (now, hit)
         } else {
-            let start = now.max(line.busy_until);
-            line.reads_until = line.reads_until.max(start + miss);
+            let start = line.claim_start(now);
+            line.reads_until = start + hold;
             line.holders |= 1 << core;
             (start, miss)
         };
+        self.cache_line(core, ea.0 / 128);
         self.charge_atomic(core, now, start, cost);
+    }
+
+    /// `line` is now the most recently used of `core`'s atomic cache; a
+    /// line beyond the cache's capacity leaves it, and with it any
+    /// reservation on it (the PPE's own updates go through its L2: no
+    /// limit).
+    fn cache_line(&mut self, core: usize, line: u64) {
+        let Some(capacity) = self.cfg.cost.atomic_cache_lines else {
+            return;
+        };
+        if core == PPE {
+            return;
+        }
+        let st = &mut self.spes[core - 1];
+        st.atomic_cache.retain(|&l| l != line);
+        st.atomic_cache.push_back(line);
+        while st.atomic_cache.len() > capacity {
+            let out = st.atomic_cache.pop_front().expect("over capacity");
+            if st.reservation.is_some_and(|r| r / 128 == out) {
+                st.reservation = None;
+            }
+            if let Some(l) = self.lines.get_mut(&out) {
+                l.holders &= !(1 << core);
+                if l.owner == Some(core) {
+                    l.owner = None;
+                }
+            }
+        }
     }
 
     /// Shared lock lines: a store of `core` to the line holding `ea`
@@ -405,11 +457,12 @@ impl Machine {
         let (start, cost) = if line.holders == 1 << core {
             (now.max(line.busy_until), hit)
         } else {
-            (now.max(line.busy_until).max(line.reads_until), claim)
+            (line.claim_start(now), claim)
         };
         line.busy_until = start + cost;
         self.lose_reservations(ea, 128);
         self.lines.entry(ea.0 / 128).or_default().holders = 1 << core;
+        self.cache_line(core, ea.0 / 128);
         self.charge_atomic(core, now, start, cost);
     }
 
@@ -485,6 +538,7 @@ impl Machine {
                 if let Some(line) = self.lines.get_mut(&l) {
                     line.owner = None;
                     line.holders = 0;
+                    line.writer = None;
                 }
             }
         }
@@ -522,7 +576,16 @@ impl Machine {
                         }
                         (Direction::Put, None) => {
                             self.mem.write(s.ea, &d.data[offset..offset + n])?;
+                            // The lines this put claimed stay its SPE's.
+                            let claimed: Vec<u64> = partial_lines(s.ea.0, s.size)
+                                .filter(|l| {
+                                    self.lines.get(l).and_then(|l| l.writer) == Some(d.spe + 1)
+                                })
+                                .collect();
                             self.lose_reservations(s.ea, n as u64);
+                            for l in claimed {
+                                self.lines.entry(l).or_default().writer = Some(d.spe + 1);
+                            }
                         }
                         (Direction::Put, Some((t, r))) => {
                             self.spes[t].ls.bytes_mut()[r]
@@ -590,6 +653,13 @@ pub(crate) async fn block_on<T>(
         }
         super::executor::Yield::new().await;
     }
+}
+
+/// The 128-byte lines that `size` bytes at `ea` write only part of.
+pub(crate) fn partial_lines(ea: u64, size: u32) -> impl Iterator<Item = u64> {
+    let end = ea + size as u64;
+    let (first, last) = (ea / 128, (end.max(ea + 1) - 1) / 128);
+    (first..=last).filter(move |&l| ea > l * 128 || end < (l + 1) * 128)
 }
 
 /// Local-store address helper for the contexts.

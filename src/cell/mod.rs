@@ -108,6 +108,10 @@ pub struct CellConfig {
     /// Keep the timeline for a Chrome trace.
     pub trace: bool,
     pub signal_modes: [SignalMode; 2],
+    /// The SPE programs stay resident between runs (a frame loop's
+    /// programs, started once): a run charges no start-up
+    /// ([`CostModel::spe_start_cycles`]).
+    pub resident: bool,
 }
 
 impl CellConfig {
@@ -123,6 +127,7 @@ impl CellConfig {
             checked: true,
             trace: false,
             signal_modes: [SignalMode::Overwrite, SignalMode::Or],
+            resident: false,
         }
     }
 
@@ -300,6 +305,7 @@ impl Cell {
             start
         };
         let tasks = std::mem::take(&mut self.tasks);
+        self.start_programs(start, &tasks);
         let end = executor::execute(&self.m, tasks)?;
         let m = self.m.borrow();
         let cycles = end.saturating_sub(start);
@@ -328,6 +334,36 @@ impl Cell {
 }
 
 /// What a program returned, once it has ended: the handle
+impl Cell {
+    /// The PPE starts the run's SPE programs one after another, in SPE
+    /// order, each in [`CostModel::spe_start_cycles`]; an SPE's program
+    /// begins when its start is through, the PPE's own once all are.
+    /// Nothing is charged for programs that stay resident
+    /// ([`CellConfig::resident`]).
+    fn start_programs(&mut self, start: Cycles, tasks: &[(usize, Task)]) {
+        let mut m = self.m.borrow_mut();
+        let each = m.cfg.cost.spe_start_cycles;
+        if each == Cycles::ZERO || m.cfg.resident {
+            return;
+        }
+        let mut spes: Vec<usize> = tasks
+            .iter()
+            .map(|t| t.0)
+            .filter(|&c| c != machine::PPE)
+            .collect();
+        spes.sort_unstable();
+        for (k, &core) in spes.iter().enumerate() {
+            let wait = Cycles(each.0 * (k as u64 + 1));
+            m.cores[core].clock = start + wait;
+            m.cores[core].counters.start = wait;
+        }
+        let all = Cycles(each.0 * spes.len() as u64);
+        m.cores[machine::PPE].clock = start + all;
+        m.cores[machine::PPE].counters.start = all;
+        m.span(machine::PPE, trace::SpanKind::Compute, start, start + all);
+    }
+}
+
 /// [`Cell::spawn_ppe`] and [`Cell::spawn_spe`] give back.
 pub struct Exit<T>(Rc<RefCell<Option<T>>>);
 

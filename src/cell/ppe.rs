@@ -10,7 +10,7 @@ use super::clock::Cycles;
 use super::executor::Yield;
 use super::machine::{EventKind, Machine, OutBox, PPE, Status, Wait, block_on};
 use super::trace::SpanKind;
-use super::{CellError, CostModel, Ea};
+use super::{CellError, CostModel, Ea, LockLines};
 
 /// The PPE program's handle on the machine.
 pub struct Ppe {
@@ -130,6 +130,31 @@ impl Ppe {
         let c = m.cfg.cost.ppe_atomic_cycles;
         // The line comes to the PPE; commands on it are served in turn.
         m.store_line(PPE, ea, c, c);
+        Ok(old)
+    }
+
+    /// Atomic compare-and-swap on the `u32` at `ea` (lwarx, compare,
+    /// stwcx. if equal); returns the value found. A failed compare only
+    /// reads the line: its copy comes to the PPE (a miss costs
+    /// `getllar_cycles`, as an SPE's does); a swap stores like
+    /// [`Ppe::atomic_fetch_add_u32`].
+    pub async fn atomic_cas_u32(&self, ea: Ea, expected: u32, new: u32) -> Result<u32, CellError> {
+        self.sync().await;
+        let mut m = self.m.borrow_mut();
+        let old: u32 = m.mem.read_pod(ea, 1)?[0];
+        let c = m.cfg.cost.ppe_atomic_cycles;
+        if old == expected {
+            m.mem.write_pod(ea, &[new])?;
+            m.store_line(PPE, ea, c, c);
+        } else {
+            match m.cfg.cost.lock_lines {
+                LockLines::Exclusive => m.lock_line(PPE, ea, c, c),
+                LockLines::Shared { .. } => {
+                    let miss = m.cfg.cost.getllar_cycles;
+                    m.read_line(PPE, ea, c, miss);
+                }
+            }
+        }
         Ok(old)
     }
 

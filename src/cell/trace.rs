@@ -28,6 +28,9 @@ pub struct CoreCounters {
     pub memory_wait: Cycles,
     /// From the core's end to the end of the run.
     pub idle: Cycles,
+    /// Starting the run's SPE programs (the PPE, one after another) or
+    /// waiting for its own program's start (an SPE): `CostModel::spe_start_cycles`.
+    pub start: Cycles,
     pub gets: u64,
     pub puts: u64,
     pub bytes_get: u64,

@@ -4,6 +4,7 @@
 use serde_json::json;
 
 use cellbih::bih::Tracer;
+use cellbih::cell::Cycles;
 use cellbih::quality::rays::RaySets;
 use cellbih::registry::BuildReport;
 use cellbih::report::Settings;
@@ -274,6 +275,19 @@ fn print_cores(m: &cellbih::registry::Simulated) {
             "(cycles; \"mem shared\": what sharing the memory interface added to the \
              core's transfers; \"mbox wait\": mailboxes and signals, a barrier's wait is one)",
         );
+        let started = m
+            .run
+            .cores
+            .iter()
+            .filter(|(_, c)| c.start > Cycles::ZERO)
+            .count();
+        if let Some((_, ppe)) = m.run.cores.first().filter(|(_, c)| c.start > Cycles::ZERO) {
+            note(&format!(
+                "(before them the PPE started {} in {} cycles, one after another)",
+                cellbih::report::count((started - 1) as u64, "SPE program"),
+                ppe.start.0
+            ));
+        }
     } else {
         println!("\n(the functional mode times nothing: no cycles per core)");
     }

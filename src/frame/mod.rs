@@ -222,11 +222,18 @@ pub fn play(
         .build
         .clone()
         .on(&cell.clone().with_spes(cfg.build_spes));
-    let render_cell = cell.clone().with_spes(cfg.render_spes());
+    // The loop's SPE programs are started once, with its first build, and
+    // stay resident: no frame pays their start (`CostModel::spe_start_cycles`),
+    // as a renderer keeps its programs running between frames.
+    let render_cell = CellConfig {
+        resident: true,
+        ..cell.clone().with_spes(cfg.render_spes())
+    };
     // The camera frames the scene as it starts, and stays.
     let cam = Camera::framing(&scene.bounds(), cfg.width, cfg.height);
     let rays = cam.rays();
     let mut u = Updater::new(scene.clone(), build, Method::Rebuild)?;
+    u.build.cell.resident = true;
     let mut predictor =
         auto::Predictor::new(cfg.build.tree.leaf_size, scene.len(), u.first_build_ms);
     if cfg.policy == Policy::Auto {
