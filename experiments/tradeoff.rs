@@ -221,6 +221,7 @@ fn measure(
     // host's threads builds in a pool of one.
     let one = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
+        .stack_size(cellbih::report::JOB_STACK_BYTES)
         .build()
         .map_err(|e| e.to_string())?;
     let build = || {

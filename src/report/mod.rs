@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
-pub use parallel::{ThreadsArg, side_by_side};
+pub use parallel::{JOB_STACK_BYTES, ThreadsArg, side_by_side};
 pub use settings::{CellSettings, Settings};
 pub use step::step;
 pub use tree_args::TreeArgs;

@@ -12,6 +12,13 @@ use std::io::IsTerminal;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
+/// The stack of each thread that runs jobs side by side. A thread that
+/// waits for a job it handed to another pool (a build in a pool of one)
+/// runs other jobs of its own pool meanwhile, on the same stack, so one
+/// stack may hold several emulations at once: the default 2 MiB
+/// overflowed in a full `tradeoff` run. Reserved, not used, memory.
+pub const JOB_STACK_BYTES: usize = 64 << 20;
+
 /// An experiment's `--threads N`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct ThreadsArg {
@@ -32,6 +39,7 @@ impl ThreadsArg {
         };
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
+            .stack_size(JOB_STACK_BYTES)
             .build_global()
             .map_err(|e| format!("--threads {n}: {e}"))?;
         Ok(n)
