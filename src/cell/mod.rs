@@ -351,6 +351,9 @@ impl Cell {
             .map(|t| t.0)
             .filter(|&c| c != machine::PPE)
             .collect();
+        if spes.is_empty() {
+            return;
+        }
         spes.sort_unstable();
         for (k, &core) in spes.iter().enumerate() {
             let wait = Cycles(each.0 * (k as u64 + 1));
