@@ -14,7 +14,7 @@ use std::path::PathBuf;
 use clap::{Parser, ValueEnum};
 use serde_json::json;
 
-use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea, LsAddr, Reservation};
+use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea, LsAddr, Reservation, Spe};
 
 #[path = "validate_compute.rs"]
 mod compute;
@@ -177,23 +177,36 @@ fn ping_pong(cost: &CostModel) -> Result<f64, CellError> {
     for id in 0..2 {
         c.spawn_spe(id, move |spe| async move {
             let buf = spe.ls_alloc(128, 128)?;
-            let mut done = 0;
-            while done < rounds {
-                spe.getllar(buf, line).await?;
-                let v = spe.ls_read::<u32>(buf, 1)?[0];
-                if v & 1 != id as u32 {
-                    continue;
-                }
-                spe.ls_write(buf, &[v + 1])?;
-                if spe.putllc(buf, line).await? == Reservation::Stored {
-                    done += 1;
-                }
+            for _ in 0..rounds {
+                take_turn(&spe, buf, line, |v| (v & 1 == id as u32).then_some(v + 1)).await?;
             }
             Ok(())
         });
     }
     let run = c.run()?;
     Ok(seconds(cost, run.cycles) * 1e9 / (2 * rounds) as f64)
+}
+
+/// The polling loop of cellmark's and SpuTest's lock-line kernels: getllar
+/// the line into `buf` until `turn` accepts its first word (and gives the
+/// word to store), then putllc; from the getllar again on a lost
+/// reservation.
+async fn take_turn(
+    spe: &Spe,
+    buf: LsAddr,
+    line: Ea,
+    turn: impl Fn(u32) -> Option<u32>,
+) -> Result<(), CellError> {
+    loop {
+        spe.getllar(buf, line).await?;
+        let Some(next) = turn(spe.ls_read::<u32>(buf, 1)?[0]) else {
+            continue;
+        };
+        spe.ls_write(buf, &[next])?;
+        if spe.putllc(buf, line).await? == Reservation::Stored {
+            return Ok(());
+        }
+    }
 }
 
 /// SpuTest's `task_putllc.c`: every SPE repeats getllar/putllc on one line

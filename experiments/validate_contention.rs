@@ -4,9 +4,9 @@
 //! EIB of a Cell blade, and starting and joining SPE programs. Each is
 //! reproduced as its source's kernel does it.
 
-use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, LsAddr, Reservation};
+use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, LsAddr};
 
-use super::{Figure, cell, eib, seconds};
+use super::{Figure, cell, eib, seconds, take_turn};
 
 /// SpuTest's `task_put.c` as it was until 2024 (`test_block.c` then gave
 /// every SPE the same 128-byte target): each of `spes` SPEs puts 32 bytes
@@ -49,16 +49,7 @@ fn spin_ring(cost: &CostModel, spes: usize, rounds: u32) -> Result<f64, CellErro
         c.spawn_spe(id, move |spe| async move {
             let buf = spe.ls_alloc(128, 128)?;
             for _ in 0..rounds {
-                loop {
-                    spe.getllar(buf, word).await?;
-                    if spe.ls_read::<u32>(buf, 1)?[0] != id as u32 {
-                        continue;
-                    }
-                    spe.ls_write(buf, &[id as u32 + 1])?;
-                    if spe.putllc(buf, word).await? == Reservation::Stored {
-                        break;
-                    }
-                }
+                take_turn(&spe, buf, word, |v| (v == id as u32).then_some(v + 1)).await?;
             }
             Ok(())
         });
