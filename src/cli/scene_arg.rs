@@ -14,7 +14,8 @@ use super::Res;
 pub struct SceneArg {
     /// default | rtperf:N[:SEED] (N up to 50,000,000) | car | cup | a mesh
     /// name in the data directory (bunny, dragon, …) | a path to an .obj or
-    /// .obj.gz file.
+    /// .obj.gz file | a zoo scene: ground:MESH:SCALE, stadium:MESH[:SCALE],
+    /// clusters:K:N[:SEED], row:MESH:K, soup:N[:SEED], city:K[:SEED].
     #[arg(long, default_value = "default")]
     pub scene: String,
     /// Directory of real meshes (bunny, dragon, …); default: $CELLBIH_DATA.

@@ -15,6 +15,7 @@ pub mod manifest;
 mod obj;
 pub mod procedural;
 pub(crate) mod rng;
+pub mod zoo;
 
 use std::path::{Path, PathBuf};
 
@@ -264,6 +265,8 @@ pub fn data_dir(given: Option<&Path>) -> Option<PathBuf> {
 /// - `default`: the embedded default scene;
 /// - `rtperf:<triangles>[:<seed>]`, `car`, `cup`: procedural scenes
 ///   ([`procedural`]);
+/// - `ground:dragon:1000`, `stadium:teapot`, `clusters:8:200000:1`, …:
+///   the scene zoo ([`zoo`]);
 /// - a path to an `.obj` or `.obj.gz` file;
 /// - a bare name such as `bunny`: `<data dir>/<name>.obj.gz` (or `.obj`).
 pub fn load(spec: &str, data: Option<&Path>) -> Result<Scene, SceneError> {
@@ -271,6 +274,9 @@ pub fn load(spec: &str, data: Option<&Path>) -> Result<Scene, SceneError> {
         return parse_obj("default", DEFAULT_SCENE_OBJ.as_bytes());
     }
     if let Some(scene) = procedural::by_name(spec)? {
+        return Ok(scene);
+    }
+    if let Some(scene) = zoo::by_name(spec, data)? {
         return Ok(scene);
     }
     let path = Path::new(spec);
@@ -281,8 +287,9 @@ pub fn load(spec: &str, data: Option<&Path>) -> Result<Scene, SceneError> {
         return Err(SceneError::Unknown {
             spec: spec.into(),
             why: format!(
-                "not a file, not a procedural scene (default, rtperf:N[:SEED], car, cup); \
-                 to load a mesh by name give --data DIR or set {DATA_ENV}"
+                "not a file, not a procedural scene (default, rtperf:N[:SEED], car, cup), \
+                 not a zoo scene ({}); to load a mesh by name give --data DIR or set {DATA_ENV}",
+                zoo::FORMS
             ),
         });
     };
