@@ -142,6 +142,7 @@ fn row(
             .map(|(p, b)| json!({ "purpose": p.name(), "bytes": b })).collect::<Vec<_>>(),
         "memory_utilisation": bytes as f64 / (cycles * peak),
         "sah_over_baseline": r.bih.quality().sah_cost / base_sah,
+        "tree_hash": r.bih.tree_hash_hex(),
         "phases": sim.phase_ms().iter().map(|(p, ms)| json!({ "phase": p, "ms": ms })).collect::<Vec<_>>(),
         "host_ms": r.host_time.as_secs_f64() * 1e3,
     });

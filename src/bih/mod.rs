@@ -3,6 +3,7 @@
 //! rendering and updates are written once against it. Each operation lives
 //! in its own file (`traverse`, `validate`), as `impl Bih` blocks.
 
+mod hash;
 mod lanes;
 mod node;
 mod traverse;

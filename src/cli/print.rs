@@ -83,7 +83,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format, settings: &Settin
                 "settings": settings.to_json(),
                 "scene": s.name, "triangles": s.len(), "builder": r.builder.name(),
                 "threads": r.threads,
-                "host_ms": ms, "quality": q,
+                "host_ms": ms, "quality": q, "tree_hash": r.bih.tree_hash_hex(),
                 "footprint": sim.map(|m| &m.footprint),
                 "rays": { "primary": primary, "incoherent": incoherent },
                 "simulated_ms": timed.map(|m| m.run.ms),
@@ -198,8 +198,9 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format, settings: &Settin
                 ));
             }
             field(&format!(
-                "tree        {} bytes (nodes and triangle ids)",
-                q.memory_bytes
+                "tree        {} bytes (nodes and triangle ids), hash {}",
+                q.memory_bytes,
+                r.bih.tree_hash_hex()
             ));
             if let Some(m) = sim {
                 print_footprint(&m.footprint, s.len(), r.bih.config.leaf_size);
