@@ -28,7 +28,7 @@
 //! all equal is finished by the global heuristic from its candidate cell
 //! ([`KeySpec::cell`]).
 
-use glam::Vec3A;
+use glam::{Vec3, Vec3A};
 
 use super::recursion::Item;
 use super::split::{Side, choose_split, clip_planes, partition, side_of};
@@ -142,6 +142,51 @@ impl KeySpec {
         }
         cell
     }
+
+    /// The keys of a range that share their whole key, made again within
+    /// the range's own cell: the spec whose scene box is `cell` carried on
+    /// through every halving that the box of the range's centers
+    /// (`lo..hi`) lies wholly on one side of — empty halvings, which make
+    /// no node and cost no key bit — to the first halving that parts them.
+    /// With the global heuristic's order that is the builder's own
+    /// candidate box there, so the new keys' binary radix tree goes on
+    /// being the baseline's tree. Round robin starts a new grid over the
+    /// centers' box within the cell. Returns the spec and the empty
+    /// halvings it skipped. `None` where `cell` cannot be halved any more.
+    pub fn within(&self, cell: Aabb, lo: Vec3A, hi: Vec3A) -> Option<(KeySpec, u32)> {
+        let mut cell = cell;
+        halving(&cell)?;
+        let mut skipped = 0;
+        match self.order {
+            KeyOrder::GlobalHeuristic => {
+                while let Some((axis, plane)) = halving(&cell) {
+                    if hi[axis] < plane {
+                        cell.max[axis] = plane;
+                    } else if lo[axis] >= plane {
+                        cell.min[axis] = plane;
+                    } else {
+                        break;
+                    }
+                    skipped += 1;
+                }
+            }
+            KeyOrder::RoundRobin => {
+                cell = Aabb::new(Vec3::from(lo).max(cell.min), Vec3::from(hi).min(cell.max));
+            }
+        }
+        Some((
+            KeySpec {
+                scene: cell,
+                ..*self
+            },
+            skipped,
+        ))
+    }
+}
+
+/// Whether the builder can halve `cell` (in `f32`).
+pub fn can_halve(cell: &Aabb) -> bool {
+    halving(cell).is_some()
 }
 
 /// The builder's halving of `cell` (its longest axis and `f32` midpoint),

@@ -3,8 +3,8 @@
 //! allocated when SPE 0 asks (section 5's Morton route, docs/morton.md).
 
 use super::pairs::Pairs;
-use super::top;
 use super::{MortonKnobs, RECORD, REGIONS, SPILL_UNIT};
+use super::{rekey, top};
 use crate::cell::{Cell, CellError, Ea, Ppe};
 use crate::kernels::radix;
 use crate::spe::footprint::Purpose;
@@ -36,6 +36,11 @@ pub(super) struct Areas {
     /// The sub-tops of the top of the tree, and their bounds.
     pub(super) subtops: Ea,
     pub(super) sub_bounds: Ea,
+    /// The ranges keyed again within their cells (`rekey`): their table,
+    /// their subtrees' bounds, and the lock line whose word 0 counts them.
+    pub(super) rekeys: Ea,
+    pub(super) rekey_bounds: Ea,
+    pub(super) rekey_line: Ea,
     /// Lock lines: barrier arrivals; the regions' line: word 0 the next
     /// sub-top, then region, to take, word 1 how many, words 2 to 7 where
     /// the PPE put the region tables (`Program::tables`), word 8 the spill
@@ -89,6 +94,21 @@ impl Areas {
             deal_header: mem.alloc(Purpose::JobQueues.buffer("region deal header"), line, 128)?,
             subtops: mem.alloc(Purpose::JobQueues.buffer("sub-tops"), subtops, 128)?,
             sub_bounds: mem.alloc(Purpose::JobQueues.buffer("sub-top bounds"), subtops, 128)?,
+            rekeys: mem.alloc(
+                Purpose::JobQueues.buffer("ranges keyed again"),
+                (rekey::MAX_REKEYS * size_of::<rekey::Found>()) as u64,
+                128,
+            )?,
+            rekey_bounds: mem.alloc(
+                Purpose::JobQueues.buffer("bounds of ranges keyed again"),
+                rekey::MAX_REKEYS as u64 * 32,
+                128,
+            )?,
+            rekey_line: mem.alloc(
+                Purpose::JobQueues.buffer("ranges keyed again: count"),
+                line,
+                128,
+            )?,
             arrivals: mem.alloc(Purpose::JobQueues.buffer("barrier arrivals"), line, 128)?,
             take: mem.alloc(Purpose::JobQueues.buffer("region counter"), line, 128)?,
             pool: pool.base,

@@ -38,13 +38,14 @@
 mod areas;
 mod pairs;
 mod regions;
+mod rekey;
 mod sort;
 mod top;
 
 use areas::{Areas, serve};
 
 use super::machinery::arena::{NodeWrites, ObjectArena};
-use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, NO_PREFETCH, QueueKnobs};
+use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, Job, NO_PREFETCH, QueueKnobs};
 use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, spes_used};
 use super::{Knob, Knobs, Readback, Records, Setup, SpeWork};
 use crate::bih::BihConfig;
@@ -330,7 +331,9 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
 struct Program<'a> {
     spe: &'a Spe,
     a: Areas,
-    spec: KeySpec,
+    /// The keys' specs: the scene's, then one per range keyed again
+    /// within its cell (`rekey`), in the order of their table.
+    specs: Vec<KeySpec>,
     knobs: MortonKnobs,
     /// The rates this run charges: this strategy's and the shared kernels'.
     rates: MortonRates,
@@ -357,6 +360,20 @@ struct Program<'a> {
     tables: [Ea; 6],
     /// Bytes of each SPE's part of the spill area (`tables[4]`).
     spill_per_spe: u64,
+    /// The regions this SPE's top made (every round), until their tables;
+    /// then where they start in the unsorted table, and how many.
+    regions: Vec<Job>,
+    region_offset: usize,
+    region_count: usize,
+    /// Ranges to key again found in this round, and where each range found
+    /// so far went (a `top::Top::Rekey` is an index here).
+    found: Vec<rekey::Found>,
+    placed: Vec<rekey::Placed>,
+    /// Ranges keyed again so far (every SPE's), and rounds of the top.
+    rekeys: usize,
+    rounds: usize,
+    /// Takes of the counter of ranges keyed again alone, in past rounds.
+    solo_taken: usize,
 }
 
 /// Names of the radix passes, for the phase list.
@@ -390,7 +407,7 @@ impl<'a> Program<'a> {
         Ok(Program {
             spe,
             a,
-            spec,
+            specs: vec![spec],
             knobs,
             rates,
             kernels,
@@ -406,6 +423,14 @@ impl<'a> Program<'a> {
             phases: Vec::new(),
             tables: [Ea(0); 6],
             spill_per_spe: 0,
+            regions: Vec::new(),
+            region_offset: 0,
+            region_count: 0,
+            found: Vec::new(),
+            placed: Vec::new(),
+            rekeys: 0,
+            rounds: 0,
+            solo_taken: 0,
         })
     }
 
@@ -414,14 +439,6 @@ impl<'a> Program<'a> {
         self.arena
             .as_mut()
             .expect("the arena is back from the loop")
-    }
-
-    /// This SPE's slice of `0..n`, starting at an even place (16-byte
-    /// aligned for 8-byte key pairs).
-    fn slice(&self) -> (usize, usize) {
-        let (n, s, id) = (self.a.n, self.a.spes, self.spe.id());
-        let bound = |k: usize| if k == s { n } else { (n * k / s) & !1 };
-        (bound(id), bound(id + 1))
     }
 
     fn w(&mut self) -> &mut NodeWrites<'a> {
@@ -455,7 +472,8 @@ impl<'a> Program<'a> {
         self.end_phase("Morton keys").await?;
         let passes = radix::passes(self.knobs.key_bits, self.knobs.digit_bits);
         for pass in 0..passes {
-            self.radix_pass(pass, bufs).await?;
+            self.radix_pass(pass, bufs, (0, self.a.n), pass as usize % 2)
+                .await?;
             self.end_phase(PASSES[pass as usize]).await?;
         }
         let keys = self.a.sorted_keys;
@@ -464,11 +482,26 @@ impl<'a> Program<'a> {
             self.end_phase("permutation").await?;
         }
         self.spe.ls_release_to(mark);
-        let top = self.top(keys).await?;
+        let mut parts = vec![self.top(keys, &[]).await?];
+        loop {
+            let found = self.found_this_round().await?;
+            if found.is_empty() {
+                break;
+            }
+            let roots = self.rekey_round(&found).await?;
+            self.end_phase(if parts.len() == 1 {
+                "top, keys within cells"
+            } else {
+                "more keys within cells"
+            })
+            .await?;
+            parts.push(self.top(keys, &roots).await?);
+        }
+        self.place_regions().await?;
         self.end_phase("top of the tree").await?;
         self.build_regions().await?;
         self.end_phase("regions").await?;
-        self.write_top(&top).await?;
+        self.write_top(&parts).await?;
         self.w().finish().await?;
         let nodes = self.w().nodes;
         let count = self.arena().allocated();

@@ -131,7 +131,7 @@ impl Program<'_> {
     }
 
     /// The key pairs' width, and where sorted pair `i` lies.
-    fn sorted_pair(&self, i: usize) -> (Pairs, Ea) {
+    pub(super) fn sorted_pair(&self, i: usize) -> (Pairs, Ea) {
         let p = self.a.pairs;
         (p, self.a.sorted_keys.offset((i * p.bytes) as u64))
     }
@@ -147,13 +147,26 @@ impl Program<'_> {
     /// they take), then their records, by their indices, into `recs` (a
     /// getl of a block's records at a time, at the permutation's rate a
     /// record: `MortonRates::radix_scatter`), and waits.
-    async fn gather(
+    pub(super) async fn gather(
+        &self,
+        bufs: (LsAddr, LsAddr),
+        first: usize,
+        count: usize,
+    ) -> Result<(), CellError> {
+        self.issue_gather(bufs, first, count, self.tags).await?;
+        self.spe.wait_tag(self.tags).await.map(|_| ())
+    }
+
+    /// [`Program::gather`] under `tag`, without waiting for the records
+    /// (it waits for the pairs, which name them).
+    pub(super) async fn issue_gather(
         &self,
         (pairs, recs): (LsAddr, LsAddr),
         first: usize,
         count: usize,
+        tag: u32,
     ) -> Result<(), CellError> {
-        let ((p, at), tag) = (self.sorted_pair(first), self.tags);
+        let (p, at) = self.sorted_pair(first);
         span(self.spe, pairs, at, count * p.bytes, false, tag).await?;
         self.spe.wait_tag(tag).await?;
         let keys: Vec<KeyRec> = p.read(self.spe, ls_for(pairs, at), count)?;
@@ -169,7 +182,7 @@ impl Program<'_> {
         }
         self.spe
             .compute_items(self.rates.radix_scatter, count as u64);
-        self.spe.wait_tag(tag).await.map(|_| ())
+        Ok(())
     }
 
     /// Writes the ids of the `count` records at `recs` over the indices of

@@ -90,15 +90,16 @@ impl Program<'_> {
 
     /// Phase 1: a key for every record of this SPE's slice, into keys A.
     pub(super) async fn keys(&mut self, bufs: [LsAddr; 4]) -> Result<(), CellError> {
-        let (lo, hi) = self.slice();
-        let rate = Cycles(self.rates.key_setup.0 + self.rates.key_bit.0 * self.spec.bits as u64);
+        let (lo, hi) = self.slice_of(0, self.a.n);
+        let rate =
+            Cycles(self.rates.key_setup.0 + self.rates.key_bit.0 * self.specs[0].bits as u64);
         let src = self.a.tris.offset((lo * RECORD) as u64);
         let count = hi - lo;
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
             let (first, len, buf) = self
                 .next_block(Stream::new(src, RECORD, count, RECORDS_PER_BLOCK), b, bufs)
                 .await?;
-            let spec = self.spec;
+            let spec = self.specs[0];
             let keys: Vec<KeyRec> = self.spe.with_ls(buf, len, |recs: &[TriRecord]| {
                 (recs.iter().enumerate())
                     .map(|(i, r)| KeyRec {
@@ -117,19 +118,20 @@ impl Program<'_> {
         self.drain().await
     }
 
-    /// Phase 2: one LSD pass: count, share the counts, scatter.
+    /// Phase 2: one LSD pass over the pairs at places `first..first +
+    /// count` (all of them, or a range keyed again) of keys array `from`
+    /// into the other: count, share the counts, scatter.
     pub(super) async fn radix_pass(
         &mut self,
         pass: u32,
         bufs: [LsAddr; 4],
+        (first, total): (usize, usize),
+        from: usize,
     ) -> Result<(), CellError> {
-        let (lo, hi) = self.slice();
+        let (lo, hi) = self.slice_of(first, total);
         let (count, d) = (hi - lo, self.knobs.digit_bits);
         let digits = 1usize << d;
-        let (src, dst) = (
-            self.a.keys[pass as usize % 2],
-            self.a.keys[1 - pass as usize % 2],
-        );
+        let (src, dst) = (self.a.keys[from], self.a.keys[1 - from]);
         let p = self.a.pairs;
         let slice = src.offset((lo * p.bytes) as u64);
         let stream = Stream::new(slice, p.bytes, count, PAIRS_PER_BLOCK);
@@ -175,7 +177,7 @@ impl Program<'_> {
             // and its pairs.
             let mut runs: Vec<(Ea, Vec<KeyRec>)> = Vec::new();
             for &i in &order {
-                let ea = dst.offset(to[i] as u64 * p.bytes as u64);
+                let ea = dst.offset((first as u64 + to[i] as u64) * p.bytes as u64);
                 match runs.last_mut() {
                     Some((at, run)) if at.0 + (run.len() * p.bytes) as u64 == ea.0 => {
                         run.push(recs[i])
@@ -197,7 +199,7 @@ impl Program<'_> {
     /// Phase 3: gathers this SPE's slice of records in key order (one
     /// getl a block) into the sorted array.
     pub(super) async fn permute(&mut self, keys: Ea, bufs: [LsAddr; 4]) -> Result<(), CellError> {
-        let (lo, hi) = self.slice();
+        let (lo, hi) = self.slice_of(0, self.a.n);
         let count = hi - lo;
         let p = self.a.pairs;
         let slice = keys.offset((lo * p.bytes) as u64);

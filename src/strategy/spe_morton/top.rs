@@ -23,6 +23,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::pairs::{ls_for, span};
+use super::rekey::{Found, Placed};
 use super::{JOB, Program, REGIONS, SPILL_UNIT};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
@@ -40,14 +41,17 @@ pub(super) const SUBTOPS_PER_SPE: usize = 4;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub(super) struct Range {
-    first: u32,
-    count: u32,
+    pub(super) first: u32,
+    pub(super) count: u32,
     /// The node it becomes.
-    id: u32,
-    depth: u32,
+    pub(super) id: u32,
+    pub(super) depth: u32,
     /// Key bits its cell has consumed.
-    used: u32,
-    pad: [u32; 3],
+    pub(super) used: u32,
+    /// The keys it is split by: `Program::specs` (0 the scene's, then one
+    /// per re-keyed range).
+    pub(super) spec: u32,
+    pub(super) pad: [u32; 2],
 }
 pub(super) const RANGE: usize = size_of::<Range>();
 
@@ -63,6 +67,9 @@ pub(super) enum Top {
     },
     /// A region, by its index in this SPE's list.
     Region(usize),
+    /// A range keyed again within its cell (`rekey`), by its index in this
+    /// SPE's list of those it found: its own top comes in a later round.
+    Rekey(usize),
     /// SPE 0's nodes above the sub-tops: a sub-top, by its index.
     Sub(usize),
 }
@@ -76,19 +83,26 @@ pub(super) struct TopPart {
     roots: Vec<(usize, usize)>,
     /// SPE 0: the nodes above the sub-tops.
     above: Vec<Top>,
-    /// Where this SPE's regions start in the unsorted list, and how many.
-    offset: usize,
-    regions: usize,
+    /// SPE 0, a round after the first: (re-keyed range, index of its root
+    /// in `above`).
+    rekey_roots: Vec<(usize, usize)>,
 }
 
 /// No parent: the root.
 const NO_PARENT: usize = usize::MAX;
 
-/// Hooks child `slot` (2 parent + side) of a top list to index `at`.
-fn link(list: &mut [Top], slot: usize, at: usize) {
-    if slot != NO_PARENT
-        && let Top::Inner { kids, .. } = &mut list[slot / 2]
-    {
+/// The slots of a later round's roots (the re-keyed ranges): `ROOT + j`.
+const ROOT: usize = usize::MAX / 2;
+
+/// Hooks child `slot` (2 parent + side) of a top list to index `at`;
+/// notes where a re-keyed range's root went.
+fn link(list: &mut [Top], slot: usize, at: usize, roots: &mut Vec<(usize, usize)>) {
+    if slot == NO_PARENT {
+        return;
+    }
+    if slot >= ROOT {
+        roots.push((slot - ROOT, at));
+    } else if let Top::Inner { kids, .. } = &mut list[slot / 2] {
         kids[slot % 2] = at;
     }
 }
@@ -103,26 +117,29 @@ impl Program<'_> {
         Ok(p.read(self.spe, ls_for(self.line, at), 1)?[0].key)
     }
 
-    /// Splits `r` (charged one job and its probes) into `list`: a region
-    /// (into `regions`) or an inner node whose two child ranges it returns
-    /// (their parent slots `2 at` and `2 at + 1`).
+    /// Splits `r` (charged one job and its probes) into `list`: a region,
+    /// a range to key again within its cell (one that shares its whole key
+    /// and is too large for a local store), or an inner node whose two
+    /// child ranges it returns (their parent slots `2 at` and `2 at + 1`).
     async fn split(
         &mut self,
         keys: Ea,
         r: Range,
         list: &mut Vec<Top>,
-        regions: &mut Vec<Job>,
     ) -> Result<Option<[Range; 2]>, CellError> {
         self.spe.compute(self.kernels.spe_job);
+        let spec = self.specs[r.spec as usize];
         let (first, count, depth) = (r.first as usize, r.count as usize, r.depth);
-        let bits = self.spec.bits;
+        let bits = spec.bits;
         let key_first = self.key_at(keys, first).await?;
         let leafish = count <= self.knobs.region_size || self.cfg.ends_in_leaf(count, depth);
+        let mut whole_key = false;
         let split = if leafish {
             None
         } else {
             let key_last = self.key_at(keys, first + count - 1).await?;
             let diff = key_first ^ key_last;
+            whole_key = diff == 0;
             if diff == 0 {
                 None
             } else {
@@ -142,14 +159,22 @@ impl Program<'_> {
             }
         };
         let Some((bit, left)) = split else {
-            let cell = self.spec.cell(key_first, r.used);
+            if whole_key && count > self.ls_capacity() && self.rekeys_on() {
+                let cell = spec.cell(key_first, bits);
+                if crate::kernels::morton::can_halve(&cell) {
+                    list.push(Top::Rekey(self.placed.len() + self.found.len()));
+                    self.found.push(Found::new(r, cell));
+                    return Ok(None);
+                }
+            }
+            let cell = spec.cell(key_first, r.used);
             let job = Job::new(first, count, r.id as usize, depth, cell, &Side::EMPTY);
-            list.push(Top::Region(regions.len()));
-            regions.push(job);
+            list.push(Top::Region(self.regions.len()));
+            self.regions.push(job);
             return Ok(None);
         };
-        let axis = match self.spec.order {
-            KeyOrder::GlobalHeuristic => self.spec.cell(key_first, bit).longest_axis(),
+        let axis = match spec.order {
+            KeyOrder::GlobalHeuristic => spec.cell(key_first, bit).longest_axis(),
             KeyOrder::RoundRobin => (bit % 3) as usize,
         };
         let children = self.arena().alloc(2).await?;
@@ -165,7 +190,8 @@ impl Program<'_> {
             id,
             depth: depth + 1,
             used: bit + 1,
-            pad: [0; 3],
+            spec: r.spec,
+            pad: [0; 2],
         };
         Ok(Some([
             child(r.first, left, children),
@@ -173,22 +199,31 @@ impl Program<'_> {
         ]))
     }
 
-    /// Phase 4, every SPE: the top of the tree down to regions; the region
-    /// jobs written largest first (and their static deal).
-    pub(super) async fn top(&mut self, keys: Ea) -> Result<TopPart, CellError> {
+    /// Phase 4, every SPE: one round of the top of the tree — from the
+    /// root (`rekeyed` empty), or from the ranges just keyed again
+    /// (`rekeyed`: each its index among them and its range) — down to
+    /// regions and ranges to key again.
+    pub(super) async fn top(
+        &mut self,
+        keys: Ea,
+        rekeyed: &[(usize, Range)],
+    ) -> Result<TopPart, CellError> {
         let mut part = TopPart::default();
-        let mut regions: Vec<Job> = Vec::new();
         // 1. SPE 0: the largest ranges first, until there are enough.
         if self.spe.id() == 0 {
-            let root = self.arena().alloc(1).await?;
-            let (n, target) = (self.a.n as u32, SUBTOPS_PER_SPE * self.a.spes);
-            let whole = Range {
-                first: 0,
-                count: n,
-                id: root,
-                ..Range::default()
-            };
-            let mut pending = vec![(NO_PARENT, whole)];
+            let mut pending = Vec::new();
+            if rekeyed.is_empty() {
+                let root = self.arena().alloc(1).await?;
+                let whole = Range {
+                    first: 0,
+                    count: self.a.n as u32,
+                    id: root,
+                    ..Range::default()
+                };
+                pending.push((NO_PARENT, whole));
+            }
+            pending.extend(rekeyed.iter().map(|&(j, r)| (ROOT + j, r)));
+            let target = SUBTOPS_PER_SPE * self.a.spes;
             let mut above = Vec::new();
             while !pending.is_empty() && pending.len() < target {
                 // The largest, the first of equals: deterministic.
@@ -197,15 +232,15 @@ impl Program<'_> {
                     .expect("a range");
                 let (slot, r) = pending.remove(i);
                 let at = above.len();
-                link(&mut above, slot, at);
-                if let Some([l, r]) = self.split(keys, r, &mut above, &mut regions).await? {
+                link(&mut above, slot, at, &mut part.rekey_roots);
+                if let Some([l, r]) = self.split(keys, r, &mut above).await? {
                     pending.extend([(2 * at, l), (2 * at + 1, r)]);
                 }
             }
             pending.sort_by_key(|p| std::cmp::Reverse(p.1.count));
             for (k, &(slot, _)) in pending.iter().enumerate() {
                 let at = above.len();
-                link(&mut above, slot, at);
+                link(&mut above, slot, at, &mut part.rekey_roots);
                 above.push(Top::Sub(k));
             }
             let subs: Vec<Range> = pending.iter().map(|p| p.1).collect();
@@ -235,19 +270,27 @@ impl Program<'_> {
             let mut stack = vec![(NO_PARENT, sub)];
             while let Some((slot, r)) = stack.pop() {
                 let at = part.nodes.len();
-                link(&mut part.nodes, slot, at);
-                if let Some([l, r]) = self.split(keys, r, &mut part.nodes, &mut regions).await? {
+                link(&mut part.nodes, slot, at, &mut part.rekey_roots);
+                if let Some([l, r]) = self.split(keys, r, &mut part.nodes).await? {
                     stack.extend([(2 * at + 1, r), (2 * at, l)]);
                 }
             }
         }
-        // 3. The counts, the tables, the regions largest first.
-        part.regions = regions.len();
-        part.offset = self.region_tables(&regions).await?;
+        self.publish_found().await?;
+        self.barrier().await?;
+        Ok(part)
+    }
+
+    /// After the last round, every SPE: the region tables, the regions
+    /// largest first.
+    pub(super) async fn place_regions(&mut self) -> Result<(), CellError> {
+        let regions = std::mem::take(&mut self.regions);
+        self.region_offset = self.region_tables(&regions).await?;
+        self.region_count = regions.len();
         if self.spe.id() == 0 {
             self.sort_regions().await?;
         }
-        Ok(part)
+        Ok(())
     }
 
     /// Every SPE: its count of regions to SPE 0, which asks the PPE for the
@@ -351,7 +394,11 @@ impl Program<'_> {
     }
 
     /// Reads `count` items at `ea` in gets of at most 16 KiB.
-    async fn read_array<T: Pod>(&self, ea: Ea, count: usize) -> Result<Vec<T>, CellError> {
+    pub(super) async fn read_array<T: Pod>(
+        &self,
+        ea: Ea,
+        count: usize,
+    ) -> Result<Vec<T>, CellError> {
         let per = (16 * 1024) / size_of::<T>();
         let tag = self.tags;
         let mark = self.spe.ls_mark();
@@ -369,62 +416,87 @@ impl Program<'_> {
         Ok(out)
     }
 
-    /// Last, every SPE: its sub-tops' nodes, their clip planes from the
-    /// regions' bounds, and each sub-top's bounds; after a barrier, SPE 0
-    /// the nodes above the sub-tops.
-    pub(super) async fn write_top(&mut self, part: &TopPart) -> Result<(), CellError> {
+    /// Last, every SPE, a round at a time from the last: its sub-tops'
+    /// nodes, their clip planes from the bounds of the regions and of the
+    /// ranges keyed again, and each sub-top's bounds; after a barrier,
+    /// SPE 0 the nodes above the sub-tops and the bounds of the round's
+    /// roots (a range keyed again, for the round before).
+    pub(super) async fn write_top(&mut self, parts: &[TopPart]) -> Result<(), CellError> {
         let total = self.read_take_line().await? as usize;
-        let to_aabb =
-            |b: &[f32; 8]| Aabb::new(Vec3::new(b[0], b[1], b[2]), Vec3::new(b[4], b[5], b[6]));
         let mut region_bounds = Vec::new();
-        if part.regions > 0 {
+        if self.region_count > 0 {
             let bounds: Vec<[f32; 8]> = self.read_array(self.tables[1], total).await?;
-            let at = self.tables[3].offset((4 * part.offset as u64) & !15);
-            let skip = part.offset % 4;
-            let positions: Vec<u32> = self.read_array(at, skip + part.regions).await?;
+            let at = self.tables[3].offset((4 * self.region_offset as u64) & !15);
+            let skip = self.region_offset % 4;
+            let positions: Vec<u32> = self.read_array(at, skip + self.region_count).await?;
             region_bounds = positions[skip..]
                 .iter()
                 .map(|&p| to_aabb(&bounds[p as usize]))
                 .collect();
         }
-        let of = self.write_nodes(&part.nodes, &region_bounds, &[]).await?;
-        for &(k, root) in &part.roots {
-            let b = of[root];
-            let rec: [f32; 8] = [
-                b.min.x, b.min.y, b.min.z, 0.0, b.max.x, b.max.y, b.max.z, 0.0,
-            ];
-            self.spe.ls_write(self.line, &rec)?;
-            let at = self.a.sub_bounds.offset((k * 32) as u64);
-            self.spe.put(self.line, at, 32, self.tags).await?;
-            self.spe.wait_tag(self.tags).await?;
+        for (round, part) in parts.iter().enumerate().rev() {
+            let mut rekeyed = Vec::new();
+            if round + 1 < parts.len() {
+                let b: Vec<[f32; 8]> = self.read_array(self.a.rekey_bounds, self.rekeys).await?;
+                rekeyed = b.iter().map(to_aabb).collect();
+            }
+            let known = (&region_bounds[..], &rekeyed[..]);
+            let of = self.write_nodes(&part.nodes, known, &[]).await?;
+            for &(k, root) in &part.roots {
+                self.put_bounds(self.a.sub_bounds.offset((k * 32) as u64), of[root])
+                    .await?;
+            }
+            self.w().flush().await?;
+            self.barrier().await?;
+            if self.spe.id() == 0 {
+                let subs = part
+                    .above
+                    .iter()
+                    .filter(|t| matches!(t, Top::Sub(_)))
+                    .count();
+                let sub: Vec<[f32; 8]> = self.read_array(self.a.sub_bounds, subs).await?;
+                let sub: Vec<Aabb> = sub.iter().map(to_aabb).collect();
+                let of = self.write_nodes(&part.above, known, &sub).await?;
+                for &(j, at) in &part.rekey_roots {
+                    self.put_bounds(self.a.rekey_bounds.offset((j * 32) as u64), of[at])
+                        .await?;
+                }
+            }
+            self.w().flush().await?;
+            if round > 0 {
+                self.barrier().await?;
+            }
         }
-        self.w().flush().await?;
-        self.barrier().await?;
-        if self.spe.id() == 0 {
-            let subs = part
-                .above
-                .iter()
-                .filter(|t| matches!(t, Top::Sub(_)))
-                .count();
-            let sub: Vec<[f32; 8]> = self.read_array(self.a.sub_bounds, subs).await?;
-            let sub: Vec<Aabb> = sub.iter().map(to_aabb).collect();
-            self.write_nodes(&part.above, &region_bounds, &sub).await?;
-        }
-        self.w().flush().await
+        Ok(())
+    }
+
+    /// Puts `b` as a 32-byte bounds record at `at`, and waits.
+    async fn put_bounds(&self, at: Ea, b: Aabb) -> Result<(), CellError> {
+        let rec: [f32; 8] = [
+            b.min.x, b.min.y, b.min.z, 0.0, b.max.x, b.max.y, b.max.z, 0.0,
+        ];
+        self.spe.ls_write(self.line, &rec)?;
+        self.spe.put(self.line, at, 32, self.tags).await?;
+        self.spe.wait_tag(self.tags).await.map(|_| ())
     }
 
     /// Writes the inner nodes of `list`, bottom up, their clip planes from
-    /// the bounds of its regions and sub-tops; returns every node's bounds.
+    /// the bounds of its regions, ranges keyed again (`known`) and
+    /// sub-tops; returns every node's bounds.
     async fn write_nodes(
         &mut self,
         list: &[Top],
-        regions: &[Aabb],
+        (regions, rekeyed): (&[Aabb], &[Aabb]),
         subs: &[Aabb],
     ) -> Result<Vec<Aabb>, CellError> {
         let mut of = vec![Aabb::EMPTY; list.len()];
         for (i, t) in list.iter().enumerate().rev() {
             of[i] = match *t {
                 Top::Region(r) => regions[r],
+                Top::Rekey(l) => match self.placed[l] {
+                    Placed::Rekey(j) => rekeyed[j],
+                    Placed::Region(r) => regions[r],
+                },
                 Top::Sub(k) => subs[k],
                 Top::Inner {
                     id,
@@ -442,4 +514,9 @@ impl Program<'_> {
         }
         Ok(of)
     }
+}
+
+/// A 32-byte bounds record as a box.
+fn to_aabb(b: &[f32; 8]) -> Aabb {
+    Aabb::new(Vec3::new(b[0], b[1], b[2]), Vec3::new(b[4], b[5], b[6]))
 }
