@@ -73,7 +73,7 @@ pub fn by_name(spec: &str, data: Option<&Path>) -> Result<Option<Scene>, SceneEr
             .ok_or_else(|| bad(format!("{kind} needs {what}: the forms are {FORMS}")))
     };
     let count = |i: usize, what: &str, least: usize| -> Result<usize, SceneError> {
-        let n: usize = field(i, what)?
+        let n: usize = field(i, &format!("a {what}"))?
             .parse()
             .map_err(|_| bad(format!("the {what} of {kind} is not a whole number")))?;
         if n < least {

@@ -75,13 +75,14 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     ],
 ]);
 
-/// `--tris-per-spe auto`: each SPE used gets at least 1,350 triangles.
-/// Measured on 1–8 SPEs with the split top (docs/many-spes.md, "Small
-/// scenes"): the default scene (5,472 triangles), the teapot (6,320) and
-/// iss-nasa (6,642) are fastest on 4–5 SPEs and slower on 6–8 (a deal of
-/// whole jobs too few to balance); 1,350 gives them 4 (5,472 / 4 is
-/// 1,368), scenes of 12,000 triangles and more 8.
-const AUTO_TRIS_PER_SPE: usize = 1350;
+/// `--tris-per-spe auto`: each SPE used gets at least 13,500 record steps
+/// of the partition (`machinery::top::partition_work`): the 1,350
+/// triangles an SPE measured on 1–8 SPEs with the split top
+/// (docs/many-spes.md, "Small scenes": the default scene, the teapot and
+/// iss-nasa fastest on 4–5 SPEs and slower on 6–8, a deal of whole jobs
+/// too few to balance) as work where it was measured, 8 SPEs: 10,800
+/// triangles, 10 levels, 108,000 steps over 8.
+const AUTO_WORK_PER_SPE: u64 = 13_500;
 
 /// The queue's defaults, the best measured (docs/many-spes.md,
 /// "Defaults"): section 5's three improvements together.
@@ -161,7 +162,7 @@ impl Program {
             top: TopKnobs::read(&setup.knobs, DEFAULT_TOP),
             steal: setup.knobs.flag(&STEAL),
         };
-        let start = Start::set_up(cell, setup, &cfg, &knobs.top, AUTO_TRIS_PER_SPE)?;
+        let start = Start::set_up(cell, setup, &cfg, &knobs.top, AUTO_WORK_PER_SPE)?;
         let spes = start.spes;
         // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
         // triangles: room for one level of as many jobs as triangles each.

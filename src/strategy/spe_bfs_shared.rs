@@ -112,11 +112,13 @@ const DEFAULT_TOP: TopKnobs = TopKnobs {
     in_place: true,
 };
 
-/// `--tris-per-spe auto`: each SPE used gets at least 800 triangles.
-/// Measured on 1–8 SPEs (docs/many-spes.md, "Small scenes"): the default
-/// scene (5,472 triangles) is fastest on 6 SPEs, the teapot (6,320) on 7;
-/// every scene of 6,600 triangles and more on 8.
-const AUTO_TRIS_PER_SPE: usize = 800;
+/// `--tris-per-spe auto`: each SPE used gets at least 8,000 record steps
+/// of the partition (`machinery::top::partition_work`): the 800 triangles
+/// an SPE measured on 1–8 SPEs (docs/many-spes.md, "Small scenes": the
+/// default scene, 5,472 triangles, fastest on 6 SPEs, the teapot on 7,
+/// every scene of 6,600 triangles and more on 8) as work where it was
+/// measured, 8 SPEs: 6,400 triangles, 10 levels, 64,000 steps over 8.
+const AUTO_WORK_PER_SPE: u64 = 8_000;
 
 /// `--agglomerate N`: `SharedKnobs::agglomerate`.
 pub const AGGLOMERATE: Knob = Knob::int(
@@ -217,7 +219,7 @@ impl Program {
                 knobs.agglomerate,
             )));
         }
-        let start = Start::set_up(cell, setup, &cfg, &knobs.top, AUTO_TRIS_PER_SPE)?;
+        let start = Start::set_up(cell, setup, &cfg, &knobs.top, AUTO_WORK_PER_SPE)?;
         Ok(Program {
             start,
             knobs,

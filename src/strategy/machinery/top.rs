@@ -67,27 +67,43 @@ pub const COOP_PARTITION: Knob = Knob::word(
 /// `--tris-per-spe N|auto`: `spes_used`.
 pub const TRIS_PER_SPE: Knob = Knob::int_or_auto(
     "tris-per-spe",
-    "each SPE used gets at least this many triangles: a small scene runs on fewer SPEs than given (auto: the strategy's measured threshold; 1: every SPE)",
+    "each SPE used gets at least this many triangles (auto: at least the strategy's measured share of the build's partition work); below the SPEs given a power of two runs (1: every SPE)",
     (1, usize::MAX),
     &["1", "4000"],
 );
 
+/// The baseline's partition work on `n` triangles with leaves of `leaf`,
+/// in record steps, known before the build: every level of a balanced
+/// tree streams all `n` records, n · ⌈log2(n / leaf)⌉ (at least `n`).
+pub fn partition_work(n: usize, leaf: u32) -> u64 {
+    let levels = (n as f64 / leaf.max(1) as f64).log2().ceil().max(1.0) as u64;
+    n as u64 * levels
+}
+
 /// The SPEs a strategy runs on for `n` triangles when `available` are
-/// given: each gets at least `--tris-per-spe` triangles (`auto`: the
-/// strategy's threshold), at least one runs. Below that, more SPEs were
-/// measured slower (the top levels and the barriers cost more than the
-/// extra SPE buys; docs/many-spes.md, "Small scenes").
+/// given, decided from the work: as many as get each at least `auto`
+/// record steps of [`partition_work`] (or, `--tris-per-spe N`, at least N
+/// triangles), at least one. Fewer than given run as a power of two: the
+/// top levels take one cooperative level more each time the count passes
+/// a power of two, so a count just past one pays a level for little
+/// (docs/many-spes.md, "Small scenes": 5 SPEs were slower than 4 on the cup
+/// and on rtPerf 4,000 to 5,000). So more SPEs given are never slower than
+/// 4: below the threshold both run on the same count.
 pub(in crate::strategy) fn spes_used(
     available: usize,
-    n: usize,
+    (n, leaf): (usize, u32),
     knobs: &Knobs,
-    auto: usize,
+    auto: u64,
 ) -> usize {
-    let per = match knobs.int(&TRIS_PER_SPE) {
-        0 => auto,
-        t => t,
-    };
-    available.min((n / per.max(1)).max(1))
+    let fit = match knobs.int(&TRIS_PER_SPE) {
+        0 => partition_work(n, leaf) / auto.max(1),
+        t => (n / t.max(1)) as u64,
+    }
+    .max(1) as usize;
+    match fit >= available {
+        true => available,
+        false => 1 << fit.ilog2(),
+    }
 }
 
 /// How the top levels are built.
@@ -167,18 +183,23 @@ pub(in crate::strategy) struct Start {
 }
 
 impl Start {
-    /// Decides the SPEs to use (`--tris-per-spe`; `auto`: `auto_tris`
-    /// triangles an SPE) and allocates the pool and the areas for the top
-    /// knobs `top`.
+    /// Decides the SPEs to use (`--tris-per-spe`; `auto`: `auto_work`
+    /// record steps of the partition an SPE) and allocates the pool and the
+    /// areas for the top knobs `top`.
     pub fn set_up(
         cell: &mut Cell,
         setup: &super::super::Setup,
         cfg: &BihConfig,
         top: &TopKnobs,
-        auto_tris: usize,
+        auto_work: u64,
     ) -> Result<Self, CellError> {
         let n = setup.count;
-        let spes = spes_used(cell.config().spes, n, &setup.knobs, auto_tris);
+        let spes = spes_used(
+            cell.config().spes,
+            (n, cfg.leaf_size),
+            &setup.knobs,
+            auto_work,
+        );
         Ok(Start {
             tris: setup.triangles,
             n,

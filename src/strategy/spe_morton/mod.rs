@@ -128,10 +128,11 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
     prefetch: true,
 };
 
-/// `--tris-per-spe auto`: every SPE (a threshold of 1 triangle): on 1–8
-/// SPEs every scene measured, down to the default scene's 5,472
-/// triangles, was fastest on 8 (docs/many-spes.md, "Small scenes").
-const AUTO_TRIS_PER_SPE: usize = 1;
+/// `--tris-per-spe auto`: every SPE (a threshold of one record step of
+/// the partition): on 1–8 SPEs every scene measured, down to the default
+/// scene's 5,472 triangles, was fastest on 8 (docs/many-spes.md, "Small
+/// scenes").
+const AUTO_WORK_PER_SPE: u64 = 1;
 
 /// SPE 0's outbound-mailbox word before the region count and spill size
 /// (the pool's block requests share the mailbox: `arena::REQUEST_BLOCK`).
@@ -298,7 +299,12 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         knobs.key_bits = auto_key_bits(n, knobs.region_size, knobs.digit_bits);
     }
     let (rates, kernels) = (MortonRates::with(&setup.rates), setup.rates.kernels());
-    let spes = spes_used(cell.config().spes, n, &setup.knobs, AUTO_TRIS_PER_SPE);
+    let spes = spes_used(
+        cell.config().spes,
+        (n, cfg.leaf_size),
+        &setup.knobs,
+        AUTO_WORK_PER_SPE,
+    );
     let pool = Pool::alloc(cell, n, &cfg, spes)?;
     let a = Areas::alloc(cell, setup, &knobs, &pool, spes)?;
     let spec = KeySpec {
