@@ -23,7 +23,10 @@ use cellbih::registry::{Build, BuilderKind};
 use cellbih::report::{
     OutputArgs, Series, ThreadsArg, line_plot, output, print_rows, side_by_side,
 };
-use cellbih::scene::{self, Scene};
+use cellbih::scene::{self, Scene, zoo};
+
+#[path = "spe_scaling_zoo.rs"]
+mod zoo_summary;
 use cellbih::strategy::Knobs;
 
 #[derive(Parser)]
@@ -45,6 +48,12 @@ struct Args {
     /// interface): every count from 1 up to it is run.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..=16))]
     max_spes: u64,
+    /// The scene zoo instead of --scenes: scenes nobody tuned a default
+    /// on (a model on a floor 10 and 1,000 times its size, the teapot in
+    /// a stadium, clusters far apart, a row of copies, a soup of thin
+    /// triangles, a city), with the goals checked.
+    #[arg(long, conflicts_with = "scenes")]
+    zoo: bool,
     /// Only each builder's default knobs (not every setting it sweeps).
     #[arg(long)]
     defaults_only: bool,
@@ -97,7 +106,7 @@ fn row(
     scene: &Scene,
     v: &Variant,
     spes: usize,
-    base: (f64, f64),
+    (base_ms, base_sah, base_hash): (f64, f64, u64),
 ) -> Result<(Value, cellbih::bih::Bih), String> {
     let cfg = BihConfig::default();
     let cell = CellConfig::ps3().with_spes(spes);
@@ -119,7 +128,6 @@ fn row(
         .map(|(_, c)| c.bytes_get + c.bytes_put)
         .sum();
     let peak = cell.cost.memory_bandwidth.bytes_per_kcycle as f64 / 1000.0;
-    let (base_ms, base_sah) = base;
     let arena_slots: u64 = sim.spe_work.iter().map(|w| w.arena_blocks).sum::<u64>()
         * cellbih::strategy::machinery::arena::BLOCK_NODES as u64;
     let arena_unused: u64 = sim.spe_work.iter().map(|w| w.arena_unused).sum();
@@ -143,6 +151,7 @@ fn row(
         "memory_utilisation": bytes as f64 / (cycles * peak),
         "sah_over_baseline": r.bih.quality().sah_cost / base_sah,
         "tree_hash": r.bih.tree_hash_hex(),
+        "baseline_tree": r.bih.tree_hash() == base_hash,
         "phases": sim.phase_ms().iter().map(|(p, ms)| json!({ "phase": p, "ms": ms })).collect::<Vec<_>>(),
         "host_ms": r.host_time.as_secs_f64() * 1e3,
     });
@@ -160,7 +169,11 @@ fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih) -> (f64, f64) {
 
 fn run(args: &Args) -> Result<(), String> {
     args.threads.install()?;
-    let scenes = cellbih::report::load_scenes(&args.scenes, args.data.as_deref())?;
+    let names: Vec<String> = match args.zoo {
+        true => zoo::SET.iter().map(|s| s.to_string()).collect(),
+        false => args.scenes.clone(),
+    };
+    let scenes = cellbih::report::load_scenes(&names, args.data.as_deref())?;
     // Each scene's baseline: simulated ms, SAH cost and ray cost.
     let bases = side_by_side("baselines", &scenes, |scene| {
         let base = Build::new(BuilderKind::SPE_BFS)
@@ -168,7 +181,8 @@ fn run(args: &Args) -> Result<(), String> {
             .map_err(|e| format!("{} / spe_bfs: {e}", scene.name))?;
         let rays = ray_cost(scene, &base.bih);
         let sim = base.simulated.expect("emulated").run.ms;
-        Ok::<_, String>(((sim, base.bih.quality().sah_cost), rays))
+        let hash = base.bih.tree_hash();
+        Ok::<_, String>(((sim, base.bih.quality().sah_cost, hash), rays))
     });
     let bases = bases.into_iter().collect::<Result<Vec<_>, _>>()?;
     // Every (scene, variant, SPE count), side by side; the tree does not
@@ -196,7 +210,11 @@ fn run(args: &Args) -> Result<(), String> {
         r["ray_cost_over_baseline"] = json!((nodes + tris) / (base_rays.0 + base_rays.1));
         rows.push(r);
     }
-    print_rows(args.output.format, &rows, print_table)?;
+    let summary = zoo_summary::summary(&rows, args.zoo);
+    print_rows(args.output.format, &rows, |rows| {
+        print_table(rows);
+        zoo_summary::print(&summary);
+    })?;
     let keys = [
         "scene",
         "triangles",
@@ -220,6 +238,7 @@ fn run(args: &Args) -> Result<(), String> {
         "memory_mib",
         "memory_utilisation",
         "sah_over_baseline",
+        "baseline_tree",
         "ray_nodes",
         "ray_triangles",
         "ray_cost_over_baseline",
@@ -227,6 +246,7 @@ fn run(args: &Args) -> Result<(), String> {
     ];
     let doc = json!({
         "rows": rows,
+        "summary": summary.rows, "goals": summary.goals,
         "note": "simulated ms on the PS3 model; baseline: spe_bfs (one SPE); busy..idle: mean share of the run per SPE; memory_utilisation: bytes moved / (cycles x 25.6 GB/s)",
     });
     args.output.write(
@@ -236,6 +256,7 @@ fn run(args: &Args) -> Result<(), String> {
         Some(&Build::new(BuilderKind::HOST)),
     )?;
     plots(&args.output.out, &rows).map_err(|e| e.to_string())?;
+    zoo_summary::plot(&args.output.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(
         "written: {}/spe_scaling.{{csv,json}}, spe_scaling_*.svg",
         args.output.out.display()

@@ -1,7 +1,9 @@
 //! The real meshes of the data directory (CELLBIH_DATA; CI points it at
 //! ../shared/data): each loads with the triangle count its README gives,
 //! builds a valid tree with every builder, and answers rays as brute force
-//! does.
+//! does; every multi-SPE builder builds the baseline's tree (the same tree
+//! hash) on 1, 6 and 8 SPEs. The same for the zoo scenes of the
+//! experiments (`scene::zoo::SET`), which stand on these meshes.
 //!
 //! One test per mesh, under a harness of its own (libtest-mimic) so that a
 //! skip is seen: with CELLBIH_DATA unset every mesh's test is reported
@@ -13,7 +15,7 @@ mod common;
 use cellbih::bih::Tracer;
 use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::scene::{self, DATA_ENV};
+use cellbih::scene::{self, DATA_ENV, Scene, zoo};
 use cellbih::strategy::Knobs;
 use common::{check_ray, rays_for};
 use libtest_mimic::{Arguments, Failed, Trial};
@@ -57,6 +59,7 @@ fn check_mesh(
         )
         .into());
     }
+    let base = baseline_hash(&s)?;
     for &b in BuilderKind::ALL {
         let r = Build::new(b)
             .run(&s)
@@ -64,6 +67,10 @@ fn check_mesh(
         r.bih
             .validate(&s)
             .map_err(|v| format!("{name} / {b}: {v}"))?;
+        if b.multi_spe() {
+            same_tree_on(&s, b, base, &[1, 8])?;
+            check_hash(&s, b, 6, r.bih.tree_hash(), base)?;
+        }
         // Each flag a multi-SPE builder's table offers (stealing, the
         // paper's queue, …) on three SPEs in functional mode: every
         // buffer it sizes from the scene holds what the scene puts there
@@ -96,6 +103,58 @@ fn check_mesh(
     Ok(())
 }
 
+/// The baseline's tree hash on `s`.
+fn baseline_hash(s: &Scene) -> Result<u64, Failed> {
+    let r = Build::new(BuilderKind::SPE_BFS)
+        .run(s)
+        .map_err(|e| format!("{} / spe_bfs: {e}", s.name))?;
+    Ok(r.bih.tree_hash())
+}
+
+fn check_hash(s: &Scene, b: BuilderKind, spes: usize, hash: u64, base: u64) -> Result<(), Failed> {
+    match hash == base {
+        true => Ok(()),
+        false => Err(format!(
+            "{} / {b} on {spes} SPEs: tree {hash:016x}, the baseline's {base:016x}",
+            s.name
+        )
+        .into()),
+    }
+}
+
+/// Builder `b` builds the baseline's tree (hash `base`) on `s` with each
+/// SPE count of `spes`.
+fn same_tree_on(s: &Scene, b: BuilderKind, base: u64, spes: &[usize]) -> Result<(), Failed> {
+    for &n in spes {
+        let cell = CellConfig::ps3().with_spes(n);
+        let r = Build::new(b)
+            .on(&cell)
+            .run(s)
+            .map_err(|e| format!("{} / {b} on {n} SPEs: {e}", s.name))?;
+        check_hash(s, b, n, r.bih.tree_hash(), base)?;
+    }
+    Ok(())
+}
+
+/// A zoo scene of the experiments' set: it loads, the baseline's tree is
+/// valid and answers rays as brute force does, and every multi-SPE
+/// builder builds that tree on 1, 6 and 8 SPEs.
+fn check_zoo(dir: &std::path::Path, spec: &str) -> Result<(), Failed> {
+    let s = scene::load(spec, Some(dir)).map_err(|e| format!("{spec}: {e}"))?;
+    let base = Build::new(BuilderKind::SPE_BFS)
+        .run(&s)
+        .map_err(|e| format!("{spec} / spe_bfs: {e}"))?;
+    base.bih.validate(&s).map_err(|v| format!("{spec}: {v}"))?;
+    let tracer = Tracer::new(&base.bih, &s);
+    for ray in rays_for(&s, (3_000_000 / s.len()).clamp(40, 200), 7) {
+        check_ray(&s, &tracer, &ray).map_err(|e| format!("{spec}: {e}"))?;
+    }
+    for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
+        same_tree_on(&s, b, base.bih.tree_hash(), &[1, 6, 8])?;
+    }
+    Ok(())
+}
+
 fn main() {
     let args = Arguments::from_args();
     let dir = scene::data_dir(None);
@@ -106,6 +165,17 @@ fn main() {
             MESHES.len()
         );
     }
+    let zoo = zoo::SET.iter().map(|&spec| match &dir {
+        Some(dir) => {
+            let dir = dir.clone();
+            Trial::test(format!("zoo::{spec}"), move || check_zoo(&dir, spec))
+        }
+        None => Trial::test(
+            format!("zoo::{spec} (NOT RUN: {DATA_ENV} is not set)"),
+            || Err(format!("{DATA_ENV} is not set: no data directory for the zoo's meshes").into()),
+        )
+        .with_ignored_flag(true),
+    });
     let trials = MESHES
         .iter()
         .map(|&(name, triangles, zero_area)| match &dir {
@@ -126,6 +196,7 @@ fn main() {
             )
             .with_ignored_flag(true),
         })
+        .chain(zoo)
         .collect();
     libtest_mimic::run(&args, trials).exit();
 }
