@@ -256,8 +256,8 @@ fn measure(
     runs.sort_by(|a, b| a.1.mrays_per_s.total_cmp(&b.1.mrays_per_s));
     let i = runs[1].1;
     let cell_render_ms = if st.builder.emulated() {
-        let c =
-            cast_on_cell(&r.bih, s, cam, &CastConfig::DEFAULT, cell).map_err(|e| e.to_string())?;
+        let c = cast_on_cell(&r.bih, s, cam, &CastConfig::DEFAULT, cell, r.record_order())
+            .map_err(|e| e.to_string())?;
         Some(c.run.ms)
     } else {
         None

@@ -319,7 +319,7 @@ fn run(cli: Cli) -> Res<()> {
             let rays = Some(width as usize * height as usize);
             scene.check_fits(&c, rays)?;
             let (s, anim) = anim.load(&scene, frames)?;
-            check_memory(&s.name, s.len(), 0, rays, &c)?;
+            check_memory(&s.name, (s.len(), 0), rays, &c, Default::default())?;
             frame::run(&s, &anim, &cfg, format)
         }
         Some(Command::Update {
@@ -344,7 +344,7 @@ fn run(cli: Cli) -> Res<()> {
             let deep_stop_below = deep_stop_below.unwrap_or(cellbih::update::DEEP_STOP_BELOW);
             scene.check_fits(&c, None)?;
             let (s, anim) = anim.load(&scene, frames)?;
-            check_memory(&s.name, s.len(), 0, None, &c)?;
+            check_memory(&s.name, (s.len(), 0), None, &c, Default::default())?;
             // The first build and every rebuild on the builder's threads.
             c.install(|| {
                 let mut u = Updater::new(s, c.clone(), method).map_err(|e| e.to_string())?;
@@ -385,7 +385,7 @@ fn run(cli: Cli) -> Res<()> {
             }
             scene.check_fits(&c, None)?;
             let s = scene.load()?;
-            check_memory(&s.name, s.len(), 0, None, &c)?;
+            check_memory(&s.name, (s.len(), 0), None, &c, Default::default())?;
             c.cell.trace = trace.is_some();
             let mut report = step(&format!("building {} with {}", s.name, c.builder), || {
                 c.run(&s)
@@ -427,17 +427,23 @@ fn run(cli: Cli) -> Res<()> {
             let cast_rays = on_cell.is_some().then_some(rays.len());
             scene.check_fits(&c, cast_rays)?;
             let s = scene.load()?;
-            check_memory(&s.name, s.len(), 0, cast_rays, &c)?;
+            check_memory(&s.name, (s.len(), 0), cast_rays, &c, Default::default())?;
             let report = step(&format!("building {} with {}", s.name, c.builder), || {
                 c.run(&s)
             })?;
             let (hits, cell_report) = match &on_cell {
                 Some(cfg) => {
-                    check_memory(&s.name, s.len(), report.bih.nodes.len(), cast_rays, &c)?;
+                    check_memory(
+                        &s.name,
+                        (s.len(), report.bih.nodes.len()),
+                        cast_rays,
+                        &c,
+                        report.record_order(),
+                    )?;
                     let mut cell = c.cell.clone();
                     cell.trace = cast.trace.is_some();
                     let r = step("casting the rays on the Cell", || {
-                        cast_on_cell(&report.bih, &s, &rays, cfg, &cell)
+                        cast_on_cell(&report.bih, &s, &rays, cfg, &cell, report.record_order())
                     })?;
                     (r.hits.clone(), Some(r))
                 }
@@ -483,18 +489,31 @@ fn run(cli: Cli) -> Res<()> {
                 .then_some(width as usize * height as usize);
             scene.check_fits(&c, cast_rays)?;
             let s = scene.load()?;
-            check_memory(&s.name, s.len(), 0, cast_rays, &c)?;
+            check_memory(&s.name, (s.len(), 0), cast_rays, &c, Default::default())?;
             let report = step(&format!("building {} with {}", s.name, c.builder), || {
                 c.run(&s)
             })?;
             let cam = Camera::framing(&s.bounds(), width, height);
             let (frame, cell_report) = match &on_cell {
                 Some(cfg) => {
-                    check_memory(&s.name, s.len(), report.bih.nodes.len(), cast_rays, &c)?;
+                    check_memory(
+                        &s.name,
+                        (s.len(), report.bih.nodes.len()),
+                        cast_rays,
+                        &c,
+                        report.record_order(),
+                    )?;
                     let mut cell = c.cell.clone();
                     cell.trace = cast.trace.is_some();
                     let r = step("casting the rays on the Cell", || {
-                        cast_on_cell(&report.bih, &s, &cam.rays(), cfg, &cell)
+                        cast_on_cell(
+                            &report.bih,
+                            &s,
+                            &cam.rays(),
+                            cfg,
+                            &cell,
+                            report.record_order(),
+                        )
                     })?;
                     let f = Frame::of_hits(&cam, &s.triangles, &r.hits, &r.costs, r.stats());
                     (f, Some(r))

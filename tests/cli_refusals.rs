@@ -379,8 +379,8 @@ fn a_cast_too_big_for_the_emulated_memory_is_refused_naming_it() {
     let mib = 1 << 20;
     let rays = (1..200_000)
         .find(|&k| {
-            cellbih::cast::memory_needed(0, s.len(), k) <= mib
-                && cellbih::cast::memory_needed(nodes, s.len(), k) > mib
+            cellbih::cast::memory_needed(0, s.len(), k, Default::default()) <= mib
+                && cellbih::cast::memory_needed(nodes, s.len(), k, Default::default()) > mib
         })
         .expect("a ray count between the bounds");
     let mut csv = String::from("ox,oy,oz,dx,dy,dz,tmin,tmax\n");

@@ -1,10 +1,11 @@
 //! Ray casting on the emulated Cell: the render half of DESIGN.md's "The
 //! whole frame on the Cell" (the paper's ray tracer rendered on
 //! the SPEs between tree updates, section 4). The tree's nodes (12 bytes
-//! each), the triangle records in the tree's leaf order (48 bytes, each
-//! with its triangle id) and the rays (64 bytes) are in emulated main
-//! memory; every SPE runs `program`'s caster, reading nodes and
-//! triangles through a
+//! each), the triangle records as the build left them (48 bytes, each
+//! with its triangle id: in the tree's leaf order, or in the scene's order
+//! with a column of ids in leaf order, [`RecordOrder`]) and the rays (64
+//! bytes) are in emulated main memory; every SPE runs `program`'s caster,
+//! reading nodes, ids and triangles through a
 //! [`SoftwareCache`](crate::spe::software_cache::SoftwareCache) in its
 //! local store, and the hits (32 bytes) come back by DMA. The answers are
 //! the host tracer's (`bih::Tracer`), ray for ray; the time is simulated
@@ -24,6 +25,7 @@ use crate::bih::{Bih, Hit, Ray, RayStats};
 use crate::cell::{Cell, CellConfig, CellError, Cycles, Ea, Label, RunReport, Trace};
 use crate::kernels::rates::FITTED_OVER_DERIVED;
 use crate::scene::Scene;
+pub use crate::spe::layout::RecordOrder;
 use crate::spe::layout::{self, TriRecord};
 
 /// A ray in main memory: 64 bytes.
@@ -201,6 +203,8 @@ impl CastConfig {
 pub(crate) struct Job {
     nodes: Ea,
     records: Ea,
+    /// The ids in leaf order, where the records are in the scene's order.
+    ids: Option<Ea>,
     rays: Ea,
     hits: Ea,
     /// The next tile's number, in its own lock line.
@@ -292,14 +296,20 @@ const TAIL: u64 = 16 * 1024;
 /// `cell_cfg`, every SPE taking tiles: the closest hits, as the host
 /// tracer gives them, and what it cost in simulated time.
 /// Bytes of emulated main memory a cast takes: the tree's `nodes`, the
-/// `triangles` in leaf order, the `rays` and their hits, the tile counter,
-/// each allocation padded and aligned as [`cast_on_cell`] makes it. With
-/// `nodes` 0 it is a lower bound, known before the tree is built.
-pub fn memory_needed(nodes: usize, triangles: usize, rays: usize) -> u64 {
+/// `triangles` (and, `order` [`RecordOrder::InputWithIds`], their ids),
+/// the `rays` and their hits, the tile counter, each allocation padded and
+/// aligned as [`cast_on_cell`] makes it. With `nodes` 0 and the records in
+/// leaf order it is a lower bound, known before the tree is built.
+pub fn memory_needed(nodes: usize, triangles: usize, rays: usize, order: RecordOrder) -> u64 {
     const ALIGN: u64 = 128;
+    let ids = match order {
+        RecordOrder::LeafOrder => 0,
+        RecordOrder::InputWithIds => (triangles * 4) as u64 + TAIL,
+    };
     let bytes = [
         (nodes * size_of::<crate::bih::BihNode>()) as u64 + TAIL,
         (triangles * size_of::<TriRecord>()) as u64 + TAIL,
+        ids,
         (rays * size_of::<CellRay>()) as u64,
         (rays * size_of::<CellHit>()) as u64,
         128,
@@ -307,12 +317,19 @@ pub fn memory_needed(nodes: usize, triangles: usize, rays: usize) -> u64 {
     bytes.iter().map(|b| b.next_multiple_of(ALIGN)).sum()
 }
 
+///
+/// The tree's triangles lie in main memory as its build left them
+/// (`order`): the records in leaf order, or (`spe_morton`) in the scene's
+/// order with a column of ids in leaf order, which the caster reads
+/// through — each id a read through its cache — before the record it
+/// names. Putting them there is the build's output, not the cast's work.
 pub fn cast_on_cell(
     bih: &Bih,
     scene: &Scene,
     rays: &[Ray],
     cfg: &CastConfig,
     cell_cfg: &CellConfig,
+    order: RecordOrder,
 ) -> Result<CastReport, CellError> {
     if !(1..=CastConfig::MAX_TILE_RAYS).contains(&cfg.tile_rays) {
         return Err(CellError::Config(format!(
@@ -332,7 +349,10 @@ pub fn cast_on_cell(
     assert_eq!(bih.prim_ids.len(), scene.len(), "tree and scene differ");
     let cell = Cell::new(cell_cfg.clone())?;
     let all = layout::records(scene);
-    let records: Vec<TriRecord> = bih.prim_ids.iter().map(|&p| all[p as usize]).collect();
+    let records: Vec<TriRecord> = match order {
+        RecordOrder::LeafOrder => bih.prim_ids.iter().map(|&p| all[p as usize]).collect(),
+        RecordOrder::InputWithIds => all,
+    };
     let label = |name: &str| Label::new("ray casting", name);
     let padded = |bytes: usize| bytes as u64 + TAIL;
     let job = {
@@ -344,11 +364,26 @@ pub fn cast_on_cell(
         )?;
         m.write_pod(nodes, &bih.nodes)?;
         let recs = m.alloc(
-            label("triangles in leaf order"),
+            label(match order {
+                RecordOrder::LeafOrder => "triangles in leaf order",
+                RecordOrder::InputWithIds => "triangles in the scene's order",
+            }),
             padded(size_of_val(records.as_slice())),
             128,
         )?;
         m.write_pod(recs, &records)?;
+        let ids = match order {
+            RecordOrder::LeafOrder => None,
+            RecordOrder::InputWithIds => {
+                let at = m.alloc(
+                    label("triangle ids in leaf order"),
+                    padded(size_of_val(bih.prim_ids.as_slice())),
+                    128,
+                )?;
+                m.write_pod(at, &bih.prim_ids)?;
+                Some(at)
+            }
+        };
         let cell_rays: Vec<CellRay> = rays.iter().map(CellRay::of).collect();
         let ray_ea = m.alloc_pod(label("rays"), &cell_rays, 128)?;
         let hits = m.alloc(
@@ -360,6 +395,7 @@ pub fn cast_on_cell(
         Job {
             nodes,
             records: recs,
+            ids,
             rays: ray_ea,
             hits,
             counter,

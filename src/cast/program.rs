@@ -182,6 +182,7 @@ enum At {
     Node,
     NodeRead,
     Leaf { k: u32, end: u32 },
+    IdRead { k: u32, end: u32 },
     RecordRead { k: u32, end: u32 },
 }
 
@@ -307,7 +308,23 @@ impl Walk {
                         }
                         continue;
                     }
+                    if let Some(ids) = job.ids {
+                        self.start_read(ids.offset(4 * k as u64), 4);
+                        self.at = At::IdRead { k, end };
+                        continue;
+                    }
                     let at = job.records.offset(k as u64 * size_of::<TriRecord>() as u64);
+                    self.start_read(at, size_of::<TriRecord>());
+                    self.at = At::RecordRead { k, end };
+                }
+                At::IdRead { k, end } => {
+                    if let Some(stop) = self.read(spe, cache, group).await? {
+                        return Ok(stop);
+                    }
+                    let id = u32::from_le_bytes(self.read.buf[..4].try_into().expect("4 bytes"));
+                    let at = job
+                        .records
+                        .offset(id as u64 * size_of::<TriRecord>() as u64);
                     self.start_read(at, size_of::<TriRecord>());
                     self.at = At::RecordRead { k, end };
                 }

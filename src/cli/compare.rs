@@ -127,7 +127,16 @@ pub fn rows(s: &Scene, shared: &Build) -> Result<Compared, Box<dyn std::error::E
             let mut cast = None;
             quietly(
                 &format!("casting through {b}'s tree on the Cell"),
-                &mut || cast = Some(cast_on_cell(&r.bih, s, &sample, &CastConfig::DEFAULT, cell)),
+                &mut || {
+                    cast = Some(cast_on_cell(
+                        &r.bih,
+                        s,
+                        &sample,
+                        &CastConfig::DEFAULT,
+                        cell,
+                        r.record_order(),
+                    ))
+                },
             );
             match cast.expect("cast") {
                 Ok(c) if k > 1 => {

@@ -32,7 +32,7 @@ impl SceneArg {
     /// [`check_memory`] once loaded.
     pub fn check_fits(&self, c: &Build, cast_rays: Option<usize>) -> Res<()> {
         match scene::procedural::rtperf_triangles(&self.scene) {
-            Some(n) => check_memory(&self.scene, n, 0, cast_rays, c),
+            Some(n) => check_memory(&self.scene, (n, 0), cast_rays, c, Default::default()),
             None => Ok(()),
         }
     }
@@ -59,10 +59,10 @@ impl SceneArg {
 /// built, a lower bound).
 pub fn check_memory(
     scene: &str,
-    triangles: usize,
-    nodes: usize,
+    (triangles, nodes): (usize, usize),
     cast_rays: Option<usize>,
     c: &Build,
+    order: cellbih::cast::RecordOrder,
 ) -> Res<()> {
     let have = c.cell.main_memory_bytes;
     let mib = |b: u64| b as f64 / (1 << 20) as f64;
@@ -77,7 +77,7 @@ pub fn check_memory(
         .into());
     }
     if let Some(rays) = cast_rays {
-        let need = cellbih::cast::memory_needed(nodes, triangles, rays);
+        let need = cellbih::cast::memory_needed(nodes, triangles, rays, order);
         if need > have {
             let (least, fits, done) = match nodes {
                 0 => ("at least ", "above", "nothing built or cast"),
@@ -85,8 +85,8 @@ pub fn check_memory(
             };
             return Err(format!(
                 "{scene}: the cast on the Cell ({rays} rays) needs {least}{:.0} MiB of its main \
-                 memory for the tree, {triangles} triangles in leaf order, the rays and their \
-                 hits; the emulated Cell has {} MiB (--memory-mib: {fits} {} up): {done}",
+                 memory for the tree, {triangles} triangles as the build left them, the rays \
+                 and their hits; the emulated Cell has {} MiB (--memory-mib: {fits} {} up): {done}",
                 mib(need),
                 have >> 20,
                 need.div_ceil(1 << 20),

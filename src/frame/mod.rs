@@ -240,7 +240,7 @@ pub fn play(
         // The frame before the first, as a running renderer has it: the
         // first tree's render, so that the first prediction has one (not
         // counted in the frames).
-        let before = cast_on_cell(&u.bih, &u.scene, &rays, &cfg.cast, &render_cell)?;
+        let before = cast_on_cell(&u.bih, &u.scene, &rays, &cfg.cast, &render_cell, u.records)?;
         predictor.seed_render(before.run.ms);
     }
     let mut frames = Vec::with_capacity(anim.frames.len());
@@ -335,7 +335,14 @@ fn attempt(
     let mut updater = u.clone();
     updater.method = method;
     let report = updater.step(moves)?;
-    let cast = cast_on_cell(&updater.bih, &updater.scene, rays, &cfg.cast, render_cell)?;
+    let cast = cast_on_cell(
+        &updater.bih,
+        &updater.scene,
+        rays,
+        &cfg.cast,
+        render_cell,
+        updater.records,
+    )?;
     Ok(Attempt {
         updater,
         report,

@@ -180,6 +180,17 @@ pub struct BuildReport {
     pub threads: Option<usize>,
 }
 
+impl BuildReport {
+    /// Where the build left the triangle records: a host build's tree is
+    /// uploaded in leaf order.
+    pub fn record_order(&self) -> crate::spe::layout::RecordOrder {
+        self.simulated
+            .as_ref()
+            .map(|s| s.records)
+            .unwrap_or_default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::{Build, BuilderKind};

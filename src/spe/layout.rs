@@ -20,6 +20,21 @@ use crate::kernels::recursion::Item;
 use crate::kernels::split::Boxed;
 use crate::scene::Scene;
 
+/// Where a build leaves the triangle records for whatever reads the tree
+/// next (the ray caster): a leaf `(first, count)` names places
+/// `first..first + count` of the tree's triangle order.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum RecordOrder {
+    /// The records themselves in the tree's order (the in-place partition,
+    /// `--permute`, a host build uploaded as it is).
+    #[default]
+    LeafOrder,
+    /// The records in the scene's order and a column of triangle ids in
+    /// the tree's order (`spe_morton`): a reader finds a leaf's triangles
+    /// through the ids.
+    InputWithIds,
+}
+
 /// One triangle in main memory: 48 bytes, 16-byte aligned in arrays.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]

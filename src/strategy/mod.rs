@@ -266,6 +266,8 @@ pub struct Simulated {
     pub trace: Option<Trace>,
     /// Main memory by purpose, local-store high-water marks.
     pub footprint: crate::spe::footprint::Footprint,
+    /// Where the build left the triangle records.
+    pub records: crate::spe::layout::RecordOrder,
 }
 
 impl Simulated {
@@ -327,6 +329,10 @@ pub fn run_in(
         nodes = compact(&nodes)?;
     }
     check_jobs(&o.spe_work, nodes.len())?;
+    let records = match o.records {
+        Some(Records::Ids { .. }) => layout::RecordOrder::InputWithIds,
+        _ => layout::RecordOrder::LeafOrder,
+    };
     let prim_ids = match o.records {
         Some(Records::Ids { at, stride, word }) => {
             let words = stride as usize / 4;
@@ -356,6 +362,7 @@ pub fn run_in(
         spes_used: o.spes,
         phases: o.phases,
         trace: cell.take_trace(),
+        records,
     };
     Ok((bih, simulated))
 }

@@ -235,6 +235,8 @@ pub struct Updater {
     pub deep_stop_below: usize,
     /// Simulated time of the first tree's build, for an emulated builder.
     pub first_build_ms: Option<f64>,
+    /// Where the builder leaves the triangle records (the first build's).
+    pub records: crate::spe::layout::RecordOrder,
     /// Triangle ids of each geometry id.
     members: Vec<Vec<u32>>,
     /// First slot of each free pair of node slots.
@@ -252,6 +254,7 @@ impl Updater {
         let first_build_ms = (first.simulated.as_ref())
             .filter(|s| s.run.timed)
             .map(|s| s.run.ms);
+        let records = first.record_order();
         let bih = first.bih;
         let mut members = vec![Vec::new(); scene.geometry_names.len()];
         for (i, &g) in scene.geometry_ids.iter().enumerate() {
@@ -264,6 +267,7 @@ impl Updater {
             method,
             deep_stop_below: DEEP_STOP_BELOW,
             first_build_ms,
+            records,
             members,
             free: Vec::new(),
         })
