@@ -75,14 +75,13 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     ],
 ]);
 
-/// `--tris-per-spe auto`: each SPE used gets at least 13,500 record steps
-/// of the partition (`machinery::top::partition_work`): the 1,350
-/// triangles an SPE measured on 1–8 SPEs with the split top
-/// (docs/many-spes.md, "Small scenes": the default scene, the teapot and
-/// iss-nasa fastest on 4–5 SPEs and slower on 6–8, a deal of whole jobs
-/// too few to balance) as work where it was measured, 8 SPEs: 10,800
-/// triangles, 10 levels, 108,000 steps over 8.
-const AUTO_WORK_PER_SPE: u64 = 13_500;
+/// `--tris-per-spe auto`: each SPE used gets at least 12,000 record steps
+/// of the partition (`machinery::top::partition_work`): the largest share
+/// that keeps the counts measured on 1–8 SPEs with the split top
+/// (docs/many-spes.md, "Small scenes": the default scene, 5,472 triangles
+/// and 49,248 steps, on 4; scenes of 12,000 triangles and more on 8; the
+/// teapot and iss-nasa, slower on 6–8 than on 4–5, on 4).
+const AUTO_WORK_PER_SPE: u64 = 12_000;
 
 /// The queue's defaults, the best measured (docs/many-spes.md,
 /// "Defaults"): section 5's three improvements together.

@@ -113,11 +113,10 @@ const DEFAULT_TOP: TopKnobs = TopKnobs {
 };
 
 /// `--tris-per-spe auto`: each SPE used gets at least 8,000 record steps
-/// of the partition (`machinery::top::partition_work`): the 800 triangles
-/// an SPE measured on 1–8 SPEs (docs/many-spes.md, "Small scenes": the
-/// default scene, 5,472 triangles, fastest on 6 SPEs, the teapot on 7,
-/// every scene of 6,600 triangles and more on 8) as work where it was
-/// measured, 8 SPEs: 6,400 triangles, 10 levels, 64,000 steps over 8.
+/// of the partition (`machinery::top::partition_work`): the largest share
+/// that keeps the counts measured on 1–8 SPEs (docs/many-spes.md, "Small
+/// scenes": the default scene, 5,472 triangles and 49,248 steps, fastest
+/// on 6; every scene of 6,600 triangles and more on 8).
 const AUTO_WORK_PER_SPE: u64 = 8_000;
 
 /// `--agglomerate N`: `SharedKnobs::agglomerate`.

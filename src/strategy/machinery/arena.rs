@@ -409,6 +409,10 @@ pub struct NodeWrites<'a> {
     /// Nodes written, and DMA commands they took.
     pub nodes: u64,
     pub commands: u64,
+    /// Added to every leaf's first place: a loop that builds a piece of
+    /// the triangle order in an area of its own (places from 0) writes
+    /// leaves of the whole order.
+    pub leaf_base: u32,
 }
 
 /// Bytes of each of the two staging buffers.
@@ -430,11 +434,19 @@ impl<'a> NodeWrites<'a> {
             lists,
             nodes: 0,
             commands: 0,
+            leaf_base: 0,
         })
     }
 
     /// Node `id` is to be written (by the next [`NodeWrites::flush`]).
     pub fn push(&mut self, id: u32, node: BihNode) {
+        let node = match node.is_leaf() {
+            true => {
+                let (first, count) = node.leaf_range();
+                BihNode::leaf(first + self.leaf_base, count)
+            }
+            false => node,
+        };
         self.pending.push((id, node));
     }
 

@@ -124,7 +124,6 @@ pub(super) async fn serve(
     ppe: Ppe,
     mut server: PoolServer,
     knobs: MortonKnobs,
-    n: usize,
     spes: usize,
 ) -> Result<Ea, CellError> {
     while let Some((spe, word)) = server.next(&ppe).await? {
@@ -137,11 +136,12 @@ pub(super) async fn serve(
         let regions = ppe.read_out_mbox(0).await? as u64;
         // Per SPE: room for the largest region's two levels of jobs.
         let spill = ppe.read_out_mbox(0).await? as u64 * SPILL_UNIT * spes as u64;
-        // Regions too large for a local store are built in key order in a
-        // second record array.
-        let sorted = match (knobs.permute, spill) {
-            (false, 1..) => n as u64 * RECORD as u64,
-            _ => 0,
+        // Regions too large for a local store are built in key order, each
+        // SPE's in its part of a records area sized for the largest.
+        let largest = ppe.read_out_mbox(0).await? as u64;
+        let sorted = match knobs.permute {
+            false => spes as u64 * (largest * RECORD as u64).next_multiple_of(128),
+            true => 0,
         };
         use Purpose::{JobQueues, TriangleRecords, WorkPpe};
         let slots = (regions * 4).next_multiple_of(16);
@@ -157,7 +157,7 @@ pub(super) async fn serve(
             ),
             (
                 TriangleRecords,
-                "spe_morton: records in key order of the regions too large for a local store",
+                "spe_morton: records of the regions too large for a local store, a part for each SPE",
                 sorted,
             ),
         ] {

@@ -321,7 +321,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         })
         .collect();
     let server = pool.server();
-    let reach = cell.spawn_ppe(move |ppe| serve(ppe, server, knobs, n, spes));
+    let reach = cell.spawn_ppe(move |ppe| serve(ppe, server, knobs, spes));
     let records = match a.sorted {
         Some(at) => Records::Moved(at),
         None => Records::Ids {
@@ -380,6 +380,9 @@ struct Program<'a> {
     rounds: usize,
     /// Takes of the counter of ranges keyed again alone, in past rounds.
     solo_taken: usize,
+    /// Triangles of the largest region too large for a local store (0:
+    /// none): each SPE's part of the records area holds that many.
+    largest: usize,
 }
 
 /// Names of the radix passes, for the phase list.
@@ -437,6 +440,7 @@ impl<'a> Program<'a> {
             rekeys: 0,
             rounds: 0,
             solo_taken: 0,
+            largest: 0,
         })
     }
 

@@ -136,10 +136,23 @@ impl Program<'_> {
         (p, self.a.sorted_keys.offset((i * p.bytes) as u64))
     }
 
-    /// The records in key order: `--permute`'s array, or the one the PPE
-    /// allocates for regions too large for a local store.
+    /// The records in key order: `--permute`'s array, or this SPE's part
+    /// of the area the PPE allocates for regions too large for a local
+    /// store (place `first` of the region it builds at its start).
     pub(super) fn sorted(&self) -> Ea {
         self.a.sorted.unwrap_or(self.tables[5])
+    }
+
+    /// Where the records of a region too large for a local store, from
+    /// sorted place `first`, lie while it is built.
+    fn large_at(&self, first: usize) -> Ea {
+        match self.a.sorted {
+            Some(all) => all.offset((first * RECORD) as u64),
+            None => {
+                let part = (self.largest * RECORD).next_multiple_of(128) as u64;
+                self.tables[5].offset(self.spe.id() as u64 * part)
+            }
+        }
     }
 
     /// Gets the key pairs of sorted positions `first..first + count` into
@@ -225,7 +238,7 @@ impl Program<'_> {
         let tag = self.tags;
         for c in (first..first + count).step_by(RECORDS_PER_BLOCK) {
             let len = RECORDS_PER_BLOCK.min(first + count - c);
-            let at = self.sorted().offset((c * RECORD) as u64);
+            let at = self.large_at(first).offset(((c - first) * RECORD) as u64);
             let bytes = (len * RECORD) as u32;
             if back {
                 self.spe.get(recs, at, bytes, tag).await?;
@@ -252,11 +265,17 @@ impl Program<'_> {
                 .await;
         }
         // Too large for the local store: the baseline's breadth-first loop
-        // on the records in key order, its WorkAPPE/WorkBPPE in this SPE's
-        // part of the spill area.
-        if !self.knobs.permute {
-            self.large_region_records(first, count, false).await?;
-        }
+        // on the records in key order (in `--permute`'s array, or gathered
+        // into this SPE's part of the records area, places from 0 there),
+        // its WorkAPPE/WorkBPPE in this SPE's part of the spill area.
+        let (base, place) = match self.knobs.permute {
+            true => (self.sorted(), first),
+            false => {
+                self.large_region_records(first, count, false).await?;
+                (self.large_at(first), 0)
+            }
+        };
+        let at = base.offset((place * RECORD) as u64);
         let mine = self.tables[4].offset(self.spe.id() as u64 * self.spill_per_spe);
         let half = self.spill_per_spe / 2;
         let work_ppe = ([mine, mine.offset(half)], half);
@@ -265,20 +284,21 @@ impl Program<'_> {
         let arena = self.arena.take().expect("the arena is lent only here");
         let mut b = SpeBuilder::with_arena(
             self.spe,
-            self.sorted(),
+            base,
             work_ppe,
             self.cfg,
             arena,
             (self.knobs.queue, self.kernels),
         )?;
-        b.lend_node_writes(self.writes.take());
+        let mut writes = self.writes.take().expect("node writes are here");
+        writes.leaf_base = (first - place) as u32;
+        b.lend_node_writes(Some(writes));
         let k = self.kernels;
-        let at = self.sorted().offset((first * RECORD) as u64);
         let side =
             stream_bounds::<TriRecord>(self.spe, &b.fig1, at, count as u64, k.spe_bounds_item)
                 .await?;
         let root = Job::new(
-            first,
+            place,
             count,
             job.node as usize,
             job.depth,
@@ -291,6 +311,9 @@ impl Program<'_> {
         self.items_partitioned += b.stats.items_partitioned;
         self.partitions += b.stats.partitions;
         self.writes = b.lend_node_writes(None);
+        if let Some(w) = self.writes.as_mut() {
+            w.leaf_base = 0;
+        }
         self.arena = Some(b.arena);
         self.spe.ls_release_to(mark);
         if !self.knobs.permute {

@@ -91,6 +91,10 @@ pub(super) struct TopPart {
 /// No parent: the root.
 const NO_PARENT: usize = usize::MAX;
 
+/// The word of the regions' line that holds the largest region too large
+/// for a local store (after the SPEs' first places, at most 16).
+const LARGEST: usize = 31;
+
 /// The slots of a later round's roots (the re-keyed ranges): `ROOT + j`.
 const ROOT: usize = usize::MAX / 2;
 
@@ -328,9 +332,13 @@ impl Program<'_> {
                 false => 0,
             };
             let spill = (self.spill_per_spe / SPILL_UNIT) as u32;
+            // Their records, gathered while each is built, in a part of
+            // its own for each SPE, sized for the largest.
+            let large = if spill > 0 { largest } else { 0 };
             self.spe.write_out_mbox(REGIONS).await;
             self.spe.write_out_mbox(total).await;
             self.spe.write_out_mbox(spill).await;
+            self.spe.write_out_mbox(large).await;
             for t in &mut self.tables {
                 *t = Ea(self.spe.read_in_mbox().await as u64);
             }
@@ -343,6 +351,7 @@ impl Program<'_> {
                     }
                     w[8] = spill;
                     w[9..9 + spes].copy_from_slice(&offsets);
+                    w[LARGEST] = large;
                 })
                 .await?;
         }
@@ -366,6 +375,7 @@ impl Program<'_> {
             *t = Ea(w[2 + i] as u64);
         }
         self.spill_per_spe = w[8] as u64 * SPILL_UNIT;
+        self.largest = self.spe.ls_read::<u32>(line, 32)?[LARGEST] as usize;
         Ok(w[1])
     }
 
