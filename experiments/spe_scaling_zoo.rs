@@ -108,7 +108,13 @@ fn goals(summary: &[Value]) -> Vec<Value> {
 
 pub fn print(s: &Summary) {
     println!(
-        "\nsummary: speedup over spe_bfs (one SPE) with each builder's defaults, simulated PS3 time"
+        "\n{}",
+        cellbih::report::wrap(
+            "summary: speedup over spe_bfs (one SPE) with each builder's defaults, simulated \
+             PS3 time; notes: 8<4 where 8 SPEs were slower than 4, tree! where the tree is \
+             not the baseline's",
+            80
+        )
     );
     println!(
         "{:<22} {:>9} {:<16} {:>6} {:>6} {:>6}  {}",
@@ -118,10 +124,10 @@ pub fn print(s: &Summary) {
     for r in &s.rows {
         let mut notes = Vec::new();
         if r["eight_slower_than_four"] == true {
-            notes.push("8 slower than 4");
+            notes.push("8<4");
         }
         if r["baseline_tree"] != true {
-            notes.push("NOT the baseline's tree");
+            notes.push("tree!");
         }
         println!(
             "{:<22} {:>9} {:<16} {:>6} {:>6} {:>6}  {}",
@@ -144,7 +150,7 @@ pub fn print(s: &Summary) {
         s.goals.len()
     );
     for g in missed {
-        println!(
+        let line = format!(
             "  NOT met: {} · {}: {}",
             g["scene"].as_str().unwrap_or_default(),
             g["goal"].as_str().unwrap_or_default(),
@@ -153,6 +159,7 @@ pub fn print(s: &Summary) {
                 v => f(v) + "x",
             }
         );
+        println!("{}", cellbih::report::wrap(&line, 80));
     }
 }
 

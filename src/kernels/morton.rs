@@ -171,7 +171,10 @@ impl KeySpec {
                 }
             }
             KeyOrder::RoundRobin => {
-                cell = Aabb::new(Vec3::from(lo).max(cell.min), Vec3::from(hi).min(cell.max));
+                // The centers' box, clamped into the cell (a center the
+                // grid rounded into the cell may lie a hair outside it).
+                let (a, b) = (cell.min, cell.max);
+                cell = Aabb::new(Vec3::from(lo).clamp(a, b), Vec3::from(hi).clamp(a, b));
             }
         }
         Some((
@@ -497,5 +500,58 @@ mod tests {
         assert_eq!(auto_key_bits(871_306, 1, 11), 33);
         assert_eq!(auto_key_bits(0, 256, 8), 16);
         assert_eq!(auto_key_bits(usize::MAX, 1, 8), 64);
+    }
+
+    /// Keys made again within a cell, past the halvings a cluster of
+    /// centers does not straddle, continue the keys of the whole box: the
+    /// long key's bits are the skipped halvings' sides, then the new key.
+    #[test]
+    fn keys_within_a_cell_continue_the_keys_of_the_whole_box() {
+        let big = Aabb::new(Vec3::splat(-1000.0), Vec3::splat(1000.0));
+        let whole = KeySpec {
+            order: KeyOrder::GlobalHeuristic,
+            bits: 16,
+            scene: big,
+        };
+        let centers: Vec<Vec3A> = (0..200)
+            .map(|i| {
+                let t = i as f32 / 200.0;
+                Vec3A::new(3.0 + t, 7.0 + t * t, 5.0 - t)
+            })
+            .collect();
+        let lo = centers
+            .iter()
+            .fold(Vec3A::splat(f32::INFINITY), |a, &c| a.min(c));
+        let hi = centers
+            .iter()
+            .fold(Vec3A::splat(f32::NEG_INFINITY), |a, &c| a.max(c));
+        // Where 16 bits ran out: every center shares the key.
+        let k0 = whole.key(centers[0]);
+        assert!(centers.iter().all(|&c| whole.key(c) == k0));
+        let cell = whole.cell(k0, 16);
+        let (inner, skipped) = whole.within(cell, lo, hi).expect("the cell halves");
+        assert!(skipped > 0, "the cluster is far smaller than its cell");
+        assert!(inner.scene.contains_box(&Aabb::new(lo.into(), hi.into())));
+        let long = KeySpec { bits: 64, ..whole };
+        let skip = KeySpec {
+            bits: 16 + skipped,
+            ..whole
+        };
+        for &c in &centers {
+            let prefix = skip.key(c);
+            let want = long.key(c) >> (64 - 16 - skipped - 16);
+            assert_eq!(prefix << 16 | inner.key(c), want);
+        }
+        // Round robin: a new grid over the centers' box, inside the cell.
+        let rr = KeySpec {
+            order: KeyOrder::RoundRobin,
+            ..whole
+        };
+        let (grid, none) = rr.within(cell, lo, hi).unwrap();
+        assert_eq!(none, 0);
+        assert!(cell.contains_box(&grid.scene));
+        // A cell that cannot be halved is not keyed again.
+        let flat = Aabb::new(Vec3::ONE, Vec3::ONE);
+        assert!(whole.within(flat, lo, hi).is_none());
     }
 }
