@@ -24,6 +24,13 @@ impl Fnv {
     }
 }
 
+/// A clip plane's bits, −0 as +0: the same plane (builders that compute
+/// a bound in another order may reach either zero; `f32`'s `==` and every
+/// ray's answer treat them alike).
+fn plane_bits(x: f32) -> u32 {
+    if x == 0.0 { 0 } else { x.to_bits() }
+}
+
 impl Bih {
     /// The hash of the tree's shape, walked from the root, left before
     /// right, each leaf's triangles as a sorted set.
@@ -45,8 +52,8 @@ impl Bih {
             } else {
                 let [lo, hi] = n.clip();
                 h.word(n.axis() as u32);
-                h.word(lo.to_bits());
-                h.word(hi.to_bits());
+                h.word(plane_bits(lo));
+                h.word(plane_bits(hi));
                 stack.push(n.left_child() + 1);
                 stack.push(n.left_child());
             }
@@ -98,6 +105,17 @@ mod tests {
             a.prim_ids.clone(),
         );
         assert_ne!(a.tree_hash(), other_axis.tree_hash());
+        // −0 and +0 are one plane.
+        let negative_zero = tree(
+            vec![BihNode::inner(1, 0, -0.0, 0.4), a.nodes[1], a.nodes[2]],
+            a.prim_ids.clone(),
+        );
+        let zero = tree(
+            vec![BihNode::inner(1, 0, 0.0, 0.4), a.nodes[1], a.nodes[2]],
+            a.prim_ids.clone(),
+        );
+        assert_eq!(zero.tree_hash(), negative_zero.tree_hash());
+        assert_ne!(zero.tree_hash(), a.tree_hash());
         // The same tree with its children stored elsewhere (a spare slot
         // at 1, the children at 2 and 3).
         let renumbered = tree(
