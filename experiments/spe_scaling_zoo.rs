@@ -117,8 +117,8 @@ pub fn print(s: &Summary) {
         )
     );
     println!(
-        "{:<22} {:>9} {:<16} {:>6} {:>6} {:>6}  {}",
-        "scene", "triangles", "builder", "4", "6", "8", "notes"
+        "{:<22} {:>9} {:<16} {:>6} {:>6} {:>6}  notes",
+        "scene", "triangles", "builder", "4", "6", "8"
     );
     let f = |v: &Value| v.as_f64().map_or("-".into(), |x| format!("{x:.2}"));
     for r in &s.rows {

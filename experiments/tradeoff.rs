@@ -39,7 +39,7 @@ use cellbih::strategy::Knobs;
 
 #[derive(Parser)]
 #[command(
-    about = "Build time against tree quality: every builder and quality setting on five scenes, the Pareto fronts (default run: 20–30 min and 13–14 GB of memory at its peak, on a 2-core machine)"
+    about = "Build time against tree quality: every builder and quality setting on five scenes, the Pareto fronts (default run: 20–31 min and 13–15 GB of memory at its peak, on a 2-core machine)"
 )]
 struct Args {
     /// Directory of the real meshes (default: $CELLBIH_DATA).
