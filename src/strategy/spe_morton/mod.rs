@@ -21,6 +21,9 @@
 //!    `--region-size` triangles (or ranges that share their whole key, or
 //!    leaves): SPE 0 splits the largest ranges until there are a few per
 //!    SPE, then every SPE takes them from an atomic counter.
+//!    A range that shares its whole key and overflows a local store is
+//!    keyed again within its own cell (`rekey`) and the top goes on from
+//!    its new keys, in rounds.
 //! 5. **Independent subtrees**: every SPE takes regions largest first from
 //!    an atomic counter (or, `--static-regions`, from its own dealt
 //!    list) and builds each alone: a region that fits in the local store is
