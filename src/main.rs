@@ -38,7 +38,7 @@ mod update;
 use build_args::{BuildArgs, TreeArgs, parse_build};
 
 use print::{info, print_build};
-use scene_arg::{SceneArg, check_memory};
+use scene_arg::{SceneArg, check_built, check_memory};
 use update::{AnimationArg, update};
 
 /// Where the demo writes its image: the current directory.
@@ -433,13 +433,7 @@ fn run(cli: Cli) -> Res<()> {
             })?;
             let (hits, cell_report) = match &on_cell {
                 Some(cfg) => {
-                    check_memory(
-                        &s.name,
-                        (s.len(), report.bih.nodes.len()),
-                        cast_rays,
-                        &c,
-                        report.record_order(),
-                    )?;
+                    check_built(&s, &report, cast_rays, &c)?;
                     let mut cell = c.cell.clone();
                     cell.trace = cast.trace.is_some();
                     let r = step("casting the rays on the Cell", || {
@@ -496,13 +490,7 @@ fn run(cli: Cli) -> Res<()> {
             let cam = Camera::framing(&s.bounds(), width, height);
             let (frame, cell_report) = match &on_cell {
                 Some(cfg) => {
-                    check_memory(
-                        &s.name,
-                        (s.len(), report.bih.nodes.len()),
-                        cast_rays,
-                        &c,
-                        report.record_order(),
-                    )?;
+                    check_built(&s, &report, cast_rays, &c)?;
                     let mut cell = c.cell.clone();
                     cell.trace = cast.trace.is_some();
                     let r = step("casting the rays on the Cell", || {

@@ -183,3 +183,58 @@ fn every_multi_spe_builder_builds_the_baselines_tree_and_8_spes_are_not_slower_t
         slower.join("\n")
     );
 }
+
+/// `spe_morton`'s ranges keyed again within their cells, both ways — a
+/// ball too large for one local store's key pairs (every SPE keys it) and
+/// balls that fit (one SPE each) — at the scale extremes (the clusters
+/// scaled to 1e-15 and 1e15), on 1 and 8 SPEs: the path runs (its phase
+/// is there), the tree is the baseline's, it answers rays as brute force
+/// does, and a second run gives the same cycles, counters and nodes.
+#[test]
+fn keys_within_cells_at_the_extremes_on_1_and_8_spes_twice() {
+    let morton = BuilderKind::ALL
+        .iter()
+        .copied()
+        .find(|b| b.name() == "spe_morton")
+        .expect("the Morton builder");
+    for spec in ["clusters:2:20000:3", "clusters:4:20000:5"] {
+        for scale in [1e-15f32, 1.0, 1e15] {
+            let c = load(spec);
+            let tris = c
+                .triangles
+                .iter()
+                .map(|t| cellbih::scene::Triangle {
+                    v: t.v.map(|p| p * scale),
+                })
+                .collect();
+            let s = Scene::new(
+                format!("{spec} x {scale:e}"),
+                tris,
+                c.geometry_ids.clone(),
+                c.geometry_names.clone(),
+            )
+            .unwrap();
+            let (_, base) = run(BuilderKind::SPE_BFS, &s, 1);
+            for spes in [1, 8] {
+                let cell = CellConfig::ps3().with_spes(spes);
+                let build = || Build::new(morton).on(&cell).run(&s).unwrap();
+                let (r, again) = (build(), build());
+                let what = format!("{} on {spes} SPEs", s.name);
+                let sim = r.simulated.as_ref().unwrap();
+                assert!(
+                    sim.phases
+                        .iter()
+                        .any(|(p, _)| p.contains("keys within cells")),
+                    "{what}: no range keyed again"
+                );
+                assert_eq!(r.bih.tree_hash(), base, "{what}: not the baseline's tree");
+                common::check_multi_spe_runs(&r, &again, &what);
+                r.bih.validate(&s).unwrap_or_else(|v| panic!("{what}: {v}"));
+                let tracer = Tracer::new(&r.bih, &s);
+                for ray in rays_for(&s, 40, 3) {
+                    check_ray(&s, &tracer, &ray).unwrap_or_else(|e| panic!("{what}: {e}"));
+                }
+            }
+        }
+    }
+}

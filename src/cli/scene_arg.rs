@@ -52,6 +52,18 @@ impl SceneArg {
     }
 }
 
+/// [`check_memory`] once the tree is built: its nodes and the records as
+/// its build left them, beside the cast's rays.
+pub fn check_built(
+    scene: &Scene,
+    report: &cellbih::registry::BuildReport,
+    cast_rays: Option<usize>,
+    c: &Build,
+) -> Res<()> {
+    let size = (scene.len(), report.bih.nodes.len());
+    check_memory(&scene.name, size, cast_rays, c, report.record_order())
+}
+
 /// Refuses, naming what and `--memory-mib`, a scene of `triangles` that
 /// the emulated Cell's main memory cannot hold: the build's triangle
 /// records (an emulated builder), or the cast's tree, triangles, rays and

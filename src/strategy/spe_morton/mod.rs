@@ -473,14 +473,19 @@ impl<'a> Program<'a> {
         Ok(())
     }
 
+    /// The four 16 KiB buffers a streamed phase (keys, radix passes,
+    /// permutation) works in: two in, two out.
+    fn stream_buffers(&self) -> Result<[LsAddr; 4], CellError> {
+        let mut bufs = [LsAddr(0); 4];
+        for b in &mut bufs {
+            *b = self.spe.ls_alloc(16 * 1024, 128)?;
+        }
+        Ok(bufs)
+    }
+
     async fn run(&mut self) -> Result<SpeExit, CellError> {
         let mark = self.spe.ls_mark();
-        let bufs = [
-            self.spe.ls_alloc(16 * 1024, 128)?,
-            self.spe.ls_alloc(16 * 1024, 128)?,
-            self.spe.ls_alloc(16 * 1024, 128)?,
-            self.spe.ls_alloc(16 * 1024, 128)?,
-        ];
+        let bufs = self.stream_buffers()?;
         self.keys(bufs).await?;
         self.end_phase("Morton keys").await?;
         let passes = radix::passes(self.knobs.key_bits, self.knobs.digit_bits);

@@ -282,12 +282,7 @@ impl Program<'_> {
         self.sweep(f, Some((spec, from))).await?;
         self.barrier().await?;
         let mark = self.spe.ls_mark();
-        let bufs = [
-            self.spe.ls_alloc(16 * 1024, 128)?,
-            self.spe.ls_alloc(16 * 1024, 128)?,
-            self.spe.ls_alloc(16 * 1024, 128)?,
-            self.spe.ls_alloc(16 * 1024, 128)?,
-        ];
+        let bufs = self.stream_buffers()?;
         for pass in 0..passes {
             let at = (from + pass) % 2;
             self.radix_pass(pass as u32, bufs, (first, count), at)
