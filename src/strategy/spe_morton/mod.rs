@@ -28,7 +28,9 @@
 //!    an atomic counter (or, `--static-regions`, from its own dealt
 //!    list) and builds each alone: a region that fits in the local store is
 //!    loaded once, built there with the global heuristic and written back
-//!    once; a larger one runs the baseline's breadth-first loop, its
+//!    once (two slots of the local store: the next region's gather runs
+//!    during this one's build, this one's write-back during the next's);
+//!    a larger one runs the baseline's breadth-first loop, its
 //!    WorkAPPE/WorkBPPE in a spill area the PPE allocates per SPE, sized
 //!    for the largest such region. Nodes go straight into slots of the
 //!    per-SPE ObjectArena lists of one pool. Each region's bounds go to a
@@ -75,7 +77,9 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &STATIC_REGIONS,
     &PERMUTE,
     &TRIS_PER_SPE,
-    // Regions too large for a local store run the breadth-first loop.
+    // Regions too large for a local store run the breadth-first loop;
+    // --no-prefetch also loads each region that fits only when its build
+    // starts.
     &DOUBLE_BUFFER,
     &DMA_LISTS,
     &NO_PREFETCH,

@@ -1,12 +1,12 @@
 //! `spe_morton`, phase 5 (section 5: "regions of primitives that then
 //! could be built-up totally independent"): the regions built by every
-//! SPE alone, each in its local store where it fits.
+//! SPE alone, each in its local store where it fits: through two slots,
+//! the next region's gather overlapping this one's build.
 
 use bytemuck::Pod;
 
 use super::pairs::{KeyRec, Pairs, ls_for, span};
 use super::{JOB, NODE, Program, RECORD, RECORDS_PER_BLOCK};
-use crate::aabb::Aabb;
 use crate::bih::BihNode;
 use crate::cell::{CellError, Ea, ListElement, LsAddr};
 use crate::kernels::recursion::build_subtree;
@@ -61,8 +61,8 @@ impl Program<'_> {
 
     /// Phase 5, every SPE: builds regions until none is left.
     pub(super) async fn build_regions(&mut self) -> Result<(), CellError> {
-        let tag = self.tags;
-        let (line, take) = (self.line, self.a.take);
+        let tag = self.line_tag();
+        let line = self.line;
         let total = self.read_take_line().await?;
         let mine: Option<Vec<u32>> = if self.knobs.static_regions {
             self.spe.get(line, self.a.deal_header, 128, tag).await?;
@@ -84,26 +84,40 @@ impl Program<'_> {
             None
         };
         let mut next = 0;
-        loop {
-            let pos = match &mine {
-                Some(v) => match v.get(next) {
-                    Some(&p) => p,
-                    None => break,
-                },
-                None => {
-                    let p = self.spe.atomic_fetch_add_u32(line, take, 1).await?;
-                    if p >= total {
-                        break;
+        // Regions that fit half the local store go through two slots: the
+        // next one is taken and its gather issued before this one's build
+        // (unless `--no-prefetch`, or while it would take a region another
+        // SPE would start sooner: fewer than four left per SPE), and this
+        // one's write-back is waited for only when its slot is loaded again.
+        let spes = self.a.spes;
+        let mut slots = Slots::two(self)?;
+        let mut current = self.take_region(mine.as_deref(), &mut next, total).await?;
+        let mut loaded = None;
+        while let Some((pos, job)) = current {
+            let early = (self.knobs.queue.prefetch && slots.fits(job.count as usize))
+                && (mine.is_some() || pos as usize + 4 * spes < total as usize);
+            let mut following = None;
+            if early {
+                following = self.take_region(mine.as_deref(), &mut next, total).await?;
+            }
+            let side = match slots.fits(job.count as usize) {
+                true => {
+                    let s = match loaded.take() {
+                        Some(s) => s,
+                        None => self.load(&slots, 0, &job).await?,
+                    };
+                    if let Some((_, f)) = following.filter(|(_, f)| slots.fits(f.count as usize)) {
+                        loaded = Some(self.load(&slots, 1 - s, &f).await?);
                     }
-                    p
+                    self.build_loaded(&slots, s, &job).await?
+                }
+                false => {
+                    slots.release(self).await?;
+                    let side = self.region(&job).await?;
+                    slots = Slots::two(self)?;
+                    side
                 }
             };
-            next += 1;
-            let at = self.tables[0].offset(pos as u64 * JOB as u64);
-            self.spe.get(line, at, JOB as u32, tag).await?;
-            self.spe.wait_tag(tag).await?;
-            let job: Job = from_wire(&self.spe.ls_read::<u8>(line, JOB)?, JOB)[0];
-            let side = self.region(&job).await?;
             let bounds: [f32; 8] = [
                 side.lo.x, side.lo.y, side.lo.z, 0.0, side.hi.x, side.hi.y, side.hi.z, 0.0,
             ];
@@ -112,8 +126,52 @@ impl Program<'_> {
             self.spe.put(line, at, 32, tag).await?;
             self.spe.wait_tag(tag).await?;
             self.regions_built += 1;
+            current = match early {
+                true => following,
+                false => self.take_region(mine.as_deref(), &mut next, total).await?,
+            };
         }
-        Ok(())
+        slots.release(self).await
+    }
+
+    /// The tag of the regions phase's small transfers through `line` (the
+    /// first two are the slots').
+    fn line_tag(&self) -> u32 {
+        self.tags + 2
+    }
+
+    /// The next region this SPE builds, and its position: from its dealt
+    /// list (`mine`, at `next`) or from the atomic counter of `total`.
+    async fn take_region(
+        &mut self,
+        mine: Option<&[u32]>,
+        next: &mut usize,
+        total: u32,
+    ) -> Result<Option<(u32, Job)>, CellError> {
+        let (tag, line) = (self.line_tag(), self.line);
+        let pos = match mine {
+            Some(v) => match v.get(*next) {
+                Some(&p) => p,
+                None => return Ok(None),
+            },
+            None => {
+                let p = (self.spe)
+                    .atomic_fetch_add_u32(line, self.a.take, 1)
+                    .await?;
+                if p >= total {
+                    return Ok(None);
+                }
+                p
+            }
+        };
+        *next += 1;
+        let at = self.tables[0].offset(pos as u64 * JOB as u64);
+        self.spe.get(line, at, JOB as u32, tag).await?;
+        self.spe.wait_tag(tag).await?;
+        Ok(Some((
+            pos,
+            from_wire(&self.spe.ls_read::<u8>(line, JOB)?, JOB)[0],
+        )))
     }
 
     /// Records the local store can hold with their nodes (48 bytes, at
@@ -206,6 +264,7 @@ impl Program<'_> {
         (pairs, recs): (LsAddr, LsAddr),
         first: usize,
         count: usize,
+        tag: u32,
     ) -> Result<(), CellError> {
         let ids: Vec<u32> = (self.spe).with_ls(recs, count, |r: &[TriRecord]| {
             r.iter().map(|r| r.id).collect()
@@ -216,7 +275,7 @@ impl Program<'_> {
             k.index = id;
         }
         p.write(self.spe, ls_for(pairs, at), &keys)?;
-        span(self.spe, pairs, at, count * p.bytes, true, self.tags).await
+        span(self.spe, pairs, at, count * p.bytes, true, tag).await
     }
 
     /// A region too large for the local store, without `--permute`: its
@@ -245,7 +304,7 @@ impl Program<'_> {
                 let (_, keys) = self.sorted_pair(c);
                 span(self.spe, pairs, keys, len * p.bytes, false, tag).await?;
                 self.spe.wait_tag(tag).await?;
-                self.ids_back((pairs, recs), c, len).await?;
+                self.ids_back((pairs, recs), c, len, tag).await?;
             } else {
                 self.gather((pairs, recs), c, len).await?;
                 self.spe.put(recs, at, bytes, tag).await?;
@@ -260,9 +319,7 @@ impl Program<'_> {
     async fn region(&mut self, job: &Job) -> Result<Side, CellError> {
         let (first, count) = (job.first as usize, job.count as usize);
         if count <= self.ls_capacity() {
-            return self
-                .in_local_store(first, count, job.node, job.depth, job.candidate())
-                .await;
+            return self.in_local_store(job).await;
         }
         // Too large for the local store: the baseline's breadth-first loop
         // on the records in key order (in `--permute`'s array, or gathered
@@ -323,14 +380,14 @@ impl Program<'_> {
     }
 
     /// Issues the gets (`into_ls`) or puts of `count` records between the
-    /// local store at `recs` and main memory at `at`, 16 KiB at a time, on
-    /// the first stream tag.
+    /// local store at `recs` and main memory at `at`, 16 KiB at a time,
+    /// under `tag`.
     async fn move_records(
         &self,
-        recs: crate::cell::LsAddr,
-        at: Ea,
+        (recs, at): (LsAddr, Ea),
         count: usize,
         into_ls: bool,
+        tag: u32,
     ) -> Result<(), CellError> {
         for c in (0..count).step_by(RECORDS_PER_BLOCK) {
             let len = RECORDS_PER_BLOCK.min(count - c);
@@ -340,70 +397,81 @@ impl Program<'_> {
             );
             let bytes = (len * RECORD) as u32;
             match into_ls {
-                true => self.spe.get(ls, ea, bytes, self.tags).await?,
-                false => self.spe.put(ls, ea, bytes, self.tags).await?,
+                true => self.spe.get(ls, ea, bytes, tag).await?,
+                false => self.spe.put(ls, ea, bytes, tag).await?,
             }
         }
         Ok(())
     }
 
-    /// A region (or piece) that fits: loaded once (gathered by its keys,
-    /// or with `--permute` one get from the sorted array), built in the
-    /// local store with the global heuristic, written back once (its ids
-    /// over its keys' indices, or its records); returns its bounds.
-    async fn in_local_store(
-        &mut self,
-        first: usize,
-        count: usize,
-        id: u32,
-        depth: u32,
-        cand: Aabb,
-    ) -> Result<Side, CellError> {
-        let k = self.kernels;
-        let tag = self.tags;
-        let mark = self.spe.ls_mark();
-        let recs = self
-            .spe
-            .ls_alloc((count * RECORD).next_multiple_of(128) as u32, 128)?;
-        let pairs = match self.knobs.permute {
-            true => None,
-            false => {
-                let bytes = count * self.a.pairs.bytes + 16;
-                Some((self.spe).ls_alloc(bytes.next_multiple_of(128) as u32, 128)?)
-            }
-        };
-        let at = self.sorted().offset((first * RECORD) as u64);
-        match pairs {
-            Some(pairs) => self.gather((pairs, recs), first, count).await?,
+    /// A region (or piece) larger than a slot of two that still fits the
+    /// local store: one slot of its size, loaded, built, written back.
+    async fn in_local_store(&mut self, job: &Job) -> Result<Side, CellError> {
+        let slots = Slots::new(self, 1, job.count as usize)?;
+        let s = self.load(&slots, 0, job).await?;
+        let side = self.build_loaded(&slots, s, job).await?;
+        slots.release(self).await?;
+        Ok(side)
+    }
+
+    /// Issues the load of region `job` into slot `s` (once the slot's last
+    /// write-back is done): gathered by its keys, or with `--permute` from
+    /// the sorted array. Returns `s`.
+    async fn load(&self, slots: &Slots, s: usize, job: &Job) -> Result<usize, CellError> {
+        let (first, count) = (job.first as usize, job.count as usize);
+        let slot = slots.at[s];
+        self.spe.wait_tag(slot.tag).await?;
+        match slot.pairs {
+            Some(pairs) => (self.issue_gather((pairs, slot.recs), first, count, slot.tag)).await?,
             None => {
-                self.move_records(recs, at, count, true).await?;
-                self.spe.wait_tag(tag).await?;
+                let at = self.sorted().offset((first * RECORD) as u64);
+                (self.move_records((slot.recs, at), count, true, slot.tag)).await?
             }
         }
-        let cfg = self.cfg;
+        Ok(s)
+    }
+
+    /// Region `job`, loaded into slot `s`: built in the local store with
+    /// the global heuristic, its write-back issued (its ids over its keys'
+    /// indices, or its records) and its nodes written; returns its bounds.
+    async fn build_loaded(
+        &mut self,
+        slots: &Slots,
+        s: usize,
+        job: &Job,
+    ) -> Result<Side, CellError> {
+        let (first, count) = (job.first as usize, job.count as usize);
+        let (k, cfg, slot) = (self.kernels, self.cfg, slots.at[s]);
+        let (depth, cand) = (job.depth, job.candidate());
+        self.spe.wait_tag(slot.tag).await?;
         let (side, nodes, stats) =
             self.spe
-                .with_ls_mut(recs, count, |items: &mut [TriRecord]| {
+                .with_ls_mut(slot.recs, count, |items: &mut [TriRecord]| {
                     let side = side_of(items);
                     let mut nodes = vec![BihNode::default()];
                     let stats = build_subtree(items, &mut nodes, 0, 0, count, cand, depth, &cfg);
                     (side, nodes, stats)
                 })?;
         // The nodes take their room in the local store too.
+        let mark = self.spe.ls_mark();
         self.spe
             .ls_alloc((nodes.len() * NODE).next_multiple_of(16) as u32, 16)?;
+        self.spe.ls_release_to(mark);
         self.spe.compute_items(k.spe_bounds_item, count as u64);
         let partitioned = stats.items_partitioned - count as u64;
         self.spe.compute_items(k.spe_partition_item, partitioned);
         self.spe.compute_items(k.spe_job, nodes.len() as u64);
         self.items_partitioned += partitioned;
         self.partitions += stats.partitions;
-        match pairs {
-            Some(pairs) => self.ids_back((pairs, recs), first, count).await?,
-            None => self.move_records(recs, at, count, false).await?,
+        match slot.pairs {
+            Some(pairs) => (self.ids_back((pairs, slot.recs), first, count, slot.tag)).await?,
+            None => {
+                let at = self.sorted().offset((first * RECORD) as u64);
+                (self.move_records((slot.recs, at), count, false, slot.tag)).await?
+            }
         }
         // Local pairs (1, 2), (3, 4), ... take pairs of this SPE's arena.
-        let mut global = vec![id; nodes.len()];
+        let mut global = vec![job.node; nodes.len()];
         for pair in (1..nodes.len()).step_by(2) {
             let g = self.arena().alloc(2).await?;
             global[pair] = g;
@@ -420,8 +488,74 @@ impl Program<'_> {
             self.w().push(global[i], node);
         }
         self.w().flush().await?;
-        self.spe.wait_tag(tag).await?;
-        self.spe.ls_release_to(mark);
         Ok(side)
+    }
+}
+
+/// One slot of the local store a region is loaded into and built in: its
+/// records, its key pairs (none with `--permute`), the tag of its DMA.
+#[derive(Clone, Copy)]
+struct Slot {
+    recs: LsAddr,
+    pairs: Option<LsAddr>,
+    tag: u32,
+}
+
+/// The slots of the regions phase (two, on the first two stream tags, for
+/// regions that fit half the local store; or one for a larger region), and
+/// the local store's mark before them.
+struct Slots {
+    at: Vec<Slot>,
+    capacity: usize,
+    mark: u32,
+}
+
+impl Slots {
+    /// `n` slots of `capacity` records (0: as many as fit beside the
+    /// room of one build's nodes, `NODE` twice a record).
+    fn new(p: &Program, n: usize, capacity: usize) -> Result<Self, CellError> {
+        let pair = if p.knobs.permute { 0 } else { p.a.pairs.bytes };
+        let capacity = match capacity {
+            0 => {
+                let slack = (256 + 144) * n + 16;
+                let free = (p.spe.ls_free_bytes() as usize).saturating_sub(slack);
+                free / (n * (RECORD + pair) + 2 * NODE)
+            }
+            c => c,
+        };
+        let mark = p.spe.ls_mark();
+        let mut at = Vec::with_capacity(n);
+        for i in 0..n {
+            let recs = (p.spe).ls_alloc((capacity * RECORD).next_multiple_of(128) as u32, 128)?;
+            let pairs = match p.knobs.permute {
+                true => None,
+                false => {
+                    let bytes = (capacity * pair + 16).next_multiple_of(128);
+                    Some(p.spe.ls_alloc(bytes as u32, 128)?)
+                }
+            };
+            let tag = p.tags + i as u32;
+            at.push(Slot { recs, pairs, tag });
+        }
+        Ok(Slots { at, capacity, mark })
+    }
+
+    /// Two slots as large as the local store allows.
+    fn two(p: &Program) -> Result<Self, CellError> {
+        Self::new(p, 2, 0)
+    }
+
+    /// Whether a region of `count` triangles fits a slot.
+    fn fits(&self, count: usize) -> bool {
+        self.at.len() == 2 && count <= self.capacity
+    }
+
+    /// Waits for the slots' write-backs and gives their room back.
+    async fn release(self, p: &Program<'_>) -> Result<(), CellError> {
+        for s in &self.at {
+            p.spe.wait_tag(s.tag).await?;
+        }
+        p.spe.ls_release_to(self.mark);
+        Ok(())
     }
 }
