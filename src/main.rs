@@ -11,7 +11,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use rayon::prelude::*;
 
 use cellbih::bih::{RayStats, Tracer};
-use cellbih::cast::cast_on_cell;
+use cellbih::cast::{cast_camera, cast_on_cell};
 use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
 use cellbih::registry::{Build, BuilderKind};
@@ -494,14 +494,7 @@ fn run(cli: Cli) -> Res<()> {
                     let mut cell = c.cell.clone();
                     cell.trace = cast.trace.is_some();
                     let r = step("casting the rays on the Cell", || {
-                        cast_on_cell(
-                            &report.bih,
-                            &s,
-                            &cam.rays(),
-                            cfg,
-                            &cell,
-                            report.record_order(),
-                        )
+                        cast_camera(&report.bih, &s, &cam, cfg, &cell, report.record_order())
                     })?;
                     let f = Frame::of_hits(&cam, &s.triangles, &r.hits, &r.costs, r.stats());
                     (f, Some(r))

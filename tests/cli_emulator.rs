@@ -411,6 +411,36 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
             assert_eq!(pngs[0], pngs[1], "the shaded images differ");
         }
     }
+    // In packets of 4 × 4: the same image (and the same heat map: each
+    // ray's cost is its own walk's), the packets reported and the setting
+    // named.
+    for heatmap in [false, true] {
+        let mut pngs = Vec::new();
+        for packet in ["1x1", "4x4"] {
+            let p = tmp(&format!("on_cell_packet_{heatmap}_{packet}.png"));
+            let mut args = vec!["render", "--width", "48", "--height", "32"];
+            args.extend([
+                "--on-cell",
+                "--packet",
+                packet,
+                "--out",
+                p.to_str().unwrap(),
+            ]);
+            if heatmap {
+                args.push("--heatmap");
+            }
+            let out = cellbih(&args);
+            assert_ok(&out);
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(err.contains(&format!("--packet {packet}")), "{err}");
+            assert_eq!(err.contains(" packets, "), packet == "4x4", "{err}");
+            pngs.push(std::fs::read(&p).unwrap());
+        }
+        assert_eq!(
+            pngs[0], pngs[1],
+            "heat map {heatmap}: packets changed the image"
+        );
+    }
     // The cast's timeline: every SPE on it; refused without --on-cell and
     // in the functional mode, before any work.
     let trace = tmp("on_cell_trace.json");
@@ -467,6 +497,7 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
         ["--cache-ways", "2"],
         ["--rays-in-flight", "4"],
         ["--precision", "double"],
+        ["--packet", "2x2"],
     ] {
         let hits = tmp("on_cell_refused.csv");
         let _ = std::fs::remove_file(&hits);

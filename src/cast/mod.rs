@@ -11,6 +11,7 @@
 //! the host tracer's (`bih::Tracer`), ray for ray; the time is simulated
 //! PS3 time, in the same currency as a build's.
 
+mod packet;
 mod program;
 
 pub use crate::spe::software_cache::{CacheConfig, CacheRates, CacheStats};
@@ -24,6 +25,7 @@ use crate::aabb::Aabb;
 use crate::bih::{Bih, Hit, Ray, RayStats};
 use crate::cell::{Cell, CellConfig, CellError, Cycles, Ea, Label, RunReport, Trace};
 use crate::kernels::rates::FITTED_OVER_DERIVED;
+use crate::render::Camera;
 use crate::scene::Scene;
 pub use crate::spe::layout::RecordOrder;
 use crate::spe::layout::{self, TriRecord};
@@ -123,6 +125,22 @@ pub struct CastRates {
     /// flight): the running ray's state stored, the next one's loaded,
     /// the unhinted branch to where it stopped.
     pub ray_switch: Cycles,
+    /// Packets (`--packet`), per quad of a packet's rays (four rays a
+    /// SIMD vector): the reciprocal directions, the slab test of the
+    /// tree's box, the active bits, the hits written.
+    pub packet_setup_quad: Cycles,
+    /// Per node a packet visits: decode, the any-active test and branch,
+    /// the stack's push or pop of the node and its masks.
+    pub packet_node: Cycles,
+    /// Per quad of rays with an active ray at a node the packet visits:
+    /// the two plane distances, the interval compares, the masks, the
+    /// near and far intervals (the far one stored for the stack).
+    pub packet_node_quad: Cycles,
+    /// Per triangle a packet tests: its vertices splatted, its edges.
+    pub packet_triangle: Cycles,
+    /// Per quad of rays with an active ray, per triangle: Möller–Trumbore
+    /// four rays a vector and the closest-hit update.
+    pub packet_triangle_quad: Cycles,
 }
 
 /// Which arithmetic the caster is charged for. The emulation computes in
@@ -148,21 +166,33 @@ impl Precision {
         // 6-cycle latency, the SPU's 18-cycle branch-miss penalty: 32.
         let ray_switch = Cycles(32 * x);
         match self {
-            // Derived: 20, 16 and 14 SPU cycles.
+            // Derived: 20, 16 and 14 SPU cycles; packets 44 a quad to set
+            // up, 8 a node and 12 a quad there, 9 a triangle and 48 a quad.
             Precision::Single => CastRates {
                 ray_setup: Cycles(20 * x),
                 node_step: Cycles(16 * x),
                 triangle_test: Cycles(14 * x),
                 cache,
                 ray_switch,
+                packet_setup_quad: Cycles(44 * x),
+                packet_node: Cycles(8 * x),
+                packet_node_quad: Cycles(12 * x),
+                packet_triangle: Cycles(9 * x),
+                packet_triangle_quad: Cycles(48 * x),
             },
-            // Derived: 300, 100 and 230 SPU cycles.
+            // Derived: 300, 100 and 230 SPU cycles; a packet's quad is two
+            // double-precision vectors, each the single ray's arithmetic.
             Precision::Double => CastRates {
                 ray_setup: Cycles(300 * x),
                 node_step: Cycles(100 * x),
                 triangle_test: Cycles(230 * x),
                 cache,
                 ray_switch,
+                packet_setup_quad: Cycles(600 * x),
+                packet_node: Cycles(8 * x),
+                packet_node_quad: Cycles(200 * x),
+                packet_triangle: Cycles(9 * x),
+                packet_triangle_quad: Cycles(460 * x),
             },
         }
     }
@@ -180,7 +210,46 @@ pub struct CastConfig {
     /// Rays an SPE keeps in flight (1 to 16): with more than one, a ray
     /// whose line is on its way yields to another (Benthin et al.'s
     /// "software hyperthreading"); with one, the SPE waits for each miss.
+    /// With packets, the packets (or lone rays) in flight.
     pub rays_in_flight: u32,
+    /// Rays traced together as one packet: each `w × h` consecutive rays
+    /// of a tile ([`cast_camera`] orders a camera's rays so that they are
+    /// a block of the image); 1 × 1: every ray alone.
+    pub packet: Packet,
+}
+
+/// A packet's shape, in rays: `w × h`, 1 to 8 each.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Packet {
+    pub w: u32,
+    pub h: u32,
+}
+
+impl Packet {
+    /// Every ray alone.
+    pub const SINGLE: Packet = Packet { w: 1, h: 1 };
+
+    /// Rays a packet holds.
+    pub fn rays(self) -> u32 {
+        self.w * self.h
+    }
+
+    /// Reads `WxH` (each 1 to 8).
+    pub fn parse(s: &str) -> Result<Packet, String> {
+        let bad = || format!("--packet {s}: W×H rays, each 1 to 8 (e.g. 4x4)");
+        let (w, h) = s.split_once(['x', 'X', '×']).ok_or_else(bad)?;
+        let (w, h): (u32, u32) = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
+        if !(1..=8).contains(&w) || !(1..=8).contains(&h) {
+            return Err(bad());
+        }
+        Ok(Packet { w, h })
+    }
+}
+
+impl std::fmt::Display for Packet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}x{}", self.w, self.h)
+    }
 }
 
 impl CastConfig {
@@ -189,6 +258,7 @@ impl CastConfig {
         tile_rays: 64,
         precision: Precision::Single,
         rays_in_flight: 1,
+        packet: Packet::SINGLE,
     };
 
     /// The most rays a tile holds: 256 rays are one 16 KiB get.
@@ -214,6 +284,8 @@ pub(crate) struct Job {
     max_depth: u32,
     tile_rays: u32,
     rays_in_flight: u32,
+    /// Rays a packet holds (1: every ray alone).
+    packet_rays: u32,
     cache: CacheConfig,
     rates: CastRates,
 }
@@ -345,6 +417,14 @@ pub fn cast_on_cell(
             CastConfig::MAX_RAYS_IN_FLIGHT
         )));
     }
+    let p = cfg.packet;
+    if !(1..=8).contains(&p.w) || !(1..=8).contains(&p.h) || !cfg.tile_rays.is_multiple_of(p.rays())
+    {
+        return Err(CellError::Config(format!(
+            "packets of {p} rays: each side 1 to 8, and a tile's {} rays a whole number of packets",
+            cfg.tile_rays
+        )));
+    }
     cfg.cache.sets().map_err(CellError::Config)?;
     assert_eq!(bih.prim_ids.len(), scene.len(), "tree and scene differ");
     let cell = Cell::new(cell_cfg.clone())?;
@@ -404,6 +484,7 @@ pub fn cast_on_cell(
             max_depth: bih.config.max_depth,
             tile_rays: cfg.tile_rays,
             rays_in_flight: cfg.rays_in_flight,
+            packet_rays: cfg.packet.rays(),
             cache: cfg.cache,
             rates: cfg.precision.rates(),
         }
@@ -429,4 +510,31 @@ pub fn cast_on_cell(
         spes,
         trace: cell.take_trace(),
     })
+}
+
+/// Casts `cam`'s rays (one a pixel) as [`cast_on_cell`] does, in the
+/// order packets need: blocks of `cfg.packet`'s `w × h` pixels, block
+/// after block along each band of `h` rows (with 1 × 1, the camera's
+/// order). The answers come back in the camera's order
+/// ([`Camera::rays`]). Where the image's sides are not whole blocks, the
+/// blocks at its right and bottom edges are smaller and share packets
+/// with their neighbours.
+pub fn cast_camera(
+    bih: &Bih,
+    scene: &Scene,
+    cam: &Camera,
+    cfg: &CastConfig,
+    cell_cfg: &CellConfig,
+    order: RecordOrder,
+) -> Result<CastReport, CellError> {
+    let pixels = packet::block_order(cam.width, cam.height, cfg.packet);
+    let w = cam.width;
+    let rays: Vec<Ray> = (pixels.iter()).map(|&i| cam.ray(i % w, i / w)).collect();
+    let mut r = cast_on_cell(bih, scene, &rays, cfg, cell_cfg, order)?;
+    let (mut hits, mut costs) = (vec![None; rays.len()], vec![0; rays.len()]);
+    for (k, &i) in pixels.iter().enumerate() {
+        (hits[i as usize], costs[i as usize]) = (r.hits[k], r.costs[k]);
+    }
+    (r.hits, r.costs) = (hits, costs);
+    Ok(r)
 }

@@ -16,6 +16,7 @@ use std::rc::Rc;
 
 use glam::{DVec3, Vec3};
 
+use super::packet::{self, PacketWalk};
 use super::{CastRates, CellHit, CellRay, Job};
 use crate::bih::{
     BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
@@ -34,6 +35,11 @@ pub struct SpeCast {
     pub cache: CacheStats,
     /// Times it went on with another ray while a miss was under way.
     pub switches: u64,
+    /// Packets it cast as one (`--packet`), the nodes they visited, and
+    /// the quads of rays they stepped there.
+    pub packets: u64,
+    pub packet_nodes: u64,
+    pub packet_quads: u64,
 }
 
 /// The caster's program on one SPE.
@@ -86,8 +92,30 @@ enum State {
     Idle,
 }
 
-/// Casts one tile's rays, `job.rays_in_flight` at a time: the hits in the
-/// rays' order.
+/// What a ray in flight casts: one ray, or a packet of them.
+enum Walker {
+    One(Walk),
+    Pack(PacketWalk),
+}
+
+/// A tile's rays as the caster takes them: each `job.packet_rays`
+/// consecutive rays one packet where they can share a traversal, else
+/// (and without packets) ray by ray; by their first ray and count.
+fn units(job: &Job, rays: &[Ray]) -> Vec<(usize, usize)> {
+    let p = job.packet_rays as usize;
+    let mut out = Vec::with_capacity(rays.len());
+    for (g, group) in rays.chunks(p).enumerate() {
+        if p > 1 && packet::coherent(group) {
+            out.push((g * p, group.len()));
+        } else {
+            out.extend((0..group.len()).map(|i| (g * p + i, 1)));
+        }
+    }
+    out
+}
+
+/// Casts one tile's rays, `job.rays_in_flight` rays or packets at a time:
+/// the hits in the rays' order.
 async fn cast_tile(
     spe: &Spe,
     cache: &mut SoftwareCache,
@@ -96,8 +124,10 @@ async fn cast_tile(
     done: &mut SpeCast,
 ) -> Result<Vec<CellHit>, CellError> {
     let k = job.rays_in_flight as usize;
+    let rays: Vec<Ray> = rays.iter().map(CellRay::ray).collect();
+    let units = units(job, &rays);
     let mut hits = vec![CellHit::of(None, 0); rays.len()];
-    let mut walks: Vec<Option<Walk>> = (0..k).map(|_| None).collect();
+    let mut walks: Vec<Option<Walker>> = (0..k).map(|_| None).collect();
     let mut state = vec![State::Ready; k];
     let (mut next, mut last) = (0usize, 0usize);
     loop {
@@ -140,22 +170,46 @@ async fn cast_tile(
             done.switches += 1;
             last = c;
         }
-        let walk = match &mut walks[c] {
+        let walker = match &mut walks[c] {
             Some(w) => w,
             slot => {
-                if next == rays.len() {
+                let Some(&(first, n)) = units.get(next) else {
                     state[c] = State::Idle;
                     continue;
-                }
+                };
                 next += 1;
-                slot.insert(Walk::new(next - 1, rays[next - 1].ray(), job.max_depth))
+                slot.insert(match n {
+                    1 => Walker::One(Walk::new(first, rays[first], job.max_depth)),
+                    _ => {
+                        let pack = rays[first..first + n].to_vec();
+                        Walker::Pack(PacketWalk::new(first, pack, job.max_depth))
+                    }
+                })
             }
         };
-        state[c] = match walk.run(spe, cache, job, c as u32).await? {
+        let step = match walker {
+            Walker::One(w) => w.run(spe, cache, job, c as u32).await?,
+            Walker::Pack(p) => p.run(spe, cache, job, c as u32).await?,
+        };
+        state[c] = match step {
             Step::Done(hit) => {
-                let cost = (walk.stats.nodes_visited + walk.stats.triangles_tested) as u32;
-                hits[walk.index] = CellHit::of(hit, cost);
-                done.rays += walk.stats;
+                match walker {
+                    Walker::One(w) => {
+                        let cost = (w.stats.nodes_visited + w.stats.triangles_tested) as u32;
+                        hits[w.index] = CellHit::of(hit, cost);
+                        done.rays += w.stats;
+                    }
+                    Walker::Pack(p) => {
+                        for (i, (best, st)) in p.best.iter().zip(&p.stats).enumerate() {
+                            let cost = (st.nodes_visited + st.triangles_tested) as u32;
+                            hits[p.first + i] = CellHit::of(*best, cost);
+                            done.rays += *st;
+                        }
+                        done.packets += 1;
+                        done.packet_nodes += p.nodes;
+                        done.packet_quads += p.quads;
+                    }
+                }
                 walks[c] = None;
                 State::Ready
             }
@@ -166,7 +220,7 @@ async fn cast_tile(
 }
 
 /// Where a ray's traversal stopped.
-enum Step {
+pub(super) enum Step {
     /// Its closest hit.
     Done(Option<Hit>),
     /// Waiting for a line that tag group `.0` brings.
@@ -187,13 +241,13 @@ enum At {
 }
 
 /// The bytes a walk reads: a node or a triangle record, line by line.
-struct Read {
+pub(super) struct Read {
     ea: u64,
     len: usize,
     done: usize,
     /// The slot whose line it waits for.
     waiting: Option<u32>,
-    buf: [u8; size_of::<TriRecord>()],
+    pub(super) buf: [u8; size_of::<TriRecord>()],
 }
 
 /// One ray's traversal: `Tracer::closest`'s, over the tree in main memory
@@ -233,13 +287,7 @@ impl Walk {
             tn: 0.0,
             tf: 0.0,
             at: At::Setup,
-            read: Read {
-                ea: 0,
-                len: 0,
-                done: 0,
-                waiting: None,
-                buf: [0; size_of::<TriRecord>()],
-            },
+            read: Read::new(),
             stats: RayStats::default(),
         }
     }
@@ -275,7 +323,7 @@ impl Walk {
                     self.at = At::NodeRead;
                 }
                 At::NodeRead => {
-                    if let Some(stop) = self.read(spe, cache, group).await? {
+                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
                         return Ok(stop);
                     }
                     let nd: BihNode = bytemuck::pod_read_unaligned(&self.read.buf[..12]);
@@ -318,7 +366,7 @@ impl Walk {
                     self.at = At::RecordRead { k, end };
                 }
                 At::IdRead { k, end } => {
-                    if let Some(stop) = self.read(spe, cache, group).await? {
+                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
                         return Ok(stop);
                     }
                     let id = u32::from_le_bytes(self.read.buf[..4].try_into().expect("4 bytes"));
@@ -329,7 +377,7 @@ impl Walk {
                     self.at = At::RecordRead { k, end };
                 }
                 At::RecordRead { k, end } => {
-                    if let Some(stop) = self.read(spe, cache, group).await? {
+                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
                         return Ok(stop);
                     }
                     let rec: TriRecord = bytemuck::pod_read_unaligned(&self.read.buf);
@@ -371,18 +419,35 @@ impl Walk {
     }
 
     fn start_read(&mut self, at: Ea, len: usize) {
-        (self.read.ea, self.read.len, self.read.done) = (at.0, len, 0);
+        self.read.start(at, len);
+    }
+}
+
+impl Read {
+    pub(super) fn new() -> Self {
+        Read {
+            ea: 0,
+            len: 0,
+            done: 0,
+            waiting: None,
+            buf: [0; size_of::<TriRecord>()],
+        }
     }
 
-    /// Reads the bytes of `self.read` through the cache, line by line; a
-    /// line on its way stops it (`Some`), to resume at that line.
-    async fn read(
+    /// Starts a read of `len` bytes at `at`.
+    pub(super) fn start(&mut self, at: Ea, len: usize) {
+        (self.ea, self.len, self.done) = (at.0, len, 0);
+    }
+
+    /// Reads the bytes through the cache, line by line; a line on its way
+    /// stops it (`Some`), to resume at that line.
+    pub(super) async fn fetch(
         &mut self,
         spe: &Spe,
         cache: &mut SoftwareCache,
         group: u32,
     ) -> Result<Option<Step>, CellError> {
-        let rd = &mut self.read;
+        let rd = self;
         while rd.done < rd.len {
             let at = rd.ea + rd.done as u64;
             let n = ((LINE - at % LINE) as usize).min(rd.len - rd.done);

@@ -1,7 +1,7 @@
 //! The options of `raycast` and `render` that cast on the emulated Cell
 //! (`--on-cell`), and what they print.
 
-use cellbih::cast::{CacheConfig, CastConfig, CastReport, Precision};
+use cellbih::cast::{CacheConfig, CastConfig, CastReport, Packet, Precision};
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
 
@@ -53,6 +53,14 @@ pub struct CacheArgs {
     /// one, the SPE waits for each miss [default: 1]
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub rays_in_flight: Option<u32>,
+    /// Casting on the Cell: rays traced together as one packet, W×H of
+    /// the image (each 1 to 8; e.g. 4x4): one traversal, each node and
+    /// triangle read once for the packet and tested four rays a SIMD
+    /// vector (Benthin et al. 2006); a packet whose directions differ in
+    /// sign is cast ray by ray; the same hits. 1x1: every ray alone
+    /// [default: 1x1]
+    #[arg(long, value_parser = Packet::parse)]
+    pub packet: Option<Packet>,
 }
 
 /// `--precision`.
@@ -104,6 +112,7 @@ impl CacheArgs {
             ("--tile-rays", self.tile_rays.is_some()),
             ("--precision", self.precision.is_some()),
             ("--rays-in-flight", self.rays_in_flight.is_some()),
+            ("--packet", self.packet.is_some()),
         ]
         .into_iter()
         .find_map(|(name, given)| given.then_some(name))
@@ -126,8 +135,16 @@ impl CacheArgs {
                 Some(PrecisionArg::Double) => Precision::Double,
             },
             rays_in_flight: self.rays_in_flight.unwrap_or(d.rays_in_flight),
+            packet: self.packet.unwrap_or(d.packet),
         };
         cfg.cache.sets()?;
+        if !cfg.tile_rays.is_multiple_of(cfg.packet.rays()) {
+            return Err(format!(
+                "--packet {}: a tile's {} rays (--tile-rays) must be a whole number of packets",
+                cfg.packet, cfg.tile_rays
+            )
+            .into());
+        }
         Ok(cfg)
     }
 }
@@ -142,6 +159,16 @@ pub fn describe(r: &CastReport, spes: usize) -> String {
     let switches: u64 = r.spes.iter().map(|s| s.switches).sum();
     let switched = if switches > 0 {
         format!(" ({switches} switches to another ray on a miss)")
+    } else {
+        String::new()
+    };
+    let packets: u64 = r.spes.iter().map(|s| s.packets).sum();
+    let packed = if packets > 0 {
+        let nodes: u64 = r.spes.iter().map(|s| s.packet_nodes).sum();
+        format!(
+            "; {packets} packets, {:.1} nodes each",
+            nodes as f64 / packets as f64
+        )
     } else {
         String::new()
     };
@@ -172,7 +199,7 @@ pub fn describe(r: &CastReport, spes: usize) -> String {
         ),
     };
     format!(
-        "on the Cell: {time}; per ray {:.1} nodes, {:.1} triangles; software cache hit rate {:.1} % ({} misses){shares}",
+        "on the Cell: {time}; per ray {:.1} nodes, {:.1} triangles{packed}; software cache hit rate {:.1} % ({} misses){shares}",
         per(st.nodes_visited),
         per(st.triangles_tested),
         cache.hit_rate() * 100.0,

@@ -28,7 +28,7 @@
 
 pub mod auto;
 
-use crate::cast::{CastConfig, CastReport, cast_on_cell};
+use crate::cast::{CastConfig, CastReport, cast_camera};
 use crate::cell::CellConfig;
 use crate::registry::{Build, BuilderKind};
 use crate::render::Camera;
@@ -231,7 +231,6 @@ pub fn play(
     };
     // The camera frames the scene as it starts, and stays.
     let cam = Camera::framing(&scene.bounds(), cfg.width, cfg.height);
-    let rays = cam.rays();
     let mut u = Updater::new(scene.clone(), build, Method::Rebuild)?;
     u.build.cell.resident = true;
     let mut predictor =
@@ -240,7 +239,7 @@ pub fn play(
         // The frame before the first, as a running renderer has it: the
         // first tree's render, so that the first prediction has one (not
         // counted in the frames).
-        let before = cast_on_cell(&u.bih, &u.scene, &rays, &cfg.cast, &render_cell, u.records)?;
+        let before = cast_camera(&u.bih, &u.scene, &cam, &cfg.cast, &render_cell, u.records)?;
         predictor.seed_render(before.run.ms);
     }
     let mut frames = Vec::with_capacity(anim.frames.len());
@@ -257,7 +256,7 @@ pub fn play(
         let mut tried: Vec<(Method, Attempt)> = Vec::new();
         if cfg.oracle {
             for m in Method::ALL {
-                tried.push((*m, attempt(&u, *m, moves, &rays, cfg, &render_cell)?));
+                tried.push((*m, attempt(&u, *m, moves, &cam, cfg, &render_cell)?));
             }
         }
         let oracle_ms = cfg.oracle.then(|| {
@@ -273,7 +272,7 @@ pub fn play(
         });
         let done_now = match tried.into_iter().find(|(m, _)| *m == taken) {
             Some((_, a)) => a,
-            None => attempt(&u, taken, moves, &rays, cfg, &render_cell)?,
+            None => attempt(&u, taken, moves, &cam, cfg, &render_cell)?,
         };
         let Attempt {
             updater,
@@ -328,17 +327,17 @@ fn attempt(
     u: &Updater,
     method: Method,
     moves: &[Move],
-    rays: &[crate::bih::Ray],
+    cam: &Camera,
     cfg: &FrameConfig,
     render_cell: &CellConfig,
 ) -> Result<Attempt, FrameError> {
     let mut updater = u.clone();
     updater.method = method;
     let report = updater.step(moves)?;
-    let cast = cast_on_cell(
+    let cast = cast_camera(
         &updater.bih,
         &updater.scene,
-        rays,
+        cam,
         &cfg.cast,
         render_cell,
         updater.records,

@@ -218,7 +218,7 @@ impl<'a> Settings<'a> {
         if let Some(c) = self.cast {
             parts.push(format!(
                 "cast --cache-kib {} --cache-ways {} --fetch-lines {} --tile-rays {} \
-                 --precision {} --rays-in-flight {}",
+                 --precision {} --rays-in-flight {} --packet {}",
                 c.cache.kib,
                 c.cache.ways,
                 c.cache.fetch_lines,
@@ -227,7 +227,8 @@ impl<'a> Settings<'a> {
                     Precision::Single => "single",
                     Precision::Double => "double",
                 },
-                c.rays_in_flight
+                c.rays_in_flight,
+                c.packet
             ));
         }
         parts.push(format!("cellbih {}", version()));

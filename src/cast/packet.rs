@@ -1,0 +1,357 @@
+//! Packets of coherent rays on the SPE (Benthin, Wald, Scherbaum &
+//! Friedrich, "Ray Tracing on the Cell Processor", RT 2006): the rays of a
+//! packet share one traversal — one node read through the software cache
+//! for all of them, the SPU's 4-wide SIMD over four rays at a time — and
+//! each ray keeps its own interval and its own active bit, so a node none
+//! of its rays needs is never visited and a ray is tested only where its
+//! own traversal would go. A packet whose rays' directions differ in sign
+//! on some axis (their near children differ) is cast ray by ray.
+//!
+//! Each ray answers exactly as the single-ray walk does, and with the same
+//! cost: it is active at a node exactly when its own walk visits that node
+//! with that interval (the same near-first order, the same pop bound), so
+//! its hit, its nodes visited and its triangles tested are the single
+//! ray's (tested against the single-ray caster and brute force).
+
+use glam::{DVec3, Vec3};
+
+use super::program::{Read, Step};
+use super::{CastRates, Job, Packet};
+use crate::bih::{
+    BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
+};
+use crate::cell::{CellError, Spe};
+use crate::scene::Triangle;
+use crate::spe::layout::TriRecord;
+use crate::spe::software_cache::SoftwareCache;
+
+/// Whether `rays` can share one traversal: every direction has the same
+/// sign on each axis, so every ray has the same near child at every node.
+pub(super) fn coherent(rays: &[Ray]) -> bool {
+    let sign = |r: &Ray| r.dir.to_array().map(f64::is_sign_negative);
+    rays.iter().all(|r| sign(r) == sign(&rays[0]))
+}
+
+/// A node kept for later and the rays that will enter it (each ray's
+/// entry checked against its best hit when it is taken, as a single ray's
+/// stack entry is); their intervals follow in [`PacketWalk::kept`].
+#[derive(Clone, Copy)]
+struct Entry {
+    node: u32,
+    rays: u64,
+}
+
+/// Where a [`PacketWalk`] resumes.
+#[derive(Clone, Copy)]
+enum At {
+    Setup,
+    Node,
+    NodeRead,
+    Leaf { k: u32, end: u32 },
+    IdRead { k: u32, end: u32 },
+    RecordRead { k: u32, end: u32 },
+}
+
+/// One packet's traversal, resumable where it reads memory.
+pub(super) struct PacketWalk {
+    /// The packet's first ray's place in its tile.
+    pub first: usize,
+    rays: Vec<Ray>,
+    inv: Vec<DVec3>,
+    neg: [bool; 3],
+    /// Each ray's interval at the current node.
+    tn: Vec<f64>,
+    tf: Vec<f64>,
+    pub best: Vec<Option<Hit>>,
+    best_t: Vec<f64>,
+    pub stats: Vec<RayStats>,
+    /// The rays active at the current node.
+    mask: u64,
+    stack: Vec<Entry>,
+    /// Each entry's intervals, one per ray of the packet.
+    kept: Vec<(f64, f64)>,
+    node: u32,
+    at: At,
+    read: Read,
+    /// Nodes the packet visited and the quads of rays it stepped there.
+    pub nodes: u64,
+    pub quads: u64,
+}
+
+impl PacketWalk {
+    /// The walk of `rays` (coherent: [`coherent`]), the first of them at
+    /// place `first` of the tile.
+    pub fn new(first: usize, rays: Vec<Ray>, max_depth: u32) -> Self {
+        let n = rays.len();
+        PacketWalk {
+            first,
+            inv: rays.iter().map(|r| DVec3::ONE / r.dir).collect(),
+            neg: rays[0].dir.to_array().map(f64::is_sign_negative),
+            tn: vec![0.0; n],
+            tf: vec![0.0; n],
+            best: vec![None; n],
+            best_t: rays.iter().map(|r| r.tmax).collect(),
+            stats: vec![RayStats::default(); n],
+            rays,
+            mask: 0,
+            stack: Vec::with_capacity(max_depth as usize + 2),
+            kept: Vec::with_capacity((max_depth as usize + 2) * n),
+            node: 0,
+            at: At::Setup,
+            read: Read::new(),
+            nodes: 0,
+            quads: 0,
+        }
+    }
+
+    /// The active rays of `mask`, by their place in the packet.
+    fn each(mask: u64) -> impl Iterator<Item = usize> {
+        (0..64).filter(move |i| mask >> i & 1 == 1)
+    }
+
+    /// Quads of four rays (in the packet's order) with a ray in `mask`:
+    /// the SIMD steps a node or a triangle takes.
+    fn quads_of(&self, mask: u64) -> u64 {
+        (0..self.rays.len().div_ceil(4))
+            .filter(|q| mask >> (4 * q) & 0xF != 0)
+            .count() as u64
+    }
+
+    /// Goes on until every ray is done (`Step::Done`, the hits in
+    /// [`PacketWalk::best`]) or the packet waits for memory.
+    pub async fn run(
+        &mut self,
+        spe: &Spe,
+        cache: &mut SoftwareCache,
+        job: &Job,
+        group: u32,
+    ) -> Result<Step, CellError> {
+        let r: &CastRates = &job.rates;
+        loop {
+            match self.at {
+                At::Setup => {
+                    let n = self.rays.len();
+                    spe.compute_items(r.packet_setup_quad, n.div_ceil(4) as u64);
+                    for (i, ray) in self.rays.iter().enumerate() {
+                        self.stats[i].rays += 1;
+                        if let Some((t0, t1)) = root_interval(&job.bounds, ray, self.inv[i]) {
+                            (self.tn[i], self.tf[i]) = (t0, t1);
+                            self.mask |= 1 << i;
+                        }
+                    }
+                    if self.mask == 0 {
+                        return Ok(Step::Done(None));
+                    }
+                    self.node = 0;
+                    self.at = At::Node;
+                }
+                At::Node => {
+                    for i in Self::each(self.mask) {
+                        self.stats[i].nodes_visited += 1;
+                    }
+                    let q = self.quads_of(self.mask);
+                    spe.compute(r.packet_node);
+                    spe.compute_items(r.packet_node_quad, q);
+                    (self.nodes, self.quads) = (self.nodes + 1, self.quads + q);
+                    let at = (job.nodes).offset(self.node as u64 * size_of::<BihNode>() as u64);
+                    self.read.start(at, size_of::<BihNode>());
+                    self.at = At::NodeRead;
+                }
+                At::NodeRead => {
+                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
+                        return Ok(stop);
+                    }
+                    let nd: BihNode = bytemuck::pod_read_unaligned(&self.read.buf[..12]);
+                    if nd.is_leaf() {
+                        let (first, count) = nd.leaf_range();
+                        self.at = At::Leaf {
+                            k: first,
+                            end: first + count,
+                        };
+                        continue;
+                    }
+                    if !self.step(&nd) && !self.pop() {
+                        return Ok(Step::Done(None));
+                    }
+                }
+                At::Leaf { k, end } => {
+                    if k == end {
+                        if !self.pop() {
+                            return Ok(Step::Done(None));
+                        }
+                        continue;
+                    }
+                    if let Some(ids) = job.ids {
+                        self.read.start(ids.offset(4 * k as u64), 4);
+                        self.at = At::IdRead { k, end };
+                        continue;
+                    }
+                    let at = (job.records).offset(k as u64 * size_of::<TriRecord>() as u64);
+                    self.read.start(at, size_of::<TriRecord>());
+                    self.at = At::RecordRead { k, end };
+                }
+                At::IdRead { k, end } => {
+                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
+                        return Ok(stop);
+                    }
+                    let id = u32::from_le_bytes(self.read.buf[..4].try_into().expect("4 bytes"));
+                    let at = (job.records).offset(id as u64 * size_of::<TriRecord>() as u64);
+                    self.read.start(at, size_of::<TriRecord>());
+                    self.at = At::RecordRead { k, end };
+                }
+                At::RecordRead { k, end } => {
+                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
+                        return Ok(stop);
+                    }
+                    let rec: TriRecord = bytemuck::pod_read_unaligned(&self.read.buf);
+                    spe.compute(r.packet_triangle);
+                    spe.compute_items(r.packet_triangle_quad, self.quads_of(self.mask));
+                    self.test(&rec);
+                    self.at = At::Leaf { k: k + 1, end };
+                }
+            }
+        }
+    }
+
+    /// The active rays at inner node `nd`: each ray's step, as its own
+    /// walk takes it. Goes on to the near child (keeping the far one for
+    /// the rays that enter it) or to the far one; `false` when no ray
+    /// enters either.
+    fn step(&mut self, nd: &BihNode) -> bool {
+        let (mut near_rays, mut far_rays) = (0u64, 0u64);
+        let (mut near, mut far) = (0, 0);
+        let (mut near_tf, mut far_tn) = ([0.0f64; 64], [0.0f64; 64]);
+        for i in Self::each(self.mask) {
+            let s = descend(
+                nd,
+                &self.rays[i],
+                self.inv[i],
+                self.neg,
+                self.tn[i],
+                self.tf[i],
+            );
+            // The same children for every ray: their directions' signs agree.
+            (near, far) = (s.near, s.far);
+            (near_tf[i], far_tn[i]) = (s.near_tf, s.far_tn);
+            near_rays |= (s.go_near as u64) << i;
+            far_rays |= (s.go_far as u64) << i;
+        }
+        if near_rays != 0 {
+            if far_rays != 0 {
+                let base = self.kept.len();
+                self.kept.resize(base + self.rays.len(), (0.0, 0.0));
+                for i in Self::each(far_rays) {
+                    self.kept[base + i] = (far_tn[i], self.tf[i]);
+                }
+                // A ray that goes to the far child only enters it after
+                // the near child's rays, where its own walk goes at once:
+                // nothing of its changes in between, and its entry passes
+                // the check (a ray's interval never reaches beyond its
+                // best hit).
+                self.stack.push(Entry {
+                    node: far,
+                    rays: far_rays,
+                });
+            }
+            for i in Self::each(near_rays) {
+                self.tf[i] = near_tf[i];
+            }
+            (self.node, self.mask) = (near, near_rays);
+            self.at = At::Node;
+            return true;
+        }
+        if far_rays != 0 {
+            for i in Self::each(far_rays) {
+                self.tn[i] = far_tn[i];
+            }
+            (self.node, self.mask) = (far, far_rays);
+            self.at = At::Node;
+            return true;
+        }
+        false
+    }
+
+    /// Takes the next kept node that some ray still needs: the rays whose
+    /// entry is not beyond their best hit (their interval cut there);
+    /// `false` when none is left.
+    fn pop(&mut self) -> bool {
+        while let Some(e) = self.stack.pop() {
+            let base = self.kept.len() - self.rays.len();
+            let mut mask = 0u64;
+            for i in Self::each(e.rays) {
+                let (a, b) = self.kept[base + i];
+                let bound = pop_bound(self.best_t[i]);
+                if a <= bound {
+                    (self.tn[i], self.tf[i]) = (a, b.min(bound));
+                    mask |= 1 << i;
+                }
+            }
+            self.kept.truncate(base);
+            if mask != 0 {
+                (self.node, self.mask) = (e.node, mask);
+                self.at = At::Node;
+                return true;
+            }
+        }
+        false
+    }
+
+    /// The leaf's triangle `rec` against every active ray.
+    fn test(&mut self, rec: &TriRecord) {
+        let tri = Triangle {
+            v: rec.v.map(Vec3::from_array),
+        };
+        for i in Self::each(self.mask) {
+            self.stats[i].triangles_tested += 1;
+            let ray = &self.rays[i];
+            if let Some((t, u, v)) = intersect_triangle(&tri, ray, ray.tmin, self.best_t[i])
+                && closer(t, rec.id, self.best[i])
+            {
+                self.best[i] = Some(Hit {
+                    prim: rec.id,
+                    t,
+                    u,
+                    v,
+                });
+                self.best_t[i] = t;
+            }
+        }
+    }
+}
+
+/// The pixels of a `width × height` image (`y * width + x`) in blocks of
+/// `packet`'s `w × h`: block after block along each band of `h` rows,
+/// each block row by row; edge blocks are cut to the image.
+pub(super) fn block_order(width: u32, height: u32, packet: Packet) -> Vec<u32> {
+    let (pw, ph) = (packet.w, packet.h);
+    let mut out = Vec::with_capacity(width as usize * height as usize);
+    for by in (0..height).step_by(ph as usize) {
+        for bx in (0..width).step_by(pw as usize) {
+            for y in by..(by + ph).min(height) {
+                out.extend((bx..(bx + pw).min(width)).map(|x| y * width + x));
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blocks_cover_every_pixel_once_in_blocks() {
+        let order = block_order(10, 7, Packet { w: 4, h: 2 });
+        let mut seen = order.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..70).collect::<Vec<_>>());
+        // The first block: rows 0 and 1, columns 0 to 3.
+        assert_eq!(&order[..8], &[0, 1, 2, 3, 10, 11, 12, 13]);
+        // The band's last block is cut to columns 8 and 9.
+        assert_eq!(&order[16..20], &[8, 9, 18, 19]);
+        assert_eq!(
+            block_order(3, 2, Packet::SINGLE),
+            (0..6).collect::<Vec<_>>()
+        );
+    }
+}
