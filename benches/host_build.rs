@@ -7,7 +7,7 @@ use std::hint::black_box;
 
 use cellbih::bih::{RayStats, Tracer};
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::render::Camera;
+use cellbih::render::View;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
 #[path = "common/scenes.rs"]
@@ -32,7 +32,10 @@ fn raycast(c: &mut Criterion) {
     for s in scenes() {
         let bih = Build::new(BuilderKind::HOST).run(&s).unwrap().bih;
         let tracer = Tracer::new(&bih, &s);
-        let rays = Camera::framing(&s.bounds(), 512, 512).rays();
+        let rays = View::Default
+            .camera(&s.name, &s.bounds(), 512, 512)
+            .unwrap()
+            .rays();
         g.throughput(Throughput::Elements(rays.len() as u64));
         g.bench_function(&s.name, |b| {
             b.iter(|| {

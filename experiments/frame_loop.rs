@@ -25,6 +25,7 @@ use cellbih::cast::CastConfig;
 use cellbih::cell::CellConfig;
 use cellbih::frame::{FrameConfig, Policy, play};
 use cellbih::registry::{Build, BuilderKind};
+use cellbih::render::ViewsArg;
 use cellbih::report::{
     OutputArgs, Series, ThreadsArg, line_plot, output, print_rows, side_by_side,
 };
@@ -60,6 +61,8 @@ struct Args {
     /// Seed of the animations' pseudo-random moves.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    #[command(flatten)]
+    camera: ViewsArg,
     #[command(flatten)]
     threads: ThreadsArg,
     #[command(flatten)]
@@ -161,6 +164,7 @@ fn run(args: &Args) -> Result<(), String> {
                 build_spes,
                 width: w,
                 height: h,
+                view: args.camera.view(),
                 cast: CastConfig::DEFAULT,
             };
             let r = play(s, anim, &cfg, |_| {}).map_err(|e| format!("{spec}: {e}"))?;

@@ -20,6 +20,7 @@ use serde_json::{Value, json};
 use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
+use cellbih::render::{View, ViewsArg};
 use cellbih::report::{
     OutputArgs, Series, ThreadsArg, line_plot, output, print_rows, side_by_side,
 };
@@ -57,6 +58,8 @@ struct Args {
     /// Only each builder's default knobs (not every setting it sweeps).
     #[arg(long)]
     defaults_only: bool,
+    #[command(flatten)]
+    camera: ViewsArg,
     #[command(flatten)]
     threads: ThreadsArg,
     #[command(flatten)]
@@ -159,10 +162,10 @@ fn row(
 }
 
 /// Measured ray cost of `bih`: nodes visited and triangles tested per
-/// primary ray of a 128 x 96 view from the render camera (one thread).
-fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih) -> (f64, f64) {
+/// primary ray of a 128 x 96 view from `view` (one thread).
+fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih, view: &View) -> (f64, f64) {
     let tracer = cellbih::bih::Tracer::new(bih, scene);
-    let cam = cellbih::render::Camera::framing(&scene.bounds(), 128, 96);
+    let cam = (view.camera(&scene.name, &scene.bounds(), 128, 96)).expect("a scene's own view");
     let c = cellbih::quality::rays::measure(&tracer, &cam.rays());
     (c.nodes, c.triangles)
 }
@@ -174,12 +177,13 @@ fn run(args: &Args) -> Result<(), String> {
         false => args.scenes.clone(),
     };
     let scenes = cellbih::report::load_scenes(&names, args.data.as_deref())?;
+    let view = args.camera.view();
     // Each scene's baseline: simulated ms, SAH cost and ray cost.
     let bases = side_by_side("baselines", &scenes, |scene| {
         let base = Build::new(BuilderKind::SPE_BFS)
             .run(scene)
             .map_err(|e| format!("{} / spe_bfs: {e}", scene.name))?;
-        let rays = ray_cost(scene, &base.bih);
+        let rays = ray_cost(scene, &base.bih, &view);
         let sim = base.simulated.expect("emulated").run.ms;
         let hash = base.bih.tree_hash();
         Ok::<_, String>(((sim, base.bih.quality().sah_cost, hash), rays))
@@ -197,7 +201,7 @@ fn run(args: &Args) -> Result<(), String> {
     let done = side_by_side("builds", &jobs, |&(si, vi, spes)| {
         let (scene, v) = (&scenes[si], &variants[vi]);
         let (r, bih) = row(scene, v, spes, bases[si].0)?;
-        Ok::<_, String>((r, (spes == 1).then(|| ray_cost(scene, &bih))))
+        Ok::<_, String>((r, (spes == 1).then(|| ray_cost(scene, &bih, &view))))
     });
     let mut rows = Vec::new();
     let mut cost = None;

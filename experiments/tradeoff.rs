@@ -30,7 +30,7 @@ use cellbih::cell::CellConfig;
 use cellbih::quality::pareto_front;
 use cellbih::quality::rays::RaySets;
 use cellbih::registry::{Build, BuilderKind, Quality};
-use cellbih::render::Camera;
+use cellbih::render::ViewsArg;
 use cellbih::report::{
     OutputArgs, Series, ThreadsArg, output, print_rows, scatter_plot, side_by_side,
 };
@@ -56,6 +56,8 @@ struct Args {
     /// 8 a what-if).
     #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=16))]
     spes: u64,
+    #[command(flatten)]
+    camera: ViewsArg,
     #[command(flatten)]
     threads: ThreadsArg,
     #[command(flatten)]
@@ -140,8 +142,11 @@ fn run(args: &Args) -> Result<(), String> {
     cell.checked = false;
     let sets: Vec<_> = (scenes.iter())
         .map(|s| {
-            let rays = RaySets::standard(&s.bounds());
-            let cam = Camera::framing(&s.bounds(), CAST_SIZE.0, CAST_SIZE.1).rays();
+            let view = args.camera.view();
+            let rays = RaySets::for_scene(s, &view).expect("a scene's own view");
+            let cam = (view.camera(&s.name, &s.bounds(), CAST_SIZE.0, CAST_SIZE.1))
+                .expect("a scene's own view")
+                .rays();
             (rays, cam)
         })
         .collect();

@@ -15,7 +15,7 @@ use cellbih::cast::{cast_camera, cast_on_cell};
 use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::render::{Camera, Frame, trace};
+use cellbih::render::{Frame, trace};
 use cellbih::report::{Settings, step};
 use cellbih::update::{MAX_FRAMES, Method, Updater};
 use cellbih::{rays_csv, render};
@@ -38,7 +38,7 @@ mod update;
 use build_args::{BuildArgs, TreeArgs, parse_build};
 
 use print::{info, print_build};
-use scene_arg::{SceneArg, check_built, check_memory};
+use scene_arg::{CameraArg, SceneArg, check_built, check_memory};
 use update::{AnimationArg, update};
 
 /// Where the demo writes its image: the current directory.
@@ -93,6 +93,8 @@ enum Command {
         /// (host_shared, …) [default: the machine's available parallelism]
         #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
         threads: Option<u64>,
+        #[command(flatten)]
+        camera: CameraArg,
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
     },
@@ -102,6 +104,8 @@ enum Command {
         scene: SceneArg,
         #[command(flatten)]
         build: BuildArgs,
+        #[command(flatten)]
+        camera: CameraArg,
         #[arg(long, value_enum, default_value = "text")]
         format: Format,
         /// Write the emulated Cell's timeline here as Chrome trace JSON
@@ -147,6 +151,8 @@ enum Command {
         /// Image height in pixels (1 to 16,384).
         #[arg(long, default_value_t = 600)]
         height: u32,
+        #[command(flatten)]
+        camera: CameraArg,
         #[command(flatten)]
         cast: cast_args::CastArgs,
     },
@@ -208,6 +214,8 @@ enum Command {
         /// Image height in pixels.
         #[arg(long, default_value_t = 480)]
         height: u32,
+        #[command(flatten)]
+        camera: CameraArg,
         #[command(flatten)]
         cache: cast_args::CacheArgs,
         #[arg(long, value_enum, default_value = "text")]
@@ -272,9 +280,12 @@ fn run(cli: Cli) -> Res<()> {
             spes,
             memory_mib,
             threads,
+            camera,
             format,
         }) => {
             let s = scene.load()?;
+            // A viewpoint of another scene is refused before any build.
+            camera.view.camera(&s.name, &s.bounds(), 1, 1)?;
             let mut cell = CellConfig::ps3().with_spes(spes as usize);
             cell.main_memory_bytes = memory_mib * 1024 * 1024;
             let threads = threads.map_or_else(
@@ -286,8 +297,10 @@ fn run(cli: Cli) -> Res<()> {
                 .with_tree(tree.config()?)
                 .on(&cell)
                 .on_threads(threads);
-            let c = shared.install(|| compare::rows(&s, &shared).map_err(|e| e.to_string()))??;
-            compare::print(&s, &shared, &c, format);
+            let c = shared.install(|| {
+                compare::rows(&s, &shared, &camera.view).map_err(|e| e.to_string())
+            })??;
+            compare::print(&s, &shared, &c, format, &camera.view);
             match c.failed.len() {
                 0 => Ok(()),
                 n => Err(format!("{n} builder(s) failed: {}", names(&c.failed)).into()),
@@ -303,6 +316,7 @@ fn run(cli: Cli) -> Res<()> {
             build_spes,
             width,
             height,
+            camera,
             cache,
             format,
         }) => {
@@ -313,6 +327,7 @@ fn run(cli: Cli) -> Res<()> {
                 build_spes,
                 width,
                 height,
+                view: camera.view,
                 cache: &cache,
             };
             let cfg = frame::config(&c, &asked)?;
@@ -363,6 +378,7 @@ fn run(cli: Cli) -> Res<()> {
         Some(Command::Build {
             scene,
             build,
+            camera,
             format,
             trace,
         }) => {
@@ -385,12 +401,20 @@ fn run(cli: Cli) -> Res<()> {
             }
             scene.check_fits(&c, None)?;
             let s = scene.load()?;
+            // A viewpoint of another scene is refused before the build.
+            camera.view.camera(&s.name, &s.bounds(), 1, 1)?;
             check_memory(&s.name, (s.len(), 0), None, &c, Default::default())?;
             c.cell.trace = trace.is_some();
             let mut report = step(&format!("building {} with {}", s.name, c.builder), || {
                 c.run(&s)
             })?;
-            print_build(&s, &report, format, &Settings::new(&c, None));
+            print_build(
+                &s,
+                &report,
+                format,
+                &Settings::new(&c, None).with_view(&camera.view),
+                &camera.view,
+            );
             if let Some(path) = &trace {
                 let timeline = report
                     .simulated
@@ -472,6 +496,7 @@ fn run(cli: Cli) -> Res<()> {
             heatmap,
             width,
             height,
+            camera,
             cast,
         }) => {
             let c = parse_build(&build, cast.on_cell)?;
@@ -483,11 +508,13 @@ fn run(cli: Cli) -> Res<()> {
                 .then_some(width as usize * height as usize);
             scene.check_fits(&c, cast_rays)?;
             let s = scene.load()?;
+            // A viewpoint of another scene is refused before the build.
+            camera.view.camera(&s.name, &s.bounds(), 1, 1)?;
             check_memory(&s.name, (s.len(), 0), cast_rays, &c, Default::default())?;
             let report = step(&format!("building {} with {}", s.name, c.builder), || {
                 c.run(&s)
             })?;
-            let cam = Camera::framing(&s.bounds(), width, height);
+            let cam = camera.view.camera(&s.name, &s.bounds(), width, height)?;
             let (frame, cell_report) = match &on_cell {
                 Some(cfg) => {
                     check_built(&s, &report, cast_rays, &c)?;
@@ -523,7 +550,10 @@ fn run(cli: Cli) -> Res<()> {
                     String::new()
                 }
             );
-            eprintln!("settings: {}", Settings::new(&c, on_cell).line());
+            eprintln!(
+                "settings: {}",
+                Settings::new(&c, on_cell).with_view(&camera.view).line()
+            );
             if let Some(r) = &cell_report {
                 eprintln!("{}", cast_args::describe(r, c.cell.spes));
                 cast_args::write_trace(&cast, r)?;

@@ -497,3 +497,51 @@ fn frame_runs_with_its_defaults() {
     assert_ok(&out);
     assert!(stdout(&out).contains("builder spe_bfs"), "{}", stdout(&out));
 }
+
+/// `--camera`: a viewpoint of another scene, a point that is not three
+/// finite numbers, an eye on the point it looks at, a field of view out
+/// of range — each refused at once, naming it; a camera given is named in
+/// the settings line and changes the rays measured.
+#[test]
+fn cameras_are_checked_and_named() {
+    let exe = env!("CARGO_BIN_EXE_cellbih");
+    let limit = Duration::from_secs(20);
+    for (camera, msg) in [
+        ("atrium", "a viewpoint of sponza-dabrovic, not of default"),
+        ("hall", "no such viewpoint"),
+        ("1,2:3,4,5", "is not three finite numbers"),
+        (
+            "0,0,0:0,0,0",
+            "the eye and the point looked at are the same",
+        ),
+        ("0,0,9:0,0,0:180", "degrees above 0, below 180"),
+    ] {
+        for command in [&["build"][..], &["render", "--out", "x.png"], &["compare"]] {
+            let mut args = command.to_vec();
+            args.extend(["--camera", camera]);
+            let out = run_limited(exe, &args, limit);
+            assert!(!out.status.success(), "{args:?}");
+            assert!(stderr(&out).contains(msg), "{args:?}: {}", stderr(&out));
+        }
+    }
+    let ray_line = |camera: &str| {
+        let out = cellbih(&[
+            "build", "--scene", "car", "--camera", camera, "--format", "json",
+        ]);
+        assert_ok(&out);
+        let doc: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+        assert_eq!(doc["settings"]["camera"], camera, "{doc}");
+        // Nodes and triangles a ray (not the rays a second: a host timing).
+        let p = &doc["rays"]["primary"];
+        (
+            p["nodes"].as_f64().unwrap(),
+            p["triangles"].as_f64().unwrap(),
+        )
+    };
+    assert_eq!(
+        ray_line("default"),
+        ray_line("framing"),
+        "the car has no viewpoint of its own"
+    );
+    assert_ne!(ray_line("framing"), ray_line("0,0,0:1,0,0:60"));
+}

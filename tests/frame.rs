@@ -24,6 +24,7 @@ fn cfg(builder: &str, policy: Method, spes: usize, build_spes: usize) -> FrameCo
         build_spes,
         width: 48,
         height: 36,
+        view: cellbih::render::View::Default,
         cast: CastConfig::DEFAULT,
     }
 }

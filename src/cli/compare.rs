@@ -14,7 +14,7 @@ use cellbih::bih::Tracer;
 use cellbih::cast::{CastConfig, cast_on_cell};
 use cellbih::quality::rays::{RayCost, RaySets};
 use cellbih::registry::{Build, BuildReport, BuilderKind};
-use cellbih::render::Camera;
+use cellbih::render::View;
 use cellbih::report::Settings;
 use cellbih::scene::Scene;
 
@@ -71,7 +71,11 @@ pub struct Compared {
 /// through it. A builder that fails (a build that does not fit the
 /// emulated memory, say) is a failure named by builder, and the others go
 /// on. Progress on stderr when it is a terminal.
-pub fn rows(s: &Scene, shared: &Build) -> Result<Compared, Box<dyn std::error::Error>> {
+pub fn rows(
+    s: &Scene,
+    shared: &Build,
+    view: &View,
+) -> Result<Compared, Box<dyn std::error::Error>> {
     let (cfg, cell) = (&shared.tree, &shared.cell);
     let builders: Vec<BuilderKind> = (BuilderKind::ALL.iter().copied())
         .filter(|b| b.builds(cfg))
@@ -83,8 +87,8 @@ pub fn rows(s: &Scene, shared: &Build) -> Result<Compared, Box<dyn std::error::E
     } else {
         ProgressBar::hidden()
     };
-    let rays = RaySets::standard(&s.bounds());
-    let cam = Camera::framing(&s.bounds(), CAST_SIZE.0, CAST_SIZE.1).rays();
+    let rays = RaySets::for_scene(s, view)?;
+    let cam = (view.camera(&s.name, &s.bounds(), CAST_SIZE.0, CAST_SIZE.1)?).rays();
     let mut out = Vec::new();
     let (mut last, mut failed) = (None, Vec::new());
     // On a terminal a bar; elsewhere a line for each builder that takes
@@ -179,9 +183,9 @@ fn baseline_ms(rows: &[Row]) -> Option<f64> {
 }
 
 /// Prints the rows as a table or as JSON, and the builders that failed.
-pub fn print(s: &Scene, shared: &Build, c: &Compared, format: Format) {
+pub fn print(s: &Scene, shared: &Build, c: &Compared, format: Format, view: &View) {
     let (spes, cfg) = (shared.cell.spes, &shared.tree);
-    let settings = Settings::shared(shared);
+    let settings = Settings::shared(shared).with_view(view);
     let rows = &c.rows[..];
     let failed: Vec<serde_json::Value> = (c.failed.iter())
         .map(|(b, e)| json!({"builder": b.name(), "error": e}))
@@ -369,13 +373,13 @@ pub fn demo() -> super::Res<()> {
         s.geometry_names.len()
     );
     let shared = Build::new(BuilderKind::HOST);
-    let c = rows(&s, &shared)?;
-    print(&s, &shared, &c, Format::Text);
+    let c = rows(&s, &shared, &View::Default)?;
+    print(&s, &shared, &c, Format::Text, &View::Default);
     if !c.failed.is_empty() {
         return Err(format!("builder(s) failed: {}", super::names(&c.failed)).into());
     }
     let r = c.last.expect("every builder built");
-    let cam = Camera::framing(&s.bounds(), 640, 480);
+    let cam = View::Default.camera(&s.name, &s.bounds(), 640, 480)?;
     let tracer = Tracer::new(&r.bih, &s);
     let frame = cellbih::render::trace(&tracer, &s.triangles, &cam);
     super::write_png(Path::new(DEMO_PNG), &frame.shaded())?;

@@ -24,6 +24,7 @@ pub struct Asked<'a> {
     pub build_spes: Option<u64>,
     pub width: u32,
     pub height: u32,
+    pub view: cellbih::render::View,
     pub cache: &'a CacheArgs,
 }
 
@@ -47,6 +48,7 @@ pub fn config(c: &Build, a: &Asked) -> Res<FrameConfig> {
         build_spes: a.build_spes.map_or(spes, |k| k as usize),
         width: a.width,
         height: a.height,
+        view: a.view.clone(),
         cast: a.cache.config()?,
     })
 }
@@ -64,7 +66,7 @@ pub fn run(s: &Scene, anim: &Animation, cfg: &FrameConfig, format: Format) -> Re
     };
     let run = play(s, anim, cfg, |_| bar.inc(1))?;
     bar.finish_and_clear();
-    let settings = cellbih::report::Settings::new(&cfg.build, Some(cfg.cast));
+    let settings = cellbih::report::Settings::new(&cfg.build, Some(cfg.cast)).with_view(&cfg.view);
     print(s, anim, cfg, &run, format, &settings);
     Ok(())
 }

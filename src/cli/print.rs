@@ -7,6 +7,7 @@ use cellbih::bih::Tracer;
 use cellbih::cell::Cycles;
 use cellbih::quality::rays::RaySets;
 use cellbih::registry::BuildReport;
+use cellbih::render::View;
 use cellbih::report::Settings;
 use cellbih::scene::Scene;
 use cellbih::spe::footprint::{Footprint, Purpose, work_ppe_jobs};
@@ -67,9 +68,9 @@ fn cores_json(m: &cellbih::strategy::Simulated) -> serde_json::Value {
 
 /// The build's report: its settings, time, tree, ray cost and, for an
 /// emulated builder, memory and every core's counters.
-pub fn print_build(s: &Scene, r: &BuildReport, format: Format, settings: &Settings) {
+pub fn print_build(s: &Scene, r: &BuildReport, format: Format, settings: &Settings, view: &View) {
     let q = r.bih.quality();
-    let sets = RaySets::standard(&s.bounds());
+    let sets = RaySets::for_scene(s, view).expect("the view was checked before the build");
     let (primary, incoherent) = cellbih::report::step("measuring the tree's ray cost", || {
         sets.measure(&Tracer::new(&r.bih, s))
     });

@@ -108,3 +108,16 @@ pub fn check_memory(
     }
     Ok(())
 }
+
+/// `--camera`: where the rays come from.
+#[derive(clap::Args)]
+pub struct CameraArg {
+    /// Where the camera stands: default (the scene's own viewpoint inside
+    /// it where it has one — Sponza's atrium, Šibenik's nave — else the
+    /// whole scene from outside), framing (the whole scene from outside),
+    /// a viewpoint by name (atrium, nave), or EX,EY,EZ:AX,AY,AZ[:FOV] (an
+    /// eye, the point it looks at, the vertical field of view in degrees,
+    /// 45 unless given) [default: default]
+    #[arg(long = "camera", value_parser = cellbih::render::View::parse, default_value = "default")]
+    pub view: cellbih::render::View,
+}

@@ -31,7 +31,7 @@ pub mod auto;
 use crate::cast::{CastConfig, CastReport, cast_camera};
 use crate::cell::CellConfig;
 use crate::registry::{Build, BuilderKind};
-use crate::render::Camera;
+use crate::render::View;
 use crate::scene::Scene;
 use crate::update::{Animation, Method, Move, UpdateError, UpdateReport, Updater};
 
@@ -77,6 +77,8 @@ pub struct FrameConfig {
     pub build_spes: usize,
     pub width: u32,
     pub height: u32,
+    /// Where the camera stands (it stays as the scene starts).
+    pub view: View,
     pub cast: CastConfig,
 }
 
@@ -230,7 +232,9 @@ pub fn play(
         ..cell.clone().with_spes(cfg.render_spes())
     };
     // The camera frames the scene as it starts, and stays.
-    let cam = Camera::framing(&scene.bounds(), cfg.width, cfg.height);
+    let cam = (cfg.view)
+        .camera(&scene.name, &scene.bounds(), cfg.width, cfg.height)
+        .map_err(FrameError::Config)?;
     let mut u = Updater::new(scene.clone(), build, Method::Rebuild)?;
     u.build.cell.resident = true;
     let mut predictor =
@@ -327,7 +331,7 @@ fn attempt(
     u: &Updater,
     method: Method,
     moves: &[Move],
-    cam: &Camera,
+    cam: &crate::render::Camera,
     cfg: &FrameConfig,
     render_cell: &CellConfig,
 ) -> Result<Attempt, FrameError> {

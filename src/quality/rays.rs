@@ -40,10 +40,10 @@ impl RayCost {
     }
 }
 
-/// The testbed's two ray sets for a scene: primary rays of the render
-/// camera ([`crate::render::Camera::framing`], 640 x 480) and 16,384
-/// incoherent rays (seed 1). `compare`, `build` and the experiments measure
-/// every tree on these.
+/// The testbed's two ray sets for a scene: primary rays of a camera (the
+/// scene's own viewpoint by default, [`crate::render::View`]; 640 x 480)
+/// and 16,384 incoherent rays (seed 1). `compare`, `build` and the
+/// experiments measure every tree on these.
 pub struct RaySets {
     pub primary: Vec<Ray>,
     pub incoherent: Vec<Ray>,
@@ -54,12 +54,25 @@ impl RaySets {
     pub const HEIGHT: u32 = 480;
     pub const INCOHERENT: usize = 16_384;
 
-    pub fn standard(bounds: &Aabb) -> Self {
-        let cam = crate::render::Camera::framing(bounds, Self::WIDTH, Self::HEIGHT);
-        RaySets {
+    /// The sets of `scene` seen from `view`; a viewpoint of another scene
+    /// is an error.
+    pub fn for_scene(
+        scene: &crate::scene::Scene,
+        view: &crate::render::View,
+    ) -> Result<Self, String> {
+        let bounds = scene.bounds();
+        let cam = view.camera(&scene.name, &bounds, Self::WIDTH, Self::HEIGHT)?;
+        Ok(RaySets {
             primary: cam.rays(),
-            incoherent: incoherent_rays(bounds, Self::INCOHERENT, 1),
-        }
+            incoherent: incoherent_rays(&bounds, Self::INCOHERENT, 1),
+        })
+    }
+
+    /// The sets of `scene` from its own viewpoint (inside the indoor
+    /// scenes), else from outside its box.
+    pub fn standard(scene: &crate::scene::Scene) -> Self {
+        Self::for_scene(scene, &crate::render::View::Default)
+            .expect("every scene has a default view")
     }
 
     /// The cost of both sets through `tracer`: (primary, incoherent),

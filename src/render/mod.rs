@@ -10,6 +10,9 @@ use rayon::prelude::*;
 use crate::aabb::Aabb;
 use crate::bih::{Hit, Ray, RayStats, Tracer};
 
+mod view;
+pub use view::{View, ViewsArg, has_viewpoint};
+
 /// The widest or tallest image [`trace`] makes.
 pub const MAX_SIDE: u32 = 16_384;
 /// The most pixels [`trace`] makes: 64 Mi pixels take about 1.4 GB while
@@ -65,6 +68,23 @@ impl Camera {
         let right = forward.cross(DVec3::Y).normalize();
         let up = right.cross(forward);
         let half = (fov * 0.5).tan();
+        Camera {
+            eye,
+            forward,
+            right: right * half * width as f64 / height as f64,
+            up: up * half,
+            width,
+            height,
+        }
+    }
+
+    /// A camera at `eye` looking at `at`, `up` the image's up (made
+    /// square to the view), `fov` degrees vertically.
+    pub fn look(eye: DVec3, at: DVec3, up: DVec3, fov: f64, width: u32, height: u32) -> Self {
+        let forward = (at - eye).normalize();
+        let right = forward.cross(up).normalize();
+        let up = right.cross(forward);
+        let half = (fov.to_radians() * 0.5).tan();
         Camera {
             eye,
             forward,

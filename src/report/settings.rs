@@ -19,6 +19,9 @@ pub struct Settings<'a> {
     /// of those that build on the host's cores, rates); each row names
     /// its builder and knobs.
     pub several: bool,
+    /// Where the camera stood (`--camera`), where rays were cast or
+    /// measured from one.
+    pub view: Option<crate::render::View>,
 }
 
 /// The emulated Cell's settings, as the command line names them.
@@ -90,7 +93,14 @@ impl<'a> Settings<'a> {
             build,
             cast,
             several: false,
+            view: None,
         }
+    }
+
+    /// These settings with the camera `view`.
+    pub fn with_view(mut self, view: &crate::render::View) -> Self {
+        self.view = Some(view.clone());
+        self
     }
 
     /// The settings several builders share (`compare`, an experiment):
@@ -101,6 +111,7 @@ impl<'a> Settings<'a> {
             build,
             cast: None,
             several: true,
+            view: None,
         }
     }
 
@@ -176,7 +187,9 @@ impl<'a> Settings<'a> {
                     Precision::Double => "double",
                 },
                 "rays_in_flight": c.rays_in_flight,
+                "packet": c.packet.to_string(),
             })),
+            "camera": self.view.as_ref().map(|v| v.spelled()),
             "version": version(),
         })
     }
@@ -230,6 +243,9 @@ impl<'a> Settings<'a> {
                 c.rays_in_flight,
                 c.packet
             ));
+        }
+        if let Some(v) = &self.view {
+            parts.push(format!("--camera {}", v.spelled()));
         }
         parts.push(format!("cellbih {}", version()));
         parts.join("; ")
