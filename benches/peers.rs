@@ -104,7 +104,7 @@ struct Row {
 }
 
 fn compare(s: &Scene, runs: usize, above: &[u32]) {
-    let rays = RaySets::standard(&s);
+    let rays = RaySets::standard(s);
     let sets = [&rays.primary, &rays.incoherent];
     let tris: Vec<OTri> = (s.triangles.iter())
         .map(|t| OTri {
