@@ -15,7 +15,7 @@
 
 use glam::{DVec3, Vec3};
 
-use super::program::{Read, Step};
+use super::program::{At, Read, Step};
 use super::{CastRates, Job, Packet};
 use crate::bih::{
     BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
@@ -39,17 +39,6 @@ pub(super) fn coherent(rays: &[Ray]) -> bool {
 struct Entry {
     node: u32,
     rays: u64,
-}
-
-/// Where a [`PacketWalk`] resumes.
-#[derive(Clone, Copy)]
-enum At {
-    Setup,
-    Node,
-    NodeRead,
-    Leaf { k: u32, end: u32 },
-    IdRead { k: u32, end: u32 },
-    RecordRead { k: u32, end: u32 },
 }
 
 /// One packet's traversal, resumable where it reads memory.
@@ -153,21 +142,15 @@ impl PacketWalk {
                     spe.compute(r.packet_node);
                     spe.compute_items(r.packet_node_quad, q);
                     (self.nodes, self.quads) = (self.nodes + 1, self.quads + q);
-                    let at = (job.nodes).offset(self.node as u64 * size_of::<BihNode>() as u64);
-                    self.read.start(at, size_of::<BihNode>());
-                    self.at = At::NodeRead;
+                    self.at = self.read.node_at(job, self.node);
                 }
                 At::NodeRead => {
                     if let Some(stop) = self.read.fetch(spe, cache, group).await? {
                         return Ok(stop);
                     }
-                    let nd: BihNode = bytemuck::pod_read_unaligned(&self.read.buf[..12]);
+                    let nd = self.read.node();
                     if nd.is_leaf() {
-                        let (first, count) = nd.leaf_range();
-                        self.at = At::Leaf {
-                            k: first,
-                            end: first + count,
-                        };
+                        self.at = At::leaf(&nd);
                         continue;
                     }
                     if !self.step(&nd) && !self.pop() {
@@ -181,29 +164,19 @@ impl PacketWalk {
                         }
                         continue;
                     }
-                    if let Some(ids) = job.ids {
-                        self.read.start(ids.offset(4 * k as u64), 4);
-                        self.at = At::IdRead { k, end };
-                        continue;
-                    }
-                    let at = (job.records).offset(k as u64 * size_of::<TriRecord>() as u64);
-                    self.read.start(at, size_of::<TriRecord>());
-                    self.at = At::RecordRead { k, end };
+                    self.at = self.read.triangle_at(job, k, end);
                 }
                 At::IdRead { k, end } => {
                     if let Some(stop) = self.read.fetch(spe, cache, group).await? {
                         return Ok(stop);
                     }
-                    let id = u32::from_le_bytes(self.read.buf[..4].try_into().expect("4 bytes"));
-                    let at = (job.records).offset(id as u64 * size_of::<TriRecord>() as u64);
-                    self.read.start(at, size_of::<TriRecord>());
-                    self.at = At::RecordRead { k, end };
+                    self.at = self.read.record_of_id(job, k, end);
                 }
                 At::RecordRead { k, end } => {
                     if let Some(stop) = self.read.fetch(spe, cache, group).await? {
                         return Ok(stop);
                     }
-                    let rec: TriRecord = bytemuck::pod_read_unaligned(&self.read.buf);
+                    let rec = self.read.record();
                     spe.compute(r.packet_triangle);
                     spe.compute_items(r.packet_triangle_quad, self.quads_of(self.mask));
                     self.test(&rec);

@@ -229,15 +229,26 @@ pub(super) enum Step {
     Full,
 }
 
-/// Where a [`Walk`] resumes.
+/// Where a walk (a [`Walk`], or a packet's) resumes.
 #[derive(Clone, Copy)]
-enum At {
+pub(super) enum At {
     Setup,
     Node,
     NodeRead,
     Leaf { k: u32, end: u32 },
     IdRead { k: u32, end: u32 },
     RecordRead { k: u32, end: u32 },
+}
+
+impl At {
+    /// The first triangle of leaf `nd`.
+    pub(super) fn leaf(nd: &BihNode) -> At {
+        let (first, count) = nd.leaf_range();
+        At::Leaf {
+            k: first,
+            end: first + count,
+        }
+    }
 }
 
 /// The bytes a walk reads: a node or a triangle record, line by line.
@@ -316,23 +327,15 @@ impl Walk {
                 At::Node => {
                     self.stats.nodes_visited += 1;
                     spe.compute(r.node_step);
-                    let at = job
-                        .nodes
-                        .offset(self.node as u64 * size_of::<BihNode>() as u64);
-                    self.start_read(at, size_of::<BihNode>());
-                    self.at = At::NodeRead;
+                    self.at = self.read.node_at(job, self.node);
                 }
                 At::NodeRead => {
                     if let Some(stop) = self.read.fetch(spe, cache, group).await? {
                         return Ok(stop);
                     }
-                    let nd: BihNode = bytemuck::pod_read_unaligned(&self.read.buf[..12]);
+                    let nd = self.read.node();
                     if nd.is_leaf() {
-                        let (first, count) = nd.leaf_range();
-                        self.at = At::Leaf {
-                            k: first,
-                            end: first + count,
-                        };
+                        self.at = At::leaf(&nd);
                         continue;
                     }
                     let s = descend(&nd, &self.ray, self.inv, self.neg, self.tn, self.tf);
@@ -356,31 +359,19 @@ impl Walk {
                         }
                         continue;
                     }
-                    if let Some(ids) = job.ids {
-                        self.start_read(ids.offset(4 * k as u64), 4);
-                        self.at = At::IdRead { k, end };
-                        continue;
-                    }
-                    let at = job.records.offset(k as u64 * size_of::<TriRecord>() as u64);
-                    self.start_read(at, size_of::<TriRecord>());
-                    self.at = At::RecordRead { k, end };
+                    self.at = self.read.triangle_at(job, k, end);
                 }
                 At::IdRead { k, end } => {
                     if let Some(stop) = self.read.fetch(spe, cache, group).await? {
                         return Ok(stop);
                     }
-                    let id = u32::from_le_bytes(self.read.buf[..4].try_into().expect("4 bytes"));
-                    let at = job
-                        .records
-                        .offset(id as u64 * size_of::<TriRecord>() as u64);
-                    self.start_read(at, size_of::<TriRecord>());
-                    self.at = At::RecordRead { k, end };
+                    self.at = self.read.record_of_id(job, k, end);
                 }
                 At::RecordRead { k, end } => {
                     if let Some(stop) = self.read.fetch(spe, cache, group).await? {
                         return Ok(stop);
                     }
-                    let rec: TriRecord = bytemuck::pod_read_unaligned(&self.read.buf);
+                    let rec = self.read.record();
                     spe.compute(r.triangle_test);
                     self.stats.triangles_tested += 1;
                     let tri = Triangle {
@@ -417,13 +408,49 @@ impl Walk {
         }
         false
     }
-
-    fn start_read(&mut self, at: Ea, len: usize) {
-        self.read.start(at, len);
-    }
 }
 
 impl Read {
+    /// Starts the read of node `id`; the walk goes on there.
+    pub(super) fn node_at(&mut self, job: &Job, id: u32) -> At {
+        let size = size_of::<BihNode>();
+        self.start(job.nodes.offset(id as u64 * size as u64), size);
+        At::NodeRead
+    }
+
+    /// The node just read.
+    pub(super) fn node(&self) -> BihNode {
+        bytemuck::pod_read_unaligned(&self.buf[..size_of::<BihNode>()])
+    }
+
+    /// Starts the read of triangle `k` of a leaf's `..end`: its id first
+    /// where the records lie in the scene's order, else its record.
+    pub(super) fn triangle_at(&mut self, job: &Job, k: u32, end: u32) -> At {
+        if let Some(ids) = job.ids {
+            self.start(ids.offset(4 * k as u64), 4);
+            return At::IdRead { k, end };
+        }
+        self.record_at(job, k, k, end)
+    }
+
+    /// Starts the read of the record the id just read names.
+    pub(super) fn record_of_id(&mut self, job: &Job, k: u32, end: u32) -> At {
+        let id = u32::from_le_bytes(self.buf[..4].try_into().expect("4 bytes"));
+        self.record_at(job, id, k, end)
+    }
+
+    /// Starts the read of record `place` for triangle `k` of `..end`.
+    fn record_at(&mut self, job: &Job, place: u32, k: u32, end: u32) -> At {
+        let size = size_of::<TriRecord>();
+        self.start(job.records.offset(place as u64 * size as u64), size);
+        At::RecordRead { k, end }
+    }
+
+    /// The record just read.
+    pub(super) fn record(&self) -> TriRecord {
+        bytemuck::pod_read_unaligned(&self.buf)
+    }
+
     pub(super) fn new() -> Self {
         Read {
             ea: 0,

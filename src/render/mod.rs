@@ -63,9 +63,13 @@ impl Camera {
         let fov = 45f64.to_radians();
         let dist = radius / (fov * 0.5).sin();
         let dir = DVec3::new(0.35, 0.3, 1.0).normalize();
-        let eye = center + dir * dist;
-        let forward = -dir;
-        let right = forward.cross(DVec3::Y).normalize();
+        Self::aimed(center + dir * dist, -dir, DVec3::Y, fov, (width, height))
+    }
+
+    /// A camera at `eye` looking along `forward` (of unit length), `up`
+    /// the image's up (made square to the view), `fov` radians vertically.
+    fn aimed(eye: DVec3, forward: DVec3, up: DVec3, fov: f64, (width, height): (u32, u32)) -> Self {
+        let right = forward.cross(up).normalize();
         let up = right.cross(forward);
         let half = (fov * 0.5).tan();
         Camera {
@@ -82,17 +86,7 @@ impl Camera {
     /// square to the view), `fov` degrees vertically.
     pub fn look(eye: DVec3, at: DVec3, up: DVec3, fov: f64, width: u32, height: u32) -> Self {
         let forward = (at - eye).normalize();
-        let right = forward.cross(up).normalize();
-        let up = right.cross(forward);
-        let half = (fov.to_radians() * 0.5).tan();
-        Camera {
-            eye,
-            forward,
-            right: right * half * width as f64 / height as f64,
-            up: up * half,
-            width,
-            height,
-        }
+        Self::aimed(eye, forward, up, fov.to_radians(), (width, height))
     }
 
     /// The ray through the center of pixel `(x, y)`, `y = 0` at the top.
