@@ -20,6 +20,9 @@
 
 use std::time::{Duration, Instant};
 
+#[path = "peers/embree.rs"]
+mod embree;
+
 use glam::Vec3A;
 use obvhs::BvhBuildParams;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
@@ -59,6 +62,12 @@ fn main() {
             _ => {} // cargo bench's own flags (--bench)
         }
     }
+    let embree = embree::Embree::load();
+    match &embree {
+        Ok(e) => println!("Embree: {}", e.name),
+        Err(why) => println!("Embree: not found ({why}); set CELLBIH_EMBREE to its library"),
+    }
+    let embree = embree.ok();
     let data = scene::data_dir(None);
     let one_thread = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
@@ -76,7 +85,7 @@ fn main() {
                 continue;
             }
         };
-        one_thread.install(|| compare(&s, runs, &above));
+        one_thread.install(|| compare(&s, runs, &above, embree.as_ref()));
     }
 }
 
@@ -103,7 +112,7 @@ struct Row {
     bytes: usize,
 }
 
-fn compare(s: &Scene, runs: usize, above: &[u32]) {
+fn compare(s: &Scene, runs: usize, above: &[u32], embree: Option<&embree::Embree>) {
     let rays = RaySets::standard(s);
     let sets = [&rays.primary, &rays.incoherent];
     let tris: Vec<OTri> = (s.triangles.iter())
@@ -150,11 +159,42 @@ fn compare(s: &Scene, runs: usize, above: &[u32]) {
             }),
             trace: Box::new(move |set: &[Ray]| -> Answers {
                 let mut st = RayStats::default();
-                set.iter()
-                    .map(|r| tracer.closest(r, &mut st).map(|h| (h.prim, h.t)))
+                (tracer.closest_all(set, &mut st).iter())
+                    .map(|h| h.map(|h| (h.prim, h.t)))
                     .collect()
             }),
             bytes,
+        });
+    }
+    // The paper's tree traced ray by ray, as before packets.
+    let tracer = Tracer::new(&trees[0], s);
+    contenders.push(Contender {
+        name: "cellbih host, rays one by one".into(),
+        build: Box::new(|| (Duration::ZERO, Duration::ZERO)),
+        trace: Box::new(move |set: &[Ray]| -> Answers {
+            let mut st = RayStats::default();
+            set.iter()
+                .map(|r| tracer.closest(r, &mut st).map(|h| (h.prim, h.t)))
+                .collect()
+        }),
+        bytes: 0,
+    });
+    for (label, quality) in [
+        ("Embree low", embree::Quality::Low),
+        ("Embree medium", embree::Quality::Medium),
+    ] {
+        let Some(e) = embree else { break };
+        let built = e.build(s, quality);
+        contenders.push(Contender {
+            name: label.into(),
+            build: Box::new(move || {
+                let (t, _) = time(|| e.build(s, quality));
+                (t, t)
+            }),
+            trace: Box::new(move |set: &[Ray]| -> Answers {
+                set.iter().map(|r| built.closest(r)).collect()
+            }),
+            bytes: 0,
         });
     }
     for (label, params) in [
@@ -209,40 +249,50 @@ fn compare(s: &Scene, runs: usize, above: &[u32]) {
         sets[0].len(),
         sets[1].len()
     );
+    // Rays per second against Embree low's where Embree is loaded, else
+    // against obvhs medium's.
+    let reference = (rows.iter())
+        .find(|r| r.name == "Embree low")
+        .or_else(|| rows.iter().find(|r| r.name == "obvhs medium"))
+        .expect("obvhs medium is always measured");
+    let (ref_name, by) = (
+        reference.name.clone(),
+        (reference.primary, reference.incoherent),
+    );
     println!(
-        "{:<56} {:>9} {:>11} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9}",
+        "{:<44} {:>9} {:>9} {:>9} {:>7} {:>9} {:>7} {:>7} {:>8} {:>6}",
         "",
         "build ms",
         "+prep ms",
         "prim Mr/s",
-        "x medium",
+        "x ref",
         "inco Mr/s",
-        "x medium",
+        "x ref",
         "hits",
         "agree",
         "MB"
     );
-    let medium = rows
-        .last()
-        .map_or((1.0, 1.0), |m| (m.primary, m.incoherent));
+    let blank = |x: f64, text: String| if x > 0.0 { text } else { "-".into() };
     for (k, r) in rows.iter().enumerate() {
         let agree: usize = (0..2)
             .map(|set| agreeing(&answers[k][set], &answers[0][set]))
             .sum();
+        let (b, p) = (ms(r.build), ms(r.ready));
         println!(
-            "{:<56} {:>9.1} {:>11.1} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>8} {:>7.2}% {:>9.1}",
+            "{:<44} {:>9} {:>9} {:>9.2} {:>7.2} {:>9.2} {:>7.2} {:>7} {:>7.2}% {:>6}",
             r.name,
-            ms(r.build),
-            ms(r.ready),
+            blank(b, format!("{b:.1}")),
+            blank(p, format!("{p:.1}")),
             r.primary,
-            r.primary / medium.0,
+            r.primary / by.0,
             r.incoherent,
-            r.incoherent / medium.1,
+            r.incoherent / by.1,
             r.hits[0] + r.hits[1],
             100.0 * agree as f64 / (sets[0].len() + sets[1].len()) as f64,
-            r.bytes as f64 / 1e6,
+            blank(r.bytes as f64, format!("{:.1}", r.bytes as f64 / 1e6)),
         );
     }
+    println!("(x ref: rays per second over {ref_name}'s; -: not measured)");
     println!(
         "(agree: rays whose answer matches cellbih's paper tree — same triangle, or the same t within 1e-4, or both miss)"
     );

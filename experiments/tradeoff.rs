@@ -145,9 +145,10 @@ fn run(args: &Args) -> Result<(), String> {
             let view = args.camera.view();
             let rays = RaySets::for_scene(s, &view).expect("a scene's own view");
             let cam = (view.camera(&s.name, &s.bounds(), CAST_SIZE.0, CAST_SIZE.1))
-                .expect("a scene's own view")
-                .rays();
-            (rays, cam)
+                .expect("a scene's own view");
+            // In blocks of the cast's packets, the order they take.
+            let p = CastConfig::DEFAULT.packet;
+            (rays, cam.rays_in_blocks(p.w, p.h))
         })
         .collect();
     // Every (scene, setting) side by side, then each scene's fronts.

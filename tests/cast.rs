@@ -51,7 +51,9 @@ fn default_scene_tree(b: BuilderKind) -> (Scene, cellbih::registry::BuildReport)
     (s, r)
 }
 
-/// The default cast with this cache shape and rays in flight.
+/// The default cast with this cache shape and rays in flight, ray by ray
+/// (the cache's knobs measured on the single-ray walk; packets have their
+/// own tests below, and any tile size fits single rays).
 fn shaped(kib: u32, ways: u32, fetch_lines: u32, rays_in_flight: u32) -> CastConfig {
     CastConfig {
         cache: CacheConfig {
@@ -60,6 +62,7 @@ fn shaped(kib: u32, ways: u32, fetch_lines: u32, rays_in_flight: u32) -> CastCon
             fetch_lines,
         },
         rays_in_flight,
+        packet: Packet::SINGLE,
         ..CastConfig::DEFAULT
     }
 }
@@ -277,7 +280,11 @@ fn a_larger_cache_and_longer_fetches_miss_less() {
     let tiny = cast(&s, &r.bih, &rays, &with(1, 2, 1), 6);
     let big = cast(&s, &r.bih, &rays, &with(128, 4, 1), 6);
     let long = cast(&s, &r.bih, &rays, &with(32, 4, 16), 6);
-    let sdk = cast(&s, &r.bih, &rays, &CastConfig::DEFAULT, 6);
+    let single = CastConfig {
+        packet: Packet::SINGLE,
+        ..CastConfig::DEFAULT
+    };
+    let sdk = cast(&s, &r.bih, &rays, &single, 6);
     assert!(
         big.cache().misses < tiny.cache().misses / 2,
         "{:?} vs {:?}",

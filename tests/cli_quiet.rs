@@ -182,6 +182,9 @@ fn a_shallow_tree_is_measured_on_a_sample_and_long_steps_are_shown() {
     let out = cellbih(&[
         "render",
         "--on-cell",
+        // Ray by ray: packets make this cast too quick to be a long step.
+        "--packet",
+        "1x1",
         "--max-depth",
         "3",
         "--width",

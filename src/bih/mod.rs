@@ -6,10 +6,12 @@
 mod hash;
 mod lanes;
 mod node;
+mod packet;
 mod traverse;
 mod validate;
 
 pub use node::{BihNode, MAX_INDEX};
+pub use packet::PACKET_RAYS;
 pub use traverse::{Hit, Ray, RayStats, Tracer, brute_force_closest, intersect_triangle};
 pub(crate) use traverse::{closer, descend, pop_bound, root_interval};
 pub use validate::Violation;

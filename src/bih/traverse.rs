@@ -39,7 +39,7 @@ use crate::scene::{Scene, Triangle};
 
 /// Relative widening of node intervals: covers the three roundings of
 /// `(clip - o) * (1/d)` in `f64` many times over.
-const SLACK: f64 = 1e-12;
+pub(super) const SLACK: f64 = 1e-12;
 
 /// A ray `origin + t·dir` for `t` in `[tmin, tmax]`; `dir` need not be unit
 /// length and `t` is in units of it.
@@ -177,13 +177,13 @@ pub fn brute_force_closest(scene: &Scene, ray: &Ray) -> Option<Hit> {
 /// are (the additive form `t + |t|·SLACK` would turn them into NaN and cull
 /// nothing), and no sign test is needed.
 #[inline(always)]
-fn widen_up(t: f64) -> f64 {
+pub(super) fn widen_up(t: f64) -> f64 {
     (t * (1.0 + SLACK)).max(t * (1.0 - SLACK))
 }
 
 /// `t` moved down by the relative slack; ±inf stay as they are.
 #[inline(always)]
-fn widen_down(t: f64) -> f64 {
+pub(super) fn widen_down(t: f64) -> f64 {
     (t * (1.0 + SLACK)).min(t * (1.0 - SLACK))
 }
 
@@ -220,7 +220,7 @@ fn clip_range(b: &Aabb, ray: &Ray, inv: DVec3, mut t0: f64, mut t1: f64) -> (f64
 /// it is applied once, to the largest near and the smallest far distance;
 /// the result is the same as [`clip_range`]'s.
 #[inline(always)]
-fn clip_range_finite(b: &Aabb, o: DVec3, inv: DVec3, t0: f64, t1: f64) -> (f64, f64) {
+pub(super) fn clip_range_finite(b: &Aabb, o: DVec3, inv: DVec3, t0: f64, t1: f64) -> (f64, f64) {
     let ta = (b.min.as_dvec3() - o) * inv;
     let tb = (b.max.as_dvec3() - o) * inv;
     let near = ta.min(tb).max_element();
@@ -328,23 +328,23 @@ fn prefetch<T>(p: *const T) {
 
 /// A tree bound to its triangles, laid out in leaf order for traversal.
 pub struct Tracer<'a> {
-    bih: &'a Bih,
+    pub(super) bih: &'a Bih,
     /// The tree's nodes with every leaf's first slot moved to a multiple of
     /// four in the padded triangle order below, so that a leaf starts a
     /// group and no lane tests another leaf's triangle.
-    nodes: Vec<BihNode>,
+    pub(super) nodes: Vec<BihNode>,
     /// Padded slot → scene triangle id (`u32::MAX` for padding).
-    prims: Vec<u32>,
+    pub(super) prims: Vec<u32>,
     /// The box of each leaf's triangles, by node id (unused for inner
     /// nodes): a BIH leaf's region is bounded only by its ancestors' planes
     /// and is often much larger than what it holds, so a ray is tested
     /// against this box before the leaf's triangles.
-    leaf_boxes: Vec<Aabb>,
+    pub(super) leaf_boxes: Vec<Aabb>,
     /// Padded slot `k` is lane `k % 4` of group `k / 4`.
-    groups: Vec<Group>,
+    pub(super) groups: Vec<Group>,
     /// The CPU has AVX2: traverse with the AVX2 build of the loop.
     #[cfg(target_arch = "x86_64")]
-    avx2: bool,
+    pub(super) avx2: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -441,6 +441,69 @@ impl<'a> Tracer<'a> {
         self.traverse::<true>(ray, stats)
     }
 
+    /// Leaf `node`'s triangles against `ray`, if the ray meets the box
+    /// of the leaf's triangles before its best hit so far: a closer hit
+    /// replaces `best` (and `best_t`). With `ANY`, `true` at the first hit
+    /// found.
+    #[inline(always)]
+    fn test_leaf<const ANY: bool, const FINITE: bool>(
+        &self,
+        node: u32,
+        ray: &Ray,
+        inv: DVec3,
+        best: &mut Option<Hit>,
+        best_t: &mut f64,
+        stats: &mut RayStats,
+    ) -> bool {
+        // Only a ray that meets the box of the leaf's triangles before its
+        // best hit so far can hit one of them.
+        let leaf_box = &self.leaf_boxes[node as usize];
+        let (b0, b1) = if FINITE {
+            clip_range_finite(leaf_box, ray.origin, inv, ray.tmin, *best_t)
+        } else {
+            clip_range(leaf_box, ray, inv, ray.tmin, *best_t)
+        };
+        b0 <= b1 && self.test_triangles::<ANY>(node, ray, best, best_t, stats)
+    }
+
+    /// Leaf `node`'s triangles against `ray` (whose test of the leaf's
+    /// box passed), four at a time: a closer hit replaces `best` (and
+    /// `best_t`). With `ANY`, `true` at the first hit found. The single-ray
+    /// walk and the packets ([`super::packet`]) both test triangles here.
+    #[inline(always)]
+    pub(super) fn test_triangles<const ANY: bool>(
+        &self,
+        node: u32,
+        ray: &Ray,
+        best: &mut Option<Hit>,
+        best_t: &mut f64,
+        stats: &mut RayStats,
+    ) -> bool {
+        let (first, count) = self.nodes[node as usize].leaf_range();
+        stats.triangles_tested += count as u64;
+        let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
+        let (first, end) = (first as usize, (first + count) as usize);
+        for g in first / 4..end.div_ceil(4) {
+            let f = lanes::intersect4(&self.groups[g], o, d, ray.tmin, *best_t);
+            // Lanes of this leaf only (it starts a group), in slot order.
+            let mut m = f.mask & ((1u32 << (end - g * 4).min(4)) - 1);
+            while m != 0 {
+                let l = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let (t, prim) = (f.t[l], self.prims[g * 4 + l]);
+                if closer(t, prim, *best) {
+                    let (u, v) = (f.u[l] / f.adet[l], f.v[l] / f.adet[l]);
+                    *best = Some(Hit { prim, t, u, v });
+                    *best_t = t;
+                    if ANY {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+
     fn traverse<const ANY: bool>(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
         // A zero (or subnormal) direction component makes a reciprocal
         // infinite, and slab distances can be NaN: such rays take the
@@ -504,7 +567,6 @@ impl<'a> Tracer<'a> {
         stats.rays += 1;
         let nodes = &self.nodes;
         let inv = DVec3::ONE / ray.dir;
-        let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
         let (t0, t1) = root_interval(&self.bih.bounds, ray, inv)?;
         let neg = [
             ray.dir.x.is_sign_negative(),
@@ -522,37 +584,8 @@ impl<'a> Tracer<'a> {
             stats.nodes_visited += 1;
             let nd = &nodes[node as usize];
             if nd.is_leaf() {
-                let (first, count) = nd.leaf_range();
-                // Only a ray that meets the box of the leaf's triangles
-                // before its best hit so far can hit one of them.
-                let leaf_box = &self.leaf_boxes[node as usize];
-                let (b0, b1) = if FINITE {
-                    clip_range_finite(leaf_box, ray.origin, inv, ray.tmin, best_t)
-                } else {
-                    clip_range(leaf_box, ray, inv, ray.tmin, best_t)
-                };
-                if b0 <= b1 {
-                    stats.triangles_tested += count as u64;
-                    let (first, end) = (first as usize, (first + count) as usize);
-                    for g in first / 4..end.div_ceil(4) {
-                        let f = lanes::intersect4(&self.groups[g], o, d, ray.tmin, best_t);
-                        // Lanes of this leaf only (it starts a group), in slot
-                        // order.
-                        let mut m = f.mask & ((1u32 << (end - g * 4).min(4)) - 1);
-                        while m != 0 {
-                            let l = m.trailing_zeros() as usize;
-                            m &= m - 1;
-                            let (t, prim) = (f.t[l], self.prims[g * 4 + l]);
-                            if closer(t, prim, best) {
-                                let (u, v) = (f.u[l] / f.adet[l], f.v[l] / f.adet[l]);
-                                best = Some(Hit { prim, t, u, v });
-                                best_t = t;
-                                if ANY {
-                                    return best;
-                                }
-                            }
-                        }
-                    }
+                if self.test_leaf::<ANY, FINITE>(node, ray, inv, &mut best, &mut best_t, stats) {
+                    return best;
                 }
             } else {
                 // [`descend`]'s step, written out: called here (a struct

@@ -258,7 +258,7 @@ impl CastConfig {
         tile_rays: 64,
         precision: Precision::Single,
         rays_in_flight: 1,
-        packet: Packet::SINGLE,
+        packet: Packet { w: 4, h: 4 },
     };
 
     /// The most rays a tile holds: 256 rays are one 16 KiB get.
@@ -527,7 +527,7 @@ pub fn cast_camera(
     cell_cfg: &CellConfig,
     order: RecordOrder,
 ) -> Result<CastReport, CellError> {
-    let pixels = packet::block_order(cam.width, cam.height, cfg.packet);
+    let pixels = crate::render::block_order(cam.width, cam.height, cfg.packet.w, cfg.packet.h);
     let w = cam.width;
     let rays: Vec<Ray> = (pixels.iter()).map(|&i| cam.ray(i % w, i / w)).collect();
     let mut r = cast_on_cell(bih, scene, &rays, cfg, cell_cfg, order)?;

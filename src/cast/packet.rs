@@ -16,7 +16,7 @@
 use glam::{DVec3, Vec3};
 
 use super::program::{At, Read, Step};
-use super::{CastRates, Job, Packet};
+use super::{CastRates, Job};
 use crate::bih::{
     BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
 };
@@ -289,42 +289,5 @@ impl PacketWalk {
                 self.best_t[i] = t;
             }
         }
-    }
-}
-
-/// The pixels of a `width × height` image (`y * width + x`) in blocks of
-/// `packet`'s `w × h`: block after block along each band of `h` rows,
-/// each block row by row; edge blocks are cut to the image.
-pub(super) fn block_order(width: u32, height: u32, packet: Packet) -> Vec<u32> {
-    let (pw, ph) = (packet.w, packet.h);
-    let mut out = Vec::with_capacity(width as usize * height as usize);
-    for by in (0..height).step_by(ph as usize) {
-        for bx in (0..width).step_by(pw as usize) {
-            for y in by..(by + ph).min(height) {
-                out.extend((bx..(bx + pw).min(width)).map(|x| y * width + x));
-            }
-        }
-    }
-    out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn blocks_cover_every_pixel_once_in_blocks() {
-        let order = block_order(10, 7, Packet { w: 4, h: 2 });
-        let mut seen = order.clone();
-        seen.sort_unstable();
-        assert_eq!(seen, (0..70).collect::<Vec<_>>());
-        // The first block: rows 0 and 1, columns 0 to 3.
-        assert_eq!(&order[..8], &[0, 1, 2, 3, 10, 11, 12, 13]);
-        // The band's last block is cut to columns 8 and 9.
-        assert_eq!(&order[16..20], &[8, 9, 18, 19]);
-        assert_eq!(
-            block_order(3, 2, Packet::SINGLE),
-            (0..6).collect::<Vec<_>>()
-        );
     }
 }

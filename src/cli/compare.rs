@@ -88,7 +88,11 @@ pub fn rows(
         ProgressBar::hidden()
     };
     let rays = RaySets::for_scene(s, view)?;
-    let cam = (view.camera(&s.name, &s.bounds(), CAST_SIZE.0, CAST_SIZE.1)?).rays();
+    // The camera's rays in blocks of the cast's packets, the order they
+    // take; a sample of them keeps whole packets.
+    let packet = CastConfig::DEFAULT.packet;
+    let cam = (view.camera(&s.name, &s.bounds(), CAST_SIZE.0, CAST_SIZE.1)?)
+        .rays_in_blocks(packet.w, packet.h);
     let mut out = Vec::new();
     let (mut last, mut failed) = (None, Vec::new());
     // On a terminal a bar; elsewhere a line for each builder that takes
@@ -124,7 +128,10 @@ pub fn rows(
             let k = (primary.per_ray() * cam.len() as f64 / CAST_BUDGET)
                 .ceil()
                 .max(1.0) as usize;
-            let sample: Vec<_> = cam.iter().step_by(k).copied().collect();
+            let sample: Vec<_> = (cam.chunks(packet.rays() as usize).step_by(k))
+                .flatten()
+                .copied()
+                .collect();
             if k > 1 {
                 render_sampled = Some(sample.len());
             }

@@ -8,7 +8,7 @@ use image::{Rgb, RgbImage};
 use rayon::prelude::*;
 
 use crate::aabb::Aabb;
-use crate::bih::{Hit, Ray, RayStats, Tracer};
+use crate::bih::{Hit, PACKET_RAYS, Ray, RayStats, Tracer};
 
 mod view;
 pub use view::{View, ViewsArg, has_viewpoint};
@@ -96,6 +96,14 @@ impl Camera {
         Ray::new(self.eye, self.forward + self.right * sx + self.up * sy)
     }
 
+    /// Every pixel's ray in blocks of `bw × bh` pixels ([`block_order`]),
+    /// the order packets of rays take them.
+    pub fn rays_in_blocks(&self, bw: u32, bh: u32) -> Vec<Ray> {
+        (block_order(self.width, self.height, bw, bh).iter())
+            .map(|&i| self.ray(i % self.width, i / self.width))
+            .collect()
+    }
+
     /// Every pixel's ray, row by row.
     pub fn rays(&self) -> Vec<Ray> {
         (0..self.height)
@@ -103,6 +111,23 @@ impl Camera {
             .map(|(x, y)| self.ray(x, y))
             .collect()
     }
+}
+
+/// The pixels of a `width × height` image (`y * width + x`) in blocks of
+/// `bw × bh`: block after block along each band of `bh` rows, each block
+/// row by row; edge blocks are cut to the image. Packets of rays
+/// (`crate::cast`'s on the SPEs, [`Tracer::closest_all`] on the host)
+/// take consecutive rays of this order.
+pub fn block_order(width: u32, height: u32, bw: u32, bh: u32) -> Vec<u32> {
+    let mut out = Vec::with_capacity(width as usize * height as usize);
+    for by in (0..height).step_by(bh as usize) {
+        for bx in (0..width).step_by(bw as usize) {
+            for y in by..(by + bh).min(height) {
+                out.extend((bx..(bx + bw).min(width)).map(|x| y * width + x));
+            }
+        }
+    }
+    out
 }
 
 /// The traced image: the closest hit's shading and the cost of each pixel.
@@ -116,23 +141,38 @@ pub struct Frame {
     pub stats: RayStats,
 }
 
-/// Traces one ray per pixel.
+/// Traces one ray per pixel, bands of four rows in parallel, each band's
+/// rays as 4 × 4 packets ([`Tracer::closest_packet`]: the single-ray
+/// walk's hits and costs).
 pub fn trace(tracer: &Tracer, scene_triangles: &[crate::scene::Triangle], cam: &Camera) -> Frame {
-    let rows: Vec<(Vec<Option<f32>>, Vec<u32>, RayStats)> = (0..cam.height)
+    const B: u32 = 4;
+    let w = cam.width;
+    let bands: Vec<(Vec<Option<f32>>, Vec<u32>, RayStats)> = (0..cam.height.div_ceil(B))
         .into_par_iter()
-        .map(|y| {
-            let mut row_stats = RayStats::default();
-            let mut shade = Vec::with_capacity(cam.width as usize);
-            let mut cost = Vec::with_capacity(cam.width as usize);
-            for x in 0..cam.width {
-                let ray = cam.ray(x, y);
-                let mut s = RayStats::default();
-                let hit = tracer.closest(&ray, &mut s);
-                shade.push(shading(scene_triangles, &ray, hit));
-                cost.push((s.nodes_visited + s.triangles_tested) as u32);
-                row_stats += s;
+        .map(|band| {
+            let y0 = band * B;
+            let h = B.min(cam.height - y0);
+            let n = (w * h) as usize;
+            let (mut shade, mut cost) = (vec![None; n], vec![0; n]);
+            let mut band_stats = RayStats::default();
+            let order = block_order(w, h, B, B);
+            let rays: Vec<Ray> = (order.iter())
+                .map(|&i| cam.ray(i % w, y0 + i / w))
+                .collect();
+            let mut hits = [None; PACKET_RAYS];
+            let mut each = [RayStats::default(); PACKET_RAYS];
+            for (r, at) in rays.chunks(PACKET_RAYS).zip(order.chunks(PACKET_RAYS)) {
+                let k = r.len();
+                each[..k].fill(RayStats::default());
+                tracer.closest_packet(r, &mut hits[..k], &mut each[..k]);
+                for j in 0..k {
+                    let i = at[j] as usize;
+                    shade[i] = shading(scene_triangles, &r[j], hits[j]);
+                    cost[i] = (each[j].nodes_visited + each[j].triangles_tested) as u32;
+                    band_stats += each[j];
+                }
             }
-            (shade, cost, row_stats)
+            (shade, cost, band_stats)
         })
         .collect();
     let mut f = Frame {
@@ -142,7 +182,7 @@ pub fn trace(tracer: &Tracer, scene_triangles: &[crate::scene::Triangle], cam: &
         cost: Vec::new(),
         stats: RayStats::default(),
     };
-    for (s, c, st) in rows {
+    for (s, c, st) in bands {
         f.shade.extend(s);
         f.cost.extend(c);
         f.stats += st;
@@ -227,4 +267,22 @@ fn ramp(t: f32) -> Rgb<u8> {
     let c: [u8; 3] =
         std::array::from_fn(|k| ((STOPS[i][k] * (1.0 - f) + STOPS[i + 1][k] * f) * 255.0) as u8);
     Rgb(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blocks_cover_every_pixel_once_in_blocks() {
+        let order = block_order(10, 7, 4, 2);
+        let mut seen = order.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..70).collect::<Vec<_>>());
+        // The first block: rows 0 and 1, columns 0 to 3.
+        assert_eq!(&order[..8], &[0, 1, 2, 3, 10, 11, 12, 13]);
+        // The band's last block is cut to columns 8 and 9.
+        assert_eq!(&order[16..20], &[8, 9, 18, 19]);
+        assert_eq!(block_order(3, 2, 1, 1), (0..6).collect::<Vec<_>>());
+    }
 }

@@ -1,0 +1,288 @@
+//! Packets of coherent rays on the host (Wald, Slusallek, Benthin &
+//! Wagner, "Interactive Rendering with Coherent Ray Tracing", 2001; the
+//! host side of the SPE's packets in `crate::cast`): up to [`PACKET_RAYS`]
+//! rays whose directions agree in sign share one traversal of the
+//! [`Tracer`]'s tree. A node is read once for all of them, and its step —
+//! where each ray leaves the near child and enters the far one — runs over
+//! the rays' lanes at once: fixed-width lanes of `f64` that the compiler
+//! turns into SIMD instructions (four lanes an instruction in the AVX2
+//! build the tracer picks at run time, two in the portable SSE2 one), as
+//! the four-lane triangle tests ([`super::lanes`]) are.
+//!
+//! Each ray keeps its own interval and its own active bit: it is active at
+//! a node exactly when its own walk visits that node with that interval
+//! (the same near-first order, the same pop bound), and it tests a leaf as
+//! its own walk does (the box of the leaf's triangles, then
+//! `Tracer::test_triangles`). So every ray answers as the
+//! single-ray walk does, bit for bit, with the same nodes visited and
+//! triangles tested (tests/tracer_packets.rs). A packet whose directions
+//! differ in sign on some axis, or one of whose rays has a zero or
+//! subnormal direction component, is traced ray by ray.
+
+use std::mem::MaybeUninit;
+
+use glam::DVec3;
+
+use super::traverse::{SLACK, clip_range_finite};
+use super::{BihConfig, Hit, Ray, RayStats, Tracer};
+
+/// The most rays a host packet holds: a 4 × 4 block of pixels.
+pub const PACKET_RAYS: usize = 16;
+const N: usize = PACKET_RAYS;
+
+/// A node kept for later, the rays that will enter it and their
+/// intervals there (each ray's entry checked against its best hit when
+/// the node is taken, as a single ray's stack entry is).
+#[derive(Clone, Copy)]
+struct Kept {
+    node: u32,
+    mask: u32,
+    tn: [f64; N],
+    tf: [f64; N],
+}
+
+impl Tracer<'_> {
+    /// The closest hit of each of `rays` (at most [`PACKET_RAYS`]) in
+    /// `hits`, and what each ray cost in `stats` (added to): traced as one
+    /// packet when their directions agree in sign and have no zero
+    /// component, else ray by ray. Either way every answer and every count
+    /// is the single-ray walk's ([`Tracer::closest`]).
+    pub fn closest_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
+        assert!(rays.len() <= N, "{} rays: a packet holds {N}", rays.len());
+        assert!(hits.len() == rays.len() && stats.len() == rays.len());
+        if !coherent(rays) {
+            for ((ray, hit), st) in rays.iter().zip(hits).zip(stats) {
+                *hit = self.closest(ray, st);
+            }
+            return;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: the CPU has AVX2 (checked when the tracer was made).
+            return unsafe { self.packet_avx2(rays, hits, stats) };
+        }
+        self.packet_portable(rays, hits, stats)
+    }
+
+    /// Every ray's closest hit, the rays taken [`PACKET_RAYS`] at a time
+    /// as packets ([`Tracer::closest_packet`]); what they cost added to
+    /// `stats`. Consecutive rays should be neighbours (a camera's rays in
+    /// 4 × 4 blocks: `crate::render::block_order`) for the packets to pay.
+    pub fn closest_all(&self, rays: &[Ray], stats: &mut RayStats) -> Vec<Option<Hit>> {
+        let mut hits = vec![None; rays.len()];
+        let mut each = [RayStats::default(); N];
+        for (r, h) in rays.chunks(N).zip(hits.chunks_mut(N)) {
+            let each = &mut each[..r.len()];
+            each.fill(RayStats::default());
+            self.closest_packet(r, h, each);
+            for s in each.iter() {
+                *stats += *s;
+            }
+        }
+        hits
+    }
+
+    /// The portable build of the packet loop (never inlined: see
+    /// `Tracer::traverse_portable`).
+    #[inline(never)]
+    fn packet_portable(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
+        self.packet_body(rays, hits, stats)
+    }
+
+    /// The packet loop compiled for AVX2: four lanes an instruction.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    fn packet_avx2(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
+        self.packet_body(rays, hits, stats)
+    }
+
+    /// One coherent packet's traversal.
+    #[inline(always)]
+    fn packet_body(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
+        // Lanes by axis: the step at a node reads one axis of every ray.
+        // Lanes past `n` stay inactive; their values are harmless.
+        let (mut o, mut inv) = ([[0.0f64; N]; 3], [[1.0f64; N]; 3]);
+        let (mut tn, mut tf, mut best_t) = ([0.0f64; N], [0.0f64; N], [0.0f64; N]);
+        let mut tmin = [0.0f64; N];
+        let mut mask = 0u32;
+        for (i, ray) in rays.iter().enumerate() {
+            stats[i].rays += 1;
+            hits[i] = None;
+            let inv_dir = DVec3::ONE / ray.dir;
+            for a in 0..3 {
+                (o[a][i], inv[a][i]) = (ray.origin[a], inv_dir[a]);
+            }
+            (tmin[i], best_t[i]) = (ray.tmin, ray.tmax);
+            // `root_interval`'s interval: the branch-free slab test gives
+            // the careful one's for a finite reciprocal.
+            let (t0, t1) =
+                clip_range_finite(&self.bih.bounds, ray.origin, inv_dir, ray.tmin, ray.tmax);
+            if t0 <= t1 {
+                (tn[i], tf[i]) = (t0, t1);
+                mask |= 1 << i;
+            }
+        }
+        let neg = rays[0].dir.to_array().map(f64::is_sign_negative);
+        // Not zeroed per packet: an entry is read only after a push.
+        let mut stack =
+            [const { MaybeUninit::<Kept>::uninit() }; BihConfig::MAX_SUPPORTED_DEPTH as usize + 2];
+        let mut sp = 0usize;
+        let mut node = 0u32;
+        // Nodes each ray visits, counted in lanes.
+        let mut visits = [0u64; N];
+        while mask != 0 {
+            for (i, v) in visits.iter_mut().enumerate() {
+                *v += (mask >> i & 1) as u64;
+            }
+            let nd = &self.nodes[node as usize];
+            let descended = if nd.is_leaf() {
+                // Each ray's test of the box of the leaf's triangles, as
+                // `Tracer::test_leaf` makes it (its slab distances are never
+                // NaN here: every reciprocal is finite), then the triangles
+                // of the rays that meet it before their best hit.
+                let bx = &self.leaf_boxes[node as usize];
+                let (lo, hi) = (bx.min.as_dvec3(), bx.max.as_dvec3());
+                let mut meets = 0u32;
+                for i in 0..N {
+                    let (mut near, mut far) = (f64::NEG_INFINITY, f64::INFINITY);
+                    for a in 0..3 {
+                        let ta = (lo[a] - o[a][i]) * inv[a][i];
+                        let tb = (hi[a] - o[a][i]) * inv[a][i];
+                        near = max(near, min(ta, tb));
+                        far = min(far, max(ta, tb));
+                    }
+                    let b0 = max(tmin[i], down(near));
+                    let b1 = min(best_t[i], up(far));
+                    meets |= ((b0 <= b1) as u32) << i;
+                }
+                let mut m = meets & mask;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let mut t = best_t[i];
+                    self.test_triangles::<false>(
+                        node,
+                        &rays[i],
+                        &mut hits[i],
+                        &mut t,
+                        &mut stats[i],
+                    );
+                    best_t[i] = t;
+                }
+                false
+            } else {
+                // Every lane's step, as `Tracer::traverse_body` takes it
+                // for one ray: the plane where the ray leaves the near
+                // child and the one where it enters the far child.
+                let a = nd.axis();
+                let [cl, cr] = nd.clip();
+                let (exit_plane, enter_plane) = if neg[a] { (cr, cl) } else { (cl, cr) };
+                let (exit_plane, enter_plane) = (exit_plane as f64, enter_plane as f64);
+                let (mut near_tf, mut far_tn) = ([0.0f64; N], [0.0f64; N]);
+                let (mut go_near, mut go_far) = (0u32, 0u32);
+                for i in 0..N {
+                    let exit = up((exit_plane - o[a][i]) * inv[a][i]);
+                    let enter = down((enter_plane - o[a][i]) * inv[a][i]);
+                    near_tf[i] = if exit < tf[i] { exit } else { tf[i] };
+                    far_tn[i] = if enter > tn[i] { enter } else { tn[i] };
+                    go_near |= ((tn[i] <= near_tf[i]) as u32) << i;
+                    go_far |= ((far_tn[i] <= tf[i]) as u32) << i;
+                }
+                let (go_near, go_far) = (go_near & mask, go_far & mask);
+                let left = nd.left_child();
+                let (near, far) = if neg[a] {
+                    (left + 1, left)
+                } else {
+                    (left, left + 1)
+                };
+                if go_near != 0 {
+                    if go_far != 0 {
+                        // A ray that enters only the far child does so
+                        // after the near child's rays, where its own walk
+                        // goes at once: nothing of its changes in between,
+                        // and its entry passes the check (a ray's interval
+                        // never reaches beyond its best hit).
+                        stack[sp].write(Kept {
+                            node: far,
+                            mask: go_far,
+                            tn: far_tn,
+                            tf,
+                        });
+                        sp += 1;
+                    }
+                    (node, mask, tf) = (near, go_near, near_tf);
+                    true
+                } else if go_far != 0 {
+                    (node, mask, tn) = (far, go_far, far_tn);
+                    true
+                } else {
+                    false
+                }
+            };
+            if descended {
+                continue;
+            }
+            // Take the next kept node that some ray still needs: the rays
+            // whose entry is not beyond their best hit, cut there.
+            mask = 0;
+            while mask == 0 && sp > 0 {
+                sp -= 1;
+                // SAFETY: entries below the stack pointer were all written
+                // by a push (the pointer only grows by a write).
+                let k = unsafe { stack[sp].assume_init_ref() };
+                let mut entering = 0u32;
+                for i in 0..N {
+                    let bound = up(best_t[i]);
+                    entering |= ((k.tn[i] <= bound) as u32) << i;
+                    tf[i] = min(k.tf[i], bound);
+                }
+                (node, mask, tn) = (k.node, k.mask & entering, k.tn);
+            }
+        }
+        for (st, v) in stats.iter_mut().zip(visits) {
+            st.nodes_visited += v;
+        }
+    }
+}
+
+// The packet's arithmetic never meets a NaN: every reciprocal is finite
+// and nonzero, planes and origins are finite, so a slab distance is a
+// number or ±inf. Its maximum and minimum are then plain comparisons (one
+// SIMD instruction, where `f64::max` also handles NaN), and they pick the
+// same number as `f64::max`/`min` (at most the sign of a zero differs,
+// which no comparison below sees).
+
+#[inline(always)]
+fn max(a: f64, b: f64) -> f64 {
+    if a > b { a } else { b }
+}
+
+#[inline(always)]
+fn min(a: f64, b: f64) -> f64 {
+    if a < b { a } else { b }
+}
+
+/// `widen_up` of the single-ray walk, for numbers.
+#[inline(always)]
+fn up(t: f64) -> f64 {
+    max(t * (1.0 + SLACK), t * (1.0 - SLACK))
+}
+
+/// `widen_down` of the single-ray walk, for numbers.
+#[inline(always)]
+fn down(t: f64) -> f64 {
+    min(t * (1.0 + SLACK), t * (1.0 - SLACK))
+}
+
+/// Whether `rays` can share one traversal: their directions agree in
+/// sign on every axis (every ray has the same near child at every node)
+/// and have no zero or subnormal component (every reciprocal is finite,
+/// so the branch-free slab test holds for all of them).
+fn coherent(rays: &[Ray]) -> bool {
+    let sign = |r: &Ray| r.dir.to_array().map(f64::is_sign_negative);
+    !rays.is_empty()
+        && rays
+            .iter()
+            .all(|r| sign(r) == sign(&rays[0]) && (DVec3::ONE / r.dir).is_finite())
+}

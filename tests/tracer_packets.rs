@@ -1,0 +1,127 @@
+//! The host tracer's packets (`Tracer::closest_packet`): every ray of a
+//! packet answers as the single-ray walk does, bit for bit, with the same
+//! nodes visited and triangles tested, for every builder's tree at the
+//! numerical extremes of the property scenes — camera rays from outside
+//! and inside, packets of rays from scattered origins with finite ends,
+//! and packets that must fall back to single rays (mixed signs, zero
+//! direction components). Both builds of the loop (AVX2 and portable)
+//! agree.
+
+mod common;
+
+use cellbih::bih::{Hit, PACKET_RAYS, Ray, RayStats, Tracer};
+use cellbih::registry::{Build, BuilderKind};
+use cellbih::render::Camera;
+use cellbih::scene::Scene;
+use common::{rays_for, scene_strategy};
+use glam::DVec3;
+use proptest::prelude::*;
+
+/// Bitwise the same answer.
+fn same(a: &Option<Hit>, b: &Option<Hit>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(x), Some(y)) => {
+            x.prim == y.prim
+                && x.t.to_bits() == y.t.to_bits()
+                && x.u.to_bits() == y.u.to_bits()
+                && x.v.to_bits() == y.v.to_bits()
+        }
+        _ => false,
+    }
+}
+
+/// The sets of rays a packet is tried on: a framing camera's rays and a
+/// camera's from inside the box, in 4 × 4 blocks (edge blocks cut, so
+/// some packets hold fewer rays); scattered rays with every direction
+/// turned into the positive octant (coherent packets whose rays start
+/// anywhere and some end early); and the scattered rays as they are
+/// (mixed signs and zero components: ray by ray).
+fn ray_sets(scene: &Scene, seed: u64) -> Vec<(&'static str, Vec<Ray>)> {
+    let b = scene.bounds();
+    let outside = Camera::framing(&b, 10, 7);
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let inside = Camera::look(lo + (hi - lo) * 0.3, hi, DVec3::Z, 70.0, 9, 6);
+    let loose = rays_for(scene, 48, seed);
+    let octant = (loose.iter())
+        .filter(|r| (DVec3::ONE / r.dir).is_finite())
+        .map(|r| Ray {
+            dir: r.dir.abs(),
+            ..*r
+        })
+        .collect();
+    vec![
+        ("framing camera", outside.rays_in_blocks(4, 4)),
+        ("inside camera", inside.rays_in_blocks(4, 4)),
+        ("one octant", octant),
+        ("scattered", loose),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+
+    #[test]
+    fn packets_answer_as_single_rays(scene in scene_strategy(), seed in any::<u64>()) {
+        for &b in BuilderKind::ALL {
+            let r = Build::new(b).run(&scene)
+                .map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
+            let tracer = Tracer::new(&r.bih, &scene);
+            let portable = Tracer::new(&r.bih, &scene).portable();
+            for (set, rays) in ray_sets(&scene, seed) {
+                for (p, packet) in rays.chunks(PACKET_RAYS).enumerate() {
+                    for t in [&tracer, &portable] {
+                        let n = packet.len();
+                        let mut hits = vec![None; n];
+                        let mut each = vec![RayStats::default(); n];
+                        t.closest_packet(packet, &mut hits, &mut each);
+                        for (i, ray) in packet.iter().enumerate() {
+                            let mut alone = RayStats::default();
+                            let want = tracer.closest(ray, &mut alone);
+                            prop_assert!(same(&hits[i], &want),
+                                "{b}, {set}: packet {p} ray {i}: {:?} alone {want:?}", hits[i]);
+                            prop_assert_eq!(each[i], alone, "{}, {}: packet {} ray {}", b, set, p, i);
+                        }
+                    }
+                }
+                // All at once: the same hits, and the counts summed.
+                let mut total = RayStats::default();
+                let all = tracer.closest_all(&rays, &mut total);
+                let mut alone = RayStats::default();
+                for (ray, hit) in rays.iter().zip(&all) {
+                    prop_assert!(same(hit, &tracer.closest(ray, &mut alone)), "{b}, {set}");
+                }
+                prop_assert_eq!(total, alone);
+            }
+        }
+    }
+}
+
+/// The host render (4 × 4 packets in bands of four rows, edge blocks
+/// cut) gives every pixel the single ray's answer and cost.
+#[test]
+fn the_render_in_packets_gives_single_rays_answers() {
+    let s = cellbih::scene::load("default", None).unwrap();
+    let bih = Build::new(BuilderKind::HOST).run(&s).unwrap().bih;
+    let tracer = Tracer::new(&bih, &s);
+    let cam = Camera::framing(&s.bounds(), 37, 21);
+    let frame = cellbih::render::trace(&tracer, &s.triangles, &cam);
+    let mut stats = RayStats::default();
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let mut one = RayStats::default();
+            let ray = cam.ray(x, y);
+            let hit = tracer.closest(&ray, &mut one);
+            let i = (y * cam.width + x) as usize;
+            assert_eq!(frame.shade[i].is_some(), hit.is_some(), "pixel ({x}, {y})");
+            assert_eq!(
+                frame.cost[i] as u64,
+                one.nodes_visited + one.triangles_tested,
+                "pixel ({x}, {y})"
+            );
+            stats += one;
+        }
+    }
+    assert_eq!(frame.stats, stats);
+    assert!(frame.stats.rays == 37 * 21 && frame.shade.iter().any(Option::is_some));
+}
