@@ -194,7 +194,7 @@ fn run(args: &Args) -> Result<(), String> {
         "rows": rows,
         "frames": frames(&rows),
         "spes": args.spes,
-        "note": "simulated_ms: PS3 model (timed mode), multi-SPE builders on `spes` SPEs; host_ms: this machine, one thread (median of 3 for the host builder, the emulation's time for the others); *_cost: nodes visited + triangles tested per ray, closest hit; cell_render_ms: simulated PS3 ms to cast the camera's 320 x 240 primary rays on `spes` SPEs (emulated builders' rows); fronts: Pareto fronts of build ms against primary cost; frames: for R rays a frame, the host setting with the least build + trace ms (one thread) and the emulated setting with the least simulated build + cast ms (ps3)",
+        "note": NOTE.replace("PACKET", &CastConfig::DEFAULT.packet.to_string()),
     });
     args.output.write(
         "tradeoff",
@@ -209,6 +209,9 @@ fn run(args: &Args) -> Result<(), String> {
     );
     Ok(())
 }
+
+/// What `tradeoff.json`'s fields are (PACKET: the default cast's packet).
+const NOTE: &str = "simulated_ms: PS3 model (timed mode), multi-SPE builders on `spes` SPEs; host_ms: this machine, one thread (median of 3 for the host builder, the emulation's time for the others); *_cost: nodes visited + triangles tested per ray, closest hit; cell_render_ms: simulated PS3 ms to cast the camera's 320 x 240 primary rays on `spes` SPEs with the default cast (packets of PACKET rays; emulated builders' rows); fronts: Pareto fronts of build ms against primary cost; frames: for R rays a frame, the host setting with the least build + trace ms (one thread) and the emulated setting with the least simulated build + cast ms (ps3)";
 
 /// The camera image whose primary rays each emulated setting's tree is
 /// cast with on the SPEs: the render in PS3 time, per ray.

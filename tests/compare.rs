@@ -82,6 +82,8 @@ fn compare_with_knobs_builds_them_where_they_are_built() {
     assert_eq!(settings["tree"]["empty_cut"], 30, "{settings}");
     assert_eq!(settings["cell"]["spes"], 6, "{settings}");
     assert_eq!(settings["cell"]["model"], "measured", "{settings}");
+    // The Cell render column's cast is named: the default, in packets.
+    assert_eq!(settings["cast"]["packet"], "4x4", "{settings}");
     let cfg = cellbih::bih::BihConfig {
         split: cellbih::bih::SplitChoice::BinnedSah { bins: 16, above: 0 },
         empty_cut: Some(30),

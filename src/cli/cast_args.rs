@@ -58,7 +58,7 @@ pub struct CacheArgs {
     /// triangle read once for the packet and tested four rays a SIMD
     /// vector (Benthin et al. 2006); a packet whose directions differ in
     /// sign is cast ray by ray; the same hits. 1x1: every ray alone
-    /// [default: 1x1]
+    /// [default: 4x4]
     #[arg(long, value_parser = Packet::parse)]
     pub packet: Option<Packet>,
 }

@@ -192,7 +192,9 @@ fn baseline_ms(rows: &[Row]) -> Option<f64> {
 /// Prints the rows as a table or as JSON, and the builders that failed.
 pub fn print(s: &Scene, shared: &Build, c: &Compared, format: Format, view: &View) {
     let (spes, cfg) = (shared.cell.spes, &shared.tree);
-    let settings = Settings::shared(shared).with_view(view);
+    let mut settings = Settings::shared(shared).with_view(view);
+    // The Cell render column casts with the default cast.
+    settings.cast = Some(CastConfig::DEFAULT);
     let rows = &c.rows[..];
     let failed: Vec<serde_json::Value> = (c.failed.iter())
         .map(|(b, e)| json!({"builder": b.name(), "error": e}))
