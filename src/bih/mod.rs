@@ -7,12 +7,14 @@ mod hash;
 mod lanes;
 mod node;
 mod packet;
+mod tracer;
 mod traverse;
 mod validate;
 
 pub use node::{BihNode, MAX_INDEX};
 pub use packet::PACKET_RAYS;
-pub use traverse::{Hit, Ray, RayStats, Tracer, brute_force_closest, intersect_triangle};
+pub use tracer::Tracer;
+pub use traverse::{Hit, Ray, RayStats, brute_force_closest, intersect_triangle};
 pub(crate) use traverse::{closer, descend, pop_bound, root_interval};
 pub use validate::Violation;
 

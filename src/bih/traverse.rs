@@ -19,21 +19,12 @@
 //! Equal `t` is broken by the lower triangle id, the same rule brute force
 //! uses, so both return the same triangle.
 //!
-//! The [`Tracer`] is what a renderer makes of a tree: its own copy of the
-//! nodes with each leaf starting a group of four in a padded triangle order
-//! ([`super::lanes`]: four Möller–Trumbore tests per step), and the box of
-//! each leaf's triangles, which the ray must meet within `[tmin, best]`
-//! (widened likewise) before the leaf's triangles are tested. A BIH leaf's
-//! region is bounded only by its ancestors' planes and is often far larger
-//! than what it holds; on the dragon this box cuts triangle tests per
-//! primary ray from 48 to 4. The tree itself is not changed.
-
-use std::mem::MaybeUninit;
+//! What a renderer makes of a tree, [`Tracer`], is in `tracer.rs`; its
+//! packets in `packet.rs`.
 
 use glam::DVec3;
 
-use super::lanes::{self, Group};
-use super::{Bih, BihConfig, BihNode};
+use super::BihNode;
 use crate::aabb::Aabb;
 use crate::scene::{Scene, Triangle};
 
@@ -105,12 +96,12 @@ pub fn intersect_triangle(
 /// stored collapsed to its first vertex, so that its determinant is exactly
 /// zero and it is never hit.
 #[derive(Clone, Copy, Debug)]
-struct PreTriangle {
-    v: [glam::Vec3; 3],
+pub(super) struct PreTriangle {
+    pub(super) v: [glam::Vec3; 3],
 }
 
 impl PreTriangle {
-    fn new(tri: &Triangle) -> Self {
+    pub(super) fn new(tri: &Triangle) -> Self {
         let v = if tri.is_degenerate() {
             [tri.v[0]; 3]
         } else {
@@ -194,7 +185,7 @@ fn clip_to_box(b: &Aabb, ray: &Ray, inv: DVec3) -> (f64, f64) {
 
 /// The part of `[t0, t1]` in which the ray is inside `b`, widened.
 #[inline(always)]
-fn clip_range(b: &Aabb, ray: &Ray, inv: DVec3, mut t0: f64, mut t1: f64) -> (f64, f64) {
+pub(super) fn clip_range(b: &Aabb, ray: &Ray, inv: DVec3, mut t0: f64, mut t1: f64) -> (f64, f64) {
     for a in 0..3 {
         let ta = (b.min[a] as f64 - ray.origin[a]) * inv[a];
         let tb = (b.max[a] as f64 - ray.origin[a]) * inv[a];
@@ -308,343 +299,6 @@ pub(crate) fn root_interval(bounds: &Aabb, ray: &Ray, inv: DVec3) -> Option<(f64
 #[inline(always)]
 pub(crate) fn closer(t: f64, prim: u32, best: Option<Hit>) -> bool {
     best.is_none_or(|h| t < h.t || (t == h.t && prim < h.prim))
-}
-
-/// How many slots ahead [`Tracer::new`] prefetches the triangle it will
-/// read: about one memory latency of work at a few ns a triangle.
-const PREFETCH_AHEAD: usize = 16;
-
-/// A hint that `p` will be read soon (x86-64; elsewhere nothing).
-#[inline(always)]
-fn prefetch<T>(p: *const T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch never faults, whatever the address.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
-}
-
-/// A tree bound to its triangles, laid out in leaf order for traversal.
-pub struct Tracer<'a> {
-    pub(super) bih: &'a Bih,
-    /// The tree's nodes with every leaf's first slot moved to a multiple of
-    /// four in the padded triangle order below, so that a leaf starts a
-    /// group and no lane tests another leaf's triangle.
-    pub(super) nodes: Vec<BihNode>,
-    /// Padded slot → scene triangle id (`u32::MAX` for padding).
-    pub(super) prims: Vec<u32>,
-    /// The box of each leaf's triangles, by node id (unused for inner
-    /// nodes): a BIH leaf's region is bounded only by its ancestors' planes
-    /// and is often much larger than what it holds, so a ray is tested
-    /// against this box before the leaf's triangles.
-    pub(super) leaf_boxes: Vec<Aabb>,
-    /// Padded slot `k` is lane `k % 4` of group `k / 4`.
-    pub(super) groups: Vec<Group>,
-    /// The CPU has AVX2: traverse with the AVX2 build of the loop.
-    #[cfg(target_arch = "x86_64")]
-    pub(super) avx2: bool,
-}
-
-impl<'a> Tracer<'a> {
-    pub fn new(bih: &'a Bih, scene: &Scene) -> Self {
-        assert_eq!(
-            bih.prim_ids.len(),
-            scene.len(),
-            "tree and scene differ in size"
-        );
-        assert!(bih.config.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
-        // One pass over the leaves in depth-first order, each triangle read
-        // once: its slot in the padded order, its lane in a group, its box
-        // into the leaf's box.
-        let mut nodes = bih.nodes.clone();
-        let mut leaf_boxes = vec![Aabb::EMPTY; nodes.len()];
-        let slots = bih.prim_ids.len() + 3 * bih.nodes.len().div_ceil(2);
-        let mut prims = Vec::with_capacity(slots);
-        let mut groups: Vec<Group> = Vec::with_capacity(slots.div_ceil(4));
-        let mut stack = vec![0u32];
-        while let Some(id) = stack.pop() {
-            let nd = bih.nodes[id as usize];
-            if !nd.is_leaf() {
-                stack.extend([nd.left_child() + 1, nd.left_child()]);
-                continue;
-            }
-            let (first, count) = nd.leaf_range();
-            nodes[id as usize] = BihNode::leaf(prims.len() as u32, count);
-            let mut bounds = Aabb::EMPTY;
-            for k in first as usize..(first + count) as usize {
-                // Leaves come in tree order, their ranges in slot order: the
-                // triangle a few slots on is the next cache miss (the scene
-                // is in file order), so ask for it now.
-                if let Some(&ahead) = bih.prim_ids.get(k + PREFETCH_AHEAD) {
-                    prefetch(scene.triangles.as_ptr().wrapping_add(ahead as usize));
-                }
-                let p = bih.prim_ids[k];
-                let tri = &scene.triangles[p as usize];
-                bounds = bounds.union(tri.bounds());
-                if prims.len() % 4 == 0 {
-                    groups.push(Group::default());
-                }
-                let lane = prims.len() % 4;
-                groups
-                    .last_mut()
-                    .expect("pushed")
-                    .set(lane, PreTriangle::new(tri).v);
-                prims.push(p);
-            }
-            leaf_boxes[id as usize] = bounds;
-            prims.resize(prims.len().next_multiple_of(4), u32::MAX);
-        }
-        Tracer {
-            bih,
-            nodes,
-            leaf_boxes,
-            prims,
-            groups,
-            #[cfg(target_arch = "x86_64")]
-            avx2: std::arch::is_x86_feature_detected!("avx2"),
-        }
-    }
-
-    /// The same tracer using the portable (SSE2) build of the traversal
-    /// loop even where the CPU has AVX2: for tests and comparisons. Both
-    /// builds give bitwise the same hits.
-    pub fn portable(mut self) -> Self {
-        #[cfg(target_arch = "x86_64")]
-        {
-            self.avx2 = false;
-        }
-        self
-    }
-
-    pub fn bih(&self) -> &Bih {
-        self.bih
-    }
-
-    /// Bytes of the tracer's own arrays (its node copy, padded triangle
-    /// order, leaf boxes and four-lane triangle groups), beside the tree's.
-    pub fn memory_bytes(&self) -> usize {
-        size_of_val(self.nodes.as_slice())
-            + size_of_val(self.prims.as_slice())
-            + size_of_val(self.leaf_boxes.as_slice())
-            + size_of_val(self.groups.as_slice())
-    }
-
-    /// The closest hit in `[tmin, tmax]`, ties to the lower triangle id.
-    pub fn closest(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
-        self.traverse::<false>(ray, stats)
-    }
-
-    /// Any hit in `[tmin, tmax]` (shadow rays): stops at the first found.
-    pub fn any(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
-        self.traverse::<true>(ray, stats)
-    }
-
-    /// Leaf `node`'s triangles against `ray`, if the ray meets the box
-    /// of the leaf's triangles before its best hit so far: a closer hit
-    /// replaces `best` (and `best_t`). With `ANY`, `true` at the first hit
-    /// found.
-    #[inline(always)]
-    fn test_leaf<const ANY: bool, const FINITE: bool>(
-        &self,
-        node: u32,
-        ray: &Ray,
-        inv: DVec3,
-        best: &mut Option<Hit>,
-        best_t: &mut f64,
-        stats: &mut RayStats,
-    ) -> bool {
-        // Only a ray that meets the box of the leaf's triangles before its
-        // best hit so far can hit one of them.
-        let leaf_box = &self.leaf_boxes[node as usize];
-        let (b0, b1) = if FINITE {
-            clip_range_finite(leaf_box, ray.origin, inv, ray.tmin, *best_t)
-        } else {
-            clip_range(leaf_box, ray, inv, ray.tmin, *best_t)
-        };
-        b0 <= b1 && self.test_triangles::<ANY>(node, ray, best, best_t, stats)
-    }
-
-    /// Leaf `node`'s triangles against `ray` (whose test of the leaf's
-    /// box passed), four at a time: a closer hit replaces `best` (and
-    /// `best_t`). With `ANY`, `true` at the first hit found. The single-ray
-    /// walk and the packets ([`super::packet`]) both test triangles here.
-    #[inline(always)]
-    pub(super) fn test_triangles<const ANY: bool>(
-        &self,
-        node: u32,
-        ray: &Ray,
-        best: &mut Option<Hit>,
-        best_t: &mut f64,
-        stats: &mut RayStats,
-    ) -> bool {
-        let (first, count) = self.nodes[node as usize].leaf_range();
-        stats.triangles_tested += count as u64;
-        let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
-        let (first, end) = (first as usize, (first + count) as usize);
-        for g in first / 4..end.div_ceil(4) {
-            let f = lanes::intersect4(&self.groups[g], o, d, ray.tmin, *best_t);
-            // Lanes of this leaf only (it starts a group), in slot order.
-            let mut m = f.mask & ((1u32 << (end - g * 4).min(4)) - 1);
-            while m != 0 {
-                let l = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let (t, prim) = (f.t[l], self.prims[g * 4 + l]);
-                if closer(t, prim, *best) {
-                    let (u, v) = (f.u[l] / f.adet[l], f.v[l] / f.adet[l]);
-                    *best = Some(Hit { prim, t, u, v });
-                    *best_t = t;
-                    if ANY {
-                        return true;
-                    }
-                }
-            }
-        }
-        false
-    }
-
-    fn traverse<const ANY: bool>(&self, ray: &Ray, stats: &mut RayStats) -> Option<Hit> {
-        // A zero (or subnormal) direction component makes a reciprocal
-        // infinite, and slab distances can be NaN: such rays take the
-        // careful slab test, all others the branch-free one.
-        if (DVec3::ONE / ray.dir).is_finite() {
-            self.traverse_in::<ANY, true>(ray, stats)
-        } else {
-            self.traverse_in::<ANY, false>(ray, stats)
-        }
-    }
-
-    #[inline(always)]
-    fn traverse_in<const ANY: bool, const FINITE: bool>(
-        &self,
-        ray: &Ray,
-        stats: &mut RayStats,
-    ) -> Option<Hit> {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: the CPU has AVX2 (checked when the tracer was made).
-            return unsafe { self.traverse_avx2::<ANY, FINITE>(ray, stats) };
-        }
-        self.traverse_portable::<ANY, FINITE>(ray, stats)
-    }
-
-    /// The portable build of the loop. Never inlined, like
-    /// [`Tracer::traverse_avx2`]: built for a CPU that has AVX2 anyway
-    /// (`-C target-cpu=native`), both would otherwise be inlined into their
-    /// caller, four copies of the loop in one function, and the tracer ran
-    /// 30–45 % slower.
-    #[inline(never)]
-    fn traverse_portable<const ANY: bool, const FINITE: bool>(
-        &self,
-        ray: &Ray,
-        stats: &mut RayStats,
-    ) -> Option<Hit> {
-        self.traverse_body::<ANY, FINITE>(ray, stats)
-    }
-
-    /// The same traversal compiled for AVX2, so that the four-lane triangle
-    /// tests run four `f64` lanes at a time; chosen at run time.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[inline(never)]
-    fn traverse_avx2<const ANY: bool, const FINITE: bool>(
-        &self,
-        ray: &Ray,
-        stats: &mut RayStats,
-    ) -> Option<Hit> {
-        self.traverse_body::<ANY, FINITE>(ray, stats)
-    }
-
-    /// `FINITE`: every component of the ray's reciprocal direction is
-    /// finite.
-    #[inline(always)]
-    fn traverse_body<const ANY: bool, const FINITE: bool>(
-        &self,
-        ray: &Ray,
-        stats: &mut RayStats,
-    ) -> Option<Hit> {
-        stats.rays += 1;
-        let nodes = &self.nodes;
-        let inv = DVec3::ONE / ray.dir;
-        let (t0, t1) = root_interval(&self.bih.bounds, ray, inv)?;
-        let neg = [
-            ray.dir.x.is_sign_negative(),
-            ray.dir.y.is_sign_negative(),
-            ray.dir.z.is_sign_negative(),
-        ];
-        // Not zeroed per ray (3 KiB): a slot is read only after a push.
-        let mut stack = [const { MaybeUninit::<(u32, f64, f64)>::uninit() };
-            BihConfig::MAX_SUPPORTED_DEPTH as usize + 2];
-        let mut sp = 0usize;
-        let mut best: Option<Hit> = None;
-        let mut best_t = ray.tmax;
-        let (mut node, mut tn, mut tf) = (0u32, t0, t1);
-        loop {
-            stats.nodes_visited += 1;
-            let nd = &nodes[node as usize];
-            if nd.is_leaf() {
-                if self.test_leaf::<ANY, FINITE>(node, ray, inv, &mut best, &mut best_t, stats) {
-                    return best;
-                }
-            } else {
-                // [`descend`]'s step, written out: called here (a struct
-                // returned and matched) it cost 4 % of the host's primary
-                // rays per second on the dragon, measured. The SPE caster
-                // calls `descend`; tests/cast.rs holds both to the same
-                // hits, bit for bit.
-                let a = nd.axis();
-                let [cl, cr] = nd.clip();
-                let t_left = (cl as f64 - ray.origin[a]) * inv[a];
-                let t_right = (cr as f64 - ray.origin[a]) * inv[a];
-                let (t_exit_near, t_enter_far) = if neg[a] {
-                    (t_right, t_left)
-                } else {
-                    (t_left, t_right)
-                };
-                let exit = widen_up(t_exit_near);
-                let enter = widen_down(t_enter_far);
-                let near_tf = if exit < tf { exit } else { tf };
-                let far_tn = if enter > tn { enter } else { tn };
-                let left = nd.left_child();
-                let (near, far) = if neg[a] {
-                    (left + 1, left)
-                } else {
-                    (left, left + 1)
-                };
-                let go_near = tn <= near_tf;
-                let go_far = far_tn <= tf;
-                if go_near {
-                    if go_far {
-                        stack[sp].write((far, far_tn, tf));
-                        sp += 1;
-                    }
-                    node = near;
-                    tf = near_tf;
-                    continue;
-                } else if go_far {
-                    node = far;
-                    tn = far_tn;
-                    continue;
-                }
-            }
-            // Pop the next node that may still hold a closer hit.
-            loop {
-                if sp == 0 {
-                    return best;
-                }
-                sp -= 1;
-                // SAFETY: slots below the stack pointer were all written by
-                // a push (the pointer only grows by a write).
-                let (n, a, b) = unsafe { stack[sp].assume_init() };
-                let bound = pop_bound(best_t);
-                if a <= bound {
-                    (node, tn, tf) = (n, a, b.min(bound));
-                    break;
-                }
-            }
-        }
-    }
 }
 
 #[cfg(test)]
