@@ -1,6 +1,7 @@
 //! Host builder throughput (triangles per second) and ray casting (primary
-//! rays per second, one thread) on the default scene and, when CELLBIH_DATA
-//! is set, on bunny and dragon. Criterion reports medians; `Throughput` makes
+//! rays per second, one thread: ray by ray, and in 4 × 4 packets beside
+//! it) on the default scene and, when CELLBIH_DATA is set, on bunny and
+//! dragon. Criterion reports medians; `Throughput` makes
 //! it print Melem/s (triangles or rays).
 
 use std::hint::black_box;
@@ -32,16 +33,26 @@ fn raycast(c: &mut Criterion) {
     for s in scenes() {
         let bih = Build::new(BuilderKind::HOST).run(&s).unwrap().bih;
         let tracer = Tracer::new(&bih, &s);
-        let rays = View::Default
+        let cam = View::Default
             .camera(&s.name, &s.bounds(), 512, 512)
-            .unwrap()
-            .rays();
+            .unwrap();
+        let rays = cam.rays();
         g.throughput(Throughput::Elements(rays.len() as u64));
         g.bench_function(&s.name, |b| {
             b.iter(|| {
                 let mut st = RayStats::default();
                 rays.iter()
                     .filter(|r| tracer.closest(r, &mut st).is_some())
+                    .count()
+            })
+        });
+        // The same rays in 4 × 4 blocks, traced as packets.
+        let blocks = cam.rays_in_blocks(4, 4);
+        g.bench_function(format!("{} packets", s.name), |b| {
+            b.iter(|| {
+                let mut st = RayStats::default();
+                (tracer.closest_all(&blocks, &mut st).iter())
+                    .filter(|h| h.is_some())
                     .count()
             })
         });
