@@ -101,7 +101,8 @@ impl Tracer<'_> {
     #[inline(always)]
     fn packet_body(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
         // Lanes by axis: the step at a node reads one axis of every ray.
-        // Lanes past `n` stay inactive; their values are harmless.
+        // Lanes past the packet's rays stay inactive; their values are
+        // harmless.
         let (mut o, mut inv) = ([[0.0f64; N]; 3], [[1.0f64; N]; 3]);
         let (mut tn, mut tf, mut best_t) = ([0.0f64; N], [0.0f64; N], [0.0f64; N]);
         let mut tmin = [0.0f64; N];
@@ -247,8 +248,8 @@ impl Tracer<'_> {
 }
 
 // The packet's arithmetic never meets a NaN: every reciprocal is finite
-// and nonzero, planes and origins are finite, so a slab distance is a
-// number or ±inf. Its maximum and minimum are then plain comparisons (one
+// and nonzero, planes and origins are finite ([`coherent`]), so a slab
+// distance is a number or ±inf. Its maximum and minimum are then plain comparisons (one
 // SIMD instruction, where `f64::max` also handles NaN), and they pick the
 // same number as `f64::max`/`min` (at most the sign of a zero differs,
 // which no comparison below sees).
@@ -278,11 +279,13 @@ fn down(t: f64) -> f64 {
 /// Whether `rays` can share one traversal: their directions agree in
 /// sign on every axis (every ray has the same near child at every node)
 /// and have no zero or subnormal component (every reciprocal is finite,
-/// so the branch-free slab test holds for all of them).
+/// so the branch-free slab test holds for all of them), and their origins
+/// and ends are numbers (so that no slab distance is NaN: see above).
 fn coherent(rays: &[Ray]) -> bool {
     let sign = |r: &Ray| r.dir.to_array().map(f64::is_sign_negative);
+    let numbers = |r: &Ray| r.origin.is_finite() && !r.tmin.is_nan() && !r.tmax.is_nan();
     !rays.is_empty()
         && rays
             .iter()
-            .all(|r| sign(r) == sign(&rays[0]) && (DVec3::ONE / r.dir).is_finite())
+            .all(|r| sign(r) == sign(&rays[0]) && (DVec3::ONE / r.dir).is_finite() && numbers(r))
 }
