@@ -125,3 +125,34 @@ fn the_render_in_packets_gives_single_rays_answers() {
     assert_eq!(frame.stats, stats);
     assert!(frame.stats.rays == 37 * 21 && frame.shade.iter().any(Option::is_some));
 }
+
+/// A packet with a ray that is not a number somewhere (an origin of NaN
+/// or infinity, a NaN end) goes ray by ray, and every ray — that one
+/// too — answers and counts as it does alone.
+#[test]
+fn a_packet_with_a_ray_that_is_not_a_number_goes_ray_by_ray() {
+    let s = cellbih::scene::load("default", None).unwrap();
+    let bih = Build::new(BuilderKind::HOST).run(&s).unwrap().bih;
+    let tracer = Tracer::new(&bih, &s);
+    let cam = Camera::framing(&s.bounds(), 16, 16);
+    let blocks = cam.rays_in_blocks(4, 4);
+    for odd in [
+        |r: &mut Ray| r.origin.x = f64::NAN,
+        |r: &mut Ray| r.origin.y = f64::INFINITY,
+        |r: &mut Ray| r.tmax = f64::NAN,
+        |r: &mut Ray| r.tmin = f64::NAN,
+    ] {
+        for packet in blocks.chunks(PACKET_RAYS) {
+            let mut rays = packet.to_vec();
+            odd(&mut rays[5]);
+            let mut hits = vec![None; rays.len()];
+            let mut each = vec![RayStats::default(); rays.len()];
+            tracer.closest_packet(&rays, &mut hits, &mut each);
+            for (i, ray) in rays.iter().enumerate() {
+                let mut alone = RayStats::default();
+                assert!(same(&hits[i], &tracer.closest(ray, &mut alone)), "ray {i}");
+                assert_eq!(each[i], alone, "ray {i}");
+            }
+        }
+    }
+}
