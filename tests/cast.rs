@@ -15,23 +15,8 @@ use cellbih::cell::{CellConfig, CostModel};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::Camera;
 use cellbih::scene::{self, Scene};
-use common::{check_ray, rays_for, scene_strategy};
+use common::{check_ray, rays_for, same_hit as same, scene_strategy};
 use proptest::prelude::*;
-
-/// Bitwise the same answer (`Hit`'s f64 compared by bits, so that a NaN
-/// or a signed zero could not pass unnoticed).
-fn same(a: &Option<Hit>, b: &Option<Hit>) -> bool {
-    match (a, b) {
-        (None, None) => true,
-        (Some(x), Some(y)) => {
-            x.prim == y.prim
-                && x.t.to_bits() == y.t.to_bits()
-                && x.u.to_bits() == y.u.to_bits()
-                && x.v.to_bits() == y.v.to_bits()
-        }
-        _ => false,
-    }
-}
 
 fn cast(
     scene: &Scene,

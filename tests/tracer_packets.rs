@@ -9,27 +9,13 @@
 
 mod common;
 
-use cellbih::bih::{Hit, PACKET_RAYS, Ray, RayStats, Tracer};
+use cellbih::bih::{PACKET_RAYS, Ray, RayStats, Tracer};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::Camera;
 use cellbih::scene::Scene;
-use common::{rays_for, scene_strategy};
+use common::{rays_for, same_hit as same, scene_strategy};
 use glam::DVec3;
 use proptest::prelude::*;
-
-/// Bitwise the same answer.
-fn same(a: &Option<Hit>, b: &Option<Hit>) -> bool {
-    match (a, b) {
-        (None, None) => true,
-        (Some(x), Some(y)) => {
-            x.prim == y.prim
-                && x.t.to_bits() == y.t.to_bits()
-                && x.u.to_bits() == y.u.to_bits()
-                && x.v.to_bits() == y.v.to_bits()
-        }
-        _ => false,
-    }
-}
 
 /// The sets of rays a packet is tried on: a framing camera's rays and a
 /// camera's from inside the box, in 4 × 4 blocks (edge blocks cut, so

@@ -5,7 +5,7 @@
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use cellbih::bih::Bih;
+use cellbih::bih::{Bih, Hit};
 #[allow(unused_imports)]
 pub use cellbih::quality::agree::{T_TOLERANCE, check_ray, rays_for};
 use cellbih::scene::{Scene, SplitMix64, Triangle};
@@ -252,4 +252,19 @@ pub fn assert_fails_with(out: &Output, msg: &str) {
         out.status
     );
     assert!(!err.contains("panicked"), "{err}");
+}
+
+/// Bitwise the same answer (`Hit`'s f64 compared by bits, so that a NaN
+/// or a signed zero could not pass unnoticed).
+pub fn same_hit(a: &Option<Hit>, b: &Option<Hit>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(x), Some(y)) => {
+            x.prim == y.prim
+                && x.t.to_bits() == y.t.to_bits()
+                && x.u.to_bits() == y.u.to_bits()
+                && x.v.to_bits() == y.v.to_bits()
+        }
+        _ => false,
+    }
 }
