@@ -6,7 +6,7 @@
 //! another way (`ppe_approx`, the Morton reference) finish with
 //! [`build_subtree`].
 
-use glam::{Vec3A, Vec4};
+use glam::{BVec4A, Vec3A, Vec4};
 
 use super::cutoff::child_regions;
 use super::decide::{Decision, NodeView, decide};
@@ -29,10 +29,17 @@ pub struct PrimRef {
     hi: Vec4,
 }
 
+/// The three coordinate lanes of a [`PrimRef`]'s `lo_id`.
+const XYZ: BVec4A = BVec4A::from_array([true, true, true, false]);
+
 impl Boxed for PrimRef {
     #[inline]
     fn lo(&self) -> Vec3A {
-        Vec3A::from_vec4(self.lo_id)
+        // The id's bits read as a float are a subnormal number; arithmetic
+        // on one is a microcode assist on Intel cores (a hundred cycles and
+        // more), and the centre multiplies every lane. So the lane is
+        // cleared before any arithmetic sees it.
+        Vec3A::from_vec4(Vec4::select(XYZ, self.lo_id, Vec4::ZERO))
     }
     #[inline]
     fn hi(&self) -> Vec3A {
@@ -426,4 +433,24 @@ pub fn step_with<T: Item>(
         left,
         right,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn a_prim_refs_box_carries_no_id_bits_into_arithmetic() {
+        let r = PrimRef::new(7, Aabb::new(Vec3::ONE, Vec3::splat(2.0)));
+        assert_eq!(r.id(), 7);
+        // All four SIMD lanes, the hidden one too: the id's bits there
+        // would be a subnormal float in every centre computed.
+        let lanes = |v: Vec3A| -> [f32; 4] {
+            // SAFETY: Vec3A is four f32 lanes (16 bytes, one SIMD register).
+            unsafe { std::mem::transmute::<Vec3A, [f32; 4]>(v) }
+        };
+        assert_eq!(lanes(r.lo()), [1.0, 1.0, 1.0, 0.0]);
+        assert_eq!(lanes(r.center()), [1.5, 1.5, 1.5, 0.0]);
+    }
 }
