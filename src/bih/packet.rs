@@ -50,18 +50,16 @@ impl Tracer<'_> {
     pub fn closest_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
         assert!(rays.len() <= N, "{} rays: a packet holds {N}", rays.len());
         assert!(hits.len() == rays.len() && stats.len() == rays.len());
-        if !coherent(rays) {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the CPU has AVX2 (checked when the tracer was made).
+        let traced = self.avx2 && unsafe { self.packet_avx2(rays, hits, stats) };
+        #[cfg(not(target_arch = "x86_64"))]
+        let traced = false;
+        if !traced && !self.packet_portable(rays, hits, stats) {
             for ((ray, hit), st) in rays.iter().zip(hits).zip(stats) {
                 *hit = self.closest(ray, st);
             }
-            return;
         }
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: the CPU has AVX2 (checked when the tracer was made).
-            return unsafe { self.packet_avx2(rays, hits, stats) };
-        }
-        self.packet_portable(rays, hits, stats)
     }
 
     /// Every ray's closest hit, the rays taken [`PACKET_RAYS`] at a time
@@ -69,12 +67,13 @@ impl Tracer<'_> {
     /// `stats`. Consecutive rays should be neighbours (a camera's rays in
     /// 4 × 4 blocks: `crate::render::block_order`) for the packets to pay.
     pub fn closest_all(&self, rays: &[Ray], stats: &mut RayStats) -> Vec<Option<Hit>> {
-        let mut hits = vec![None; rays.len()];
-        let mut each = [RayStats::default(); N];
-        for (r, h) in rays.chunks(N).zip(hits.chunks_mut(N)) {
-            let each = &mut each[..r.len()];
+        let mut hits = Vec::with_capacity(rays.len());
+        let (mut chunk, mut each) = ([None; N], [RayStats::default(); N]);
+        for r in rays.chunks(N) {
+            let (chunk, each) = (&mut chunk[..r.len()], &mut each[..r.len()]);
             each.fill(RayStats::default());
-            self.closest_packet(r, h, each);
+            self.closest_packet(r, chunk, each);
+            hits.extend_from_slice(chunk);
             for s in each.iter() {
                 *stats += *s;
             }
@@ -85,7 +84,12 @@ impl Tracer<'_> {
     /// The portable build of the packet loop (never inlined: see
     /// `Tracer::traverse_portable`).
     #[inline(never)]
-    fn packet_portable(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
+    fn packet_portable(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        stats: &mut [RayStats],
+    ) -> bool {
         self.packet_body(rays, hits, stats)
     }
 
@@ -93,30 +97,58 @@ impl Tracer<'_> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline(never)]
-    fn packet_avx2(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
+    fn packet_avx2(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) -> bool {
         self.packet_body(rays, hits, stats)
     }
 
-    /// One coherent packet's traversal.
+    /// One packet's traversal, if its rays are coherent (else `false`,
+    /// and nothing written): their directions agree in sign on every axis
+    /// (every ray has the same near child at every node) and have no zero
+    /// or subnormal component (every reciprocal is finite, so the
+    /// branch-free slab test holds for all of them), and their origins and
+    /// ends are numbers (so that no slab distance is NaN: see below).
     #[inline(always)]
-    fn packet_body(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
+    fn packet_body(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) -> bool {
+        if rays.is_empty() {
+            return false;
+        }
         // Lanes by axis: the step at a node reads one axis of every ray.
-        // Lanes past the packet's rays stay inactive; their values are
-        // harmless.
-        let (mut o, mut inv) = ([[0.0f64; N]; 3], [[1.0f64; N]; 3]);
-        let (mut tn, mut tf, mut best_t) = ([0.0f64; N], [0.0f64; N], [0.0f64; N]);
-        let mut tmin = [0.0f64; N];
+        // Lanes past the packet's rays copy its last ray and stay
+        // inactive. Filled and checked lane-wise, so that the reciprocals
+        // and the checks are SIMD instructions too.
+        let (mut o, mut d) = ([[0.0f64; N]; 3], [[1.0f64; N]; 3]);
+        let (mut tmin, mut best_t) = ([0.0f64; N], [0.0f64; N]);
+        for i in 0..N {
+            let ray = &rays[i.min(rays.len() - 1)];
+            for a in 0..3 {
+                (o[a][i], d[a][i]) = (ray.origin[a], ray.dir[a]);
+            }
+            (tmin[i], best_t[i]) = (ray.tmin, ray.tmax);
+        }
+        let inv = d.map(|d| d.map(|d| 1.0 / d));
+        let neg = [0, 1, 2].map(|a| d[a][0].is_sign_negative());
+        let mut coherent = true;
+        for a in 0..3 {
+            for i in 0..N {
+                coherent &= inv[a][i].is_finite()
+                    & (d[a][i].is_sign_negative() == neg[a])
+                    & o[a][i].is_finite();
+            }
+        }
+        for i in 0..N {
+            coherent &= !tmin[i].is_nan() & !best_t[i].is_nan();
+        }
+        if !coherent {
+            return false;
+        }
+        let (mut tn, mut tf) = ([0.0f64; N], [0.0f64; N]);
         let mut mask = 0u32;
         for (i, ray) in rays.iter().enumerate() {
             stats[i].rays += 1;
             hits[i] = None;
-            let inv_dir = DVec3::ONE / ray.dir;
-            for a in 0..3 {
-                (o[a][i], inv[a][i]) = (ray.origin[a], inv_dir[a]);
-            }
-            (tmin[i], best_t[i]) = (ray.tmin, ray.tmax);
             // `root_interval`'s interval: the branch-free slab test gives
             // the careful one's for a finite reciprocal.
+            let inv_dir = DVec3::new(inv[0][i], inv[1][i], inv[2][i]);
             let (t0, t1) =
                 clip_range_finite(&self.bih.bounds, ray.origin, inv_dir, ray.tmin, ray.tmax);
             if t0 <= t1 {
@@ -124,17 +156,16 @@ impl Tracer<'_> {
                 mask |= 1 << i;
             }
         }
-        let neg = rays[0].dir.to_array().map(f64::is_sign_negative);
         // Not zeroed per packet: an entry is read only after a push.
         let mut stack =
             [const { MaybeUninit::<Kept>::uninit() }; BihConfig::MAX_SUPPORTED_DEPTH as usize + 2];
         let mut sp = 0usize;
         let mut node = 0u32;
         // Nodes each ray visits, counted in lanes.
-        let mut visits = [0u64; N];
+        let mut visits = [0u32; N];
         while mask != 0 {
             for (i, v) in visits.iter_mut().enumerate() {
-                *v += (mask >> i & 1) as u64;
+                *v += mask >> i & 1;
             }
             let nd = &self.nodes[node as usize];
             let descended = if nd.is_leaf() {
@@ -242,8 +273,9 @@ impl Tracer<'_> {
             }
         }
         for (st, v) in stats.iter_mut().zip(visits) {
-            st.nodes_visited += v;
+            st.nodes_visited += v as u64;
         }
+        true
     }
 }
 
@@ -274,18 +306,4 @@ fn up(t: f64) -> f64 {
 #[inline(always)]
 fn down(t: f64) -> f64 {
     min(t * (1.0 + SLACK), t * (1.0 - SLACK))
-}
-
-/// Whether `rays` can share one traversal: their directions agree in
-/// sign on every axis (every ray has the same near child at every node)
-/// and have no zero or subnormal component (every reciprocal is finite,
-/// so the branch-free slab test holds for all of them), and their origins
-/// and ends are numbers (so that no slab distance is NaN: see above).
-fn coherent(rays: &[Ray]) -> bool {
-    let sign = |r: &Ray| r.dir.to_array().map(f64::is_sign_negative);
-    let numbers = |r: &Ray| r.origin.is_finite() && !r.tmin.is_nan() && !r.tmax.is_nan();
-    !rays.is_empty()
-        && rays
-            .iter()
-            .all(|r| sign(r) == sign(&rays[0]) && (DVec3::ONE / r.dir).is_finite() && numbers(r))
 }
