@@ -6,11 +6,14 @@
 //!
 //! `cargo run --release --bin frame_loop -- [--scenes car,cup,rtperf:100000]
 //! [--sizes 320x240,640x480] [--frames 10] [--builder spe_bfs_private]
-//! [--spes 6] [--threads N] [--out results]`
+//! [--empty-cut 30 …] [--spes 6] [--threads N] [--out results]`
 //!
 //! Writes frame_loop.{csv,json} (a row per scene, size, arrangement and
-//! policy; the JSON also holds every frame) and one SVG per scene and size:
-//! frame time per frame, a line per policy and arrangement.
+//! policy; the JSON also holds every frame, and each case's goals) and one
+//! SVG per scene and size: frame time per frame, a line per policy and
+//! arrangement. Then a table of the metric's goals per case (scene, size,
+//! arrangement): `auto` against the best fixed policy, the share of its
+//! frames within 10 % of the oracle's best, its mean prediction error.
 
 // The options' doc comments are their --help text: `rtperf:N[:SEED]` is
 // the scene syntax there, not a link.
@@ -27,7 +30,7 @@ use cellbih::frame::{FrameConfig, Policy, play};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::ViewsArg;
 use cellbih::report::{
-    OutputArgs, Series, ThreadsArg, line_plot, output, print_rows, side_by_side,
+    OutputArgs, Series, ThreadsArg, TreeArgs, line_plot, output, print_rows, side_by_side,
 };
 use cellbih::scene;
 use cellbih::update::{Animation, Method};
@@ -54,6 +57,8 @@ struct Args {
     /// The builder of every rebuild (an emulated one).
     #[arg(long, default_value = "spe_bfs_private")]
     builder: String,
+    #[command(flatten)]
+    tree: TreeArgs,
     /// SPEs of the Cell (2 to 8: the paper's arrangement needs one to build
     /// and one to render).
     #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(2..=8))]
@@ -117,6 +122,10 @@ fn run(args: &Args) -> Result<(), String> {
             ));
         }
     };
+    let build = Build::new(builder)
+        .with_tree(args.tree.config()?)
+        .on(&CellConfig::ps3().with_spes(args.spes as usize));
+    build.check().map_err(|e| e.to_string())?;
     let sizes: Vec<(u32, u32)> = args
         .sizes
         .iter()
@@ -158,7 +167,7 @@ fn run(args: &Args) -> Result<(), String> {
         |&(si, (w, h), (ai, (arrangement, build_spes)), (pi, policy))| {
             let (spec, anim_name, s, anim) = &played[si];
             let cfg = FrameConfig {
-                build: Build::new(builder).on(&CellConfig::ps3().with_spes(spes)),
+                build: build.clone(),
                 policy,
                 oracle: policy == Policy::Auto,
                 build_spes,
@@ -270,9 +279,10 @@ fn run(args: &Args) -> Result<(), String> {
         "frame_loop",
         (&KEYS, &flat),
         &json!({ "note": note, "builder": builder.name(), "spes": spes, "rows": rows }),
-        Some(&Build::new(builder).on(&CellConfig::ps3().with_spes(spes))),
+        Some(&build),
     )?;
     print_rows(args.output.format, &flat, |rows| table(rows, note))?;
+    goals(&rows);
     eprintln!(
         "written: {}/frame_loop.{{csv,json}}, frame_loop_*.svg",
         args.output.out.display()
@@ -316,4 +326,59 @@ fn table(rows: &[Value], note: &str) {
         );
     }
     println!("{note}");
+}
+
+/// The metric's goals per case (scene, size, arrangement): `auto`'s total
+/// within 5 % of the best fixed policy's, at least 90 % of its frames
+/// within 10 % of the oracle's best, its mean prediction error at most 5 %.
+fn goals(rows: &[Value]) {
+    println!(
+        "\n{:<16} {:>9} {:<10} {:<8} {:>11} {:>10} {:>7} {:>7} {:>9}",
+        "scene", "size", "arrange", "best", "best ms", "auto ms", "x best", "near", "pred err"
+    );
+    let case = |r: &Value| {
+        (
+            r["scene"].clone(),
+            r["width"].clone(),
+            r["height"].clone(),
+            r["arrangement"].clone(),
+        )
+    };
+    let (mut cases, mut met) = (0, 0);
+    for auto in rows.iter().filter(|r| r["policy"] == "auto") {
+        let fixed = rows
+            .iter()
+            .filter(|r| case(r) == case(auto) && r["policy"] != "auto");
+        let Some(best) = fixed.min_by(|a, b| {
+            let t = |r: &Value| r["total_ms"].as_f64().unwrap_or(f64::INFINITY);
+            t(a).total_cmp(&t(b))
+        }) else {
+            continue;
+        };
+        let (best_ms, auto_ms) = (
+            best["total_ms"].as_f64().unwrap_or(0.0),
+            auto["total_ms"].as_f64().unwrap_or(0.0),
+        );
+        let ratio = auto_ms / best_ms;
+        let near = auto["near_best"].as_f64().unwrap_or(0.0);
+        let err = auto["prediction_error"].as_f64().unwrap_or(f64::INFINITY);
+        cases += 1;
+        met += (ratio <= 1.05 && near >= 0.9 && err <= 0.05) as usize;
+        println!(
+            "{:<16} {:>9} {:<10} {:<8} {:>11.2} {:>10.2} {:>7.3} {:>6.0} % {:>7.1} %",
+            auto["scene"].as_str().unwrap_or(""),
+            format!("{}x{}", auto["width"], auto["height"]),
+            auto["arrangement"].as_str().unwrap_or(""),
+            best["policy"].as_str().unwrap_or(""),
+            best_ms,
+            auto_ms,
+            ratio,
+            near * 100.0,
+            err * 100.0,
+        );
+    }
+    println!(
+        "goals (auto within 5 % of the best fixed policy, 90 % of its frames within 10 % \
+         of the oracle's best, mean prediction error 5 % at most): met in {met} of {cases} cases"
+    );
 }

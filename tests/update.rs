@@ -357,7 +357,8 @@ fn a_builder_error_puts_the_scene_back_and_keeps_a_valid_tree() {
 /// of its triangles (those nearest one point) off as the `moving part`,
 /// leaves every other animation's scene as it is, and every method keeps
 /// the tree valid and equal to brute force while the part moves; a plan
-/// counts before the update what the local update then rebuilds.
+/// counts before the update what the local and the deep update then
+/// rebuild.
 #[test]
 fn a_mesh_with_a_moving_part_plays_and_plans_ahead() {
     let s = scene::load("rtperf:4000:3", None).unwrap();
@@ -376,6 +377,7 @@ fn a_mesh_with_a_moving_part_plays_and_plans_ahead() {
     let e = Animation::named("part", &s, 2, 0).unwrap_err();
     assert!(e.contains("Animation::prepare"), "{e}");
     let anim = Animation::named("part", &p, 6, 0).unwrap();
+    let mut deep_pieces_seen = 0;
     for &method in Method::ALL {
         let mut u = Updater::new(p.clone(), Build::new(BuilderKind::HOST), method).unwrap();
         for (f, moves) in anim.frames.iter().enumerate() {
@@ -391,7 +393,18 @@ fn a_mesh_with_a_moving_part_plays_and_plans_ahead() {
                 assert_eq!(plan.full_rebuild, r.full_rebuild);
                 assert_eq!(plan.interval, r.rebuilt, "frame {f}");
             }
+            if method == Method::Deep {
+                // The dry descent counts what the update then rebuilds.
+                assert_eq!(plan.full_rebuild, r.full_rebuild);
+                assert_eq!(plan.deep_rebuilt(), r.rebuilt, "frame {f}");
+                assert_eq!(plan.deep_pieces.len(), r.pieces, "frame {f}");
+                deep_pieces_seen += plan.deep_pieces.len();
+            }
             check(&u, &format!("part, {} frame {f}", method.name())).unwrap();
         }
     }
+    assert!(
+        deep_pieces_seen > 6,
+        "the deep update rebuilt pieces in most frames"
+    );
 }

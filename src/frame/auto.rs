@@ -3,21 +3,35 @@
 //! complete rebuild, the local update and the deep update before doing
 //! any of them (`--policy auto`).
 //!
-//! The prediction is made from cheap counts and from what earlier frames
-//! measured, in simulated milliseconds:
+//! Each option is priced with the work it would do and the tree it would
+//! leave, in simulated milliseconds, from cheap counts and from what
+//! earlier frames measured:
 //!
-//! - **update**: the triangles each option would rebuild — all of them for
-//!   a rebuild; Algorithm 1's enclosing interval for the local update,
-//!   found on a copy of the tree before anything is built
-//!   ([`Updater::plan`](crate::update::Updater::plan)); that interval
-//!   times the share the deep update has kept rebuilding of it so far —
-//!   turned into time by the build's cost per unit of work, `n·log2(n /
-//!   leaf size)`, measured on the first tree's build and on every frame
-//!   since (all the builds' ms over all their work);
-//! - **render**: the render the tree would give — after a rebuild, the
-//!   render measured after the last complete rebuild; after an update, the
-//!   last render (an update keeps the tree as it is around the moved
-//!   objects); before the first frame, the first tree's render.
+//! - **update**: the subtrees each option would build — the whole scene
+//!   for a rebuild; Algorithm 1's enclosing interval for the local update;
+//!   the pieces the deep update's descent would rebuild — all counted on a
+//!   copy of the tree before anything is built
+//!   ([`Updater::plan`](crate::update::Updater::plan)), each priced by the
+//!   cost of one build of its size. That cost is measured, not assumed to
+//!   follow `n log n`: a build has fixed costs, and a builder runs a small
+//!   build on fewer SPEs (`--tris-per-spe`), so a piece of 2,000 triangles
+//!   can cost six times a large build's per triangle. Before the first
+//!   frame, small builds of 48, 96, 192, … triangles are timed
+//!   ([`Updater::probe_piece`](crate::update::Updater::probe_piece)); with
+//!   the first tree's build they make a curve of build time against size,
+//!   read between its points on log scales. Each option's measured update
+//!   over its prediction is then learned as it is taken (a correction, one
+//!   per option), so a deep update of many small pieces is priced by its
+//!   pieces, and what the curve misses is learned.
+//! - **render**: the render the tree each option leaves would give: for
+//!   each option, the renders measured after it (the last after a complete
+//!   rebuild; an average of the last ones after the local or the deep
+//!   update, which leave trees of their own quality: the local update
+//!   rebuilds the moved objects' whole interval, the deep update keeps all
+//!   it can). Before an update was first taken its render is taken to be
+//!   a fresh tree's (local) or the last one (deep); an option not yet
+//!   taken whose predicted frame is within [`EXPLORE`] of the best is
+//!   taken once, to learn what its tree renders.
 //!
 //! A frame's predicted time combines the two as the arrangement does (sum,
 //! or the longer); the least wins, ties going to the lower sum, then to
@@ -35,39 +49,48 @@ pub struct Prediction {
 /// What the predictor has learned.
 #[derive(Clone, Debug)]
 pub struct Predictor {
-    leaf: f64,
-    /// Simulated ms and units of build work of every build seen: their
-    /// ratio is the cost of a unit, weighted by work (a large build's
-    /// measurement counts for more than a 300-triangle one's, whose fixed
-    /// costs would make the rate look high).
-    seen_ms: f64,
-    seen_work: f64,
-    /// The deep update's rebuilt triangles over the local interval.
-    deep_share: f64,
+    /// Builds timed (triangles, simulated ms), by size: the cost curve.
+    curve: Vec<(usize, f64)>,
+    /// Each option's measured update over its curve-priced one (rebuild,
+    /// local, deep), as taken.
+    correction: [f64; 3],
     render_fresh: Option<f64>,
     render_now: Option<f64>,
+    /// The render after the local and after the deep update, once taken.
+    render_local: Option<f64>,
+    render_deep: Option<f64>,
 }
 
-/// How much weight a new measurement of the deep update's share gets
-/// against what was learned.
+/// How much weight a new render measured after an update, or a new
+/// correction, gets against what was learned.
 const LEARN: f64 = 0.5;
 
+/// The sizes of the builds timed before the first frame: 48 triangles (the
+/// size below which the deep update stops descending), doubled, below the
+/// scene's size. Doubling, because a builder's cost can step between
+/// sizes (it takes more SPEs past a threshold).
+pub fn probe_sizes(triangles: usize) -> impl Iterator<Item = usize> {
+    std::iter::successors(Some(48usize), |n| n.checked_mul(2)).take_while(move |&n| n < triangles)
+}
+
+/// An update not taken yet is tried once when its predicted frame is
+/// within this share of the best option's.
+pub const EXPLORE: f64 = 0.1;
+
 impl Predictor {
-    /// A predictor for trees with leaves of `leaf_size`, which learned the
-    /// cost of building `triangles` from the first build's
+    /// A predictor that knows the first tree's build of `triangles` took
     /// `first_build_ms` (if it was timed).
-    pub fn new(leaf_size: u32, triangles: usize, first_build_ms: Option<f64>) -> Self {
-        let leaf = leaf_size.max(1) as f64;
+    pub fn new(triangles: usize, first_build_ms: Option<f64>) -> Self {
         let mut p = Predictor {
-            leaf,
-            seen_ms: 0.0,
-            seen_work: 0.0,
-            deep_share: 1.0,
+            curve: Vec::new(),
+            correction: [1.0; 3],
             render_fresh: None,
             render_now: None,
+            render_local: None,
+            render_deep: None,
         };
         if let Some(ms) = first_build_ms {
-            p.learn_build(triangles, ms);
+            p.seed_build(triangles, ms);
         }
         p
     }
@@ -79,40 +102,79 @@ impl Predictor {
         self.render_now = Some(render_ms);
     }
 
-    /// A build's work: `n·log2(n / leaf size)` (at least one level).
-    fn work(&self, n: usize) -> f64 {
-        let n = n as f64;
-        n * (n / self.leaf).max(2.0).log2()
-    }
-
-    fn learn_build(&mut self, n: usize, ms: f64) {
-        if n == 0 {
+    /// A build of one piece of `triangles`, timed before the first frame
+    /// (`Updater::probe_piece`): a point of the cost curve.
+    pub fn seed_build(&mut self, triangles: usize, ms: f64) {
+        if triangles == 0 || ms.is_nan() || ms <= 0.0 {
             return;
         }
-        self.seen_ms += ms;
-        self.seen_work += self.work(n);
+        let at = self.curve.partition_point(|&(n, _)| n < triangles);
+        match self.curve.get(at) {
+            Some(&(n, _)) if n == triangles => self.curve[at].1 = ms,
+            _ => self.curve.insert(at, (triangles, ms)),
+        }
     }
 
-    /// Each option's predicted times for a frame whose local update would
-    /// do what `plan` counts, in a scene of `triangles`.
-    pub fn predict(&self, plan: &Plan, triangles: usize) -> [(Method, Prediction); 3] {
-        let rate = if self.seen_work > 0.0 {
-            self.seen_ms / self.seen_work
+    /// The cost curve's ms for one build of `n` triangles: read between
+    /// the two timed sizes around `n` on log scales; below the smallest,
+    /// the smallest's (fixed costs dominate there); above the largest,
+    /// along the last segment's slope. With one point, in proportion to
+    /// `n`.
+    fn piece_ms(&self, n: usize) -> f64 {
+        let c = &self.curve;
+        if n == 0 || c.is_empty() {
+            return 0.0;
+        }
+        let at = c.partition_point(|&(m, _)| m < n);
+        if at < c.len() && c[at].0 == n {
+            return c[at].1;
+        }
+        if c.len() == 1 {
+            return c[0].1 * n as f64 / c[0].0 as f64;
+        }
+        if at == 0 {
+            return c[0].1;
+        }
+        let (a, b) = if at < c.len() {
+            (c[at - 1], c[at])
         } else {
-            0.0
+            (c[c.len() - 2], c[c.len() - 1])
         };
+        let slope = (b.1 / a.1).ln() / (b.0 as f64 / a.0 as f64).ln();
+        a.1 * (n as f64 / a.0 as f64).powf(slope)
+    }
+
+    /// The curve's ms for building `pieces` (triangles each).
+    fn build_ms(&self, pieces: &[usize]) -> f64 {
+        pieces.iter().map(|&n| self.piece_ms(n)).sum()
+    }
+
+    fn index(m: Method) -> usize {
+        match m {
+            Method::Rebuild => 0,
+            Method::Local => 1,
+            Method::Deep => 2,
+        }
+    }
+
+    /// Each option's predicted times for a frame whose updates would do
+    /// what `plan` counts, in a scene of `triangles`.
+    pub fn predict(&self, plan: &Plan, triangles: usize) -> [(Method, Prediction); 3] {
         let render_now = self.render_now.unwrap_or(0.0);
+        let render_fresh = self.render_fresh.unwrap_or(render_now);
+        let corrected =
+            |m: Method, pieces: &[usize]| self.build_ms(pieces) * self.correction[Self::index(m)];
         let rebuild = Prediction {
-            update_ms: rate * self.work(triangles),
-            render_ms: self.render_fresh.unwrap_or(render_now),
+            update_ms: corrected(Method::Rebuild, &[triangles]),
+            render_ms: render_fresh,
         };
-        let update = |n: f64| {
+        let update = |m: Method, pieces: &[usize], render_ms: f64| {
             if plan.full_rebuild {
                 rebuild
             } else {
                 Prediction {
-                    update_ms: rate * self.work(n.round() as usize),
-                    render_ms: render_now,
+                    update_ms: corrected(m, pieces),
+                    render_ms,
                 }
             }
         };
@@ -120,30 +182,78 @@ impl Predictor {
         // rebuilds more than the local update's interval).
         [
             (Method::Rebuild, rebuild),
-            (Method::Deep, update(plan.interval as f64 * self.deep_share)),
-            (Method::Local, update(plan.interval as f64)),
+            (
+                Method::Deep,
+                update(
+                    Method::Deep,
+                    &plan.deep_pieces,
+                    self.render_deep.unwrap_or(render_now),
+                ),
+            ),
+            (
+                Method::Local,
+                update(
+                    Method::Local,
+                    &[plan.interval],
+                    self.render_local.unwrap_or(render_fresh),
+                ),
+            ),
         ]
     }
 
+    /// The option to take: the least predicted frame ([`choose`]), unless
+    /// an update not taken yet is predicted within [`EXPLORE`] of it (the
+    /// least such, then).
+    pub fn choose(
+        &self,
+        predictions: &[(Method, Prediction); 3],
+        combine: impl Fn(f64, f64) -> f64,
+    ) -> (Method, Prediction) {
+        let best = choose(predictions, &combine);
+        let frame = |p: &Prediction| combine(p.update_ms, p.render_ms);
+        let unseen = |m: Method| match m {
+            Method::Local => self.render_local.is_none(),
+            Method::Deep => self.render_deep.is_none(),
+            Method::Rebuild => false,
+        };
+        (predictions.iter())
+            .filter(|(m, p)| unseen(*m) && frame(p) <= frame(&best.1) * (1.0 + EXPLORE))
+            .min_by(|a, b| frame(&a.1).total_cmp(&frame(&b.1)))
+            .copied()
+            .unwrap_or(best)
+    }
+
     /// Learns from a frame: the option taken, what `plan` counted before
-    /// it, the triangles it rebuilt, and its measured update and render.
+    /// it, whether it rebuilt completely, and its measured update and
+    /// render.
     pub fn observe(
         &mut self,
         taken: Method,
         plan: &Plan,
-        (full_rebuild, rebuilt): (bool, usize),
+        full_rebuild: bool,
         update_ms: f64,
         render_ms: f64,
     ) {
-        if rebuilt > 0 {
-            self.learn_build(rebuilt, update_ms);
+        let (m, pieces) = match (full_rebuild, taken) {
+            (true, _) | (_, Method::Rebuild) => (
+                Method::Rebuild,
+                vec![plan.interval.max(plan.deep_rebuilt())],
+            ),
+            (false, Method::Local) => (Method::Local, vec![plan.interval]),
+            (false, Method::Deep) => (Method::Deep, plan.deep_pieces.clone()),
+        };
+        let priced = self.build_ms(&pieces);
+        if priced > 0.0 && update_ms > 0.0 {
+            let c = &mut self.correction[Self::index(m)];
+            *c += LEARN * (update_ms / priced - *c);
         }
-        if taken == Method::Deep && !full_rebuild && plan.interval > 0 {
-            let share = rebuilt as f64 / plan.interval as f64;
-            self.deep_share += LEARN * (share - self.deep_share);
-        }
-        if full_rebuild {
-            self.render_fresh = Some(render_ms);
+        let learn = |learned: &mut Option<f64>| {
+            *learned = Some(learned.map_or(render_ms, |l| l + LEARN * (render_ms - l)));
+        };
+        match (full_rebuild, taken) {
+            (false, Method::Local) => learn(&mut self.render_local),
+            (false, Method::Deep) => learn(&mut self.render_deep),
+            _ => self.render_fresh = Some(render_ms),
         }
         self.render_now = Some(render_ms);
     }
@@ -170,53 +280,135 @@ pub fn choose(
 mod tests {
     use super::*;
 
-    fn plan(full: bool, interval: usize) -> Plan {
+    fn plan(full: bool, interval: usize, deep_pieces: &[usize]) -> Plan {
         Plan {
             full_rebuild: full,
             interval,
             depth: 3,
             transformed: 10,
+            deep_pieces: deep_pieces.to_vec(),
         }
     }
 
     #[test]
-    fn a_small_interval_is_predicted_cheaper_than_a_rebuild_and_chosen() {
-        let p = Predictor::new(12, 100_000, Some(50.0));
-        let pr = p.predict(&plan(false, 2_000), 100_000);
+    fn a_small_update_is_predicted_cheaper_than_a_rebuild_and_chosen() {
+        let p = Predictor::new(100_000, Some(50.0));
+        let pr = p.predict(&plan(false, 2_000, &[300, 200]), 100_000);
         let (m, best) = choose(&pr, |u, r| u + r);
-        // Deep and local are predicted alike before the deep update was
-        // seen; the deep one is taken on the tie.
-        assert_eq!(m, Method::Deep);
-        assert_eq!(pr[1].1, pr[2].1);
-        assert!(best.update_ms < pr[0].1.update_ms / 20.0, "{pr:?}");
-        // The rate is the first build's: the rebuild is predicted at it.
+        assert_eq!(m, Method::Deep, "{pr:?}");
+        assert!(best.update_ms < pr[2].1.update_ms, "{pr:?}");
+        assert!(pr[2].1.update_ms < pr[0].1.update_ms / 20.0, "{pr:?}");
+        // One build seen: the rate is the first build's, and the rebuild
+        // is predicted at it.
         assert!((pr[0].1.update_ms - 50.0).abs() < 1e-9);
     }
 
     #[test]
+    fn each_piece_is_priced_by_the_cost_curve_and_corrected_as_taken() {
+        let mut p = Predictor::new(100_000, Some(50.0));
+        p.seed_build(48, 0.2);
+        p.seed_build(3_072, 1.0);
+        // On the curve's points, their times; between, on log scales
+        // (384 is half way from 48 to 3,072 in log size).
+        assert_eq!(p.piece_ms(3_072), 1.0);
+        let mid = p.piece_ms(384);
+        let expect = 0.2 * 5f64.sqrt();
+        assert!((mid - expect).abs() < 1e-9, "{mid} {expect}");
+        // Below the smallest, its fixed cost; above the largest, the last
+        // slope.
+        assert_eq!(p.piece_ms(10), 0.2);
+        assert!(p.piece_ms(200_000) > 50.0);
+        // Ten small pieces cost ten small builds: far more than one piece
+        // of as many triangles.
+        let ten = p.predict(&plan(false, 480, &[48; 10]), 100_000);
+        assert!((ten[1].1.update_ms - 2.0).abs() < 1e-9, "{ten:?}");
+        assert!(ten[2].1.update_ms < 0.5 * ten[1].1.update_ms, "{ten:?}");
+        // A deep update measured at twice its price: the next is priced
+        // nearer what it costs (half the way), the local update's not.
+        p.seed_render(10.0);
+        p.observe(Method::Deep, &plan(false, 480, &[48; 10]), false, 4.0, 10.0);
+        let pr = p.predict(&plan(false, 480, &[48; 10]), 100_000);
+        assert!((pr[1].1.update_ms - 3.0).abs() < 1e-9, "{pr:?}");
+        assert!((pr[2].1.update_ms - ten[2].1.update_ms).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_probes_double_below_the_scene() {
+        let sizes: Vec<usize> = probe_sizes(1_000).collect();
+        assert_eq!(sizes, [48, 96, 192, 384, 768]);
+        assert_eq!(probe_sizes(48).count(), 0);
+    }
+
+    #[test]
     fn a_changed_scene_box_predicts_every_option_as_a_rebuild() {
-        let p = Predictor::new(12, 10_000, Some(5.0));
-        let pr = p.predict(&plan(true, 10_000), 10_000);
+        let p = Predictor::new(10_000, Some(5.0));
+        let pr = p.predict(&plan(true, 10_000, &[10_000]), 10_000);
         assert!(pr.iter().all(|(_, x)| *x == pr[0].1));
     }
 
     #[test]
-    fn it_learns_the_deep_share_and_the_fresh_render() {
-        let mut p = Predictor::new(12, 10_000, Some(5.0));
-        p.observe(Method::Deep, &plan(false, 1_000), (false, 200), 0.3, 8.0);
-        let pr = p.predict(&plan(false, 1_000), 10_000);
-        assert!(pr[1].1.update_ms < pr[2].1.update_ms, "{pr:?}");
+    fn each_update_is_priced_with_the_tree_it_leaves() {
+        let mut p = Predictor::new(10_000, Some(5.0));
+        p.seed_render(38.0);
+        let small = plan(false, 1_000, &[100]);
+        let sum = |u: f64, r: f64| u + r;
+        // Before the local update was taken, its tree is taken to render
+        // as a fresh one, the deep update's as the last one.
+        p.observe(Method::Deep, &small, false, 0.1, 40.0);
+        let pr = p.predict(&small, 10_000);
+        assert_eq!((pr[2].1.render_ms, pr[1].1.render_ms), (38.0, 40.0));
+        // Its better tree wins over the deep update's cheaper build.
+        assert_eq!(p.choose(&pr, sum).0, Method::Local);
+        // Taken, what it measured replaces the guess, averaged.
+        p.observe(Method::Local, &small, false, 0.5, 35.0);
+        assert_eq!(p.predict(&small, 10_000)[2].1.render_ms, 35.0);
+        p.observe(Method::Local, &small, false, 0.5, 36.0);
+        assert_eq!(p.predict(&small, 10_000)[2].1.render_ms, 35.5);
+        // A deep update does not move the local update's render; a
+        // rebuild's render is the last fresh tree's.
+        p.observe(Method::Deep, &small, false, 0.1, 42.0);
+        let pr = p.predict(&small, 10_000);
+        assert_eq!((pr[2].1.render_ms, pr[1].1.render_ms), (35.5, 41.0));
+        assert_eq!(pr[0].1.render_ms, 38.0);
         p.observe(
             Method::Rebuild,
-            &plan(true, 10_000),
-            (true, 10_000),
+            &plan(true, 10_000, &[10_000]),
+            true,
             5.0,
-            6.0,
+            37.0,
         );
-        p.observe(Method::Local, &plan(false, 1_000), (false, 1_000), 0.5, 7.0);
-        let pr = p.predict(&plan(false, 1_000), 10_000);
-        assert_eq!(pr[0].1.render_ms, 6.0);
-        assert_eq!(pr[2].1.render_ms, 7.0);
+        assert_eq!(p.predict(&small, 10_000)[0].1.render_ms, 37.0);
+    }
+
+    #[test]
+    fn an_update_not_taken_yet_is_tried_once_when_near_the_best() {
+        let mut p = Predictor::new(10_000, Some(5.0));
+        p.seed_render(38.0);
+        let pr = |update: [f64; 3], render: [f64; 3]| -> [(Method, Prediction); 3] {
+            let m = [Method::Rebuild, Method::Deep, Method::Local];
+            std::array::from_fn(|i| {
+                (
+                    m[i],
+                    Prediction {
+                        update_ms: update[i],
+                        render_ms: render[i],
+                    },
+                )
+            })
+        };
+        let sum = |u: f64, r: f64| u + r;
+        let small = plan(false, 1_000, &[100]);
+        p.observe(Method::Deep, &small, false, 1.0, 38.0);
+        // Local's frame 41 is within 10 % of deep's 39: tried.
+        let near = pr([5.0, 1.0, 3.0], [38.0; 3]);
+        assert_eq!(choose(&near, sum).0, Method::Deep);
+        assert_eq!(p.choose(&near, sum).0, Method::Local);
+        // 46 is not.
+        let far = pr([9.0, 1.0, 8.0], [38.0; 3]);
+        assert_eq!(p.choose(&far, sum).0, Method::Deep);
+        // Once taken, the least wins again.
+        p.observe(Method::Local, &small, false, 3.0, 38.0);
+        assert_eq!(p.choose(&near, sum).0, Method::Deep);
     }
 
     #[test]

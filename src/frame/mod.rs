@@ -237,14 +237,19 @@ pub fn play(
         .map_err(FrameError::Config)?;
     let mut u = Updater::new(scene.clone(), build, Method::Rebuild)?;
     u.build.cell.resident = true;
-    let mut predictor =
-        auto::Predictor::new(cfg.build.tree.leaf_size, scene.len(), u.first_build_ms);
+    let mut predictor = auto::Predictor::new(scene.len(), u.first_build_ms);
     if cfg.policy == Policy::Auto {
-        // The frame before the first, as a running renderer has it: the
-        // first tree's render, so that the first prediction has one (not
-        // counted in the frames).
+        // Before the first frame, as a running renderer has them: the
+        // first tree's render, and builds of a few sizes as an update's
+        // pieces are built, so that the first prediction has both
+        // (neither is counted in the frames).
         let before = cast_camera(&u.bih, &u.scene, &cam, &cfg.cast, &render_cell, u.records)?;
         predictor.seed_render(before.run.ms);
+        for n in auto::probe_sizes(scene.len()) {
+            if let Some(ms) = u.probe_piece(n)? {
+                predictor.seed_build(n, ms);
+            }
+        }
     }
     let mut frames = Vec::with_capacity(anim.frames.len());
     for (i, moves) in anim.frames.iter().enumerate() {
@@ -253,7 +258,7 @@ pub fn play(
             Policy::Auto => {
                 let plan = u.plan(moves)?;
                 let options = predictor.predict(&plan, u.scene.len());
-                let (m, p) = auto::choose(&options, |a, b| cfg.frame_ms(a, b));
+                let (m, p) = predictor.choose(&options, |a, b| cfg.frame_ms(a, b));
                 (m, Some(plan), Some(p))
             }
         };
@@ -286,13 +291,7 @@ pub fn play(
         u = updater;
         let (update_ms, render_ms) = (up.simulated_ms.unwrap_or(0.0), cast.run.ms);
         if let Some(plan) = &plan {
-            predictor.observe(
-                taken,
-                plan,
-                (up.full_rebuild, up.rebuilt),
-                update_ms,
-                render_ms,
-            );
+            predictor.observe(taken, plan, up.full_rebuild, update_ms, render_ms);
         }
         let st = cast.stats();
         frames.push(FrameReport {

@@ -23,15 +23,17 @@ use super::{Enclosing, Piece, UpdateError, UpdateReport, Updater, interval};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 
-/// The plan for one subtree below the enclosing node.
-enum Plan {
+/// The plan for one subtree below the enclosing node; `P` is what a
+/// rebuilt subtree becomes: its new subtree, built while planning (so that
+/// a builder's error comes before the tree is touched), or in a dry plan
+/// ([`pieces`]) only its size.
+enum Plan<P> {
     /// Kept as it is; its triangles were at slots `first .. end`.
     Keep { node: u32, first: usize, end: usize },
-    /// Rebuilt: the new subtree, built while planning (so that a builder's
-    /// error comes before the tree is touched).
-    Rebuild { node: u32, piece: Piece },
+    /// Rebuilt.
+    Rebuild { node: u32, piece: P },
     /// The node kept, its children updated.
-    Inner(Box<Plan>, Box<Plan>),
+    Inner(Box<Plan<P>>, Box<Plan<P>>),
 }
 
 /// Brings the subtree of `enc.node`, whose interval is `first .. end` and
@@ -43,20 +45,64 @@ pub(super) fn update(
     moved_slots: &[usize],
     r: &mut UpdateReport,
 ) -> Result<(), UpdateError> {
-    let moved_in: Vec<u32> = moved_slots.iter().map(|&s| up.bih.prim_ids[s]).collect();
-    let span = Span {
-        node: enc.node,
-        region: enc.region,
-        first,
-        end,
-        depth: enc.depth,
-    };
-    let plan = plan(up, span, moved_slots, moved_in)?;
+    let plan = plan(
+        up,
+        span(enc, first, end),
+        moved_slots,
+        moved_in(up, moved_slots),
+        &mut |s, ids| up.build_subtree(&ids, s.region, s.depth),
+    )?;
     let old = up.bih.prim_ids[first..end].to_vec();
     let mut pos = first;
     lay_out(up, plan, &old, first, &mut pos, r);
     debug_assert_eq!(pos, end, "the interval's size changed");
     Ok(())
+}
+
+/// The sizes of the subtrees the deep update of `enc.node` (interval
+/// `first .. end`, moved triangles at `moved_slots`) would rebuild, in tree
+/// order: the same descent and routing as [`update`], nothing built.
+pub(super) fn pieces(
+    up: &Updater,
+    enc: &Enclosing,
+    (first, end): (usize, usize),
+    moved_slots: &[usize],
+) -> Vec<usize> {
+    let plan = plan(
+        up,
+        span(enc, first, end),
+        moved_slots,
+        moved_in(up, moved_slots),
+        &mut |_, ids| Ok::<_, UpdateError>(ids.len()),
+    );
+    let mut sizes = Vec::new();
+    collect(&plan.expect("counting never fails"), &mut sizes);
+    sizes
+}
+
+fn collect(plan: &Plan<usize>, sizes: &mut Vec<usize>) {
+    match plan {
+        Plan::Keep { .. } => {}
+        Plan::Rebuild { piece, .. } => sizes.push(*piece),
+        Plan::Inner(l, r) => {
+            collect(l, sizes);
+            collect(r, sizes);
+        }
+    }
+}
+
+fn span(enc: &Enclosing, first: usize, end: usize) -> Span {
+    Span {
+        node: enc.node,
+        region: enc.region,
+        first,
+        end,
+        depth: enc.depth,
+    }
+}
+
+fn moved_in(up: &Updater, moved_slots: &[usize]) -> Vec<u32> {
+    moved_slots.iter().map(|&s| up.bih.prim_ids[s]).collect()
 }
 
 #[derive(Clone, Copy)]
@@ -69,13 +115,15 @@ struct Span {
 }
 
 /// Plans the subtree `s`: `moved_slots` are the slots in it that hold moved
-/// triangles (sorted), `moved_in` the moved triangles routed to it.
-fn plan(
+/// triangles (sorted), `moved_in` the moved triangles routed to it;
+/// `rebuild` makes a rebuilt subtree of its span and triangle ids.
+fn plan<P>(
     up: &Updater,
     s: Span,
     moved_slots: &[usize],
     moved_in: Vec<u32>,
-) -> Result<Plan, UpdateError> {
+    rebuild: &mut impl FnMut(Span, Vec<u32>) -> Result<P, UpdateError>,
+) -> Result<Plan<P>, UpdateError> {
     if moved_slots.is_empty() && moved_in.is_empty() {
         return Ok(Plan::Keep {
             node: s.node,
@@ -86,7 +134,7 @@ fn plan(
     let node = up.bih.nodes[s.node as usize];
     let size = s.end - s.first - moved_slots.len() + moved_in.len();
     if node.is_leaf() || size <= up.deep_stop_below {
-        return rebuild(up, s, moved_slots, moved_in);
+        return rebuilt(up, s, moved_slots, moved_in, rebuild);
     }
     let a = node.axis();
     let [cl, cr] = node.clip();
@@ -101,7 +149,7 @@ fn plan(
             (true, false) => true,
             (false, true) => false,
             (true, true) => b.center()[a] <= middle,
-            (false, false) => return rebuild(up, s, moved_slots, moved_in),
+            (false, false) => return rebuilt(up, s, moved_slots, moved_in, rebuild),
         };
         if left { &mut to_left } else { &mut to_right }.push(id);
     }
@@ -122,23 +170,26 @@ fn plan(
             child(c, lr, s.first, mid),
             &moved_slots[..k],
             to_left,
+            rebuild,
         )?),
         Box::new(plan(
             up,
             child(c + 1, rr, mid, s.end),
             &moved_slots[k..],
             to_right,
+            rebuild,
         )?),
     ))
 }
 
 /// The subtree `s` rebuilt over its unmoved triangles and `moved_in`.
-fn rebuild(
+fn rebuilt<P>(
     up: &Updater,
     s: Span,
     moved_slots: &[usize],
     moved_in: Vec<u32>,
-) -> Result<Plan, UpdateError> {
+    rebuild: &mut impl FnMut(Span, Vec<u32>) -> Result<P, UpdateError>,
+) -> Result<Plan<P>, UpdateError> {
     let mut ids = Vec::with_capacity(s.end - s.first - moved_slots.len() + moved_in.len());
     let mut k = 0;
     for slot in s.first..s.end {
@@ -151,7 +202,7 @@ fn rebuild(
     ids.extend(moved_in);
     Ok(Plan::Rebuild {
         node: s.node,
-        piece: up.build_subtree(&ids, s.region, s.depth)?,
+        piece: rebuild(s, ids)?,
     })
 }
 
@@ -159,7 +210,7 @@ fn rebuild(
 /// interval's triangle order as it was, from slot `base`.
 fn lay_out(
     up: &mut Updater,
-    plan: Plan,
+    plan: Plan<Piece>,
     old: &[u32],
     base: usize,
     pos: &mut usize,

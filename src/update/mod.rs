@@ -201,8 +201,8 @@ struct Moved {
     saved_box: Aabb,
 }
 
-/// What a local update would rebuild ([`Updater::plan`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+/// What a local and a deep update would rebuild ([`Updater::plan`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct Plan {
     /// The scene box changes: the tree is rebuilt completely.
     pub full_rebuild: bool,
@@ -213,6 +213,16 @@ pub struct Plan {
     pub depth: u32,
     /// Triangles of the moved objects.
     pub transformed: usize,
+    /// The sizes of the subtrees a deep update would rebuild, in tree
+    /// order (the whole interval's on a complete rebuild).
+    pub deep_pieces: Vec<usize>,
+}
+
+impl Plan {
+    /// Triangles a deep update would rebuild.
+    pub fn deep_rebuilt(&self) -> usize {
+        self.deep_pieces.iter().sum()
+    }
 }
 
 /// A subtree built for grafting, and its simulated time if emulated.
@@ -301,11 +311,7 @@ impl Updater {
             r.stop = Some(enc.stop);
             let (first, end) = interval(&self.bih, enc.node);
             r.interval = end - first;
-            // Find the moved objects' triangles in the interval by geometry
-            // id (their coordinates were replaced in the scene above).
-            let moved_slots: Vec<usize> = (first..end)
-                .filter(|&s| moved[self.scene.geometry_ids[self.bih.prim_ids[s] as usize] as usize])
-                .collect();
+            let moved_slots = self.moved_slots(&moved, (first, end));
             assert_eq!(
                 moved_slots.len(),
                 r.transformed,
@@ -367,12 +373,13 @@ impl Updater {
         })
     }
 
-    /// What a local update after `moves` would rebuild, counted before
-    /// any build (section 5's "metric for estimation of needed time for
-    /// reorganization steps" starts from it): whether the scene box
-    /// changes (a complete rebuild), else Algorithm 1's enclosing node and
-    /// the size of its interval. Works on a copy: the updater is not
-    /// changed. Host work only (Algorithm 1 is a few node visits).
+    /// What a local and a deep update after `moves` would rebuild,
+    /// counted before any build (section 5's "metric for estimation of
+    /// needed time for reorganization steps" starts from it): whether the
+    /// scene box changes (a complete rebuild), else Algorithm 1's enclosing
+    /// node and the size of its interval, and the subtrees the deep
+    /// update's descent would rebuild. Works on a copy: the updater is not
+    /// changed.
     pub fn plan(&self, moves: &[Move]) -> Result<Plan, UpdateError> {
         let mut probe = self.clone();
         let mut r = UpdateReport::default();
@@ -386,16 +393,28 @@ impl Updater {
                 interval: probe.scene.len(),
                 depth: 0,
                 transformed: r.transformed,
+                deep_pieces: vec![probe.scene.len()],
             });
         }
         let enc = enclosing_node(&mut probe.bih, &m.ebb);
         let (first, end) = interval(&probe.bih, enc.node);
+        let moved_slots = probe.moved_slots(&m.moved, (first, end));
         Ok(Plan {
             full_rebuild: false,
             interval: end - first,
             depth: enc.depth,
             transformed: r.transformed,
+            deep_pieces: deep::pieces(&probe, &enc, (first, end), &moved_slots),
         })
+    }
+
+    /// The slots of `first .. end` that hold triangles of the geometries
+    /// flagged in `moved` (found by geometry id: their coordinates were
+    /// already replaced in the scene).
+    fn moved_slots(&self, moved: &[bool], (first, end): (usize, usize)) -> Vec<usize> {
+        (first..end)
+            .filter(|&s| moved[self.scene.geometry_ids[self.bih.prim_ids[s] as usize] as usize])
+            .collect()
     }
 
     fn full_rebuild(&mut self, r: &mut UpdateReport) -> Result<(), UpdateError> {
@@ -423,6 +442,19 @@ impl Updater {
         self.members[g as usize].iter().fold(Aabb::EMPTY, |b, &i| {
             b.union(self.scene.triangles[i as usize].bounds())
         })
+    }
+
+    /// The simulated time of one small subtree build, as an update's
+    /// pieces are built: the first `n` triangles of the tree's order in the
+    /// scene box (`None` for a builder that is not emulated). A renderer
+    /// can take it before its first frame, to learn what a build costs
+    /// whatever its size; nothing is changed.
+    pub fn probe_piece(&self, n: usize) -> Result<Option<f64>, UpdateError> {
+        let ids = &self.bih.prim_ids[..n.min(self.bih.prim_ids.len())];
+        let region = (ids.iter()).fold(Aabb::EMPTY, |b, &i| {
+            b.union(self.scene.triangles[i as usize].bounds())
+        });
+        Ok(self.build_subtree(ids, region, 0)?.simulated_ms)
     }
 
     /// A subtree over the triangles `ids` for a node at `depth` whose
