@@ -20,9 +20,11 @@
 //!   ([`Updater::probe_piece`](crate::update::Updater::probe_piece)); with
 //!   the first tree's build they make a curve of build time against size,
 //!   read between its points on log scales. Each option's measured update
-//!   over its prediction is then learned as it is taken (a correction, one
-//!   per option), so a deep update of many small pieces is priced by its
-//!   pieces, and what the curve misses is learned.
+//!   over its price is then learned as it is taken (a correction per
+//!   option and per octave of the triangles it rebuilds: a few small
+//!   pieces and one large piece miss the curve by different amounts), so a
+//!   deep update of many small pieces is priced by its pieces, and what
+//!   the curve misses is learned.
 //! - **render**: the render the tree each option leaves would give: for
 //!   each option, the renders measured after it (the last after a complete
 //!   rebuild; an average of the last ones after the local or the deep
@@ -36,6 +38,8 @@
 //! A frame's predicted time combines the two as the arrangement does (sum,
 //! or the longer); the least wins, ties going to the lower sum, then to
 //! the deep update over the local one (it never rebuilds more).
+
+use std::collections::BTreeMap;
 
 use crate::update::{Method, Plan};
 
@@ -51,9 +55,11 @@ pub struct Prediction {
 pub struct Predictor {
     /// Builds timed (triangles, simulated ms), by size: the cost curve.
     curve: Vec<(usize, f64)>,
-    /// Each option's measured update over its curve-priced one (rebuild,
-    /// local, deep), as taken.
-    correction: [f64; 3],
+    /// Each option's measured update over its curve-priced one, as taken,
+    /// by option and by the octave of the triangles it rebuilt (an update
+    /// of a few small pieces and one of a large piece miss the curve by
+    /// different amounts).
+    correction: BTreeMap<(usize, u32), f64>,
     render_fresh: Option<f64>,
     render_now: Option<f64>,
     /// The render after the local and after the deep update, once taken.
@@ -83,7 +89,7 @@ impl Predictor {
     pub fn new(triangles: usize, first_build_ms: Option<f64>) -> Self {
         let mut p = Predictor {
             curve: Vec::new(),
-            correction: [1.0; 3],
+            correction: BTreeMap::new(),
             render_fresh: None,
             render_now: None,
             render_local: None,
@@ -157,13 +163,28 @@ impl Predictor {
         }
     }
 
+    /// Where an update of `m` that builds `pieces` keeps its correction.
+    fn key(m: Method, pieces: &[usize]) -> (usize, u32) {
+        (Self::index(m), pieces.iter().sum::<usize>().max(1).ilog2())
+    }
+
+    /// The correction learned for `m` at the octave of `pieces`, else at
+    /// the nearest octave `m` was seen at, else none (1).
+    fn correction(&self, m: Method, pieces: &[usize]) -> f64 {
+        let (i, octave) = Self::key(m, pieces);
+        (self.correction.iter())
+            .filter(|((j, _), _)| *j == i)
+            .min_by_key(|((_, o), _)| o.abs_diff(octave))
+            .map_or(1.0, |(_, &c)| c)
+    }
+
     /// Each option's predicted times for a frame whose updates would do
     /// what `plan` counts, in a scene of `triangles`.
     pub fn predict(&self, plan: &Plan, triangles: usize) -> [(Method, Prediction); 3] {
         let render_now = self.render_now.unwrap_or(0.0);
         let render_fresh = self.render_fresh.unwrap_or(render_now);
         let corrected =
-            |m: Method, pieces: &[usize]| self.build_ms(pieces) * self.correction[Self::index(m)];
+            |m: Method, pieces: &[usize]| self.build_ms(pieces) * self.correction(m, pieces);
         let rebuild = Prediction {
             update_ms: corrected(Method::Rebuild, &[triangles]),
             render_ms: render_fresh,
@@ -244,8 +265,10 @@ impl Predictor {
         };
         let priced = self.build_ms(&pieces);
         if priced > 0.0 && update_ms > 0.0 {
-            let c = &mut self.correction[Self::index(m)];
-            *c += LEARN * (update_ms / priced - *c);
+            let seen = update_ms / priced;
+            (self.correction.entry(Self::key(m, &pieces)))
+                .and_modify(|c| *c += LEARN * (seen - *c))
+                .or_insert(seen);
         }
         let learn = |learned: &mut Option<f64>| {
             *learned = Some(learned.map_or(render_ms, |l| l + LEARN * (render_ms - l)));
@@ -323,13 +346,30 @@ mod tests {
         let ten = p.predict(&plan(false, 480, &[48; 10]), 100_000);
         assert!((ten[1].1.update_ms - 2.0).abs() < 1e-9, "{ten:?}");
         assert!(ten[2].1.update_ms < 0.5 * ten[1].1.update_ms, "{ten:?}");
-        // A deep update measured at twice its price: the next is priced
-        // nearer what it costs (half the way), the local update's not.
+        // A deep update measured at twice its price: the next of that
+        // size is priced at what it cost, then averaged (half the way to
+        // a new measurement); the local update's price does not move.
         p.seed_render(10.0);
         p.observe(Method::Deep, &plan(false, 480, &[48; 10]), false, 4.0, 10.0);
         let pr = p.predict(&plan(false, 480, &[48; 10]), 100_000);
-        assert!((pr[1].1.update_ms - 3.0).abs() < 1e-9, "{pr:?}");
+        assert!((pr[1].1.update_ms - 4.0).abs() < 1e-9, "{pr:?}");
         assert!((pr[2].1.update_ms - ten[2].1.update_ms).abs() < 1e-12);
+        p.observe(Method::Deep, &plan(false, 480, &[48; 10]), false, 2.0, 10.0);
+        let pr = p.predict(&plan(false, 480, &[48; 10]), 100_000);
+        assert!((pr[1].1.update_ms - 3.0).abs() < 1e-9, "{pr:?}");
+        // A deep update of another size: its own correction, once seen;
+        // before, the nearest size's.
+        let big = plan(false, 40_000, &[24_000]);
+        let guess = p.predict(&big, 100_000)[1].1.update_ms;
+        assert!((guess - 1.5 * p.piece_ms(24_000)).abs() < 1e-9);
+        p.observe(Method::Deep, &big, false, p.piece_ms(24_000), 10.0);
+        let pr = p.predict(&big, 100_000);
+        assert!(
+            (pr[1].1.update_ms - p.piece_ms(24_000)).abs() < 1e-9,
+            "{pr:?}"
+        );
+        let pr = p.predict(&plan(false, 480, &[48; 10]), 100_000);
+        assert!((pr[1].1.update_ms - 3.0).abs() < 1e-9, "{pr:?}");
     }
 
     #[test]
