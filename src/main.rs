@@ -195,8 +195,10 @@ enum Command {
         frames: u64,
         /// How the tree follows the moves: rebuild (every frame, with
         /// --builder), local (Algorithm 1), deep (section 5), or auto
-        /// (section 5's metric: each frame's options predicted from cheap
-        /// counts, the cheapest taken).
+        /// (section 5's metric: each frame's options priced before any is
+        /// done — what each would build, counted on a copy of the tree, at
+        /// the cost of builds timed before the first frame, and the render
+        /// of the tree each leaves — the cheapest taken).
         #[arg(long, default_value = "local")]
         policy: String,
         /// Also run every option from the same state each frame (three

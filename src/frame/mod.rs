@@ -16,9 +16,9 @@
 //!   latency, not counted).
 //!
 //! The policy is fixed (`rebuild`, `local`, `deep`) or section 5's metric
-//! ([`auto`]: each frame's options predicted from cheap counts, the least
-//! taken); an oracle can run every option from the same state each frame
-//! to judge it.
+//! ([`auto`]: each frame's options priced with the work each would do and
+//! the tree each would leave, the least taken); an oracle can run every
+//! option from the same state each frame to judge it.
 //!
 //! What is charged: the rebuilds (and a local or deep update's rebuild of
 //! its interval) as their builder's programs run them on the emulated Cell;
