@@ -21,8 +21,8 @@
 //!   the first tree's build they make a curve of build time against size,
 //!   read between its points on log scales. Each option's measured update
 //!   over its price is then learned as it is taken (a correction per
-//!   option and per octave of the triangles it rebuilds: a few small
-//!   pieces and one large piece miss the curve by different amounts), so a
+//!   option and per octave of its largest piece: a few small pieces and
+//!   one large piece miss the curve by different amounts), so a
 //!   deep update of many small pieces is priced by its pieces, and what
 //!   the curve misses is learned.
 //! - **render**: the render the tree each option leaves would give: for
@@ -56,8 +56,8 @@ pub struct Predictor {
     /// Builds timed (triangles, simulated ms), by size: the cost curve.
     curve: Vec<(usize, f64)>,
     /// Each option's measured update over its curve-priced one, as taken,
-    /// by option and by the octave of the triangles it rebuilt (an update
-    /// of a few small pieces and one of a large piece miss the curve by
+    /// by option and by the octave of its largest piece (an update of a
+    /// few small pieces and one of a large piece miss the curve by
     /// different amounts).
     correction: BTreeMap<(usize, u32), f64>,
     render_fresh: Option<f64>,
@@ -163,9 +163,11 @@ impl Predictor {
         }
     }
 
-    /// Where an update of `m` that builds `pieces` keeps its correction.
+    /// Where an update of `m` that builds `pieces` keeps its correction:
+    /// by the octave of its largest piece.
     fn key(m: Method, pieces: &[usize]) -> (usize, u32) {
-        (Self::index(m), pieces.iter().sum::<usize>().max(1).ilog2())
+        let largest = pieces.iter().copied().max().unwrap_or(1);
+        (Self::index(m), largest.max(1).ilog2())
     }
 
     /// The correction learned for `m` at the octave of `pieces`, else at
