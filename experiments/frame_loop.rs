@@ -281,8 +281,10 @@ fn run(args: &Args) -> Result<(), String> {
         &json!({ "note": note, "builder": builder.name(), "spes": spes, "rows": rows }),
         Some(&build),
     )?;
-    print_rows(args.output.format, &flat, |rows| table(rows, note))?;
-    goals(&rows);
+    print_rows(args.output.format, &flat, |rows| {
+        table(rows, note);
+        goals(rows);
+    })?;
     eprintln!(
         "written: {}/frame_loop.{{csv,json}}, frame_loop_*.svg",
         args.output.out.display()

@@ -284,7 +284,7 @@ fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
 /// `frame_loop`: a row for every scene, size, arrangement and policy, the
 /// frames behind each in the JSON, a plot per scene and size; `auto`
 /// judged by the oracle, the fixed policies not; a scene that cannot be
-/// loaded refused by name.
+/// loaded and a tree knob the builder does not take refused by name.
 #[test]
 fn frame_loop_plays_every_policy_in_both_arrangements() {
     let (rows, dir) = run_experiment(
@@ -341,6 +341,25 @@ fn frame_loop_plays_every_policy_in_both_arrangements() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-mesh"));
+    // A tree knob the builder does not take is refused by name.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_frame_loop"))
+        .args([
+            "--builder",
+            "spe_morton",
+            "--empty-cut",
+            "30",
+            "--scenes",
+            "car",
+        ])
+        .args(["--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("empty-cut") || err.contains("cut-off"),
+        "{err}"
+    );
 }
 
 /// The experiments run their independent emulations side by side
