@@ -36,8 +36,12 @@
 //!   taken once, to learn what its tree renders.
 //!
 //! A frame's predicted time combines the two as the arrangement does (sum,
-//! or the longer); the least wins, ties going to the lower sum, then to
-//! the deep update over the local one (it never rebuilds more).
+//! or the longer). An option is chosen by that frame plus the tree it
+//! leaves priced for a few frames after it ([`HORIZON`]), kept by the
+//! cheapest update (a tree a slower update left stays slow until something
+//! rebuilds it: one frame's choice costs the frames after it); the least
+//! wins, ties going to the lower sum, then to the deep update over the
+//! local one (it never rebuilds more).
 
 use std::collections::BTreeMap;
 
@@ -82,6 +86,11 @@ pub fn probe_sizes(triangles: usize) -> impl Iterator<Item = usize> {
 /// An update not taken yet is tried once when its predicted frame is
 /// within this share of the best option's.
 pub const EXPLORE: f64 = 0.1;
+
+/// Frames after this one over which an option's tree is priced: a tree
+/// the deep update then keeps renders at its own speed until something
+/// rebuilds it.
+pub const HORIZON: f64 = 3.0;
 
 impl Predictor {
     /// A predictor that knows the first tree's build of `triangles` took
@@ -224,15 +233,21 @@ impl Predictor {
         ]
     }
 
-    /// The option to take: the least predicted frame ([`choose`]), unless
-    /// an update not taken yet is predicted within [`EXPLORE`] of it (the
-    /// least such, then).
+    /// The option to take: the least predicted frame counting the tree it
+    /// leaves for [`HORIZON`] frames after it (each kept by the cheapest
+    /// update, the deep one, at the render of that tree), unless an update
+    /// not taken yet is predicted within [`EXPLORE`] of it (the least such,
+    /// then).
     pub fn choose(
         &self,
         predictions: &[(Method, Prediction); 3],
         combine: impl Fn(f64, f64) -> f64,
     ) -> (Method, Prediction) {
-        let best = choose(predictions, &combine);
+        let keep = (predictions.iter())
+            .find(|(m, _)| *m == Method::Deep)
+            .map_or(0.0, |(_, p)| p.update_ms);
+        let ahead = |u: f64, r: f64| combine(u, r) + HORIZON * combine(keep, r);
+        let best = choose(predictions, ahead);
         let frame = |p: &Prediction| combine(p.update_ms, p.render_ms);
         let unseen = |m: Method| match m {
             Method::Local => self.render_local.is_none(),
@@ -451,6 +466,48 @@ mod tests {
         // Once taken, the least wins again.
         p.observe(Method::Local, &small, false, 3.0, 38.0);
         assert_eq!(p.choose(&near, sum).0, Method::Deep);
+    }
+
+    #[test]
+    fn a_slower_tree_is_priced_for_the_frames_that_keep_it() {
+        // The homer in the paper's arrangement: a local update left a tree
+        // 6 % slower to render, which the deep update would keep.
+        let mut p = Predictor::new(12_000, Some(7.8));
+        p.seed_render(6.85);
+        let small = plan(false, 1_000, &[100]);
+        p.observe(Method::Deep, &small, false, 0.15, 6.88);
+        p.observe(Method::Local, &small, false, 4.4, 7.31);
+        let pr = [
+            (
+                Method::Rebuild,
+                Prediction {
+                    update_ms: 7.81,
+                    render_ms: 6.85,
+                },
+            ),
+            (
+                Method::Deep,
+                Prediction {
+                    update_ms: 0.15,
+                    render_ms: 7.31,
+                },
+            ),
+            (
+                Method::Local,
+                Prediction {
+                    update_ms: 4.41,
+                    render_ms: 7.31,
+                },
+            ),
+        ];
+        // This frame alone, the deep update is cheaper (7.31 against
+        // 7.81); counting the frames after, the rebuild's faster tree pays.
+        assert_eq!(choose(&pr, f64::max).0, Method::Deep);
+        assert_eq!(p.choose(&pr, f64::max).0, Method::Rebuild);
+        // A tree no faster is not rebuilt for.
+        let mut same = pr;
+        same[0].1.render_ms = 7.31;
+        assert_eq!(p.choose(&same, f64::max).0, Method::Deep);
     }
 
     #[test]
