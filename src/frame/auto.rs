@@ -262,21 +262,18 @@ impl Predictor {
     }
 
     /// Learns from a frame: the option taken, what `plan` counted before
-    /// it, whether it rebuilt completely, and its measured update and
-    /// render.
+    /// it, whether it rebuilt completely and the scene's triangles, and its
+    /// measured update and render.
     pub fn observe(
         &mut self,
         taken: Method,
         plan: &Plan,
-        full_rebuild: bool,
+        (full_rebuild, triangles): (bool, usize),
         update_ms: f64,
         render_ms: f64,
     ) {
         let (m, pieces) = match (full_rebuild, taken) {
-            (true, _) | (_, Method::Rebuild) => (
-                Method::Rebuild,
-                vec![plan.interval.max(plan.deep_rebuilt())],
-            ),
+            (true, _) | (_, Method::Rebuild) => (Method::Rebuild, vec![triangles]),
             (false, Method::Local) => (Method::Local, vec![plan.interval]),
             (false, Method::Deep) => (Method::Deep, plan.deep_pieces.clone()),
         };
@@ -367,11 +364,23 @@ mod tests {
         // size is priced at what it cost, then averaged (half the way to
         // a new measurement); the local update's price does not move.
         p.seed_render(10.0);
-        p.observe(Method::Deep, &plan(false, 480, &[48; 10]), false, 4.0, 10.0);
+        p.observe(
+            Method::Deep,
+            &plan(false, 480, &[48; 10]),
+            (false, 10_000),
+            4.0,
+            10.0,
+        );
         let pr = p.predict(&plan(false, 480, &[48; 10]), 100_000);
         assert!((pr[1].1.update_ms - 4.0).abs() < 1e-9, "{pr:?}");
         assert!((pr[2].1.update_ms - ten[2].1.update_ms).abs() < 1e-12);
-        p.observe(Method::Deep, &plan(false, 480, &[48; 10]), false, 2.0, 10.0);
+        p.observe(
+            Method::Deep,
+            &plan(false, 480, &[48; 10]),
+            (false, 10_000),
+            2.0,
+            10.0,
+        );
         let pr = p.predict(&plan(false, 480, &[48; 10]), 100_000);
         assert!((pr[1].1.update_ms - 3.0).abs() < 1e-9, "{pr:?}");
         // A deep update of another size: its own correction, once seen;
@@ -379,7 +388,13 @@ mod tests {
         let big = plan(false, 40_000, &[24_000]);
         let guess = p.predict(&big, 100_000)[1].1.update_ms;
         assert!((guess - 1.5 * p.piece_ms(24_000)).abs() < 1e-9);
-        p.observe(Method::Deep, &big, false, p.piece_ms(24_000), 10.0);
+        p.observe(
+            Method::Deep,
+            &big,
+            (false, 10_000),
+            p.piece_ms(24_000),
+            10.0,
+        );
         let pr = p.predict(&big, 100_000);
         assert!(
             (pr[1].1.update_ms - p.piece_ms(24_000)).abs() < 1e-9,
@@ -411,26 +426,26 @@ mod tests {
         let sum = |u: f64, r: f64| u + r;
         // Before the local update was taken, its tree is taken to render
         // as a fresh one, the deep update's as the last one.
-        p.observe(Method::Deep, &small, false, 0.1, 40.0);
+        p.observe(Method::Deep, &small, (false, 10_000), 0.1, 40.0);
         let pr = p.predict(&small, 10_000);
         assert_eq!((pr[2].1.render_ms, pr[1].1.render_ms), (38.0, 40.0));
         // Its better tree wins over the deep update's cheaper build.
         assert_eq!(p.choose(&pr, sum).0, Method::Local);
         // Taken, what it measured replaces the guess, averaged.
-        p.observe(Method::Local, &small, false, 0.5, 35.0);
+        p.observe(Method::Local, &small, (false, 10_000), 0.5, 35.0);
         assert_eq!(p.predict(&small, 10_000)[2].1.render_ms, 35.0);
-        p.observe(Method::Local, &small, false, 0.5, 36.0);
+        p.observe(Method::Local, &small, (false, 10_000), 0.5, 36.0);
         assert_eq!(p.predict(&small, 10_000)[2].1.render_ms, 35.5);
         // A deep update does not move the local update's render; a
         // rebuild's render is the last fresh tree's.
-        p.observe(Method::Deep, &small, false, 0.1, 42.0);
+        p.observe(Method::Deep, &small, (false, 10_000), 0.1, 42.0);
         let pr = p.predict(&small, 10_000);
         assert_eq!((pr[2].1.render_ms, pr[1].1.render_ms), (35.5, 41.0));
         assert_eq!(pr[0].1.render_ms, 38.0);
         p.observe(
             Method::Rebuild,
             &plan(true, 10_000, &[10_000]),
-            true,
+            (true, 10_000),
             5.0,
             37.0,
         );
@@ -455,7 +470,7 @@ mod tests {
         };
         let sum = |u: f64, r: f64| u + r;
         let small = plan(false, 1_000, &[100]);
-        p.observe(Method::Deep, &small, false, 1.0, 38.0);
+        p.observe(Method::Deep, &small, (false, 10_000), 1.0, 38.0);
         // Local's frame 41 is within 10 % of deep's 39: tried.
         let near = pr([5.0, 1.0, 3.0], [38.0; 3]);
         assert_eq!(choose(&near, sum).0, Method::Deep);
@@ -464,8 +479,21 @@ mod tests {
         let far = pr([9.0, 1.0, 8.0], [38.0; 3]);
         assert_eq!(p.choose(&far, sum).0, Method::Deep);
         // Once taken, the least wins again.
-        p.observe(Method::Local, &small, false, 3.0, 38.0);
+        p.observe(Method::Local, &small, (false, 10_000), 3.0, 38.0);
         assert_eq!(p.choose(&near, sum).0, Method::Deep);
+    }
+
+    #[test]
+    fn a_rebuild_taken_learns_the_price_of_the_whole_scene() {
+        let mut p = Predictor::new(12_000, Some(0.96));
+        p.seed_build(6_000, 0.61);
+        p.seed_render(6.4);
+        // Taken where the update's plan saw an interval of 7,600: the
+        // rebuild built all 12,000, and that is what its 0.95 ms priced.
+        let interval = plan(false, 7_600, &[300]);
+        p.observe(Method::Rebuild, &interval, (false, 12_000), 0.95, 6.4);
+        let pr = p.predict(&interval, 12_000);
+        assert!((pr[0].1.update_ms - 0.95).abs() < 1e-9, "{pr:?}");
     }
 
     #[test]
@@ -475,8 +503,8 @@ mod tests {
         let mut p = Predictor::new(12_000, Some(7.8));
         p.seed_render(6.85);
         let small = plan(false, 1_000, &[100]);
-        p.observe(Method::Deep, &small, false, 0.15, 6.88);
-        p.observe(Method::Local, &small, false, 4.4, 7.31);
+        p.observe(Method::Deep, &small, (false, 10_000), 0.15, 6.88);
+        p.observe(Method::Local, &small, (false, 10_000), 4.4, 7.31);
         let pr = [
             (
                 Method::Rebuild,

@@ -291,7 +291,13 @@ pub fn play(
         u = updater;
         let (update_ms, render_ms) = (up.simulated_ms.unwrap_or(0.0), cast.run.ms);
         if let Some(plan) = &plan {
-            predictor.observe(taken, plan, up.full_rebuild, update_ms, render_ms);
+            predictor.observe(
+                taken,
+                plan,
+                (up.full_rebuild, u.scene.len()),
+                update_ms,
+                render_ms,
+            );
         }
         let st = cast.stats();
         frames.push(FrameReport {
