@@ -358,31 +358,20 @@ mod tests {
         assert!(p.piece_ms(200_000) > 50.0);
         // Ten small pieces cost ten small builds: far more than one piece
         // of as many triangles.
-        let ten = p.predict(&plan(false, 480, &[48; 10]), 100_000);
+        let tens = plan(false, 480, &[48; 10]);
+        let ten = p.predict(&tens, 100_000);
         assert!((ten[1].1.update_ms - 2.0).abs() < 1e-9, "{ten:?}");
         assert!(ten[2].1.update_ms < 0.5 * ten[1].1.update_ms, "{ten:?}");
         // A deep update measured at twice its price: the next of that
         // size is priced at what it cost, then averaged (half the way to
         // a new measurement); the local update's price does not move.
         p.seed_render(10.0);
-        p.observe(
-            Method::Deep,
-            &plan(false, 480, &[48; 10]),
-            (false, 10_000),
-            4.0,
-            10.0,
-        );
-        let pr = p.predict(&plan(false, 480, &[48; 10]), 100_000);
+        p.observe(Method::Deep, &tens, (false, 10_000), 4.0, 10.0);
+        let pr = p.predict(&tens, 100_000);
         assert!((pr[1].1.update_ms - 4.0).abs() < 1e-9, "{pr:?}");
         assert!((pr[2].1.update_ms - ten[2].1.update_ms).abs() < 1e-12);
-        p.observe(
-            Method::Deep,
-            &plan(false, 480, &[48; 10]),
-            (false, 10_000),
-            2.0,
-            10.0,
-        );
-        let pr = p.predict(&plan(false, 480, &[48; 10]), 100_000);
+        p.observe(Method::Deep, &tens, (false, 10_000), 2.0, 10.0);
+        let pr = p.predict(&tens, 100_000);
         assert!((pr[1].1.update_ms - 3.0).abs() < 1e-9, "{pr:?}");
         // A deep update of another size: its own correction, once seen;
         // before, the nearest size's.
@@ -401,7 +390,7 @@ mod tests {
             (pr[1].1.update_ms - p.piece_ms(24_000)).abs() < 1e-9,
             "{pr:?}"
         );
-        let pr = p.predict(&plan(false, 480, &[48; 10]), 100_000);
+        let pr = p.predict(&tens, 100_000);
         assert!((pr[1].1.update_ms - 3.0).abs() < 1e-9, "{pr:?}");
     }
 
