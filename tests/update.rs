@@ -386,12 +386,33 @@ fn a_mesh_with_a_moving_part_plays_and_plans_ahead() {
             // Planning changes nothing.
             let again = u.plan(moves).unwrap();
             assert_eq!(plan, again);
+            // The search alone: the same node and interval, no scan and
+            // no descent counted.
+            let search = u.plan_search(moves).unwrap();
+            assert_eq!(
+                (search.full_rebuild, search.interval, search.depth),
+                (plan.full_rebuild, plan.interval, plan.depth)
+            );
+            assert!(plan.deep_planned);
+            assert_eq!(search.deep_planned, plan.full_rebuild);
+            assert!(search.find.scanned == 0 && search.find.routed == 0);
             assert_eq!((u.scene.triangles.clone(), u.bih.nodes.clone()), before);
             let r = u.step(moves).unwrap();
             assert_eq!(plan.transformed, r.transformed, "{method:?} frame {f}");
             if method == Method::Local {
                 assert_eq!(plan.full_rebuild, r.full_rebuild);
                 assert_eq!(plan.interval, r.rebuilt, "frame {f}");
+            }
+            if !r.full_rebuild && method != Method::Rebuild {
+                // The update's PPE search: Algorithm 1 and the scan of the
+                // interval; the deep update's also its descent, as the plan
+                // counted it.
+                assert_eq!(r.ppe_find.scanned, r.interval as u64);
+                assert!(r.ppe_find.nodes_visited > r.depth as u64);
+                if method == Method::Deep {
+                    assert_eq!(r.ppe_find, plan.find, "frame {f}");
+                }
+                assert!(r.ppe_apply.ids_copied >= r.rebuilt as u64);
             }
             if method == Method::Deep {
                 // The dry descent counts what the update then rebuilds.

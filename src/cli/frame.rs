@@ -111,6 +111,8 @@ fn print(
             "oracle": cfg.oracle,
             "near_best": run.near_best,
             "oracle_total_ms": run.oracle_total_ms,
+            "second_copy_bytes": run.second_copy_bytes,
+            "sharing_bound_ms": run.sharing_bound_ms,
         });
         println!(
             "{}",
@@ -181,6 +183,22 @@ fn print(
         run.fps
     );
     println!("\n{}", cellbih::report::wrap(&total, 80));
+    let sum = |f: fn(&cellbih::frame::FrameReport) -> f64| run.frames.iter().map(f).sum::<f64>();
+    let mut of_it = format!(
+        "of it: the PPE's share of the updates {:.2} ms, program switches {:.2} ms",
+        sum(|f| f.ppe_ms),
+        sum(|f| f.switch_ms)
+    );
+    if let (Some(bytes), Some(bound)) = (run.second_copy_bytes, run.sharing_bound_ms) {
+        of_it += &format!(
+            ", copies into the tree's second copy ({}) {:.2} ms; sharing the memory \
+             interface could add at most {bound:.2} ms ({:.1} %)",
+            format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64),
+            sum(|f| f.copy_ms),
+            bound / run.total_ms.max(f64::MIN_POSITIVE) * 100.0
+        );
+    }
+    println!("{}", cellbih::report::wrap(&of_it, 80));
     if let (Some(near), Some(best)) = (run.near_best, run.oracle_total_ms) {
         let line = format!(
             "oracle: {:.0} % of the frames within 10 % of the best option; every frame at its \

@@ -67,9 +67,15 @@ pub struct Predictor {
     correction: BTreeMap<(usize, u32), f64>,
     render_fresh: Option<f64>,
     render_now: Option<f64>,
-    /// The render after the local and after the deep update, once taken.
+    /// The render after the local update, once taken; the render after
+    /// the deep update over the render before it (the deep update keeps
+    /// the tree it is given, so its render follows the tree's), once taken.
     render_local: Option<f64>,
     render_deep: Option<f64>,
+    /// The deep update's builds as last priced from a whole plan, and the
+    /// interval they were planned in: its price in a frame whose plan
+    /// stops at Algorithm 1, scaled by the interval.
+    deep_last: Option<(f64, usize)>,
 }
 
 /// How much weight a new render measured after an update, or a new
@@ -88,6 +94,16 @@ pub fn probe_sizes(triangles: usize) -> impl Iterator<Item = usize> {
 /// within this share of the best option's.
 pub const EXPLORE: f64 = 0.1;
 
+/// A frame's plan makes the scan and the deep update's descent (PPE
+/// time, [`crate::update::ppe`]) only where the deep update would be the
+/// best option with its builds, estimated without the descent
+/// ([`Predictor::deep_estimate`]), cut by this share: the builds are the
+/// uncertain part of the estimate (the scan is counted, the descent's
+/// routing learned), and a descent made in vain costs its PPE time;
+/// otherwise the plan stops at Algorithm 1, which prices the local update
+/// and the rebuild.
+pub const DESCEND: f64 = 0.35;
+
 /// Frames after this one over which an option's tree is priced: a tree
 /// the deep update then keeps renders at its own speed until something
 /// rebuilds it.
@@ -104,6 +120,7 @@ impl Predictor {
             render_now: None,
             render_local: None,
             render_deep: None,
+            deep_last: None,
         };
         if let Some(ms) = first_build_ms {
             p.seed_build(triangles, ms);
@@ -180,6 +197,22 @@ impl Predictor {
         (Self::index(m), largest.max(1).ilog2())
     }
 
+    /// The deep update's builds after `plan` when its descent was not
+    /// made: as last priced, in proportion to the interval; before any,
+    /// one build of the moved triangles, at the least correction learned
+    /// for the deep update (at most 1).
+    pub fn deep_estimate(&self, plan: &Plan) -> f64 {
+        match self.deep_last {
+            Some((ms, then)) => ms * plan.interval as f64 / then.max(1) as f64,
+            None => {
+                let least = (self.correction.iter())
+                    .filter(|((i, _), _)| *i == Self::index(Method::Deep))
+                    .fold(1.0f64, |m, (_, &c)| m.min(c));
+                self.piece_ms(plan.transformed) * least
+            }
+        }
+    }
+
     /// The correction learned for `m` at the octave of `pieces`, else at
     /// the nearest octave `m` was seen at, else none (1).
     fn correction(&self, m: Method, pieces: &[usize]) -> f64 {
@@ -191,12 +224,20 @@ impl Predictor {
     }
 
     /// Each option's predicted times for a frame whose updates would do
-    /// what `plan` counts, in a scene of `triangles`.
-    pub fn predict(&self, plan: &Plan, triangles: usize) -> [(Method, Prediction); 3] {
+    /// what `plan` counts, in a scene of `triangles`; `known` is what an
+    /// option's update costs beyond its builds and what follows them, known
+    /// before it runs (the plan's search, a program switch, a copy).
+    pub fn predict(
+        &self,
+        plan: &Plan,
+        triangles: usize,
+        known: impl Fn(Method) -> f64,
+    ) -> [(Method, Prediction); 3] {
         let render_now = self.render_now.unwrap_or(0.0);
         let render_fresh = self.render_fresh.unwrap_or(render_now);
-        let corrected =
-            |m: Method, pieces: &[usize]| self.build_ms(pieces) * self.correction(m, pieces);
+        let corrected = |m: Method, pieces: &[usize]| {
+            self.build_ms(pieces) * self.correction(m, pieces) + known(m)
+        };
         let rebuild = Prediction {
             update_ms: corrected(Method::Rebuild, &[triangles]),
             render_ms: render_fresh,
@@ -217,11 +258,18 @@ impl Predictor {
             (Method::Rebuild, rebuild),
             (
                 Method::Deep,
-                update(
-                    Method::Deep,
-                    &plan.deep_pieces,
-                    self.render_deep.unwrap_or(render_now),
-                ),
+                match plan.deep_planned {
+                    true => update(
+                        Method::Deep,
+                        &plan.deep_pieces,
+                        render_now * self.render_deep.unwrap_or(1.0),
+                    ),
+                    // Not planned: its builds as estimated, and its search.
+                    false => Prediction {
+                        update_ms: self.deep_estimate(plan) + known(Method::Deep),
+                        render_ms: render_now * self.render_deep.unwrap_or(1.0),
+                    },
+                },
             ),
             (
                 Method::Local,
@@ -263,8 +311,9 @@ impl Predictor {
     }
 
     /// Learns from a frame: the option taken, what `plan` counted before
-    /// it, whether it rebuilt completely and the scene's triangles, and its
-    /// measured update and render.
+    /// it, whether it rebuilt completely and the scene's triangles, its
+    /// measured update beyond what was `known` before it ran (its builds
+    /// and what follows them), and its render.
     pub fn observe(
         &mut self,
         taken: Method,
@@ -273,6 +322,12 @@ impl Predictor {
         update_ms: f64,
         render_ms: f64,
     ) {
+        // The deep update's builds as this plan priced them.
+        if plan.deep_planned && !plan.full_rebuild && !plan.deep_pieces.is_empty() {
+            let pieces = &plan.deep_pieces;
+            let ms = self.build_ms(pieces) * self.correction(Method::Deep, pieces);
+            self.deep_last = Some((ms, plan.interval));
+        }
         let (m, pieces) = match (full_rebuild, taken) {
             (true, _) | (_, Method::Rebuild) => (Method::Rebuild, vec![triangles]),
             (false, Method::Local) => (Method::Local, vec![plan.interval]),
@@ -285,12 +340,15 @@ impl Predictor {
                 .and_modify(|c| *c += LEARN * (seen - *c))
                 .or_insert(seen);
         }
-        let learn = |learned: &mut Option<f64>| {
-            *learned = Some(learned.map_or(render_ms, |l| l + LEARN * (render_ms - l)));
+        let learn = |learned: &mut Option<f64>, seen: f64| {
+            *learned = Some(learned.map_or(seen, |l| l + LEARN * (seen - l)));
         };
         match (full_rebuild, taken) {
-            (false, Method::Local) => learn(&mut self.render_local),
-            (false, Method::Deep) => learn(&mut self.render_deep),
+            (false, Method::Local) => learn(&mut self.render_local, render_ms),
+            (false, Method::Deep) => match self.render_now {
+                Some(before) if before > 0.0 => learn(&mut self.render_deep, render_ms / before),
+                _ => {}
+            },
             _ => self.render_fresh = Some(render_ms),
         }
         self.render_now = Some(render_ms);
@@ -325,13 +383,15 @@ mod tests {
             depth: 3,
             transformed: 10,
             deep_pieces: deep_pieces.to_vec(),
+            find: Default::default(),
+            deep_planned: true,
         }
     }
 
     #[test]
     fn a_small_update_is_predicted_cheaper_than_a_rebuild_and_chosen() {
         let p = Predictor::new(100_000, Some(50.0));
-        let pr = p.predict(&plan(false, 2_000, &[300, 200]), 100_000);
+        let pr = p.predict(&plan(false, 2_000, &[300, 200]), 100_000, |_| 0.0);
         let (m, best) = choose(&pr, |u, r| u + r);
         assert_eq!(m, Method::Deep, "{pr:?}");
         assert!(best.update_ms < pr[2].1.update_ms, "{pr:?}");
@@ -359,7 +419,7 @@ mod tests {
         // Ten small pieces cost ten small builds: far more than one piece
         // of as many triangles.
         let tens = plan(false, 480, &[48; 10]);
-        let ten = p.predict(&tens, 100_000);
+        let ten = p.predict(&tens, 100_000, |_| 0.0);
         assert!((ten[1].1.update_ms - 2.0).abs() < 1e-9, "{ten:?}");
         assert!(ten[2].1.update_ms < 0.5 * ten[1].1.update_ms, "{ten:?}");
         // A deep update measured at twice its price: the next of that
@@ -367,16 +427,16 @@ mod tests {
         // a new measurement); the local update's price does not move.
         p.seed_render(10.0);
         p.observe(Method::Deep, &tens, (false, 10_000), 4.0, 10.0);
-        let pr = p.predict(&tens, 100_000);
+        let pr = p.predict(&tens, 100_000, |_| 0.0);
         assert!((pr[1].1.update_ms - 4.0).abs() < 1e-9, "{pr:?}");
         assert!((pr[2].1.update_ms - ten[2].1.update_ms).abs() < 1e-12);
         p.observe(Method::Deep, &tens, (false, 10_000), 2.0, 10.0);
-        let pr = p.predict(&tens, 100_000);
+        let pr = p.predict(&tens, 100_000, |_| 0.0);
         assert!((pr[1].1.update_ms - 3.0).abs() < 1e-9, "{pr:?}");
         // A deep update of another size: its own correction, once seen;
         // before, the nearest size's.
         let big = plan(false, 40_000, &[24_000]);
-        let guess = p.predict(&big, 100_000)[1].1.update_ms;
+        let guess = p.predict(&big, 100_000, |_| 0.0)[1].1.update_ms;
         assert!((guess - 1.5 * p.piece_ms(24_000)).abs() < 1e-9);
         p.observe(
             Method::Deep,
@@ -385,13 +445,42 @@ mod tests {
             p.piece_ms(24_000),
             10.0,
         );
-        let pr = p.predict(&big, 100_000);
+        let pr = p.predict(&big, 100_000, |_| 0.0);
         assert!(
             (pr[1].1.update_ms - p.piece_ms(24_000)).abs() < 1e-9,
             "{pr:?}"
         );
-        let pr = p.predict(&tens, 100_000);
+        let pr = p.predict(&tens, 100_000, |_| 0.0);
         assert!((pr[1].1.update_ms - 3.0).abs() < 1e-9, "{pr:?}");
+    }
+
+    #[test]
+    fn what_is_known_before_an_update_is_added_and_not_learned() {
+        let mut p = Predictor::new(100_000, Some(100.0));
+        p.seed_render(10.0);
+        let tens = plan(false, 2_000, &[300]);
+        let known = |m: Method| if m == Method::Rebuild { 0.5 } else { 2.0 };
+        let before = p.predict(&tens, 100_000, |_| 0.0);
+        let pr = p.predict(&tens, 100_000, known);
+        for ((_, a), (m, b)) in before.iter().zip(&pr) {
+            assert!((b.update_ms - a.update_ms - known(*m)).abs() < 1e-9);
+        }
+        // Learned from the builds' part alone: the same correction as
+        // without the known part.
+        let build = pr[1].1.update_ms - 2.0;
+        p.observe(Method::Deep, &tens, (false, 100_000), 2.0 * build, 10.0);
+        let again = p.predict(&tens, 100_000, known);
+        assert!((again[1].1.update_ms - (2.0 * build + 2.0)).abs() < 1e-9);
+        // Without its descent the deep update is estimated as its last
+        // whole plan priced it, in proportion to the interval.
+        let search = Plan {
+            deep_planned: false,
+            deep_pieces: Vec::new(),
+            interval: 4_000,
+            ..tens.clone()
+        };
+        let est = p.deep_estimate(&search);
+        assert!((est - 2.0 * build).abs() < 1e-9, "{est} vs {build}");
     }
 
     #[test]
@@ -404,7 +493,7 @@ mod tests {
     #[test]
     fn a_changed_scene_box_predicts_every_option_as_a_rebuild() {
         let p = Predictor::new(10_000, Some(5.0));
-        let pr = p.predict(&plan(true, 10_000, &[10_000]), 10_000);
+        let pr = p.predict(&plan(true, 10_000, &[10_000]), 10_000, |_| 0.0);
         assert!(pr.iter().all(|(_, x)| *x == pr[0].1));
     }
 
@@ -415,22 +504,28 @@ mod tests {
         let small = plan(false, 1_000, &[100]);
         let sum = |u: f64, r: f64| u + r;
         // Before the local update was taken, its tree is taken to render
-        // as a fresh one, the deep update's as the last one.
+        // as a fresh one; the deep update keeps the tree it is given, and
+        // changed its render by 40 / 38: the last render times that.
         p.observe(Method::Deep, &small, (false, 10_000), 0.1, 40.0);
-        let pr = p.predict(&small, 10_000);
-        assert_eq!((pr[2].1.render_ms, pr[1].1.render_ms), (38.0, 40.0));
+        let pr = p.predict(&small, 10_000, |_| 0.0);
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        assert_eq!(pr[2].1.render_ms, 38.0);
+        assert!(close(pr[1].1.render_ms, 40.0 * 40.0 / 38.0), "{pr:?}");
         // Its better tree wins over the deep update's cheaper build.
         assert_eq!(p.choose(&pr, sum).0, Method::Local);
         // Taken, what it measured replaces the guess, averaged.
         p.observe(Method::Local, &small, (false, 10_000), 0.5, 35.0);
-        assert_eq!(p.predict(&small, 10_000)[2].1.render_ms, 35.0);
+        assert_eq!(p.predict(&small, 10_000, |_| 0.0)[2].1.render_ms, 35.0);
         p.observe(Method::Local, &small, (false, 10_000), 0.5, 36.0);
-        assert_eq!(p.predict(&small, 10_000)[2].1.render_ms, 35.5);
-        // A deep update does not move the local update's render; a
-        // rebuild's render is the last fresh tree's.
+        assert_eq!(p.predict(&small, 10_000, |_| 0.0)[2].1.render_ms, 35.5);
+        // A deep update does not move the local update's render; its own
+        // change (42 after 36) is averaged in; a rebuild's render is the
+        // last fresh tree's.
         p.observe(Method::Deep, &small, (false, 10_000), 0.1, 42.0);
-        let pr = p.predict(&small, 10_000);
-        assert_eq!((pr[2].1.render_ms, pr[1].1.render_ms), (35.5, 41.0));
+        let pr = p.predict(&small, 10_000, |_| 0.0);
+        let ratio = 40.0 / 38.0 + 0.5 * (42.0 / 36.0 - 40.0 / 38.0);
+        assert_eq!(pr[2].1.render_ms, 35.5);
+        assert!(close(pr[1].1.render_ms, 42.0 * ratio), "{pr:?}");
         assert_eq!(pr[0].1.render_ms, 38.0);
         p.observe(
             Method::Rebuild,
@@ -439,7 +534,7 @@ mod tests {
             5.0,
             37.0,
         );
-        assert_eq!(p.predict(&small, 10_000)[0].1.render_ms, 37.0);
+        assert_eq!(p.predict(&small, 10_000, |_| 0.0)[0].1.render_ms, 37.0);
     }
 
     #[test]
@@ -482,7 +577,7 @@ mod tests {
         // rebuild built all 12,000, and that is what its 0.95 ms priced.
         let interval = plan(false, 7_600, &[300]);
         p.observe(Method::Rebuild, &interval, (false, 12_000), 0.95, 6.4);
-        let pr = p.predict(&interval, 12_000);
+        let pr = p.predict(&interval, 12_000, |_| 0.0);
         assert!((pr[0].1.update_ms - 0.95).abs() < 1e-9, "{pr:?}");
     }
 

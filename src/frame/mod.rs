@@ -22,18 +22,23 @@
 //!
 //! What is charged: the rebuilds (and a local or deep update's rebuild of
 //! its interval) as their builder's programs run them on the emulated Cell;
-//! the PPE's own update work (Algorithm 1's few node visits, the scan by
-//! geometry id, the graft) is not (no rate is sourced for it: see
-//! `docs/update.md`), so an update's time is a lower bound by that much.
+//! the PPE's share of the update ([`crate::update::ppe`]: Algorithm 1, the
+//! scan, the deep descent, the graft; with `auto`, its plan in place of
+//! the update's own search); in section 5's arrangement the SPEs' two
+//! program switches a frame, in the paper's the copy of what the last
+//! update changed into the tree's second copy ([`charge`]). The contention
+//! of builder and casters for the memory interface in the paper's
+//! arrangement is bounded, not simulated ([`charge::sharing_bound_ms`]).
 
 pub mod auto;
+pub mod charge;
 
 use crate::cast::{CastConfig, CastReport, cast_camera};
 use crate::cell::CellConfig;
 use crate::registry::{Build, BuilderKind};
 use crate::render::View;
 use crate::scene::Scene;
-use crate::update::{Animation, Method, Move, UpdateError, UpdateReport, Updater};
+use crate::update::{Animation, Method, Move, Plan, UpdateError, UpdateReport, Updater};
 
 /// How the tree follows the moves each frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -129,13 +134,24 @@ pub struct FrameReport {
     /// update + render (section 5's arrangement) or the longer of the two
     /// (the paper's).
     pub frame_ms: f64,
+    /// Of `update_ms`: the PPE's share (with `auto`, its plan and the
+    /// graft) and, in the paper's arrangement, the copy into the tree's
+    /// second copy; of `update_ms` and `render_ms` together: the SPEs'
+    /// program switches (section 5's arrangement).
+    pub ppe_ms: f64,
+    pub copy_ms: f64,
+    pub switch_ms: f64,
+    /// The paper's arrangement: the most that sharing the memory interface
+    /// could add to `frame_ms` ([`charge::sharing_bound_ms`]).
+    pub sharing_bound_ms: Option<f64>,
     /// Nodes + triangles per ray of the frame's cast.
     pub ray_cost: f64,
     pub cache_hit_rate: f64,
     /// `auto`: the chosen option's predicted update and render ms.
     pub predicted: Option<auto::Prediction>,
     /// With the oracle: the frame ms of rebuild, local and deep, each run
-    /// from the frame's starting state.
+    /// from the frame's starting state (with `auto`, each paying its plan,
+    /// as the frame would have had it taken that option).
     pub oracle_ms: Option<[f64; 3]>,
 }
 
@@ -159,10 +175,15 @@ pub struct FrameRun {
     /// option, and the total had every frame taken its best option.
     pub near_best: Option<f64>,
     pub oracle_total_ms: Option<f64>,
+    /// The paper's arrangement: bytes of the tree's second copy (the
+    /// largest tree of the run), and the most that sharing the memory
+    /// interface could add to `total_ms`.
+    pub second_copy_bytes: Option<u64>,
+    pub sharing_bound_ms: Option<f64>,
 }
 
 impl FrameRun {
-    fn of(frames: Vec<FrameReport>) -> FrameRun {
+    fn of(frames: Vec<FrameReport>, second_copy_bytes: Option<u64>) -> FrameRun {
         let total_ms: f64 = frames.iter().map(|f| f.frame_ms).sum();
         let fps = if total_ms > 0.0 {
             frames.len() as f64 / (total_ms / 1e3)
@@ -173,7 +194,10 @@ impl FrameRun {
         let best: Option<f64> = (frames.iter())
             .map(|f| Some(f.oracle_ms?.into_iter().fold(f64::INFINITY, f64::min)))
             .sum();
+        let sharing: Option<f64> = frames.iter().map(|f| f.sharing_bound_ms).sum();
         FrameRun {
+            second_copy_bytes,
+            sharing_bound_ms: sharing.filter(|_| !frames.is_empty()),
             near_best: near
                 .filter(|v| !v.is_empty())
                 .map(|v| v.iter().filter(|&&b| b).count() as f64 / v.len() as f64),
@@ -237,14 +261,25 @@ pub fn play(
         .map_err(FrameError::Config)?;
     let mut u = Updater::new(scene.clone(), build, Method::Rebuild)?;
     u.build.cell.resident = true;
+    // Section 5's arrangement: one switch before the update, one before
+    // the cast. The paper's: two copies of the tree, and the first in-place
+    // update first copies the whole first tree.
+    let switch_ms = match cfg.all_spes_build() {
+        true => charge::program_switch_ms(cell),
+        false => 0.0,
+    };
+    let whole_tree = |u: &Updater| charge::tree_bytes(u.bih.nodes.len(), u.scene.len(), u.records);
+    let mut changed = whole_tree(&u);
+    let mut second_copy = (!cfg.all_spes_build()).then_some(changed);
     let mut predictor = auto::Predictor::new(scene.len(), u.first_build_ms);
+    let mut routing = Routing(None);
     if cfg.policy == Policy::Auto {
         // Before the first frame, as a running renderer has them: the
         // first tree's render, and builds of a few sizes as an update's
         // pieces are built, so that the first prediction has both
         // (neither is counted in the frames).
         let before = cast_camera(&u.bih, &u.scene, &cam, &cfg.cast, &render_cell, u.records)?;
-        predictor.seed_render(before.run.ms);
+        predictor.seed_render(before.run.ms + switch_ms);
         for n in auto::probe_sizes(scene.len()) {
             if let Some(ms) = u.probe_piece(n)? {
                 predictor.seed_build(n, ms);
@@ -253,14 +288,52 @@ pub fn play(
     }
     let mut frames = Vec::with_capacity(anim.frames.len());
     for (i, moves) in anim.frames.iter().enumerate() {
+        let bill = Bill {
+            switch_ms,
+            copy_ms: match cfg.all_spes_build() {
+                true => 0.0,
+                false => charge::copy_ms(changed, cell),
+            },
+        };
         let (taken, plan, predicted) = match cfg.policy {
             Policy::Fixed(m) => (m, None, None),
             Policy::Auto => {
-                let plan = u.plan(moves)?;
-                let options = predictor.predict(&plan, u.scene.len());
-                let (m, p) = predictor.choose(&options, |a, b| cfg.frame_ms(a, b));
-                (m, Some(plan), Some(p))
+                // Algorithm 1 first (local and rebuild priced); the scan
+                // and the deep descent only if the deep update, its builds
+                // estimated and cut by `DESCEND`, would be the best.
+                let mut plan = u.plan_search(moves)?;
+                let combine = |a, b| cfg.frame_ms(a, b);
+                let options = |plan: &Plan| {
+                    let r = routing.per_moved(plan, u.deep_stop_below);
+                    let known = |m| {
+                        plan_find_ms(plan, m, &cell.cost, r) + bill.update_ms(m, plan.full_rebuild)
+                    };
+                    predictor.predict(plan, u.scene.len(), known)
+                };
+                let first = options(&plan);
+                let mut chosen = predictor.choose(&first, combine);
+                let frame = |p: &auto::Prediction| combine(p.update_ms, p.render_ms);
+                let deep = (first.iter())
+                    .find(|(m, _)| *m == Method::Deep)
+                    .expect("three")
+                    .1;
+                let hopeful = auto::Prediction {
+                    update_ms: deep.update_ms - auto::DESCEND * predictor.deep_estimate(&plan),
+                    ..deep
+                };
+                if !plan.deep_planned && frame(&hopeful) <= frame(&chosen.1) {
+                    plan = u.plan(moves)?;
+                    chosen = predictor.choose(&options(&plan), combine);
+                }
+                (chosen.0, Some(plan), Some(chosen.1))
             }
+        };
+        // The PPE's search charged to an option: the plan's, unless it
+        // stopped before the deep update's descent (then the update's own).
+        let find_ms = |m: Method| {
+            (plan.as_ref())
+                .filter(|p| p.deep_planned || p.full_rebuild || m != Method::Deep)
+                .map(|p| plan_find_ms(p, m, &cell.cost, 0.0))
         };
         let mut tried: Vec<(Method, Attempt)> = Vec::new();
         if cfg.oracle {
@@ -275,7 +348,10 @@ pub fn play(
                     .find(|(t, _)| *t == m)
                     .expect("every option tried")
                     .1;
-                cfg.frame_ms(a.update_ms(), a.cast.run.ms)
+                // What this frame would have cost had it taken `m`: with
+                // `auto`, its plan's search in place of the update's own.
+                let update_ms = bill.charge(&a.report, find_ms(m)).update_ms;
+                cfg.frame_ms(update_ms, a.cast.run.ms + switch_ms)
             };
             [ms(Method::Rebuild), ms(Method::Local), ms(Method::Deep)]
         });
@@ -289,15 +365,44 @@ pub fn play(
             cast,
         } = done_now;
         u = updater;
-        let (update_ms, render_ms) = (up.simulated_ms.unwrap_or(0.0), cast.run.ms);
+        let charged = bill.charge(&up, find_ms(taken));
+        let update_ms = charged.update_ms;
+        let render_ms = cast.run.ms + switch_ms;
         if let Some(plan) = &plan {
+            let known =
+                plan_find_ms(plan, taken, &cell.cost, 0.0) + bill.update_ms(taken, up.full_rebuild);
+            routing.learn(plan);
             predictor.observe(
                 taken,
                 plan,
                 (up.full_rebuild, u.scene.len()),
-                update_ms,
+                update_ms - known,
                 render_ms,
             );
+        }
+        let sharing_bound_ms = (!cfg.all_spes_build()).then(|| {
+            let copied = match charged.copy_ms > 0.0 {
+                true => 2 * changed,
+                false => 0,
+            };
+            let cast_bytes = (cast.run.cores.iter())
+                .map(|(_, c)| c.bytes_get + c.bytes_put)
+                .sum();
+            charge::sharing_bound_ms(
+                (update_ms, up.dma_bytes + copied),
+                (render_ms, cast_bytes),
+                cell,
+            )
+        });
+        let whole = whole_tree(&u);
+        let now_changed = charge::changed_bytes(&up, whole, u.records);
+        changed = match charged.copy_ms > 0.0 || up.full_rebuild {
+            true => now_changed,
+            // Nothing was copied: the other copy still lacks both.
+            false => changed + now_changed,
+        };
+        if let Some(b) = &mut second_copy {
+            *b = (*b).max(whole);
         }
         let st = cast.stats();
         frames.push(FrameReport {
@@ -308,6 +413,10 @@ pub fn play(
             update_ms,
             render_ms,
             frame_ms: cfg.frame_ms(update_ms, render_ms),
+            ppe_ms: charged.ppe_ms,
+            copy_ms: charged.copy_ms,
+            switch_ms: charged.switch_ms + switch_ms,
+            sharing_bound_ms,
             ray_cost: (st.nodes_visited + st.triangles_tested) as f64 / st.rays.max(1) as f64,
             cache_hit_rate: cast.cache().hit_rate(),
             predicted,
@@ -315,7 +424,89 @@ pub fn play(
         });
         done(frames.last().expect("pushed"));
     }
-    Ok(FrameRun::of(frames))
+    Ok(FrameRun::of(frames, second_copy))
+}
+
+/// The PPE's search of a frame that took `m` after `plan` (`auto`): what
+/// the plan did, and the scan of the interval a local or deep update
+/// still needs if the plan did not make it.
+/// The deep update's descent, where the plan did not make it, is
+/// estimated at `routed` routings per moved triangle ([`Routing`]).
+fn plan_find_ms(plan: &Plan, m: Method, cost: &crate::cell::CostModel, routed: f64) -> f64 {
+    let mut find = plan.find;
+    if !plan.deep_planned && !plan.full_rebuild && m != Method::Rebuild {
+        find.scanned += plan.interval as u64;
+        if m == Method::Deep {
+            find.routed += (routed * plan.transformed as f64).round() as u64;
+        }
+    }
+    find.ms(cost)
+}
+
+/// How many times the deep update's descent routes each moved triangle:
+/// as the last whole plan counted, or, before one, once a level from the
+/// enclosing node down to pieces of `deep_stop_below` triangles.
+struct Routing(Option<f64>);
+
+impl Routing {
+    fn per_moved(&self, plan: &Plan, stop_below: usize) -> f64 {
+        self.0
+            .unwrap_or_else(|| (plan.interval as f64 / stop_below as f64).max(1.0).log2())
+    }
+
+    fn learn(&mut self, plan: &Plan) {
+        if plan.deep_planned && !plan.full_rebuild && plan.transformed > 0 {
+            self.0 = Some(plan.find.routed as f64 / plan.transformed as f64);
+        }
+    }
+}
+
+/// What a frame's update costs beyond its rebuilds and the PPE's share:
+/// the builder's program switch (section 5's arrangement) and the copy
+/// into the tree's second copy before an in-place update (the paper's).
+#[derive(Clone, Copy)]
+struct Bill {
+    switch_ms: f64,
+    copy_ms: f64,
+}
+
+impl Bill {
+    /// The extra ms of an update by `m` (`full_rebuild`: the scene box
+    /// changed, so it rebuilds completely).
+    fn update_ms(&self, m: Method, full_rebuild: bool) -> f64 {
+        match full_rebuild || m == Method::Rebuild {
+            true => self.switch_ms,
+            false => self.switch_ms + self.copy_ms,
+        }
+    }
+
+    /// An update's charged ms: its rebuilds, the PPE's work (with
+    /// `plan_find_ms`, the plan's search in place of the update's own), a
+    /// switch where something was built, the copy before an in-place
+    /// update that built something.
+    fn charge(&self, up: &UpdateReport, plan_find_ms: Option<f64>) -> Charged {
+        let ppe_ms = plan_find_ms.unwrap_or(up.ppe_find_ms) + up.ppe_apply_ms;
+        let built = up.pieces > 0;
+        let copy_ms = match built && !up.full_rebuild {
+            true => self.copy_ms,
+            false => 0.0,
+        };
+        let switch_ms = if built { self.switch_ms } else { 0.0 };
+        Charged {
+            update_ms: up.build_ms.unwrap_or(0.0) + ppe_ms + copy_ms + switch_ms,
+            ppe_ms,
+            copy_ms,
+            switch_ms,
+        }
+    }
+}
+
+/// What [`Bill::charge`] charged an update.
+struct Charged {
+    update_ms: f64,
+    ppe_ms: f64,
+    copy_ms: f64,
+    switch_ms: f64,
 }
 
 /// One option tried on a copy of the updater: the updater after it, its
@@ -324,12 +515,6 @@ struct Attempt {
     updater: Updater,
     report: UpdateReport,
     cast: CastReport,
-}
-
-impl Attempt {
-    fn update_ms(&self) -> f64 {
-        self.report.simulated_ms.unwrap_or(0.0)
-    }
 }
 
 fn attempt(

@@ -19,7 +19,7 @@
 //! subtree's range is copied to its new place and its leaves' first slots
 //! are adjusted; a rebuilt subtree is written where its range now starts.
 
-use super::{Enclosing, Piece, UpdateError, UpdateReport, Updater, interval};
+use super::{Enclosing, Piece, PpeWork, UpdateError, UpdateReport, Updater, interval};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 
@@ -51,8 +51,10 @@ pub(super) fn update(
         moved_slots,
         moved_in(up, moved_slots),
         &mut |s, ids| up.build_subtree(&ids, s.region, s.depth),
+        &mut r.ppe_find,
     )?;
     let old = up.bih.prim_ids[first..end].to_vec();
+    r.ppe_apply.ids_copied += old.len() as u64;
     let mut pos = first;
     lay_out(up, plan, &old, first, &mut pos, r);
     debug_assert_eq!(pos, end, "the interval's size changed");
@@ -61,12 +63,14 @@ pub(super) fn update(
 
 /// The sizes of the subtrees the deep update of `enc.node` (interval
 /// `first .. end`, moved triangles at `moved_slots`) would rebuild, in tree
-/// order: the same descent and routing as [`update`], nothing built.
+/// order: the same descent and routing as [`update`], nothing built; the
+/// descent's PPE work is counted into `work`.
 pub(super) fn pieces(
     up: &Updater,
     enc: &Enclosing,
     (first, end): (usize, usize),
     moved_slots: &[usize],
+    work: &mut PpeWork,
 ) -> Vec<usize> {
     let plan = plan(
         up,
@@ -74,6 +78,7 @@ pub(super) fn pieces(
         moved_slots,
         moved_in(up, moved_slots),
         &mut |_, ids| Ok::<_, UpdateError>(ids.len()),
+        work,
     );
     let mut sizes = Vec::new();
     collect(&plan.expect("counting never fails"), &mut sizes);
@@ -116,13 +121,15 @@ struct Span {
 
 /// Plans the subtree `s`: `moved_slots` are the slots in it that hold moved
 /// triangles (sorted), `moved_in` the moved triangles routed to it;
-/// `rebuild` makes a rebuilt subtree of its span and triangle ids.
+/// `rebuild` makes a rebuilt subtree of its span and triangle ids; the
+/// PPE's work of the descent is counted into `work`.
 fn plan<P>(
     up: &Updater,
     s: Span,
     moved_slots: &[usize],
     moved_in: Vec<u32>,
     rebuild: &mut impl FnMut(Span, Vec<u32>) -> Result<P, UpdateError>,
+    work: &mut PpeWork,
 ) -> Result<Plan<P>, UpdateError> {
     if moved_slots.is_empty() && moved_in.is_empty() {
         return Ok(Plan::Keep {
@@ -132,6 +139,7 @@ fn plan<P>(
         });
     }
     let node = up.bih.nodes[s.node as usize];
+    work.nodes_visited += 1;
     let size = s.end - s.first - moved_slots.len() + moved_in.len();
     if node.is_leaf() || size <= up.deep_stop_below {
         return rebuilt(up, s, moved_slots, moved_in, rebuild);
@@ -143,6 +151,7 @@ fn plan<P>(
     rr.min[a] = rr.min[a].max(cr);
     let middle = cl * 0.5 + cr * 0.5;
     let (mut to_left, mut to_right) = (Vec::new(), Vec::new());
+    work.routed += moved_in.len() as u64;
     for &id in &moved_in {
         let b = up.scene.triangles[id as usize].bounds();
         let left = match (lr.contains_box(&b), rr.contains_box(&b)) {
@@ -171,6 +180,7 @@ fn plan<P>(
             &moved_slots[..k],
             to_left,
             rebuild,
+            work,
         )?),
         Box::new(plan(
             up,
@@ -178,6 +188,7 @@ fn plan<P>(
             &moved_slots[k..],
             to_right,
             rebuild,
+            work,
         )?),
     ))
 }
@@ -221,14 +232,23 @@ fn lay_out(
             let len = end - first;
             if *pos != first {
                 up.bih.prim_ids[*pos..*pos + len].copy_from_slice(&old[first - base..end - base]);
-                r.leaves_adjusted +=
+                let (leaves, nodes) =
                     shift_leaves(&mut up.bih.nodes, node, *pos as i64 - first as i64);
+                r.leaves_adjusted += leaves;
                 r.moved_slots += len;
+                r.ppe_apply += PpeWork {
+                    nodes_written: nodes,
+                    ids_copied: len as u64,
+                    ..PpeWork::default()
+                };
             }
             r.kept += len;
             *pos += len;
         }
         Plan::Rebuild { node, piece } => {
+            // The piece's ids were gathered for its build, then are
+            // written in place.
+            r.ppe_apply.ids_copied += piece.bih.prim_ids.len() as u64;
             up.install(node, *pos, &piece, r);
             *pos += piece.bih.prim_ids.len();
         }
@@ -240,10 +260,11 @@ fn lay_out(
 }
 
 /// Adds `delta` to the first slot of every leaf below `node`; returns how
-/// many leaves there were.
-fn shift_leaves(nodes: &mut [BihNode], node: u32, delta: i64) -> usize {
-    let (mut stack, mut leaves) = (vec![node], 0);
+/// many leaves there were and how many nodes were visited.
+fn shift_leaves(nodes: &mut [BihNode], node: u32, delta: i64) -> (usize, u64) {
+    let (mut stack, mut leaves, mut visited) = (vec![node], 0, 0);
     while let Some(id) = stack.pop() {
+        visited += 1;
         let n = nodes[id as usize];
         if n.is_leaf() {
             let (f, c) = n.leaf_range();
@@ -253,5 +274,5 @@ fn shift_leaves(nodes: &mut [BihNode], node: u32, delta: i64) -> usize {
             stack.extend([n.left_child(), n.left_child() + 1]);
         }
     }
-    leaves
+    (leaves, visited)
 }

@@ -25,6 +25,7 @@
 pub mod animation;
 mod deep;
 pub mod local;
+pub mod ppe;
 
 use std::time::Instant;
 
@@ -33,6 +34,7 @@ use thiserror::Error;
 
 pub use animation::{Animation, MAX_FRAMES, Move, apply};
 pub use local::{Enclosing, Stop, enclosing_node, interval};
+pub use ppe::PpeWork;
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
@@ -101,8 +103,20 @@ pub struct UpdateReport {
     pub pieces: usize,
     /// Host wall time of the whole update, moving the triangles included.
     pub host_ms: f64,
-    /// Simulated Cell time of the rebuilds, for an emulated builder.
+    /// Simulated Cell time of the update, for an emulated builder: the
+    /// rebuilds on the SPEs and the PPE's share before and after them.
     pub simulated_ms: Option<f64>,
+    /// Simulated time of the rebuilds alone.
+    pub build_ms: Option<f64>,
+    /// The PPE's work before the rebuilds (Algorithm 1, the scan, the deep
+    /// descent) and after them (the graft, kept ranges moved), and its
+    /// simulated time ([`ppe`]).
+    pub ppe_find: PpeWork,
+    pub ppe_apply: PpeWork,
+    pub ppe_find_ms: f64,
+    pub ppe_apply_ms: f64,
+    /// Bytes the rebuilds' DMA moved (got and put, every core).
+    pub dma_bytes: u64,
 }
 
 /// A run of frames summed up as the paper's Table 2 sums them up.
@@ -216,6 +230,14 @@ pub struct Plan {
     /// The sizes of the subtrees a deep update would rebuild, in tree
     /// order (the whole interval's on a complete rebuild).
     pub deep_pieces: Vec<usize>,
+    /// The PPE's work of making this plan: Algorithm 1, the scan of the
+    /// interval, the deep update's descent (what either update does
+    /// before its rebuilds; none on a complete rebuild).
+    pub find: PpeWork,
+    /// Whether the interval was scanned and the deep update's descent
+    /// made ([`Updater::plan`]), or only Algorithm 1
+    /// ([`Updater::plan_search`]).
+    pub deep_planned: bool,
 }
 
 impl Plan {
@@ -228,7 +250,31 @@ impl Plan {
 /// A subtree built for grafting, and its simulated time if emulated.
 struct Piece {
     bih: Bih,
-    simulated_ms: Option<f64>,
+    timed: Option<Timed>,
+}
+
+/// What an emulated build cost: its simulated ms and the bytes its DMA
+/// moved.
+#[derive(Clone, Copy)]
+struct Timed {
+    ms: f64,
+    dma_bytes: u64,
+}
+
+impl Timed {
+    fn of(s: &crate::strategy::Simulated) -> Option<Timed> {
+        s.run.timed.then(|| Timed {
+            ms: s.run.ms,
+            dma_bytes: (s.run.cores.iter())
+                .map(|(_, c)| c.bytes_get + c.bytes_put)
+                .sum(),
+        })
+    }
+
+    fn charge(self, r: &mut UpdateReport) {
+        *r.build_ms.get_or_insert(0.0) += self.ms;
+        r.dma_bytes += self.dma_bytes;
+    }
 }
 
 /// A scene, its tree, and how the tree follows moving objects.
@@ -311,6 +357,7 @@ impl Updater {
             r.stop = Some(enc.stop);
             let (first, end) = interval(&self.bih, enc.node);
             r.interval = end - first;
+            r.ppe_find += found(&enc, r.interval);
             let moved_slots = self.moved_slots(&moved, (first, end));
             assert_eq!(
                 moved_slots.len(),
@@ -334,6 +381,12 @@ impl Updater {
         if let Err(e) = done {
             self.scene.restore(saved, saved_box);
             return Err(e);
+        }
+        if self.build.builder.emulated() && self.build.cell.cost.charge_compute {
+            let cost = &self.build.cell.cost;
+            r.ppe_find_ms = r.ppe_find.ms(cost);
+            r.ppe_apply_ms = r.ppe_apply.ms(cost);
+            r.simulated_ms = Some(r.build_ms.unwrap_or(0.0) + r.ppe_find_ms + r.ppe_apply_ms);
         }
         r.host_ms = ms(start);
         Ok(r)
@@ -381,11 +434,27 @@ impl Updater {
     /// update's descent would rebuild. Works on a copy: the updater is not
     /// changed.
     pub fn plan(&self, moves: &[Move]) -> Result<Plan, UpdateError> {
+        self.plan_to(moves, true)
+    }
+
+    /// The first half of [`Updater::plan`], what a local update needs to
+    /// be priced: the scene box, Algorithm 1's enclosing node and its
+    /// interval, without the scan of the interval and the deep update's
+    /// descent (`deep_planned` false, no `deep_pieces`; `find` counts only
+    /// Algorithm 1).
+    pub fn plan_search(&self, moves: &[Move]) -> Result<Plan, UpdateError> {
+        self.plan_to(moves, false)
+    }
+
+    fn plan_to(&self, moves: &[Move], descend: bool) -> Result<Plan, UpdateError> {
         let mut probe = self.clone();
         let mut r = UpdateReport::default();
         let m = probe.move_objects(moves, &mut r)?;
         if moves.is_empty() {
-            return Ok(Plan::default());
+            return Ok(Plan {
+                deep_planned: true,
+                ..Plan::default()
+            });
         }
         if probe.scene.bounds() != probe.bih.bounds {
             return Ok(Plan {
@@ -394,18 +463,28 @@ impl Updater {
                 depth: 0,
                 transformed: r.transformed,
                 deep_pieces: vec![probe.scene.len()],
+                find: PpeWork::default(),
+                deep_planned: true,
             });
         }
         let enc = enclosing_node(&mut probe.bih, &m.ebb);
         let (first, end) = interval(&probe.bih, enc.node);
-        let moved_slots = probe.moved_slots(&m.moved, (first, end));
-        Ok(Plan {
+        let mut plan = Plan {
             full_rebuild: false,
             interval: end - first,
             depth: enc.depth,
             transformed: r.transformed,
-            deep_pieces: deep::pieces(&probe, &enc, (first, end), &moved_slots),
-        })
+            deep_pieces: Vec::new(),
+            find: found(&enc, 0),
+            deep_planned: descend,
+        };
+        if descend {
+            let moved_slots = probe.moved_slots(&m.moved, (first, end));
+            plan.find.scanned = (end - first) as u64;
+            plan.deep_pieces =
+                deep::pieces(&probe, &enc, (first, end), &moved_slots, &mut plan.find);
+        }
+        Ok(plan)
     }
 
     /// The slots of `first .. end` that hold triangles of the geometries
@@ -424,7 +503,9 @@ impl Updater {
         r.full_rebuild = true;
         r.rebuilt = self.scene.len();
         r.pieces = 1;
-        r.simulated_ms = b.simulated.filter(|s| s.run.timed).map(|s| s.run.ms);
+        if let Some(t) = b.simulated.as_ref().and_then(Timed::of) {
+            t.charge(r);
+        }
         Ok(())
     }
 
@@ -454,7 +535,7 @@ impl Updater {
         let region = (ids.iter()).fold(Aabb::EMPTY, |b, &i| {
             b.union(self.scene.triangles[i as usize].bounds())
         });
-        Ok(self.build_subtree(ids, region, 0)?.simulated_ms)
+        Ok(self.build_subtree(ids, region, 0)?.timed.map(|t| t.ms))
     }
 
     /// A subtree over the triangles `ids` for a node at `depth` whose
@@ -465,8 +546,8 @@ impl Updater {
             max_depth: self.bih.config.max_depth - depth,
             ..self.bih.config
         };
-        let (bih, simulated_ms) = self.build_piece(ids, region, &cfg)?;
-        Ok(Piece { bih, simulated_ms })
+        let (bih, timed) = self.build_piece(ids, region, &cfg)?;
+        Ok(Piece { bih, timed })
     }
 
     /// Deletes the subtree at `node` and grafts `piece` there, its
@@ -476,8 +557,13 @@ impl Updater {
         self.graft(node, &piece.bih, first as u32);
         r.rebuilt += piece.bih.prim_ids.len();
         r.pieces += 1;
-        if let Some(ms) = piece.simulated_ms {
-            *r.simulated_ms.get_or_insert(0.0) += ms;
+        r.ppe_apply += PpeWork {
+            nodes_written: piece.bih.nodes.len() as u64,
+            ids_copied: piece.bih.prim_ids.len() as u64,
+            ..PpeWork::default()
+        };
+        if let Some(t) = piece.timed {
+            t.charge(r);
         }
     }
 
@@ -488,7 +574,7 @@ impl Updater {
         ids: &[u32],
         region: Aabb,
         cfg: &BihConfig,
-    ) -> Result<(Bih, Option<f64>), UpdateError> {
+    ) -> Result<(Bih, Option<Timed>), UpdateError> {
         if ids.is_empty() {
             let empty = Bih {
                 nodes: vec![BihNode::leaf(0, 0)],
@@ -520,7 +606,7 @@ impl Updater {
         for p in &mut bih.prim_ids {
             *p = ids[*p as usize];
         }
-        Ok((bih, b.simulated.filter(|s| s.run.timed).map(|s| s.run.ms)))
+        Ok((bih, b.simulated.as_ref().and_then(Timed::of)))
     }
 
     /// Puts the descendants of `node` on the free list.
@@ -565,6 +651,16 @@ impl Updater {
         }
         let f = first as usize;
         self.bih.prim_ids[f..f + piece.prim_ids.len()].copy_from_slice(&piece.prim_ids);
+    }
+}
+
+/// The PPE's work of Algorithm 1 down to `enc` and of the scan of its
+/// interval of `slots` triangles.
+fn found(enc: &Enclosing, slots: usize) -> PpeWork {
+    PpeWork {
+        nodes_visited: enc.depth as u64 + 1,
+        scanned: slots as u64,
+        ..PpeWork::default()
     }
 }
 
