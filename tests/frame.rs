@@ -75,7 +75,7 @@ fn a_frame_is_its_update_and_its_render_as_the_arrangement_says() {
             let built = up.pieces > 0;
             let ms = up.simulated_ms.unwrap() + if built { switch } else { 0.0 };
             assert!((a.update_ms - ms).abs() < 1e-9, "{a:?} vs {up:?}");
-            assert_eq!(a.switch_ms, if built { 2.0 * switch } else { switch });
+            assert_eq!(a.switch_ms, if built { 2.0 * switch } else { 0.0 });
             assert_eq!(a.ppe_ms, up.ppe_find_ms + up.ppe_apply_ms);
             assert_eq!((a.copy_ms, a.sharing_bound_ms), (0.0, None));
             // The PPE's share is charged where the update searched.
@@ -190,6 +190,14 @@ fn the_frame_command_reports_every_frame() {
         "{text}"
     );
     assert!(text.contains("frames per second"), "{text}");
+    // What the paper's arrangement adds is said: the second copy and the
+    // bound on sharing the memory interface.
+    assert!(
+        text.contains("of it: the PPE's share of the updates")
+            && text.contains("second copy")
+            && text.contains("sharing the memory interface could add at most"),
+        "{text}"
+    );
     let mut json_args = args.to_vec();
     json_args.extend(["--format", "json"]);
     let out = cellbih(&json_args);
@@ -199,12 +207,21 @@ fn the_frame_command_reports_every_frame() {
     assert_eq!(frames.len(), 3);
     let mut total = 0.0;
     for f in frames {
-        for key in ["choice", "update_ms", "render_ms", "frame_ms"] {
+        for key in [
+            "choice",
+            "update_ms",
+            "render_ms",
+            "frame_ms",
+            "ppe_ms",
+            "copy_ms",
+        ] {
             assert!(!f[key].is_null(), "{key}: {f}");
         }
         total += f["frame_ms"].as_f64().unwrap();
     }
     assert!((v["total_ms"].as_f64().unwrap() - total).abs() < 1e-9);
+    assert!(v["second_copy_bytes"].as_u64().is_some_and(|b| b > 0));
+    assert!(v["sharing_bound_ms"].as_f64().is_some_and(|b| b >= 0.0));
     let out = cellbih(&[
         "frame",
         "--scene",

@@ -191,9 +191,9 @@ fn print(
     );
     if let (Some(bytes), Some(bound)) = (run.second_copy_bytes, run.sharing_bound_ms) {
         of_it += &format!(
-            ", copies into the tree's second copy ({}) {:.2} ms; sharing the memory \
+            ", copies into the tree's second copy ({:.1} MiB) {:.2} ms; sharing the memory \
              interface could add at most {bound:.2} ms ({:.1} %)",
-            format!("{:.1} MiB", bytes as f64 / (1u64 << 20) as f64),
+            bytes as f64 / (1u64 << 20) as f64,
             sum(|f| f.copy_ms),
             bound / run.total_ms.max(f64::MIN_POSITIVE) * 100.0
         );

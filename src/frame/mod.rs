@@ -350,8 +350,8 @@ pub fn play(
                     .1;
                 // What this frame would have cost had it taken `m`: with
                 // `auto`, its plan's search in place of the update's own.
-                let update_ms = bill.charge(&a.report, find_ms(m)).update_ms;
-                cfg.frame_ms(update_ms, a.cast.run.ms + switch_ms)
+                let c = bill.charge(&a.report, find_ms(m));
+                cfg.frame_ms(c.update_ms, a.cast.run.ms + c.switch_ms)
             };
             [ms(Method::Rebuild), ms(Method::Local), ms(Method::Deep)]
         });
@@ -367,7 +367,8 @@ pub fn play(
         u = updater;
         let charged = bill.charge(&up, find_ms(taken));
         let update_ms = charged.update_ms;
-        let render_ms = cast.run.ms + switch_ms;
+        // The casters' switch, where the builders' program ran.
+        let render_ms = cast.run.ms + charged.switch_ms;
         if let Some(plan) = &plan {
             let known =
                 plan_find_ms(plan, taken, &cell.cost, 0.0) + bill.update_ms(taken, up.full_rebuild);
@@ -415,7 +416,7 @@ pub fn play(
             frame_ms: cfg.frame_ms(update_ms, render_ms),
             ppe_ms: charged.ppe_ms,
             copy_ms: charged.copy_ms,
-            switch_ms: charged.switch_ms + switch_ms,
+            switch_ms: 2.0 * charged.switch_ms,
             sharing_bound_ms,
             ray_cost: (st.nodes_visited + st.triangles_tested) as f64 / st.rays.max(1) as f64,
             cache_hit_rate: cast.cache().hit_rate(),
