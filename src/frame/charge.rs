@@ -74,6 +74,10 @@ pub fn changed_bytes(up: &UpdateReport, whole_tree: u64, order: RecordOrder) -> 
         }
 }
 
+/// Each byte copied into the second copy crosses the memory interface
+/// twice: got into a builder SPE's local store, put back.
+pub const COPY_CROSSINGS: u64 = 2;
+
 /// Simulated ms of bringing the other copy up to date: `bytes` got and put
 /// at the memory interface's shared bandwidth.
 pub fn copy_ms(bytes: u64, cell: &CellConfig) -> f64 {
@@ -81,7 +85,7 @@ pub fn copy_ms(bytes: u64, cell: &CellConfig) -> f64 {
     if !c.charge_compute {
         return 0.0;
     }
-    c.memory_shared_bandwidth.cycles(2 * bytes).0 as f64 / c.clock_hz * 1e3
+    c.memory_shared_bandwidth.cycles(COPY_CROSSINGS * bytes).0 as f64 / c.clock_hz * 1e3
 }
 
 /// The most that sharing the memory interface can add to a frame of the

@@ -383,7 +383,7 @@ pub fn play(
         }
         let sharing_bound_ms = (!cfg.all_spes_build()).then(|| {
             let copied = match charged.copy_ms > 0.0 {
-                true => 2 * changed,
+                true => charge::COPY_CROSSINGS * changed,
                 false => 0,
             };
             let cast_bytes = (cast.run.cores.iter())

@@ -64,6 +64,9 @@ pub const SCAN_COUNT: u64 = 18;
 /// node's three words stored (3), its children pushed (2), rounded: 30.
 pub const NODE_WRITE_COUNT: u64 = 30;
 
+/// Bytes a triangle id copy moves: its 4 bytes read and written.
+pub const ID_COPY_BYTES: u64 = 8;
+
 /// A count of PPE cycles scaled like the PPE's partition.
 fn scaled(count: u64) -> Cycles {
     Cycles(count * KernelRates::PS3.ppe_partition_item.0 / PARTITION_COUNT)
@@ -96,7 +99,9 @@ impl PpeWork {
             + scaled(ROUTE_COUNT).0 * self.routed
             + scaled(SCAN_COUNT).0 * self.scanned
             + scaled(NODE_WRITE_COUNT).0 * self.nodes_written;
-        let copies = cost.ppe_memory_bandwidth.cycles(8 * self.ids_copied);
+        let copies = cost
+            .ppe_memory_bandwidth
+            .cycles(ID_COPY_BYTES * self.ids_copied);
         Cycles(steps + copies.0)
     }
 
