@@ -62,4 +62,5 @@ pub mod report;
 pub mod scene;
 pub mod spe;
 pub mod strategy;
+pub mod text_input;
 pub mod update;

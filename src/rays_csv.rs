@@ -18,6 +18,7 @@ use glam::DVec3;
 use thiserror::Error;
 
 use crate::bih::{Hit, Ray};
+use crate::text_input::TextError;
 
 pub const RAYS_HEADER: &str = "ox,oy,oz,dx,dy,dz,tmin,tmax";
 pub const HITS_HEADER: &str = "ray,prim,t";
@@ -47,9 +48,30 @@ pub fn read_rays(path: &str, input: impl BufRead) -> Result<Vec<Ray>, RaysError>
     };
     let mut rays = Vec::new();
     let mut saw_header = false;
-    for (n, line) in input.split(b'\n').enumerate() {
-        let line = line.map_err(io)?;
-        let line_no = n + 1;
+    let mut lines = crate::text_input::Lines::new(input);
+    loop {
+        let (line_no, line) = match lines.next_line() {
+            Ok(Some(l)) => l,
+            Ok(None) => break,
+            Err(TextError::Io(e)) => return Err(io(e)),
+            Err(TextError::LongLine { line }) => {
+                return Err(RaysError::Line {
+                    path: path.into(),
+                    line,
+                    what: format!(
+                        "longer than {} MiB without a newline: not a ray file",
+                        crate::text_input::MAX_LINE_BYTES >> 20
+                    ),
+                });
+            }
+            Err(e @ TextError::Nul { line, .. }) => {
+                return Err(RaysError::Line {
+                    path: path.into(),
+                    line,
+                    what: e.to_string(),
+                });
+            }
+        };
         let Ok(line) = std::str::from_utf8(&line) else {
             return Err(RaysError::Line {
                 path: path.into(),

@@ -3,8 +3,11 @@
 //! that the compiler runs Möller–Trumbore on four triangles per instruction
 //! (AVX: four `f64` lanes; SSE2: two). Every lane computes exactly what
 //! [`super::traverse::intersect_triangle`] computes, operation for
-//! operation in the same order, so `t` is bitwise the same as the scalar
-//! test's (and brute force's); only the branches become lane masks.
+//! operation in the same order, so Möller–Trumbore's `t` and `det` are
+//! bitwise the scalar test's; only the branches become lane masks. The
+//! `t` a hit reports and its range test are the scalar test's too
+//! ([`super::traverse::settle_t`], applied by the caller to the lanes the
+//! mask keeps).
 
 use glam::Vec3;
 
@@ -25,13 +28,21 @@ impl Group {
             }
         }
     }
+
+    /// The triangle in lane `lane`, as [`Group::set`] put it.
+    pub(super) fn get(&self, lane: usize) -> [Vec3; 3] {
+        [0, 1, 2].map(|i| Vec3::new(self.v[i][0][lane], self.v[i][1][lane], self.v[i][2][lane]))
+    }
 }
 
-/// What the four tests found: a bit per lane that hits in `[tmin, tmax]`,
-/// and per lane `t` and the barycentrics' numerators and denominator.
+/// What the four tests found: a bit per lane whose line meets the
+/// triangle (the range of `t` is tested by the caller, on the settled
+/// `t`), and per lane Möller–Trumbore's `t` and determinant and the
+/// barycentrics' numerators and denominator.
 pub(super) struct Found {
     pub mask: u32,
     pub t: [f64; 4],
+    pub det: [f64; 4],
     pub u: [f64; 4],
     pub v: [f64; 4],
     pub adet: [f64; 4],
@@ -39,10 +50,11 @@ pub(super) struct Found {
 
 /// Möller–Trumbore on the four triangles of `g` against the ray `o + t·d`.
 #[inline(always)]
-pub(super) fn intersect4(g: &Group, o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f64) -> Found {
+pub(super) fn intersect4(g: &Group, o: [f64; 3], d: [f64; 3]) -> Found {
     let mut f = Found {
         mask: 0,
         t: [0.0; 4],
+        det: [0.0; 4],
         u: [0.0; 4],
         v: [0.0; 4],
         adet: [0.0; 4],
@@ -63,16 +75,9 @@ pub(super) fn intersect4(g: &Group, o: [f64; 3], d: [f64; 3], tmin: f64, tmax: f
         let q = cross(s, e1);
         let v = dot(d, q) * sign;
         let t = dot(e2, q) * (1.0 / det);
-        hit[l] = det != 0.0
-            && det.is_finite()
-            && u >= 0.0
-            && u <= adet
-            && v >= 0.0
-            && u + v <= adet
-            && t >= tmin
-            && t <= tmax
-            && t.is_finite();
-        (f.t[l], f.u[l], f.v[l], f.adet[l]) = (t, u, v, adet);
+        hit[l] =
+            det != 0.0 && det.is_finite() && u >= 0.0 && u <= adet && v >= 0.0 && u + v <= adet;
+        (f.t[l], f.det[l], f.u[l], f.v[l], f.adet[l]) = (t, det, u, v, adet);
     }
     for (l, h) in hit.iter().enumerate() {
         f.mask |= (*h as u32) << l;

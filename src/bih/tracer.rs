@@ -13,8 +13,8 @@ use glam::DVec3;
 
 use super::lanes::{self, Group};
 use super::traverse::{
-    PreTriangle, clip_range, clip_range_finite, closer, pop_bound, root_interval, widen_down,
-    widen_up,
+    PreTriangle, clip_range, clip_range_finite, closer, pop_bound, root_interval, settle_t,
+    widen_down, widen_up,
 };
 use super::{Bih, BihConfig, BihNode, Hit, Ray, RayStats};
 use crate::aabb::Aabb;
@@ -194,13 +194,19 @@ impl<'a> Tracer<'a> {
         let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
         let (first, end) = (first as usize, (first + count) as usize);
         for g in first / 4..end.div_ceil(4) {
-            let f = lanes::intersect4(&self.groups[g], o, d, ray.tmin, *best_t);
+            let group = &self.groups[g];
+            let f = lanes::intersect4(group, o, d);
             // Lanes of this leaf only (it starts a group), in slot order.
             let mut m = f.mask & ((1u32 << (end - g * 4).min(4)) - 1);
             while m != 0 {
                 let l = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let (t, prim) = (f.t[l], self.prims[g * 4 + l]);
+                // The scalar test's `t` and range test, on the same operands.
+                let t = settle_t(group.get(l), ray.origin, ray.dir, f.t[l], f.det[l]);
+                if !(t >= ray.tmin && t <= *best_t && t.is_finite()) {
+                    continue;
+                }
+                let prim = self.prims[g * 4 + l];
                 if closer(t, prim, *best) {
                     let (u, v) = (f.u[l] / f.adet[l], f.v[l] / f.adet[l]);
                     *best = Some(Hit { prim, t, u, v });

@@ -136,11 +136,53 @@ impl PreTriangle {
             return None;
         }
         let inv = 1.0 / det;
-        let t = e2.dot(q) * inv;
+        let t = settle_t(self.v, ray.origin, ray.dir, e2.dot(q) * inv, det);
         // A hit has a finite t: with a direction so short (1e-320) that the
         // distance in its units overflows f64, t is infinite and no hit.
         (t >= tmin && t <= tmax && t.is_finite()).then(|| (t, u / adet, v / adet))
     }
+}
+
+/// The `t` a hit reports: Möller–Trumbore's `t_mt` where its error is
+/// certainly within a quarter of the culls' [`SLACK`], else `t` from the
+/// triangle's plane.
+///
+/// Möller–Trumbore solves for `t` through `det = e1·(d×e2)`, which mixes
+/// the direction into the edges before they are crossed: for a sliver
+/// triangle (two nearly parallel edges) `t`'s relative error grows as
+/// `u/sin(angle)` — about 1e-12 for the slivers of a finely cut sphere,
+/// as large as the widening of every cull, so a leaf box or a node whose
+/// entry lies just before a vertex could be culled while a triangle in it
+/// reports a hit a hair closer than the one kept. The bound used here is
+/// the first-order forward error of the computed `e2·q / det` (each dot
+/// and cross product over-bounded with 1-norms: `16u·(|e1||e2||s| +
+/// |t||e1||e2||d|)/|det| + 4u|t|`). Where it is too large, `t` comes
+/// from the plane, `-(n·s)/(n·d)` with `n = e1×e2`: the edges come from
+/// `f32` vertices, so `n` is computed nearly exactly and the error is
+/// `u/cos θ` (θ the ray's angle to the normal), free of the sliver
+/// factor. A ray within about 0.05° of a triangle's plane can still err
+/// beyond the slack (docs/tree.md, "Culls and the triangle test").
+///
+/// Every path — the scalar test, the four-lane groups, the packets, the
+/// SPE caster, brute force — calls this with the same operands, so all
+/// report the same `t`, bit for bit.
+#[inline]
+pub(super) fn settle_t(v: [glam::Vec3; 3], o: DVec3, d: DVec3, t_mt: f64, det: f64) -> f64 {
+    const U: f64 = f64::EPSILON / 2.0;
+    let v0 = v[0].as_dvec3();
+    let e1 = v[1].as_dvec3() - v0;
+    let e2 = v[2].as_dvec3() - v0;
+    let s = o - v0;
+    let l1 = |x: DVec3| x.abs().element_sum();
+    let edges = l1(e1) * l1(e2);
+    let err = 16.0 * U * edges * (l1(s) + t_mt.abs() * l1(d)) / det.abs() + 4.0 * U * t_mt.abs();
+    if err <= 0.25 * SLACK * t_mt.abs() || !err.is_finite() {
+        return t_mt;
+    }
+    let n = e1.cross(e2);
+    let nd = n.dot(d);
+    let t = -n.dot(s) / nd;
+    if t.is_finite() { t } else { t_mt }
 }
 
 /// Closest hit by testing every triangle: the reference every tree must

@@ -7,16 +7,13 @@
 
 use glam::DVec3;
 
-use crate::bih::{Hit, Ray, RayStats, Tracer, brute_force_closest, intersect_triangle};
+use crate::bih::{Ray, RayStats, Tracer, brute_force_closest};
 use crate::scene::{Scene, SplitMix64};
 
-/// How t may differ from brute force, relative. Both sides run the same
-/// triangle test, so in practice t is bitwise equal; the tolerance only
-/// admits a coincident triangle found first.
-pub const T_TOLERANCE: f64 = 1e-9;
-
-/// Checks the tree's answer for `ray` against brute force; an error names
-/// what differs.
+/// Checks the tree's answer for `ray` against brute force: the same
+/// triangle at the same `t`, bit for bit (both sides run the same triangle
+/// test, and ties in `t` go to the lower triangle id on both); an error
+/// names what differs.
 pub fn check_ray(scene: &Scene, tracer: &Tracer, ray: &Ray) -> Result<(), String> {
     let want = brute_force_closest(scene, ray);
     let got = tracer.closest(ray, &mut RayStats::default());
@@ -28,16 +25,9 @@ pub fn check_ray(scene: &Scene, tracer: &Tracer, ray: &Ray) -> Result<(), String
     }
     match (got, want) {
         (None, None) => Ok(()),
-        (Some(g), Some(w)) if g.prim == w.prim && g.t == w.t => Ok(()),
-        (Some(g), Some(w)) if coincident(scene, ray, &g, &w) => Ok(()),
+        (Some(g), Some(w)) if g.prim == w.prim && g.t.to_bits() == w.t.to_bits() => Ok(()),
         (g, w) => Err(format!("tree {g:?} but brute force {w:?} for {ray:?}")),
     }
-}
-
-/// The tree found another triangle at the same t (within the tolerance).
-fn coincident(scene: &Scene, ray: &Ray, g: &Hit, w: &Hit) -> bool {
-    let alone = intersect_triangle(&scene.triangles[g.prim as usize], ray, ray.tmin, ray.tmax);
-    (g.t - w.t).abs() <= T_TOLERANCE * w.t.abs() && alone.is_some_and(|(t, _, _)| t == g.t)
 }
 
 /// Rays that hit the scene's box from outside and inside, one in eight

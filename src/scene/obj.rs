@@ -9,7 +9,7 @@
 
 use std::borrow::Cow;
 use std::collections::HashMap;
-use std::io::Read;
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 use glam::Vec3;
@@ -26,26 +26,41 @@ pub fn load_obj_file(path: &Path) -> Result<Scene, SceneError> {
     parse_obj_named(&path.display().to_string(), &name, &text)
 }
 
-/// The OBJ text of an `.obj` or `.obj.gz` file, gunzipped.
+/// The OBJ text of an `.obj` or `.obj.gz` file, gunzipped, every line
+/// bounded ([`crate::text_input`]): a device or a file without newlines
+/// is refused at its first over-long line, not read until memory runs
+/// out.
 pub fn read_obj_text(path: &Path) -> Result<Vec<u8>, SceneError> {
+    use crate::text_input::{TextError, read_text};
     let io = |source| SceneError::Io {
         path: path.to_path_buf(),
         source,
     };
-    let raw = std::fs::read(path).map_err(io)?;
-    let text = if raw.starts_with(&[0x1f, 0x8b]) {
-        let mut out = Vec::with_capacity(raw.len() * 4);
-        flate2::read::MultiGzDecoder::new(&raw[..])
-            .read_to_end(&mut out)
-            .map_err(|e| SceneError::NotObj {
+    let mut file = BufReader::new(std::fs::File::open(path).map_err(io)?);
+    let gzip = file.fill_buf().map_err(io)?.starts_with(&[0x1f, 0x8b]);
+    let text = if gzip {
+        read_text(flate2::bufread::MultiGzDecoder::new(file))
+    } else {
+        read_text(file)
+    };
+    text.map_err(|e| match e {
+        TextError::Io(e) if gzip && e.kind() != std::io::ErrorKind::PermissionDenied => {
+            SceneError::NotObj {
                 path: path.display().to_string(),
                 why: format!("gzip data is corrupt: {e}"),
-            })?;
-        out
-    } else {
-        raw
-    };
-    Ok(text)
+            }
+        }
+        TextError::Io(e) => io(e),
+        TextError::LongLine { line } => SceneError::Malformed {
+            path: path.display().to_string(),
+            line,
+            what: e.to_string(),
+        },
+        TextError::Nul { .. } => SceneError::NotObj {
+            path: path.display().to_string(),
+            why: e.to_string(),
+        },
+    })
 }
 
 /// Parses OBJ text held in memory; `name` names it in errors.
@@ -104,14 +119,11 @@ fn normalize(text: &[u8]) -> Option<Cow<'_, [u8]>> {
 
 pub(super) fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Scene, SceneError> {
     let Some(text) = normalize(text) else {
+        let nul = text.iter().position(|&b| b == 0).unwrap_or(0);
+        let line = 1 + text[..nul].iter().filter(|&&b| b == b'\n').count();
         return Err(SceneError::NotObj {
             path: path.into(),
-            why: match utf16(text) {
-                true => {
-                    "it is UTF-16 text, which is not supported: save it as UTF-8 or ASCII".into()
-                }
-                false => "it is not text (a NUL byte)".into(),
-            },
+            why: crate::text_input::not_text(&text[..text.len().min(64)], line),
         });
     };
     // tobj drops a face of fewer than three corners without a word.
@@ -181,15 +193,6 @@ pub(super) fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Sce
         });
     }
     Scene::new(name, triangles, geometry_ids, geometry_names)
-}
-
-/// Whether `text` looks like UTF-16: a byte-order mark, or a NUL byte
-/// beside every character of an ASCII start.
-fn utf16(text: &[u8]) -> bool {
-    let bom = text.starts_with(b"\xff\xfe") || text.starts_with(b"\xfe\xff");
-    let head = &text[..text.len().min(64) & !1];
-    let zeros = |first: usize| head.iter().skip(first).step_by(2).all(|&b| b == 0);
-    bom || (head.len() >= 4 && (zeros(0) || zeros(1)))
 }
 
 /// The first face line (1-based) with fewer than three corners, and its

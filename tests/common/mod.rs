@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use cellbih::bih::{Bih, Hit};
 #[allow(unused_imports)]
-pub use cellbih::quality::agree::{T_TOLERANCE, check_ray, rays_for};
+pub use cellbih::quality::agree::{check_ray, rays_for};
 use cellbih::scene::{Scene, SplitMix64, Triangle};
 use glam::Vec3;
 use proptest::prelude::*;
