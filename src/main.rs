@@ -393,9 +393,10 @@ fn run(cli: Cli) -> Res<()> {
                     )
                     .into());
                 }
-                if path.as_os_str() == "-" {
-                    return Err("--trace -: the build's report is on the standard output; give the trace a file".into());
-                }
+                cellbih::output::check_distinct(&[
+                    ("the report", Path::new("-")),
+                    ("--trace", path),
+                ])?;
                 if matches!(build.mode, Some(build_args::Mode::Functional)) {
                     return Err("--trace: --mode functional has no timing, so no timeline; use --mode timed or checked".into());
                 }

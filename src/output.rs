@@ -14,7 +14,9 @@
 //! - every error names the path the user gave, never the temporary file;
 //! - an interrupt (Ctrl-C), a `kill`/`timeout` (SIGTERM) or a closed
 //!   terminal (SIGHUP) while a file is being written removes its temporary
-//!   file before the process ends ([`clean_up_on_interrupt`]).
+//!   file before the process ends ([`clean_up_on_interrupt`]);
+//! - a file-size limit (`ulimit -f`) is a write error ("File too large")
+//!   like a full disk, not a signal that kills the process mid-write.
 
 use std::fs::OpenOptions;
 use std::io::{BufWriter, Write};
@@ -113,7 +115,7 @@ pub fn check_writable(path: &Path) -> Result<(), OutputError> {
             .map_err(|e| OutputError::new(path, e)),
         Target::Replace { dir, .. } => new_temporary(&dir)
             .map(drop)
-            .map_err(|e| OutputError::new(path, e)),
+            .map_err(|e| OutputError::new(path, std::io::Error::new(e.kind(), plain_error(&e)))),
     }
 }
 
@@ -207,6 +209,15 @@ pub fn remove_in_flight() -> usize {
 /// thing.
 pub fn clean_up_on_interrupt() {
     #[cfg(unix)]
+    // SAFETY: setting one signal's disposition at start-up. A file-size
+    // limit (`ulimit -f`) then fails the write with "File too large",
+    // whose error path removes the temporary file and names the output,
+    // instead of killing the process with SIGXFSZ mid-write and leaving
+    // a hidden `.tmp` file for good.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
+    #[cfg(unix)]
     {
         use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
         static ONCE: std::sync::Once = std::sync::Once::new();
@@ -239,6 +250,68 @@ pub fn clean_up_on_interrupt() {
     }
 }
 
+/// What file a path would write: the standard output's or an existing
+/// file's device and inode (through links, `/dev/stdout` included), or
+/// for a file not yet there its directory's identity and its name.
+#[derive(Debug, PartialEq, Eq)]
+enum Identity {
+    Inode(u64, u64),
+    New(u64, u64, std::ffi::OsString),
+    Unknown(PathBuf),
+}
+
+fn identity(path: &Path) -> Identity {
+    use std::os::unix::fs::MetadataExt;
+    let of = |m: std::fs::Metadata| Identity::Inode(m.dev(), m.ino());
+    if path.as_os_str() == "-" {
+        return match std::fs::metadata("/proc/self/fd/1")
+            .or_else(|_| std::fs::metadata("/dev/stdout"))
+        {
+            Ok(m) => of(m),
+            Err(_) => Identity::Unknown(path.to_path_buf()),
+        };
+    }
+    if let Ok(m) = std::fs::metadata(path) {
+        return of(m);
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    match (std::fs::metadata(dir), path.file_name()) {
+        (Ok(m), Some(name)) => Identity::New(m.dev(), m.ino(), name.to_os_string()),
+        _ => Identity::Unknown(path.to_path_buf()),
+    }
+}
+
+/// Refuses, before any work, two outputs of one run that would write one
+/// file: the same name, a link to it, `/dev/stdout` beside `-`, … Each
+/// output is `(option, path)`; the error names both options and paths.
+pub fn check_distinct(outputs: &[(&str, &Path)]) -> Result<(), String> {
+    let ids: Vec<Identity> = outputs.iter().map(|(_, p)| identity(p)).collect();
+    // Anything may go to /dev/null together.
+    let null = identity(Path::new("/dev/null"));
+    for i in 0..outputs.len() {
+        for j in i + 1..outputs.len() {
+            if ids[i] == ids[j] && ids[i] != null {
+                let shown = |p: &Path| match p.as_os_str() == "-" {
+                    true => "- (the standard output)".to_string(),
+                    false => p.display().to_string(),
+                };
+                return Err(format!(
+                    "{} {} and {} {} name the same file: one would overwrite the other; \
+                     give them different files",
+                    outputs[i].0,
+                    shown(outputs[i].1),
+                    outputs[j].0,
+                    shown(outputs[j].1),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// [`write_file`] of a byte buffer.
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     write_file(path, |w| w.write_all(bytes))
@@ -247,12 +320,18 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
 /// An I/O error's words without any path the library put in them (a
 /// temporary file's name means nothing to the user).
 fn plain_error(e: &std::io::Error) -> String {
-    match e.get_ref() {
+    let words = match e.get_ref() {
         Some(inner) => match inner.source() {
             Some(cause) => cause.to_string(),
             None => inner.to_string(),
         },
         None => e.to_string(),
+    };
+    // `tempfile` appends the temporary file's path to some of its errors
+    // without giving their cause apart.
+    match words.find(" at path \"") {
+        Some(i) => words[..i].to_string(),
+        None => words,
     }
 }
 
@@ -356,6 +435,8 @@ mod tests {
         assert_eq!(plain_error(&disk()), disk().to_string());
         let own = std::io::Error::other("disk on fire");
         assert_eq!(plain_error(&own), "disk on fire");
+        let flat = std::io::Error::other("No such file (os error 2) at path \"/proc/.tmpAb12\"");
+        assert_eq!(plain_error(&flat), "No such file (os error 2)");
     }
 
     #[test]
@@ -368,6 +449,32 @@ mod tests {
         write_bytes(&link, b"new").unwrap();
         assert!(std::fs::symlink_metadata(&link).unwrap().is_symlink());
         assert_eq!(std::fs::read_to_string(&real).unwrap(), "new");
+    }
+
+    #[test]
+    fn two_outputs_that_name_one_file_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.csv");
+        let link = dir.path().join("link.csv");
+        std::fs::write(&a, "x").unwrap();
+        std::os::unix::fs::symlink(&a, &link).unwrap();
+        let new = dir.path().join("new.csv");
+        let same_new = dir.path().join(".").join("new.csv");
+        let other = dir.path().join("other.csv");
+        assert!(check_distinct(&[("--out", &a), ("--trace", &link)]).is_err());
+        let e = check_distinct(&[("--out", &new), ("--trace", &same_new)]).unwrap_err();
+        assert!(
+            e.contains("--out") && e.contains("--trace") && e.contains("same file"),
+            "{e}"
+        );
+        assert!(check_distinct(&[("--out", &a), ("--trace", &other)]).is_ok());
+        assert!(
+            check_distinct(&[
+                ("--out", Path::new("-")),
+                ("--trace", Path::new("/dev/stdout"))
+            ])
+            .is_err()
+        );
     }
 
     #[test]

@@ -56,3 +56,143 @@ fn a_text_input_without_newlines_is_refused_by_its_line() {
     let out = cellbih(&["info", "--scene", utf32.to_str().unwrap()]);
     assert_fails_with(&out, "it is UTF-32 text");
 }
+
+/// Two outputs of one run that resolve to one file — the same name, a
+/// link to it, `-` beside `/dev/stdout`, the report's standard output
+/// beside a trace — are refused before any work, and nothing is written.
+#[test]
+fn two_outputs_that_name_one_file_are_refused() {
+    let dir = tmp("same-out");
+    std::fs::create_dir_all(&dir).unwrap();
+    let rays = dir.join("one.rays.csv");
+    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
+    let rays = rays.to_str().unwrap();
+    let same = dir.join("same.out");
+    let same = same.to_str().unwrap();
+    let png = dir.join("same.png");
+    let png = png.to_str().unwrap();
+    let link = dir.join("link.png");
+    std::fs::write(png, "old").unwrap();
+    std::os::unix::fs::symlink(png, &link).unwrap();
+    let link = link.to_str().unwrap();
+    let cases: Vec<Vec<&str>> = vec![
+        vec![
+            "raycast",
+            "--rays",
+            rays,
+            "--on-cell",
+            "--out",
+            same,
+            "--trace",
+            same,
+        ],
+        vec![
+            "render",
+            "--on-cell",
+            "--out",
+            png,
+            "--trace",
+            png,
+            "--width",
+            "8",
+            "--height",
+            "8",
+        ],
+        vec![
+            "render",
+            "--on-cell",
+            "--out",
+            png,
+            "--trace",
+            link,
+            "--width",
+            "8",
+            "--height",
+            "8",
+        ],
+        vec![
+            "raycast",
+            "--rays",
+            rays,
+            "--on-cell",
+            "--out",
+            "-",
+            "--trace",
+            "/dev/stdout",
+        ],
+        vec!["build", "--builder", "spe_bfs", "--trace", "/dev/stdout"],
+    ];
+    for args in cases {
+        let out = cellbih(&args);
+        assert_fails_with(&out, "name the same file");
+        assert!(out.stdout.is_empty(), "{args:?}");
+    }
+    assert!(!std::path::Path::new(same).exists());
+    assert_eq!(std::fs::read_to_string(png).unwrap(), "old");
+    // Distinct files are fine.
+    let other = dir.join("other.trace.json");
+    let out = cellbih(&[
+        "raycast",
+        "--rays",
+        rays,
+        "--on-cell",
+        "--out",
+        same,
+        "--trace",
+        other.to_str().unwrap(),
+    ]);
+    common::assert_ok(&out);
+}
+
+/// An error names the path the user gave, never a temporary file or the
+/// probe an experiment writes to check its directory.
+#[test]
+fn errors_name_the_path_the_user_gave() {
+    let rays = tmp("temp-name.rays.csv");
+    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
+    let out = cellbih(&[
+        "raycast",
+        "--rays",
+        rays.to_str().unwrap(),
+        "--out",
+        "/proc/x.csv",
+    ]);
+    assert_fails_with(&out, "/proc/x.csv: cannot write");
+    assert!(!stderr(&out).contains(".tmp"), "{}", stderr(&out));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_table1"))
+        .args(["--out", "/proc/self"])
+        .output()
+        .unwrap();
+    assert_fails_with(&out, "/proc/self: cannot write");
+    assert!(
+        !stderr(&out).contains("write-check") && !stderr(&out).contains(".tmp"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+/// Under a file-size limit (`ulimit -f`) a write fails with "File too
+/// large", names the file and leaves no temporary file, where SIGXFSZ used
+/// to kill the process mid-write (status 153) and leave a hidden `.tmp`.
+#[test]
+fn a_file_size_limit_is_a_write_error_that_cleans_up() {
+    let dir = tmp("fsize");
+    std::fs::create_dir_all(&dir).unwrap();
+    let script = format!("ulimit -f 1; exec '{EXE}' render --out a.png --width 300 --height 300");
+    let out = std::process::Command::new("bash")
+        .args(["-c", &script])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("a.png: cannot write: File too large"),
+        "{}",
+        stderr(&out)
+    );
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}

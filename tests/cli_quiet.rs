@@ -50,7 +50,7 @@ fn two_outputs_are_not_sent_to_one_stream() {
         let out = cellbih(args);
         assert_fails_with(
             &out,
-            "--trace - and --out -: both would go to the standard output",
+            "--out - (the standard output) and --trace - (the standard output) name the same file",
         );
         assert!(out.stdout.is_empty(), "{args:?}");
     }

@@ -83,9 +83,7 @@ impl CastArgs {
                 if !timed {
                     return Err("--trace: --mode functional keeps no timeline".into());
                 }
-                if path.as_os_str() == "-" && out.as_os_str() == "-" {
-                    return Err("--trace - and --out -: both would go to the standard output; give one of them a file".into());
-                }
+                cellbih::output::check_distinct(&[("--out", out), ("--trace", path)])?;
                 cellbih::output::check_writable(path)?;
             }
             return Ok(Some(self.cache.config()?));

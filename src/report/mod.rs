@@ -245,7 +245,11 @@ pub fn prepare_dir(dir: &Path) -> Result<(), OutputError> {
         path: dir.to_path_buf(),
         source,
     })?;
-    check_writable(&dir.join(".cellbih-write-check"))
+    // The error names the directory the user gave, not the probe's name.
+    check_writable(&dir.join(".cellbih-write-check")).map_err(|e| OutputError {
+        path: dir.to_path_buf(),
+        source: e.source,
+    })
 }
 
 /// Creates `dir` and returns the path of `file` in it.
