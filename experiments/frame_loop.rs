@@ -221,10 +221,12 @@ fn run(args: &Args) -> Result<(), String> {
             Ok::<_, String>((row, series))
         },
     );
-    // The rows in order; a plot per scene and size.
+    // The rows in order; a plot per scene and size, drawn after the
+    // measurements are written.
     let mut rows = Vec::new();
     let per_plot = arrangements.len() * policies.len();
     let mut series = Vec::new();
+    let mut plots = Vec::new();
     for (k, d) in done.into_iter().enumerate() {
         let (row, line) = d?;
         rows.push(row);
@@ -233,18 +235,7 @@ fn run(args: &Args) -> Result<(), String> {
             continue;
         }
         let (si, (w, h), ..) = jobs[k];
-        let spec = played[si].0;
-        let file = format!("frame_loop_{}_{w}x{h}.svg", spec.replace(':', "_"));
-        let path = output(&args.output.out, &file).map_err(|e| e.to_string())?;
-        line_plot(
-            &path,
-            &format!("{spec}, {w} × {h}: frame time on the PS3 model"),
-            "frame",
-            "simulated ms",
-            &std::mem::take(&mut series),
-            false,
-        )
-        .map_err(|e| e.to_string())?;
+        plots.push((played[si].0, (w, h), std::mem::take(&mut series)));
     }
     const KEYS: [&str; 18] = [
         "scene",
@@ -281,6 +272,22 @@ fn run(args: &Args) -> Result<(), String> {
         &json!({ "note": note, "builder": builder.name(), "spes": spes, "rows": rows }),
         Some(&build),
     )?;
+    for (spec, (w, h), series) in plots {
+        let file = format!(
+            "frame_loop_{}_{w}x{h}.svg",
+            cellbih::report::file_part(spec)
+        );
+        let path = output(&args.output.out, &file).map_err(|e| e.to_string())?;
+        line_plot(
+            &path,
+            &format!("{spec}, {w} × {h}: frame time on the PS3 model"),
+            "frame",
+            "simulated ms",
+            &series,
+            false,
+        )
+        .map_err(|e| e.to_string())?;
+    }
     print_rows(args.output.format, &flat, |rows| {
         table(rows, note);
         goals(rows);

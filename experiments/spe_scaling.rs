@@ -321,7 +321,7 @@ fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error
             color: names.len(),
             dashed: true,
         });
-        let file = format!("spe_scaling_{}.svg", scene.replace([':', '/'], "_"));
+        let file = format!("spe_scaling_{}.svg", cellbih::report::file_part(scene));
         line_plot(
             &output(dir, &file)?,
             &format!("{scene}: speedup over spe_bfs (one SPE), simulated PS3 time"),

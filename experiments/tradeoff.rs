@@ -506,7 +506,7 @@ fn plots(dir: &std::path::Path, rows: &[Value]) -> Result<(), Box<dyn std::error
                 dashed: true,
             },
         ];
-        let file = format!("tradeoff_{}.svg", scene.replace([':', '/', '.'], "_"));
+        let file = format!("tradeoff_{}.svg", cellbih::report::file_part(&scene));
         scatter_plot(
             &output(dir, &file)?,
             &format!("{scene}: build time against measured ray cost"),

@@ -335,9 +335,17 @@ fn run(cli: Cli) -> Res<()> {
             let cfg = frame::config(&c, &asked)?;
             let rays = Some(width as usize * height as usize);
             scene.check_fits(&c, rays)?;
+            let settings = anim
+                .named(Settings::new(&cfg.build, Some(cfg.cast)).with_view(&cfg.view))
+                .with("frames", frames)
+                .with("policy", policy.as_str())
+                .with("oracle", oracle)
+                .with("build-spes", cfg.build_spes)
+                .with("width", width)
+                .with("height", height);
             let (s, anim) = anim.load(&scene, frames)?;
             check_memory(&s.name, (s.len(), 0), rays, &c, Default::default())?;
-            frame::run(&s, &anim, &cfg, format)
+            frame::run(&s, &anim, &cfg, format, &settings)
         }
         Some(Command::Update {
             scene,
@@ -359,6 +367,13 @@ fn run(cli: Cli) -> Res<()> {
                 .into());
             }
             let deep_stop_below = deep_stop_below.unwrap_or(cellbih::update::DEEP_STOP_BELOW);
+            let mut settings = anim
+                .named(Settings::new(&c, None))
+                .with("frames", frames)
+                .with("strategy", strategy.as_str());
+            if method == Method::Deep {
+                settings = settings.with("deep-stop-below", deep_stop_below);
+            }
             scene.check_fits(&c, None)?;
             let (s, anim) = anim.load(&scene, frames)?;
             check_memory(&s.name, (s.len(), 0), None, &c, Default::default())?;
@@ -366,14 +381,7 @@ fn run(cli: Cli) -> Res<()> {
             c.install(|| {
                 let mut u = Updater::new(s, c.clone(), method).map_err(|e| e.to_string())?;
                 u.deep_stop_below = deep_stop_below;
-                update(
-                    &mut u,
-                    &anim,
-                    format,
-                    &c.describe(),
-                    &Settings::new(&c, None),
-                )
-                .map_err(|e| e.to_string())
+                update(&mut u, &anim, format, &c.describe(), &settings).map_err(|e| e.to_string())
             })??;
             Ok(())
         }
@@ -443,6 +451,7 @@ fn run(cli: Cli) -> Res<()> {
             let c = parse_build(&build, cast.on_cell)?;
             let on_cell = cast.config(c.cell.cost.charge_compute, &out)?;
             check_writable(&out)?;
+            let rays_path = rays.display().to_string();
             // `-`: the rays come on the standard input.
             let rays = if rays.as_os_str() == "-" {
                 rays_csv::read_rays("standard input", std::io::stdin().lock())?
@@ -485,7 +494,8 @@ fn run(cli: Cli) -> Res<()> {
                 c.describe(),
                 shown(&out)
             );
-            eprintln!("settings: {}", Settings::new(&c, on_cell).line());
+            let settings = Settings::new(&c, on_cell).with("rays", rays_path.as_str());
+            eprintln!("settings: {}", settings.line());
             if let Some(r) = &cell_report {
                 eprintln!("{}", cast_args::describe(r, c.cell.spes));
                 cast_args::write_trace(&cast, r)?;
@@ -553,10 +563,12 @@ fn run(cli: Cli) -> Res<()> {
                     String::new()
                 }
             );
-            eprintln!(
-                "settings: {}",
-                Settings::new(&c, on_cell).with_view(&camera.view).line()
-            );
+            let settings = Settings::new(&c, on_cell)
+                .with_view(&camera.view)
+                .with("width", width)
+                .with("height", height)
+                .with("heatmap", heatmap);
+            eprintln!("settings: {}", settings.line());
             if let Some(r) = &cell_report {
                 eprintln!("{}", cast_args::describe(r, c.cell.spes));
                 cast_args::write_trace(&cast, r)?;

@@ -187,6 +187,16 @@ fn lock_in_flight() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// Directories an interrupt removes whole (an experiment's staged set).
+static DIRS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Has an interrupt remove `dir` and everything in it.
+pub fn remove_dir_on_interrupt(dir: &Path) {
+    DIRS.lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(dir.to_path_buf());
+}
+
 /// The temporary files of the writes under way.
 pub fn in_flight() -> Vec<PathBuf> {
     lock_in_flight().clone()
@@ -196,9 +206,14 @@ pub fn in_flight() -> Vec<PathBuf> {
 /// does before the process ends); returns how many.
 pub fn remove_in_flight() -> usize {
     let files = lock_in_flight();
-    (files.iter())
+    let mut n = (files.iter())
         .filter(|p| std::fs::remove_file(p).is_ok())
-        .count()
+        .count();
+    for dir in DIRS.lock().unwrap_or_else(|e| e.into_inner()).iter() {
+        n += std::fs::read_dir(dir).map_or(0, |r| r.count());
+        let _ = std::fs::remove_dir_all(dir);
+    }
+    n
 }
 
 /// On Ctrl-C (SIGINT), `kill`/`timeout` (SIGTERM) or a closed terminal
@@ -240,7 +255,10 @@ pub fn clean_up_on_interrupt() {
                         "{name}{}",
                         match removed {
                             0 => String::new(),
-                            n => format!(": {n} unfinished file(s) removed, the old ones kept"),
+                            n => format!(
+                                ": {} of this run removed; the files already there are kept as they were",
+                                crate::report::count(n as u64, "unfinished file")
+                            ),
                         }
                     );
                     std::process::exit(128 + sig);

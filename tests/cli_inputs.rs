@@ -196,3 +196,70 @@ fn a_file_size_limit_is_a_write_error_that_cleans_up() {
         .collect();
     assert!(left.is_empty(), "{left:?}");
 }
+
+/// An experiment's files are one set: a run that fails after writing its
+/// CSV (here its JSON is over a file-size limit) replaces nothing — the
+/// old CSV and JSON stay together — and keeps what it wrote in
+/// `incomplete-NAME/`, saying both. A scene given as a path names its plot
+/// safely (`dir/x.obj` → `frame_loop_dir_x_obj_…`), and the run lands whole.
+#[test]
+fn an_experiment_replaces_its_files_together_or_not_at_all() {
+    let dir = tmp("result-set");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("in")).unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/default.obj");
+    std::fs::copy(scene, dir.join("in/x.obj")).unwrap();
+    let out = dir.join("res");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("frame_loop.csv"), "old csv\n").unwrap();
+    std::fs::write(out.join("frame_loop.json"), "old json\n").unwrap();
+    let exe = env!("CARGO_BIN_EXE_frame_loop");
+    let run = |limit: &str| {
+        let script =
+            format!("{limit} exec '{exe}' --scenes in/x.obj --frames 2 --sizes 64x48 --out res");
+        std::process::Command::new("bash")
+            .args(["-c", &script])
+            .current_dir(&dir)
+            .output()
+            .unwrap()
+    };
+    let failed = run("ulimit -f 8;");
+    let err = stderr(&failed);
+    assert_eq!(failed.status.code(), Some(1), "{err}");
+    assert!(err.contains("File too large"), "{err}");
+    assert!(
+        err.contains("frame_loop.csv, frame_loop.json kept as they were"),
+        "{err}"
+    );
+    assert!(
+        err.contains("incomplete-frame_loop: frame_loop.csv"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("frame_loop.csv")).unwrap(),
+        "old csv\n"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("frame_loop.json")).unwrap(),
+        "old json\n"
+    );
+    let staged = std::fs::read_to_string(out.join("incomplete-frame_loop/frame_loop.csv")).unwrap();
+    assert!(staged.starts_with("scene,"), "{staged}");
+
+    let ok = run("");
+    assert!(ok.status.success(), "{}", stderr(&ok));
+    let json = std::fs::read_to_string(out.join("frame_loop.json")).unwrap();
+    assert!(json.contains("\"settings\""), "{json}");
+    assert!(out.join("frame_loop_in_x_obj_64x48.svg").exists());
+    let hidden = std::fs::read_dir(&out)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with('.')
+        })
+        .count();
+    assert_eq!(hidden, 0, "a staging directory was left behind");
+}

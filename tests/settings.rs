@@ -177,3 +177,228 @@ fn an_update_rebuilds_with_the_whole_request() {
     }
     assert!(checked > BuilderKind::ALL.len(), "{checked} requests");
 }
+
+/// The options of `cellbih CMD`, as its help lists them.
+fn options_of(cmd: &str) -> Vec<String> {
+    let help = stdout(&cellbih(&[cmd, "--help"]));
+    let mut seen = Vec::new();
+    for line in help.lines() {
+        let t = line.trim_start();
+        let Some(rest) = t.strip_prefix("--").or_else(|| t.strip_prefix("-h, --")) else {
+            continue;
+        };
+        let name: String = rest
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '-')
+            .collect();
+        let opt = format!("--{name}");
+        if !seen.contains(&opt) {
+            seen.push(opt);
+        }
+    }
+    seen
+}
+
+/// A builder the registry says takes `pred`.
+fn builder_where(pred: impl Fn(cellbih::registry::BuilderKind) -> bool) -> &'static str {
+    (cellbih::registry::BuilderKind::ALL.iter())
+        .find(|b| pred(**b))
+        .expect("a builder of the registry")
+        .name()
+}
+
+/// For `option` of a simulating command: what the base run needs beside
+/// it (a builder that takes it, a mode it needs) and the option with a
+/// value other than the default. `None`: not an input of a figure (named
+/// below with why).
+fn variant(cmd: &str, option: &str) -> Option<(Vec<String>, Vec<String>)> {
+    use cellbih::registry::BuilderKind;
+    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+    let baseline = BuilderKind::SPE_BFS.name();
+    let emulated = s(&["--builder", baseline]);
+    let knob = (BuilderKind::ALL.iter())
+        .flat_map(|b| b.knobs().iter().map(move |k| (*b, *k)))
+        .find(|(_, k)| format!("--{}", k.name) == option);
+    if let Some((b, k)) = knob {
+        let value: Vec<String> = match k.is_flag() {
+            true => vec![],
+            false => vec![
+                (k.sweep.iter())
+                    .find(|v| **v != k.default_text() && **v != "auto")
+                    .expect("a sweep value besides the default")
+                    .to_string(),
+            ],
+        };
+        return Some((
+            s(&["--builder", b.name()]),
+            [vec![option.to_string()], value].concat(),
+        ));
+    }
+    // Emulated where one takes it: `frame` builds on the Cell only.
+    let sah = builder_where(|b| b.emulated() && b.quality().binned_sah);
+    let cut = builder_where(|b| b.emulated() && b.quality().empty_cut);
+    let threads = builder_where(|b| b.host_threads());
+    let other = builder_where(|b| b.emulated() && b.name() != baseline);
+    // raycast and render cast on the Cell when asked; frame always does.
+    let on_cell = match cmd {
+        "frame" => vec![],
+        _ => s(&["--on-cell"]),
+    };
+    Some(match option {
+        // The report names the scene itself; outputs and formats change
+        // no figure.
+        "--scene" | "--data" | "--out" | "--trace" | "--format" | "--help" => return None,
+        "--builder" => (emulated, s(&["--builder", other])),
+        "--leaf-size" => (emulated, s(&["--leaf-size", "4"])),
+        "--max-depth" => (emulated, s(&["--max-depth", "20"])),
+        "--split" => (s(&["--builder", sah]), s(&["--split", "sah"])),
+        "--sah-bins" => (
+            s(&["--builder", sah, "--split", "sah"]),
+            s(&["--sah-bins", "8"]),
+        ),
+        "--sah-above" => (
+            s(&["--builder", sah, "--split", "sah"]),
+            s(&["--sah-above", "64"]),
+        ),
+        "--empty-cut" => (s(&["--builder", cut]), s(&["--empty-cut", "30"])),
+        "--spes" => (emulated, s(&["--spes", "2"])),
+        "--memory-mib" => (emulated, s(&["--memory-mib", "200"])),
+        "--mode" => (emulated, s(&["--mode", "timed"])),
+        "--model" => (emulated, s(&["--model", "legacy"])),
+        "--mailboxes" => (emulated, s(&["--mailboxes", "ps3-kernel"])),
+        // A frame builds on the Cell, where --threads is refused.
+        "--threads" if cmd == "frame" => return None,
+        "--threads" => (s(&["--builder", threads]), s(&["--threads", "3"])),
+        "--camera" => (emulated, s(&["--camera", "framing"])),
+        "--rays" => (vec![], s(&["--rays", &rays_file("other.rays.csv")])),
+        "--on-cell" => (vec![], s(&["--on-cell"])),
+        "--cache-kib" => (on_cell.clone(), s(&["--cache-kib", "16"])),
+        "--cache-ways" => (on_cell.clone(), s(&["--cache-ways", "2"])),
+        "--fetch-lines" => (on_cell.clone(), s(&["--fetch-lines", "2"])),
+        "--tile-rays" => (on_cell.clone(), s(&["--tile-rays", "32"])),
+        "--precision" => (on_cell.clone(), s(&["--precision", "double"])),
+        "--rays-in-flight" => (on_cell.clone(), s(&["--rays-in-flight", "2"])),
+        "--packet" => (on_cell.clone(), s(&["--packet", "2x2"])),
+        "--heatmap" => (vec![], s(&["--heatmap"])),
+        "--width" => (vec![], s(&["--width", "24"])),
+        "--height" => (vec![], s(&["--height", "20"])),
+        "--animation" => (vec![], s(&["--animation", "part"])),
+        "--seed" => (vec![], s(&["--seed", "7"])),
+        "--frames" => (vec![], s(&["--frames", "3"])),
+        "--strategy" => (vec![], s(&["--strategy", "deep"])),
+        "--deep-stop-below" => (s(&["--strategy", "deep"]), s(&["--deep-stop-below", "96"])),
+        "--policy" => (vec![], s(&["--policy", "deep"])),
+        "--oracle" => (vec![], s(&["--oracle"])),
+        "--build-spes" => (vec![], s(&["--build-spes", "1"])),
+        _ => panic!(
+            "{cmd} {option}: no variant in this test; add one (or say why it changes no figure)"
+        ),
+    })
+}
+
+fn rays_file(name: &str) -> String {
+    let p = tmp(name);
+    let rays = match name {
+        "other.rays.csv" => "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n0,1,8,0,0,-1,0,4\n",
+        _ => "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n",
+    };
+    std::fs::write(&p, rays).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+/// The settings a run reports: the JSON `settings` where the command has
+/// `--format json`, else its `settings:` line.
+fn reported(cmd: &str, args: &[String]) -> String {
+    let out = cellbih(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_ok(&out);
+    if matches!(cmd, "raycast" | "render") {
+        let err = stderr(&out);
+        let line = err
+            .lines()
+            .find(|l| l.starts_with("settings: "))
+            .expect(&err);
+        return line.to_string();
+    }
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    v["settings"].to_string()
+}
+
+/// Every option of every simulating command that changes a figure changes
+/// the settings its report prints: two runs that differ in any one of them
+/// are never reported under identical settings (the options are read from
+/// each command's help, the builders' knobs from the registry, so a new
+/// option without a place in the settings fails here).
+#[test]
+fn every_option_that_changes_a_figure_changes_the_settings() {
+    let rays = rays_file("base.rays.csv");
+    let png = tmp("settings.png").to_str().unwrap().to_string();
+    let hits = tmp("settings.hits.csv").to_str().unwrap().to_string();
+    let commands: Vec<(&str, Vec<&str>)> = vec![
+        ("build", vec!["--format", "json"]),
+        ("compare", vec!["--format", "json"]),
+        ("raycast", vec!["--rays", &rays, "--out", &hits]),
+        (
+            "render",
+            vec!["--out", &png, "--width", "16", "--height", "12"],
+        ),
+        (
+            "update",
+            vec!["--animation", "rtperf", "--frames", "2", "--format", "json"],
+        ),
+        (
+            "frame",
+            vec![
+                "--animation",
+                "rtperf",
+                "--frames",
+                "2",
+                "--width",
+                "16",
+                "--height",
+                "12",
+                "--format",
+                "json",
+            ],
+        ),
+    ];
+    let mut tried = 0;
+    for (cmd, base) in &commands {
+        let scene: &[&str] = match *cmd {
+            "update" | "frame" => &["--scene", "rtperf:2000"],
+            _ => &[],
+        };
+        for option in options_of(cmd) {
+            let Some((needs, varied)) = variant(cmd, &option) else {
+                continue;
+            };
+            // compare runs every builder: only its shared options apply.
+            let needs: Vec<String> = match *cmd {
+                "compare" => needs
+                    .into_iter()
+                    .skip_while(|a| a == "--builder")
+                    .skip(1)
+                    .collect(),
+                _ => needs,
+            };
+            let mut args: Vec<String> = std::iter::once(cmd.to_string())
+                .chain(base.iter().map(|a| a.to_string()))
+                .chain(scene.iter().map(|a| a.to_string()))
+                .collect();
+            args.extend(needs);
+            // The varied run: the option replaces one of the same name.
+            let mut other = args.clone();
+            if let Some(i) = other.iter().position(|a| *a == varied[0]) {
+                other.drain(i..i + varied.len());
+            }
+            other.extend(varied.iter().cloned());
+            let a = reported(cmd, &args);
+            let b = reported(cmd, &other);
+            assert_ne!(
+                a, b,
+                "{cmd} {option}: {varied:?} changed nothing in the settings"
+            );
+            tried += 1;
+        }
+    }
+    assert!(tried > 100, "only {tried} options tried");
+}

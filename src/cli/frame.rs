@@ -54,7 +54,13 @@ pub fn config(c: &Build, a: &Asked) -> Res<FrameConfig> {
 }
 
 /// Plays the animation and prints every frame and the totals.
-pub fn run(s: &Scene, anim: &Animation, cfg: &FrameConfig, format: Format) -> Res<()> {
+pub fn run(
+    s: &Scene,
+    anim: &Animation,
+    cfg: &FrameConfig,
+    format: Format,
+    settings: &cellbih::report::Settings,
+) -> Res<()> {
     let bar = if std::io::stderr().is_terminal() {
         let b = ProgressBar::new(anim.frames.len() as u64);
         b.set_style(ProgressStyle::with_template(
@@ -66,8 +72,7 @@ pub fn run(s: &Scene, anim: &Animation, cfg: &FrameConfig, format: Format) -> Re
     };
     let run = play(s, anim, cfg, |_| bar.inc(1))?;
     bar.finish_and_clear();
-    let settings = cellbih::report::Settings::new(&cfg.build, Some(cfg.cast)).with_view(&cfg.view);
-    print(s, anim, cfg, &run, format, &settings);
+    print(s, anim, cfg, &run, format, settings);
     Ok(())
 }
 

@@ -25,6 +25,13 @@ pub struct AnimationArg {
 }
 
 impl AnimationArg {
+    /// `settings` with the animation and its seed.
+    pub fn named<'a>(&self, settings: Settings<'a>) -> Settings<'a> {
+        settings
+            .with("animation", self.animation.as_str())
+            .with("seed", self.seed)
+    }
+
     /// The scene as the animation plays it, and its frames.
     pub fn load(&self, scene: &SceneArg, frames: u64) -> Res<(Scene, Animation)> {
         let s = Animation::prepare(&self.animation, scene.load()?)?;

@@ -3,6 +3,7 @@
 //! [`crate::output`]: written whole or not at all, errors naming the path.
 
 pub mod parallel;
+pub mod result_set;
 pub mod settings;
 pub mod step;
 pub mod tree_args;
@@ -75,6 +76,21 @@ where
     }
 }
 
+/// A scene's spec as part of a file name: every character but ASCII
+/// letters, digits, `-` and `_` becomes `_` (`dir/x.obj` → `dir_x_obj`,
+/// `rtperf:1000` → `rtperf_1000`), so that a plot's name never holds a
+/// path separator or anything a shell must quote.
+pub fn file_part(spec: &str) -> String {
+    spec.chars()
+        .map(
+            |c| match c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                true => c,
+                false => '_',
+            },
+        )
+        .collect()
+}
+
 /// `text` wrapped at spaces into lines of at most `width` characters (a
 /// word longer than that stands alone on its line).
 pub fn wrap(text: &str, width: usize) -> String {
@@ -109,10 +125,13 @@ pub fn experiment_main(name: &'static str, out: &Path, run: impl FnOnce() -> Res
         .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
         .map(Path::to_path_buf)
         .collect();
-    if let Err(e) = prepare_dir(out)
-        .map_err(|e| e.to_string())
-        .and_then(|()| run())
-    {
+    let result = prepare_dir(out).map_err(|e| e.to_string()).and_then(|()| {
+        result_set::begin(out);
+        run()?;
+        result_set::commit().map(drop)
+    });
+    if let Err(e) = result {
+        let said = result_set::abandon(name);
         // Deepest first; a directory with anything in it stays.
         for dir in &created {
             if std::fs::remove_dir(dir).is_err() {
@@ -120,6 +139,9 @@ pub fn experiment_main(name: &'static str, out: &Path, run: impl FnOnce() -> Res
             }
         }
         eprintln!("error: {e}");
+        for line in said {
+            eprintln!("{line}");
+        }
         std::process::exit(1);
     }
 }
@@ -252,10 +274,16 @@ pub fn prepare_dir(dir: &Path) -> Result<(), OutputError> {
     })
 }
 
-/// Creates `dir` and returns the path of `file` in it.
+/// Creates `dir` and returns the path to write `file` of it at: while an
+/// experiment's run is under way, a staging place beside it
+/// ([`result_set`]), so that the run's files replace the old ones only
+/// together, when the run has finished.
 pub fn output(dir: &Path, file: &str) -> Result<PathBuf, OutputError> {
     prepare_dir(dir)?;
-    Ok(dir.join(file))
+    result_set::place(dir, file).map_err(|source| OutputError {
+        path: dir.join(file),
+        source,
+    })
 }
 
 /// Writes a CSV file with a header line.

@@ -22,6 +22,10 @@ pub struct Settings<'a> {
     /// Where the camera stood (`--camera`), where rays were cast or
     /// measured from one.
     pub view: Option<crate::render::View>,
+    /// The command's own inputs that change its figures, by option name
+    /// (`update`'s `--animation`, `--seed`, `--frames`; `frame`'s
+    /// `--policy`; `render`'s `--width`; …), in the order given.
+    pub run: Vec<(&'static str, Value)>,
 }
 
 /// The emulated Cell's settings, as the command line names them.
@@ -94,7 +98,14 @@ impl<'a> Settings<'a> {
             cast,
             several: false,
             view: None,
+            run: Vec::new(),
         }
+    }
+
+    /// These settings with the command's own input `--name value`.
+    pub fn with(mut self, name: &'static str, value: impl Into<Value>) -> Self {
+        self.run.push((name, value.into()));
+        self
     }
 
     /// These settings with the camera `view`.
@@ -112,6 +123,7 @@ impl<'a> Settings<'a> {
             cast: None,
             several: true,
             view: None,
+            run: Vec::new(),
         }
     }
 
@@ -190,6 +202,10 @@ impl<'a> Settings<'a> {
                 "packet": c.packet.to_string(),
             })),
             "camera": self.view.as_ref().map(|v| v.spelled()),
+            "run": (!self.run.is_empty()).then(|| {
+                self.run.iter().map(|(n, v)| (n.to_string(), v.clone()))
+                    .collect::<serde_json::Map<String, Value>>()
+            }),
             "version": version(),
         })
     }
@@ -246,6 +262,17 @@ impl<'a> Settings<'a> {
         }
         if let Some(v) = &self.view {
             parts.push(format!("--camera {}", v.spelled()));
+        }
+        if !self.run.is_empty() {
+            let given: Vec<String> = (self.run.iter())
+                .filter(|(_, v)| *v != Value::Bool(false))
+                .map(|(n, v)| match v {
+                    Value::Bool(true) => format!("--{n}"),
+                    Value::String(s) => format!("--{n} {s}"),
+                    v => format!("--{n} {v}"),
+                })
+                .collect();
+            parts.push(given.join(" "));
         }
         parts.push(format!("cellbih {}", version()));
         parts.join("; ")
