@@ -6,26 +6,24 @@
 //! its peak only with large (16 KiB) transfers, and the memory interface
 //! that all SPEs share saturates as SPEs are added.
 //!
-//! `cargo run --release --bin dma_bandwidth -- [--out results] [--mib 64] [--max-spes 8]`
+//! `cargo run --release --bin dma_bandwidth -- [--out results] [--format text|json] [--mib 64] [--max-spes 8]`
 //! writes dma_bandwidth.csv, .json and .svg to the output directory.
 
-use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Parser;
 use serde_json::json;
 
 use cellbih::cell::{Cell, CellConfig, Ea};
-use cellbih::report::{Series, line_plot, output, prepare_dir, write_csv, write_json};
+use cellbih::report::{OutputArgs, Series, count, line_plot, output};
 
 #[derive(Parser)]
 #[command(
     about = "DMA bandwidth of 1 to 8 SPEs streaming gets of 128 B to 16 KiB, single- and double-buffered (default run: about 14 s)"
 )]
 struct Args {
-    /// Directory for the CSV, JSON and SVG files.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
+    #[command(flatten)]
+    output: OutputArgs,
     /// MiB per configuration, 1 to 1,024: whole 16 KiB transfers per SPE
     /// of it are streamed (63 MiB of the default 64 with 6 SPEs); transfers
     /// under 1 KiB stream at most 65,536 commands' worth, since bandwidth is
@@ -104,17 +102,18 @@ fn stream(spes: usize, size: u32, double: bool, bytes: u64) -> Run {
 }
 
 fn main() {
-    cellbih::report::quiet_on_closed_pipe();
-    cellbih::output::clean_up_on_interrupt();
     let args = Args::parse();
-    if let Err(e) = run(&args) {
-        eprintln!("dma_bandwidth: {e}");
-        std::process::exit(1);
-    }
+    cellbih::report::experiment_main("dma_bandwidth", &args.output.out, || {
+        run(&args).map_err(|e| e.to_string())
+    });
+}
+
+/// "1 SPE", "6 SPEs".
+fn spes(n: usize) -> String {
+    count(n as u64, "SPE")
 }
 
 fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
-    prepare_dir(&args.out)?;
     let sizes: Vec<u32> = (4..=14).map(|p| 1u32 << p).collect();
     let spe_counts: Vec<usize> = [1, 2, 3, 4, 6, 8, 12, 16]
         .into_iter()
@@ -122,9 +121,10 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     let mut runs = Vec::new();
     for &double in &[false, true] {
-        for &spes in &spe_counts {
+        for &n in &spe_counts {
             eprintln!(
-                "streaming through {spes} SPE(s), {}…",
+                "streaming through {}, {}…",
+                spes(n),
                 if double {
                     "double-buffered"
                 } else {
@@ -132,94 +132,80 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
                 }
             );
             for &size in &sizes {
-                let bytes = (args.mib << 20).min(size as u64 * 65536 * spes as u64);
-                runs.push(stream(spes, size, double, bytes));
+                let bytes = (args.mib << 20).min(size as u64 * 65536 * n as u64);
+                runs.push(stream(n, size, double, bytes));
             }
         }
     }
-
-    println!("Achieved bandwidth, GB/s of simulated time (PS3 cost model; peak 25.6 GB/s)\n");
-    for double in [false, true] {
-        println!(
-            "{}",
-            if double {
-                "double-buffered (2 gets in flight per SPE)"
-            } else {
-                "single-buffered (get, wait, get, …)"
-            }
-        );
-        print!("{:>9}", "DMA size");
-        for n in &spe_counts {
-            print!(" {:>7}", format!("{n} SPE"));
-        }
-        println!();
-        for &size in &sizes {
-            let label = if size >= 1024 {
-                format!("{} KiB", size / 1024)
-            } else {
-                format!("{size} B")
-            };
-            print!("{label:>9}");
+    let table = |_: &[serde_json::Value]| {
+        println!("Achieved bandwidth, GB/s of simulated time (PS3 cost model; peak 25.6 GB/s)\n");
+        for double in [false, true] {
+            println!(
+                "{}",
+                if double {
+                    "double-buffered (2 gets in flight per SPE)"
+                } else {
+                    "single-buffered (get, wait, get, …)"
+                }
+            );
+            print!("{:>9}", "DMA size");
             for &n in &spe_counts {
-                let r = runs
-                    .iter()
-                    .find(|r| r.spes == n && r.size == size && r.double == double)
-                    .unwrap();
-                print!(" {:>7.2}", r.gb_per_s);
+                print!(" {:>8}", spes(n));
+            }
+            println!();
+            for &size in &sizes {
+                let label = if size >= 1024 {
+                    format!("{} KiB", size / 1024)
+                } else {
+                    format!("{size} B")
+                };
+                print!("{label:>9}");
+                for &n in &spe_counts {
+                    let r = runs
+                        .iter()
+                        .find(|r| r.spes == n && r.size == size && r.double == double)
+                        .expect("every size ran on every count");
+                    print!(" {:>8.2}", r.gb_per_s);
+                }
+                println!();
             }
             println!();
         }
-        println!();
-    }
-    for n in [1usize, 6] {
-        if let Some(r) = runs
-            .iter()
-            .find(|r| r.spes == n && r.size == 16384 && !r.double)
-        {
-            println!(
-                "host time to stream {:.1} MiB through {n} SPE(s) in 16 KiB gets: {:.3} s",
-                r.bytes as f64 / (1 << 20) as f64,
-                r.host_s
-            );
+        for n in [1usize, 6] {
+            if let Some(r) = runs
+                .iter()
+                .find(|r| r.spes == n && r.size == 16384 && !r.double)
+            {
+                println!(
+                    "host time to stream {:.1} MiB through {} in 16 KiB gets: {:.3} s",
+                    r.bytes as f64 / (1 << 20) as f64,
+                    spes(n),
+                    r.host_s
+                );
+            }
         }
-    }
-
-    let rows: Vec<String> = runs
-        .iter()
-        .map(|r| {
-            format!(
-                "{},{},{},{},{:.4},{:.4}",
-                r.spes,
-                r.size,
-                if r.double { "double" } else { "single" },
-                r.bytes,
-                r.gb_per_s,
-                r.host_s
-            )
-        })
-        .collect();
-    let csv = output(&args.out, "dma_bandwidth.csv")?;
-    write_csv(
-        &csv,
-        "spes,dma_bytes,buffering,bytes_streamed,gb_per_s,host_s",
-        &rows,
-    )?;
-    let js: Vec<_> = runs
+    };
+    let rows: Vec<_> = runs
         .iter()
         .map(|r| json!({"spes": r.spes, "dma_bytes": r.size, "buffering": if r.double {"double"} else {"single"}, "bytes_streamed": r.bytes, "gb_per_s": r.gb_per_s, "host_s": r.host_s}))
         .collect();
-    write_json(&output(&args.out, "dma_bandwidth.json")?, &json!(js), None)?;
+    let keys = [
+        "spes",
+        "dma_bytes",
+        "buffering",
+        "bytes_streamed",
+        "gb_per_s",
+        "host_s",
+    ];
+    args.output
+        .report("dma_bandwidth", (&keys, &rows), &json!(rows), None, table)?;
     let series: Vec<Series> = [false, true]
         .iter()
         .flat_map(|&double| {
             let runs = &runs;
             spe_counts.iter().enumerate().map(move |(i, &n)| Series {
                 color: i,
-                name: format!(
-                    "{n} SPE{}, {}",
-                    if n > 1 { "s" } else { "" },
-                    if double { "double" } else { "single" }
-                ),
+                name: format!("{}, {}", spes(n), if double { "double" } else { "single" }),
                 points: runs
                     .iter()
                     .filter(|r| r.spes == n && r.double == double)
@@ -229,7 +215,7 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
             })
         })
         .collect();
-    let svg = output(&args.out, "dma_bandwidth.svg")?;
+    let svg = output(&args.output.out, "dma_bandwidth.svg")?;
     line_plot(
         &svg,
         "Emulated Cell: DMA bandwidth vs transfer size",
@@ -238,11 +224,9 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
         &series,
         true,
     )?;
-    println!(
-        "\nwrote {}, {} and {}",
-        csv.display(),
-        args.out.join("dma_bandwidth.json").display(),
-        svg.display()
+    eprintln!(
+        "written: {}/dma_bandwidth.{{csv,json,svg}}",
+        args.output.out.display()
     );
     Ok(())
 }

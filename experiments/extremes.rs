@@ -20,7 +20,7 @@ use cellbih::cell::CellConfig;
 use cellbih::kernels::recursion::{PrimRef, build_items};
 use cellbih::quality::agree::{examine, rays_for};
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{OutputArgs, ThreadsArg, print_rows, side_by_side};
+use cellbih::report::{OutputArgs, ThreadsArg, side_by_side};
 use cellbih::scene::{Scene, extremes};
 
 #[derive(Parser)]
@@ -69,7 +69,7 @@ fn run(args: &Args) -> Result<(), String> {
             "largest_leaf": e.largest_leaf, "f32_stalls": stalls(scene, &cfg),
         })
     });
-    print_rows(args.output.format, &rows, print_table)?;
+
     let keys = [
         "case",
         "triangles",
@@ -85,11 +85,12 @@ fn run(args: &Args) -> Result<(), String> {
         "f32_stalls",
     ];
     let doc = json!({ "rows": rows, "note": "disagree: rays whose closest or any hit differs from brute force, of `rays`; f32_stalls: halvings of the global heuristic f32 could not make (host recursion)" });
-    args.output.write(
+    args.output.report(
         "extremes",
         (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).on(&cell)),
+        print_table,
     )?;
     let bad = rows
         .iter()

@@ -24,7 +24,7 @@ use serde_json::{Value, json};
 
 use cellbih::cell::{CellConfig, CellError, CostModel};
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{OutputArgs, print_rows};
+use cellbih::report::OutputArgs;
 use cellbih::scene::procedural::rtperf;
 use cellbih::spe::footprint::{Footprint, Purpose};
 
@@ -150,9 +150,7 @@ fn run(args: &Args) -> Result<(), String> {
         rows.push(row);
     }
     progress("");
-    print_rows(args.output.format, &rows, |r| {
-        print_table(r, args.memory_mib)
-    })?;
+
     let mut keys = vec![
         "builder",
         "bytes_per_triangle",
@@ -170,11 +168,12 @@ fn run(args: &Args) -> Result<(), String> {
     keys.extend(purposes.iter().map(String::as_str));
     keys.push("unused_node_bytes_per_triangle");
     let doc = json!({ "rows": rows, "note": "bytes of emulated main memory per triangle of rtperf, by purpose (fitted on rtperf:50000 and rtperf:100000); fits_n builds, fails_n runs out of memory naming oom_buffer" });
-    args.output.write(
+    args.output.report(
         "footprint",
         (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).on(&cell)),
+        |r| print_table(r, args.memory_mib),
     )?;
     Ok(())
 }

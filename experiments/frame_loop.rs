@@ -29,9 +29,7 @@ use cellbih::cell::CellConfig;
 use cellbih::frame::{FrameConfig, Policy, play};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::ViewsArg;
-use cellbih::report::{
-    OutputArgs, Series, ThreadsArg, TreeArgs, line_plot, output, print_rows, side_by_side,
-};
+use cellbih::report::{OutputArgs, Series, ThreadsArg, TreeArgs, line_plot, output, side_by_side};
 use cellbih::scene;
 use cellbih::update::{Animation, Method};
 
@@ -266,11 +264,15 @@ fn run(args: &Args) -> Result<(), String> {
         })
         .collect();
     let note = "simulated PS3 ms on the default model; section 5: every SPE builds, then every SPE renders (frame = update + render); paper: one SPE builds the next frame while the others render (frame = the longer); near_best: auto's frames within 10 % of the oracle's best option; prediction_error: auto's mean |predicted − measured| / measured frame time";
-    args.output.write(
+    args.output.report(
         "frame_loop",
         (&KEYS, &flat),
         &json!({ "note": note, "builder": builder.name(), "spes": spes, "rows": rows }),
         Some(&build),
+        |rows| {
+            table(rows, note);
+            goals(rows);
+        },
     )?;
     for (spec, (w, h), series) in plots {
         let file = format!(
@@ -288,10 +290,7 @@ fn run(args: &Args) -> Result<(), String> {
         )
         .map_err(|e| e.to_string())?;
     }
-    print_rows(args.output.format, &flat, |rows| {
-        table(rows, note);
-        goals(rows);
-    })?;
+
     eprintln!(
         "written: {}/frame_loop.{{csv,json}}, frame_loop_*.svg",
         args.output.out.display()

@@ -35,7 +35,7 @@ use serde_json::{Value, json};
 
 use cellbih::bih::{BihConfig, BihNode};
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{OutputArgs, Series, TreeArgs, line_plot, output, print_rows};
+use cellbih::report::{OutputArgs, Series, TreeArgs, line_plot, output};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -189,48 +189,49 @@ fn run(args: &Args) -> Result<(), String> {
         "same_tree",
         "stolen",
     ];
-    args.output.write(
+    args.output.report(
         "host_scaling",
         (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).with_tree(cfg)),
+        |rows| {
+            println!(
+                "{:<16} {:<14} {:>7} {:>10} {:>10} {:>8} {:>9} {:>5} {:>7}",
+                "scene",
+                "builder",
+                "threads",
+                "wall ms",
+                "cpu ms",
+                "speedup",
+                "cpu/ser.",
+                "same",
+                "stolen"
+            );
+            for r in rows {
+                println!(
+                    "{:<16} {:<14} {:>7} {:>10.2} {:>10.2} {:>7.2}x {:>8.2}x {:>5} {:>7}",
+                    r["scene"].as_str().unwrap_or(""),
+                    r["builder"].as_str().unwrap_or(""),
+                    r["threads"],
+                    r["wall_ms"].as_f64().unwrap_or(0.0),
+                    r["cpu_ms"].as_f64().unwrap_or(0.0),
+                    r["speedup"].as_f64().unwrap_or(0.0),
+                    r["cpu_over_serial"].as_f64().unwrap_or(0.0),
+                    match r["same_tree"].as_bool() {
+                        Some(true) => "yes",
+                        Some(false) => "NO",
+                        None => "-",
+                    },
+                    match r["stolen"].as_f64() {
+                        Some(f) => format!("{:.1}%", 100.0 * f),
+                        None => "-".into(),
+                    }
+                );
+            }
+        },
     )?;
     plot(&rows, &args.output.out)?;
-    print_rows(args.output.format, &rows, |rows| {
-        println!(
-            "{:<16} {:<14} {:>7} {:>10} {:>10} {:>8} {:>9} {:>5} {:>7}",
-            "scene",
-            "builder",
-            "threads",
-            "wall ms",
-            "cpu ms",
-            "speedup",
-            "cpu/ser.",
-            "same",
-            "stolen"
-        );
-        for r in rows {
-            println!(
-                "{:<16} {:<14} {:>7} {:>10.2} {:>10.2} {:>7.2}x {:>8.2}x {:>5} {:>7}",
-                r["scene"].as_str().unwrap_or(""),
-                r["builder"].as_str().unwrap_or(""),
-                r["threads"],
-                r["wall_ms"].as_f64().unwrap_or(0.0),
-                r["cpu_ms"].as_f64().unwrap_or(0.0),
-                r["speedup"].as_f64().unwrap_or(0.0),
-                r["cpu_over_serial"].as_f64().unwrap_or(0.0),
-                match r["same_tree"].as_bool() {
-                    Some(true) => "yes",
-                    Some(false) => "NO",
-                    None => "-",
-                },
-                match r["stolen"].as_f64() {
-                    Some(f) => format!("{:.1}%", 100.0 * f),
-                    None => "-".into(),
-                }
-            );
-        }
-    })
+    Ok(())
 }
 
 /// A contender of one scene: its name, threads and one build (returning

@@ -23,7 +23,7 @@ use serde_json::{Value, json};
 use cellbih::bih::BihConfig;
 use cellbih::host;
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{OutputArgs, Series, line_plot, output, print_rows};
+use cellbih::report::{OutputArgs, Series, line_plot, output};
 use cellbih::scene::procedural::rtperf;
 use cellbih::update::{
     Animation, MAX_FRAMES, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play,
@@ -171,7 +171,7 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:40}\r", "");
     }
-    print_rows(args.output.format, &rows, print_table)?;
+
     let keys = [
         "triangles",
         "method",
@@ -208,11 +208,12 @@ fn run(args: &Args) -> Result<(), String> {
         "host": "host builder, one thread; full rebuild = median of 5",
         "simulated": "ppe_*: rebuilds on ppe_naive (the paper's update ran on the PPE), bfs_*: on spe_bfs; PS3 model; PPE traversal and scan not charged",
     });
-    args.output.write(
+    args.output.report(
         "partial_rebuild",
         (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).with_tree(cfg)),
+        print_table,
     )?;
     for method in ["local", "deep"] {
         plots(&args.output.out, method, &rows).map_err(|e| e.to_string())?;

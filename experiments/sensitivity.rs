@@ -18,7 +18,10 @@ use serde_json::json;
 use cellbih::cell::{CellConfig, CostModel, Cycles};
 use cellbih::kernels::rates::RateOverrides;
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{ThreadsArg, output, prepare_dir, side_by_side, write_csv, write_json};
+use cellbih::report::{
+    Format, OutputArgs, ThreadsArg, document, output, print_rows, side_by_side, write_csv,
+    write_document,
+};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -39,9 +42,8 @@ struct Args {
     /// The cost model the rates are moved on.
     #[arg(long, value_enum, default_value = "measured")]
     model: Model,
-    /// Directory for sensitivity.csv and sensitivity.json.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
+    #[command(flatten)]
+    output: OutputArgs,
     #[command(flatten)]
     threads: ThreadsArg,
 }
@@ -155,11 +157,10 @@ fn main() {
     if args.data.is_none() {
         args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
     }
-    cellbih::report::experiment_main("sensitivity", &args.out.clone(), || run(&args));
+    cellbih::report::experiment_main("sensitivity", &args.output.out.clone(), || run(&args));
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    prepare_dir(&args.out).map_err(|e| e.to_string())?;
     args.threads.install()?;
     let scenes: Vec<Scene> = cellbih::report::load_scenes(&args.scenes, args.data.as_deref())?;
     let base = match args.model {
@@ -239,7 +240,10 @@ fn run(args: &Args) -> Result<(), String> {
             Model::Legacy => "legacy",
         }
     );
-    println!("{}\n", cellbih::report::wrap(&title, 80));
+    let text = args.output.format == Format::Text;
+    if text {
+        println!("{}\n", cellbih::report::wrap(&title, 80));
+    }
     for (k, v) in variants.iter().enumerate() {
         let mut flips = Vec::new();
         for (si, s) in scenes.iter().enumerate() {
@@ -273,10 +277,12 @@ fn run(args: &Args) -> Result<(), String> {
             false => format!("FLIPS: {}", flips.join("; ")),
         };
         let line = format!("{} {}{value}", v.rate, v.end);
-        println!("{}", cellbih::report::wrap(&line, 80));
-        let line = format!("largest move {:+.1} %; {moved}", worst * 100.0);
-        for l in cellbih::report::wrap(&line, 76).lines() {
-            println!("    {l}");
+        let line2 = format!("largest move {:+.1} %; {moved}", worst * 100.0);
+        if text {
+            println!("{}", cellbih::report::wrap(&line, 80));
+            for l in cellbih::report::wrap(&line2, 76).lines() {
+                println!("    {l}");
+            }
         }
         let speeds: Vec<String> = flat.iter().map(|x| format!("{x:.3}")).collect();
         csv.push(format!(
@@ -295,17 +301,21 @@ fn run(args: &Args) -> Result<(), String> {
         }));
     }
     let line = format!("headlines: {}", heads.join(", "));
-    println!("\n{}", cellbih::report::wrap(&line, 80));
+    if text {
+        println!("\n{}", cellbih::report::wrap(&line, 80));
+    }
     // Each headline with its band, and whether the order of the builders
     // at it holds over every variant.
     let flat: Vec<Vec<f64>> = (speedups.iter())
         .map(|v| v.iter().flatten().flatten().copied().collect())
         .collect();
     let bands = bands(&flat);
-    println!(
-        "\n{:<28} {:>8} {:>15}  order of the builders",
-        "headline (scene builder SPEs)", "speedup", "band"
-    );
+    if text {
+        println!(
+            "\n{:<28} {:>8} {:>15}  order of the builders",
+            "headline (scene builder SPEs)", "speedup", "band"
+        );
+    }
     let mut band_rows = Vec::new();
     for (h, (head, &(at, low, high))) in heads.iter().zip(&bands).enumerate() {
         let (si, ni) = (
@@ -314,15 +324,17 @@ fn run(args: &Args) -> Result<(), String> {
         );
         let holds =
             (0..variants.len()).all(|k| order(&speedups[k][si][ni]) == order(&speedups[0][si][ni]));
-        println!(
-            "{head:<28} {at:>7.2}x {:>15}  {}",
-            format!("{low:.2}-{high:.2}x"),
-            if holds {
-                "holds"
-            } else {
-                "FLIPS inside the bands"
-            }
-        );
+        if text {
+            println!(
+                "{head:<28} {at:>7.2}x {:>15}  {}",
+                format!("{low:.2}-{high:.2}x"),
+                if holds {
+                    "holds"
+                } else {
+                    "FLIPS inside the bands"
+                }
+            );
+        }
         band_rows.push(json!({
             "headline": head, "speedup": at, "low": low, "high": high,
             "order_holds": holds,
@@ -332,18 +344,20 @@ fn run(args: &Args) -> Result<(), String> {
         "rate,end,value,largest_move,flips,{}",
         heads.join(",").replace(' ', "_")
     );
-    let path = output(&args.out, "sensitivity.csv").map_err(|e| e.to_string())?;
+    let path = output(&args.output.out, "sensitivity.csv").map_err(|e| e.to_string())?;
     write_csv(&path, &header, &csv).map_err(|e| e.to_string())?;
-    let path = output(&args.out, "sensitivity.json").map_err(|e| e.to_string())?;
-    write_json(
-        &path,
+    let doc = document(
         &json!({ "rows": rows, "bands": band_rows }),
         Some(&Build::new(BuilderKind::HOST)),
-    )
-    .map_err(|e| e.to_string())?;
-    println!(
-        "written: {}",
-        args.out.join("sensitivity.{csv,json}").display()
+    );
+    if !text {
+        print_rows(args.output.format, &doc, &rows, |_| {})?;
+    }
+    let path = output(&args.output.out, "sensitivity.json").map_err(|e| e.to_string())?;
+    write_document(&path, &doc).map_err(|e| e.to_string())?;
+    eprintln!(
+        "written: {}/sensitivity.{{csv,json}}",
+        args.output.out.display()
     );
     Ok(())
 }

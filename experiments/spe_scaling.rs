@@ -21,9 +21,7 @@ use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::{View, ViewsArg};
-use cellbih::report::{
-    OutputArgs, Series, ThreadsArg, line_plot, output, print_rows, side_by_side,
-};
+use cellbih::report::{OutputArgs, Series, ThreadsArg, line_plot, output, side_by_side};
 use cellbih::scene::{self, Scene, zoo};
 
 #[path = "spe_scaling_zoo.rs"]
@@ -215,10 +213,7 @@ fn run(args: &Args) -> Result<(), String> {
         rows.push(r);
     }
     let summary = zoo_summary::summary(&rows, args.zoo);
-    print_rows(args.output.format, &rows, |rows| {
-        print_table(rows);
-        zoo_summary::print(&summary);
-    })?;
+
     let keys = [
         "scene",
         "triangles",
@@ -253,11 +248,15 @@ fn run(args: &Args) -> Result<(), String> {
         "summary": summary.rows, "goals": summary.goals,
         "note": "simulated ms on the PS3 model; baseline: spe_bfs (one SPE); busy..idle: mean share of the run per SPE; memory_utilisation: bytes moved / (cycles x 25.6 GB/s)",
     });
-    args.output.write(
+    args.output.report(
         "spe_scaling",
         (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST)),
+        |rows| {
+            print_table(rows);
+            zoo_summary::print(&summary);
+        },
     )?;
     plots(&args.output.out, &rows).map_err(|e| e.to_string())?;
     zoo_summary::plot(&args.output.out, &rows).map_err(|e| e.to_string())?;

@@ -19,7 +19,7 @@ use serde_json::json;
 use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{OutputArgs, ThreadsArg, print_rows, side_by_side};
+use cellbih::report::{OutputArgs, ThreadsArg, side_by_side};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -176,9 +176,9 @@ fn run(args: &Args) -> Result<(), String> {
             "memory_mib": mib,
         }));
     }
-    print_rows(args.output.format, &rows, print_table)?;
+
     let doc = json!({ "rows": rows, "note": "simulated_ms on the PS3 model; paper_ms null = out of memory in the paper" });
-    args.output.write(
+    args.output.report(
         "table1",
         (
             &[
@@ -198,6 +198,7 @@ fn run(args: &Args) -> Result<(), String> {
         ),
         &doc,
         Some(&Build::new(BuilderKind::HOST).with_tree(cfg).on(&six)),
+        print_table,
     )?;
     Ok(())
 }

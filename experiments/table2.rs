@@ -18,7 +18,7 @@ use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{OutputArgs, print_rows};
+use cellbih::report::OutputArgs;
 use cellbih::scene;
 use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play};
 
@@ -111,7 +111,7 @@ fn run(args: &Args) -> Result<(), String> {
     if progress {
         eprint!("{:40}\r", "");
     }
-    print_rows(args.output.format, &rows, print_table)?;
+
     let keys = [
         "scene",
         "source",
@@ -139,11 +139,12 @@ fn run(args: &Args) -> Result<(), String> {
         "rows": rows,
         "note": "ours: t*_ms host (host builder, one thread); ppe_t*_ms / bfs_t*_ms simulated PS3 ms with the rebuilds on ppe_naive / spe_bfs; paper: PS3 ms (its update ran on the PPE)",
     });
-    args.output.write(
+    args.output.report(
         "table2",
         (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST)),
+        print_table,
     )?;
     Ok(())
 }

@@ -31,9 +31,7 @@ use cellbih::quality::pareto_front;
 use cellbih::quality::rays::RaySets;
 use cellbih::registry::{Build, BuilderKind, Quality};
 use cellbih::render::ViewsArg;
-use cellbih::report::{
-    OutputArgs, Series, ThreadsArg, output, print_rows, scatter_plot, side_by_side,
-};
+use cellbih::report::{OutputArgs, Series, ThreadsArg, output, scatter_plot, side_by_side};
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
 
@@ -167,7 +165,7 @@ fn run(args: &Args) -> Result<(), String> {
     for scene_rows in rows.chunks_mut(settings.len()) {
         mark_fronts(scene_rows);
     }
-    print_rows(args.output.format, &rows, print_tables)?;
+
     let keys = [
         "scene",
         "triangles",
@@ -196,11 +194,12 @@ fn run(args: &Args) -> Result<(), String> {
         "spes": args.spes,
         "note": NOTE.replace("PACKET", &CastConfig::DEFAULT.packet.to_string()),
     });
-    args.output.write(
+    args.output.report(
         "tradeoff",
         (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).on(&cell)),
+        print_tables,
     )?;
     plots(&args.output.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(

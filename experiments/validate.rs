@@ -9,8 +9,6 @@
 //!
 //! `cargo run --release --bin validate -- [--model measured|legacy] [--threads N] [--out results]`
 
-use std::path::PathBuf;
-
 use clap::{Parser, ValueEnum};
 use serde_json::json;
 
@@ -20,7 +18,10 @@ use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea, LsAddr, 
 mod compute;
 #[path = "validate_contention.rs"]
 mod contention;
-use cellbih::report::{ThreadsArg, output, prepare_dir, side_by_side, write_csv, write_json};
+use cellbih::report::{
+    Format, OutputArgs, ThreadsArg, document, output, print_rows, side_by_side, write_csv,
+    write_document,
+};
 
 #[derive(Parser)]
 #[command(
@@ -32,9 +33,8 @@ struct Args {
     /// `CostModel::ps3_legacy`).
     #[arg(long, value_enum, default_value = "measured")]
     model: Model,
-    /// Directory for validate.csv and validate.json.
-    #[arg(long, default_value = "results")]
-    out: PathBuf,
+    #[command(flatten)]
+    output: OutputArgs,
     #[command(flatten)]
     threads: ThreadsArg,
 }
@@ -489,7 +489,10 @@ const VALUE_COLUMNS: [usize; 5] = [9, 9, 6, 5, 7];
 
 /// One row in 80 columns: the name wrapped to its column, the values
 /// beside its first line.
-fn row(name: &str, values: [String; 5]) {
+fn row(text: bool, name: &str, values: [String; 5]) {
+    if !text {
+        return;
+    }
     let width = 80 - VALUE_COLUMNS.iter().map(|w| w + 1).sum::<usize>();
     let wrapped = cellbih::report::wrap(name, width);
     let mut lines = wrapped.lines();
@@ -504,12 +507,12 @@ fn row(name: &str, values: [String; 5]) {
 
 fn main() {
     let args = Args::parse();
-    cellbih::report::experiment_main("validate", &args.out.clone(), || run(&args));
+    cellbih::report::experiment_main("validate", &args.output.out.clone(), || run(&args));
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    prepare_dir(&args.out).map_err(|e| e.to_string())?;
     args.threads.install()?;
+    let text = args.output.format == Format::Text;
     let cost = args.model.cost();
     // Every figure's probe side by side (each its own emulated machine).
     let figures = figures();
@@ -532,8 +535,11 @@ fn run(args: &Args) -> Result<(), String> {
         let group: Vec<_> = (results.iter())
             .filter(|(f, _)| f.sets.is_some() == fitted)
             .collect();
-        println!("\n{title}");
+        if text {
+            println!("\n{title}");
+        }
         row(
+            text,
             "published figure (retail PS3, 3.2 GHz)",
             ["published", "emulated", "ratio", "tol.", "verdict"].map(String::from),
         );
@@ -546,6 +552,7 @@ fn run(args: &Args) -> Result<(), String> {
                 false => failed.push(f.what),
             }
             row(
+                text,
                 &format!("{} ({})", f.what, f.unit),
                 [
                     format!("{:.2}", f.published),
@@ -562,9 +569,11 @@ fn run(args: &Args) -> Result<(), String> {
                 "role": if fitted { "fitted" } else { "held-out" }, "sets": f.sets,
             }));
         }
-        println!("{passed} of {} pass", group.len());
+        if text {
+            println!("{passed} of {} pass", group.len());
+        }
     }
-    let (compute_rows, compute_failed) = compute::section(&cost)?;
+    let (compute_rows, compute_failed) = compute::section(&cost, text)?;
     rows.extend(compute_rows);
     failed.extend(compute_failed);
     let csv: Vec<String> = (rows.iter())
@@ -585,13 +594,17 @@ fn run(args: &Args) -> Result<(), String> {
         })
         .collect();
     let header = "figure,source,unit,published,emulated,ratio,tolerance,pass,role,sets";
-    let path = output(&args.out, "validate.csv").map_err(|e| e.to_string())?;
+    let path = output(&args.output.out, "validate.csv").map_err(|e| e.to_string())?;
     write_csv(&path, header, &csv).map_err(|e| e.to_string())?;
-    let path = output(&args.out, "validate.json").map_err(|e| e.to_string())?;
-    write_json(&path, &json!({ "rows": rows }), None).map_err(|e| e.to_string())?;
-    println!(
-        "written: {}",
-        args.out.join("validate.{csv,json}").display()
+    let doc = document(&json!({ "rows": rows }), None);
+    if !text {
+        print_rows(args.output.format, &doc, &rows, |_| {})?;
+    }
+    let path = output(&args.output.out, "validate.json").map_err(|e| e.to_string())?;
+    write_document(&path, &doc).map_err(|e| e.to_string())?;
+    eprintln!(
+        "written: {}/validate.{{csv,json}}",
+        args.output.out.display()
     );
     match failed.len() {
         0 => Ok(()),

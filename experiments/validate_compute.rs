@@ -202,7 +202,10 @@ impl Kernel {
 /// The compute section: each kernel's published figure, its count's, and
 /// the count times the derivation factor. Returns the rows and the
 /// kernels outside their tolerance.
-pub fn section(cost: &CostModel) -> Result<(Vec<serde_json::Value>, Vec<&'static str>), String> {
+pub fn section(
+    cost: &CostModel,
+    text: bool,
+) -> Result<(Vec<serde_json::Value>, Vec<&'static str>), String> {
     let mut rows = Vec::new();
     let mut failed = Vec::new();
     let title = format!(
@@ -210,8 +213,11 @@ pub fn section(cost: &CostModel) -> Result<(Vec<serde_json::Value>, Vec<&'static
          instruction count on the two pipelines over the hardware's; x{FITTED_OVER_DERIVED}: \
          the same with the count times the derivation factor; tolerance 25 %"
     );
-    println!("\n{}", cellbih::report::wrap(&title, 80));
+    if text {
+        println!("\n{}", cellbih::report::wrap(&title, 80));
+    }
     super::row(
+        text,
         "kernel (6 SPEs unless said)",
         ["published", "count", "ratio", "x4", "verdict"].map(String::from),
     );
@@ -225,6 +231,7 @@ pub fn section(cost: &CostModel) -> Result<(Vec<serde_json::Value>, Vec<&'static
             failed.push(k.what);
         }
         super::row(
+            text,
             &format!("{} ({})", k.what, k.unit),
             [
                 format!("{:.2}", k.published),
@@ -243,6 +250,8 @@ pub fn section(cost: &CostModel) -> Result<(Vec<serde_json::Value>, Vec<&'static
         }));
     }
     let passed = rows.iter().filter(|r| r["pass"] == true).count();
-    println!("{passed} of {} pass", rows.len());
+    if text {
+        println!("{passed} of {} pass", rows.len());
+    }
     Ok((rows, failed))
 }

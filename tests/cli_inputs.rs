@@ -263,3 +263,43 @@ fn an_experiment_replaces_its_files_together_or_not_at_all() {
         .count();
     assert_eq!(hidden, 0, "a staging directory was left behind");
 }
+
+/// `--format json` puts on the standard output the very document the
+/// experiment writes to its JSON file, settings included — for every
+/// experiment, `validate`, `dma_bandwidth` and `sensitivity` too.
+#[test]
+fn an_experiments_json_on_stdout_is_its_files_document() {
+    let runs: [(&str, &str, &[&str]); 4] = [
+        (env!("CARGO_BIN_EXE_validate"), "validate", &[]),
+        (
+            env!("CARGO_BIN_EXE_dma_bandwidth"),
+            "dma_bandwidth",
+            &["--mib", "1", "--max-spes", "2"],
+        ),
+        (
+            env!("CARGO_BIN_EXE_sensitivity"),
+            "sensitivity",
+            &["--scenes", "default", "--spes", "2"],
+        ),
+        (env!("CARGO_BIN_EXE_table2"), "table2", &["--no-sim"]),
+    ];
+    for (exe, name, args) in runs {
+        let dir = tmp(&format!("stdout-doc-{name}"));
+        let out = std::process::Command::new(exe)
+            .args(args)
+            .args(["--format", "json", "--out", dir.to_str().unwrap()])
+            .output()
+            .unwrap();
+        common::assert_ok(&out);
+        let printed: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+            panic!("{name}: stdout is not JSON ({e}): {}", common::stdout(&out))
+        });
+        let file = std::fs::read(dir.join(format!("{name}.json"))).unwrap();
+        let written: serde_json::Value = serde_json::from_slice(&file).unwrap();
+        assert!(
+            printed["settings"]["command"].is_string(),
+            "{name}: {printed}"
+        );
+        assert_eq!(printed, written, "{name}");
+    }
+}

@@ -185,16 +185,19 @@ pub enum Format {
     Json,
 }
 
-/// Prints an experiment's rows: pretty JSON, or as `table` lays them out.
+/// Prints an experiment's result: its JSON document `doc` (the file's,
+/// settings included: [`document`]) pretty, or `rows` as `table` lays
+/// them out.
 pub fn print_rows(
     format: Format,
+    doc: &serde_json::Value,
     rows: &[serde_json::Value],
     table: impl FnOnce(&[serde_json::Value]),
 ) -> Result<(), String> {
     match format {
         Format::Json => println!(
             "{}",
-            serde_json::to_string_pretty(rows).map_err(|e| e.to_string())?
+            serde_json::to_string_pretty(doc).map_err(|e| e.to_string())?
         ),
         Format::Text => table(rows),
     }
@@ -320,17 +323,18 @@ pub fn write_rows_csv(
     write_csv(path, &keys.join(","), &lines)
 }
 
-/// Writes an experiment's JSON document `doc` (an object; anything else
-/// is written as its `rows`) with its settings: a `settings` object with the command line that made it,
-/// cellbih's version and, where its builds share one request (`shared`:
-/// the tree, the emulated Cell, the host-thread builders' threads, moved
-/// rates; [`Settings::shared`]), that request. What the rows vary (the
-/// builder and its knobs, the SPEs, a rate) each row names.
-pub fn write_json(
-    path: &Path,
+/// An experiment's JSON document: `doc` (an object; anything else
+/// becomes its `rows`) with its settings: a `settings` object with the
+/// command line that made it, cellbih's version and, where its builds
+/// share one request (`shared`: the tree, the emulated Cell, the
+/// host-thread builders' threads, moved rates; [`Settings::shared`]), that
+/// request. What the rows vary (the builder and its knobs, the SPEs, a
+/// rate) each row names. The file and `--format json` on the standard
+/// output carry the same document.
+pub fn document(
     doc: &serde_json::Value,
     shared: Option<&crate::registry::Build>,
-) -> Result<(), OutputError> {
+) -> serde_json::Value {
     let mut settings = match shared {
         Some(b) => Settings::shared(b).to_json(),
         None => serde_json::json!({ "version": settings::version() }),
@@ -342,8 +346,22 @@ pub fn write_json(
         rows => serde_json::json!({ "rows": rows }),
     };
     doc["settings"] = settings;
+    doc
+}
+
+/// Writes [`document`]`(doc, shared)` to `path`.
+pub fn write_json(
+    path: &Path,
+    doc: &serde_json::Value,
+    shared: Option<&crate::registry::Build>,
+) -> Result<(), OutputError> {
+    write_document(path, &document(doc, shared))
+}
+
+/// Writes a finished JSON document ([`document`]) to `path`.
+pub fn write_document(path: &Path, doc: &serde_json::Value) -> Result<(), OutputError> {
     write_file(path, |w| {
-        serde_json::to_writer_pretty(&mut *w, &doc)?;
+        serde_json::to_writer_pretty(&mut *w, doc)?;
         writeln!(w)
     })
 }
@@ -520,20 +538,25 @@ pub struct OutputArgs {
 }
 
 impl OutputArgs {
-    /// Writes `NAME.csv` (the `keys` columns of `rows`) and `NAME.json`
-    /// (`doc` with its settings: [`write_json`]) into `--out`, each whole
-    /// or not at all.
-    pub fn write(
+    /// An experiment's result: printed (a table, or with `--format json`
+    /// the JSON document), then written into `--out` as `NAME.csv` (the
+    /// `keys` columns of `rows`) and `NAME.json` (`doc` with its settings:
+    /// [`document`]), each whole or not at all. The table comes first, so
+    /// that a write that fails loses nothing measured.
+    pub fn report(
         &self,
         name: &str,
         (keys, rows): (&[&str], &[serde_json::Value]),
         doc: &serde_json::Value,
         shared: Option<&crate::registry::Build>,
+        table: impl FnOnce(&[serde_json::Value]),
     ) -> Result<(), String> {
+        let doc = document(doc, shared);
+        print_rows(self.format, &doc, rows, table)?;
         let io = |e: OutputError| e.to_string();
         let csv = output(&self.out, &format!("{name}.csv")).map_err(io)?;
         write_rows_csv(&csv, keys, rows).map_err(io)?;
         let json = output(&self.out, &format!("{name}.json")).map_err(io)?;
-        write_json(&json, doc, shared).map_err(io)
+        write_document(&json, &doc).map_err(io)
     }
 }

@@ -60,28 +60,40 @@ fn names(dir: &Path) -> Vec<String> {
     v
 }
 
-/// Moves the staged set into place, all or nothing. Returns the files
-/// moved.
+/// Moves the staged set into place, all or nothing. A file of the set
+/// that is a device or a pipe in `--out` (or a link to one) is written
+/// into first, before anything is renamed; a link to a regular file is
+/// replaced at its target and stays a link. On failure the set stays
+/// staged, for [`abandon`].
 pub fn commit() -> Result<Vec<String>, String> {
-    let Some(s) = stage().take() else {
+    let guard = stage();
+    let Some(s) = &*guard else {
         return Ok(Vec::new());
     };
     let files = names(&s.dir);
+    let (direct, replaced): (Vec<&String>, Vec<&String>) =
+        (files.iter()).partition(|f| std::fs::metadata(s.out.join(f)).is_ok_and(|m| !m.is_file()));
+    for f in direct {
+        let bytes = std::fs::read(s.dir.join(f)).map_err(|e| e.to_string())?;
+        crate::output::write_bytes(&s.out.join(f), &bytes).map_err(|e| e.to_string())?;
+    }
     let backup = s.dir.join(".old");
-    let mut moved: Vec<(&String, bool)> = Vec::new();
+    let mut moved: Vec<(PathBuf, &String, bool)> = Vec::new();
     let mut failure = None;
-    for f in &files {
-        let (new, target) = (s.dir.join(f), s.out.join(f));
+    for f in replaced {
+        let link = s.out.join(f);
+        // A link to a regular file: its target is replaced.
+        let target = std::fs::canonicalize(&link).unwrap_or(link);
         let had_old = target.exists();
         let step = (|| {
             if had_old {
                 std::fs::create_dir_all(&backup)?;
                 std::fs::rename(&target, backup.join(f))?;
             }
-            std::fs::rename(&new, &target)
+            std::fs::rename(s.dir.join(f), &target)
         })();
         match step {
-            Ok(()) => moved.push((f, had_old)),
+            Ok(()) => moved.push((target, f, had_old)),
             Err(e) => {
                 if had_old && !target.exists() {
                     let _ = std::fs::rename(backup.join(f), &target);
@@ -93,20 +105,17 @@ pub fn commit() -> Result<Vec<String>, String> {
     }
     if let Some(why) = failure {
         // Put back what was moved: the old set stays whole.
-        for (f, had_old) in moved {
-            let target = s.out.join(f);
+        for (target, f, had_old) in moved {
             let _ = std::fs::rename(&target, s.dir.join(f));
             if had_old {
                 let _ = std::fs::rename(backup.join(f), &target);
             }
         }
-        return Err(format!(
-            "{why}; nothing in {} was replaced, and this run's files are in {}",
-            s.out.display(),
-            s.dir.display()
-        ));
+        return Err(why);
     }
     let _ = std::fs::remove_dir_all(&s.dir);
+    drop(guard);
+    *stage() = None;
     Ok(files)
 }
 
@@ -117,7 +126,7 @@ pub fn abandon(name: &str) -> Vec<String> {
     let Some(s) = stage().take() else {
         return Vec::new();
     };
-    let written = names(&s.dir);
+    let written: Vec<String> = names(&s.dir);
     let mut say = Vec::new();
     if written.is_empty() {
         let _ = std::fs::remove_dir_all(&s.dir);

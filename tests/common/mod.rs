@@ -43,7 +43,12 @@ pub fn run_experiment(
         .output()
         .unwrap();
     assert_ok(&out);
-    let rows: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // The standard output carries the file's document, settings included.
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        doc["settings"]["version"].is_string(),
+        "{exe}: stdout has no settings"
+    );
     // Every JSON file it wrote names its settings: the command line that
     // made it and the version.
     for f in std::fs::read_dir(&dir).unwrap() {
@@ -61,7 +66,7 @@ pub fn run_experiment(
             );
         }
     }
-    (rows.as_array().unwrap().clone(), dir)
+    (doc["rows"].as_array().unwrap().clone(), dir)
 }
 
 /// A path in this test process's own temporary directory.
