@@ -303,3 +303,34 @@ fn an_experiments_json_on_stdout_is_its_files_document() {
         assert_eq!(printed, written, "{name}");
     }
 }
+
+/// A relative OBJ path without a `/` is read, and no note says it was not;
+/// a built-in scene's name that is also a file here gets the note.
+#[test]
+fn a_relative_obj_path_is_read_without_a_wrong_note() {
+    let dir = tmp("relative");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("x.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(dir.join("car"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let run = |scene: &str| {
+        std::process::Command::new(EXE)
+            .args(["info", "--scene", scene])
+            .current_dir(&dir)
+            .output()
+            .unwrap()
+    };
+    let out = run("x.obj");
+    common::assert_ok(&out);
+    assert!(!stderr(&out).contains("note"), "{}", stderr(&out));
+    assert!(
+        common::stdout(&out).contains("triangles     1"),
+        "{}",
+        common::stdout(&out)
+    );
+    let out = run("car");
+    assert!(
+        stderr(&out).contains("is the built-in scene car"),
+        "{}",
+        stderr(&out)
+    );
+}

@@ -32,7 +32,39 @@ fn nan_and_infinite_coordinates_name_the_vertex() {
     let e = err("v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
     assert_eq!(e, "t.obj:2: vertex 2 has a non-finite coordinate 'nan'");
     let e = err("v 0 0 0\nv 1 0 0\n# c\nv 0 1e39 0\nf 1 2 3\n");
-    assert_eq!(e, "t.obj:4: vertex 3 has a non-finite coordinate '1e39'");
+    assert_eq!(
+        e,
+        "t.obj:4: vertex 3 has a coordinate '1e39' outside the range of f32 (magnitudes up to 3.4e38)"
+    );
+}
+
+/// tobj's own errors for normals, texture coordinates, colours and the
+/// other indices of a face carry no line: each is found and named.
+#[test]
+fn every_parse_error_names_its_line() {
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    for (extra, want) in [
+        (
+            "vn 1 x 0\nf 1 2 3\n",
+            "t.obj:4: normal 1: 'x' is not a number",
+        ),
+        (
+            "vt x 0\nf 1/1 2 3\n",
+            "t.obj:4: texture coordinate 1: 'x' is not a number",
+        ),
+        (
+            "vn 0 0 1\nf 1//x 2 3\n",
+            "t.obj:5: 'x' in face corner '1//x' is not a normal index",
+        ),
+        (
+            "vn 0 0 1\nf 1//4 2 3\n",
+            "t.obj:5: normal index 4 in face corner '1//4' is out of range (the file has 1 normal)",
+        ),
+    ] {
+        assert_eq!(err(&format!("{tri}{extra}")), want, "{extra}");
+    }
+    let e = err("v 0 0 0 1 x 1\nv 1 0 0 1 1 1\nv 0 1 0 1 1 1\nvn 1 x 0\nf 1 2 3\n");
+    assert!(e.starts_with("t.obj:"), "{e}");
 }
 
 #[test]

@@ -42,7 +42,10 @@ impl SceneArg {
     pub fn load(&self) -> Res<Scene> {
         let s = scene::load(&self.scene, self.data.as_deref())?;
         let path = Path::new(&self.scene);
-        if path.is_file() && s.name == self.scene && !self.scene.contains('/') {
+        // A file's scene is named by the file (`x.obj`); a built-in one's
+        // name never ends so.
+        let from_file = [".obj", ".obj.gz"].iter().any(|e| self.scene.ends_with(e));
+        if path.is_file() && s.name == self.scene && !self.scene.contains('/') && !from_file {
             eprintln!(
                 "note: '{0}' is the built-in scene {0}; the file {0} here is not read (give ./{0} to read it)",
                 self.scene

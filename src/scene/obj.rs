@@ -226,71 +226,111 @@ fn diagnose(path: &str, text: &[u8], tobj_says: &str) -> SceneError {
     }
 }
 
+/// Why a value of an OBJ line is no `f32` coordinate, said of `what`
+/// ("vertex 3", "normal 1's colour"): not a number, outside `f32`'s range
+/// (`1e39`), or not finite (`nan`, `inf`).
+fn coordinate(c: &str, what: &str) -> Result<f32, String> {
+    match c.parse::<f32>() {
+        Err(_) => Err(format!("{what}: '{c}' is not a number")),
+        Ok(x) if x.is_finite() => Ok(x),
+        Ok(_) if c.parse::<f64>().is_ok_and(f64::is_finite) => Err(format!(
+            "{what} has a coordinate '{c}' outside the range of f32 (magnitudes up to 3.4e38)"
+        )),
+        Ok(_) => Err(format!("{what} has a non-finite coordinate '{c}'")),
+    }
+}
+
 /// Finds the first line (1-based) that makes the OBJ invalid for us: an
-/// unparsable or non-finite vertex, or a face whose index is not a number,
-/// is zero, or points outside the vertex list.
+/// unparsable, out-of-range or non-finite vertex (its colour too), normal
+/// or texture coordinate; a face whose index is not a number, is zero, or
+/// points outside its list.
 fn locate_problem(text: &str) -> Option<(usize, String)> {
-    let total_vertices = text
-        .lines()
-        .filter(|l| l.split_whitespace().next() == Some("v"))
-        .count();
-    let mut vertices = 0usize;
+    let count = |kind: &str| {
+        text.lines()
+            .filter(|l| l.split_whitespace().next() == Some(kind))
+            .count() as i64
+    };
+    let totals = [count("v"), count("vt"), count("vn")];
+    let mut seen = [0i64; 3];
     for (n, line) in text.lines().enumerate() {
         let line_no = n + 1;
         let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v") => {
-                vertices += 1;
-                let coords: Vec<&str> = words.take(3).collect();
-                if coords.len() < 3 {
+        let first = words.next();
+        let list = match first {
+            Some("v") => Some((0, "vertex", 3, "coordinates")),
+            Some("vt") => Some((1, "texture coordinate", 1, "values")),
+            Some("vn") => Some((2, "normal", 3, "components")),
+            _ => None,
+        };
+        if let Some((k, what, least, parts)) = list {
+            seen[k] += 1;
+            let values: Vec<&str> = words.collect();
+            if values.len() < least {
+                return Some((
+                    line_no,
+                    format!("{what} {} has fewer than {least} {parts}", seen[k]),
+                ));
+            }
+            for (i, c) in values.iter().enumerate() {
+                // A vertex's 4th value is a weight, or with two more a colour.
+                let role = match (k, i, values.len()) {
+                    (0, 3.., 6..) => "'s colour",
+                    (0, 3.., _) => "'s weight",
+                    _ => "",
+                };
+                if let Err(why) = coordinate(c, &format!("{what} {}{role}", seen[k])) {
+                    return Some((line_no, why));
+                }
+            }
+            continue;
+        }
+        if first != Some("f") {
+            continue;
+        }
+        for corner in words {
+            for (k, index) in corner.split('/').enumerate().take(3) {
+                // `1//3`: no texture coordinate.
+                if k > 0 && index.is_empty() {
+                    continue;
+                }
+                let (list, lists) = [
+                    ("vertex", "vertices"),
+                    ("texture coordinate", "texture coordinates"),
+                    ("normal", "normals"),
+                ][k];
+                // Of a vertex index the corner is the index; of the
+                // others the corner is named beside it.
+                let at = match k {
+                    0 => String::new(),
+                    _ => format!(" in face corner '{corner}'"),
+                };
+                let Ok(idx) = index.parse::<i64>() else {
                     return Some((
                         line_no,
-                        format!("vertex {vertices} has fewer than 3 coordinates"),
+                        match k {
+                            0 => format!("face corner '{corner}' is not a vertex index"),
+                            _ => format!("'{index}'{at} is not a {list} index"),
+                        },
+                    ));
+                };
+                let resolved = if idx < 0 { seen[k] + idx + 1 } else { idx };
+                if idx == 0 || resolved < 1 || resolved > totals[k] {
+                    let index_of = match k {
+                        0 => "face index".to_string(),
+                        _ => format!("{list} index"),
+                    };
+                    return Some((
+                        line_no,
+                        format!(
+                            "{index_of} {idx}{at} is out of range (the file has {})",
+                            match totals[k] {
+                                1 => format!("1 {list}"),
+                                n => format!("{n} {lists}"),
+                            }
+                        ),
                     ));
                 }
-                for c in coords {
-                    match c.parse::<f32>() {
-                        Err(_) => {
-                            return Some((
-                                line_no,
-                                format!("vertex {vertices}: '{c}' is not a number"),
-                            ));
-                        }
-                        Ok(x) if !x.is_finite() => {
-                            return Some((
-                                line_no,
-                                format!("vertex {vertices} has a non-finite coordinate '{c}'"),
-                            ));
-                        }
-                        Ok(_) => {}
-                    }
-                }
             }
-            Some("f") => {
-                for corner in words {
-                    let first = corner.split('/').next().unwrap_or("");
-                    let Ok(idx) = first.parse::<i64>() else {
-                        return Some((
-                            line_no,
-                            format!("face corner '{corner}' is not a vertex index"),
-                        ));
-                    };
-                    let resolved = if idx < 0 {
-                        vertices as i64 + idx + 1
-                    } else {
-                        idx
-                    };
-                    if idx == 0 || resolved < 1 || resolved > total_vertices as i64 {
-                        return Some((
-                            line_no,
-                            format!(
-                                "face index {idx} is out of range (the file has {total_vertices} vertices)"
-                            ),
-                        ));
-                    }
-                }
-            }
-            _ => {}
         }
     }
     None
