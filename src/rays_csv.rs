@@ -5,8 +5,10 @@
 //! are decimal (`inf` allowed for `tmax`); the direction need not be
 //! normalized and `t` is in units of it, but it must have a normal
 //! (not subnormal) component: a direction such as `(0, 0, -1e-320)` would
-//! put every hit at a `t` beyond `f64`, and is an error naming its line. A
-//! UTF-8 byte-order mark before the header is skipped.
+//! put every hit at a `t` beyond `f64`, and is an error naming its line;
+//! so is a component beyond ±1e200 ([`MAX_COMPONENT`]), whose products with
+//! the scene's coordinates would overflow `f64`. A UTF-8 byte-order mark
+//! before the header is skipped.
 //!
 //! Hits: header `ray,prim,t`, one line per ray in input order; `prim` is the
 //! 0-based triangle id, a miss is `-1` with an empty `t`. `t` is written
@@ -19,6 +21,12 @@ use thiserror::Error;
 
 use crate::bih::{Hit, Ray};
 use crate::text_input::TextError;
+
+/// The largest magnitude an origin or direction component may have: the
+/// triangle test's products (a direction or an origin offset times two
+/// edges of `f32` coordinates, each up to 3.4e38 apart) stay below
+/// `f64::MAX` (1.8e308) up to here.
+pub const MAX_COMPONENT: f64 = 1e200;
 
 pub const RAYS_HEADER: &str = "ox,oy,oz,dx,dy,dz,tmin,tmax";
 pub const HITS_HEADER: &str = "ray,prim,t";
@@ -110,6 +118,13 @@ pub fn read_rays(path: &str, input: impl BufRead) -> Result<Vec<Ray>, RaysError>
         }
         if v[..6].iter().any(|x| !x.is_finite()) {
             return Err(bad("origin and direction must be finite".into()));
+        }
+        if let Some(x) = v[..6].iter().find(|x| x.abs() > MAX_COMPONENT) {
+            return Err(bad(format!(
+                "{x:e} is beyond ±1e200: the triangle test multiplies origin and direction \
+                 by the scene's coordinates (up to 3.4e38) twice, and f64 would overflow \
+                 (a hit at finite t is then missed); scale the ray"
+            )));
         }
         if v[3..6].iter().all(|&x| x == 0.0) {
             return Err(bad("the direction is zero".into()));

@@ -293,6 +293,32 @@ fn rays_at_the_edges_of_f64() {
     );
     let out = cellbih(&["raycast", "--rays", &rays, "--out", o]);
     assert_fails_with(&out, "short.rays.csv:3: the direction is too short");
+    // Components near f64::MAX would overflow the triangle test (a hit at
+    // finite t silently missed): refused by line. Up to 1e200 they hit.
+    let rays = rays_file(
+        "huge.rays.csv",
+        "ox,oy,oz,dx,dy,dz,tmin,tmax
+0,1,8,0,0,-1,0,inf
+0,1,1e308,0,0,-1e308,0,inf
+",
+    );
+    let out = cellbih(&["raycast", "--rays", &rays, "--out", o]);
+    assert_fails_with(&out, "huge.rays.csv:3: 1e308 is beyond ±1e200");
+    let rays = rays_file(
+        "large.rays.csv",
+        "ox,oy,oz,dx,dy,dz,tmin,tmax
+0,1,1e200,0,0,-1e200,0,inf
+",
+    );
+    for cell in [&[][..], &["--on-cell"][..]] {
+        let out = cellbih(&[&["raycast", "--rays", &rays, "--out", o][..], cell].concat());
+        assert_ok(&out);
+        let hits = std::fs::read_to_string(&out_path).unwrap();
+        assert!(
+            hits.lines().nth(1).is_some_and(|l| !l.contains(",-1")),
+            "{hits}"
+        );
+    }
     // With a byte-order mark before the header: read as without.
     let rays = rays_file("bom.rays.csv", &format!("\u{feff}{ONE_RAY}"));
     let out = cellbih(&["raycast", "--rays", &rays, "--out", o]);
