@@ -28,11 +28,11 @@ struct Args {
     /// of it are streamed (63 MiB of the default 64 with 6 SPEs); transfers
     /// under 1 KiB stream at most 65,536 commands' worth, since bandwidth is
     /// a steady-state rate.
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u64).range(1..=1024))]
+    #[arg(long, default_value_t = 64, value_parser = cellbih::report::between::<u64, _>(1..=1024))]
     mib: u64,
     /// Most SPEs to stream through (1 to 16; above 8 a what-if): the runs
     /// use 1, 2, 3, 4, 6, 8, 12 and 16 SPEs up to this many.
-    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..=16))]
+    #[arg(long, default_value_t = 8, value_parser = cellbih::report::between::<u64, _>(1..=16))]
     max_spes: u64,
 }
 

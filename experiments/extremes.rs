@@ -29,7 +29,7 @@ use cellbih::scene::{Scene, extremes};
 )]
 struct Args {
     /// Rays per case and builder, each checked against brute force.
-    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    #[arg(long, default_value_t = 1000, value_parser = cellbih::report::between::<u64, _>(1..=1_000_000))]
     rays: u64,
     #[command(flatten)]
     threads: ThreadsArg,

@@ -41,7 +41,7 @@ use cellbih::spe::footprint::{Footprint, Purpose};
 struct Args {
     /// Main memory of the emulated Cell, MiB (the PS3 model has 256); from
     /// 1 (every builder fits one rtPerf sphere) to 4,096.
-    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u64).range(1..=4096))]
+    #[arg(long, default_value_t = 256, value_parser = cellbih::report::between::<u64, _>(1..=4096))]
     memory_mib: u64,
     /// Host memory the verification builds may use, MiB (default:
     /// half the host's available memory, /proc/meminfo).

@@ -50,7 +50,7 @@ struct Args {
     #[arg(long, value_delimiter = ',', default_value = "320x240,640x480")]
     sizes: Vec<String>,
     /// Frames per run (1 to 1,000).
-    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    #[arg(long, default_value_t = 10, value_parser = cellbih::report::between::<u64, _>(1..=1000))]
     frames: u64,
     /// The builder of every rebuild (an emulated one).
     #[arg(long, default_value = "spe_bfs_private")]
@@ -59,7 +59,7 @@ struct Args {
     tree: TreeArgs,
     /// SPEs of the Cell (2 to 8: the paper's arrangement needs one to build
     /// and one to render).
-    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(2..=8))]
+    #[arg(long, default_value_t = 6, value_parser = cellbih::report::between::<u64, _>(2..=8))]
     spes: u64,
     /// Seed of the animations' pseudo-random moves.
     #[arg(long, default_value_t = 0)]

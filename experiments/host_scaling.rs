@@ -55,17 +55,17 @@ struct Args {
     scenes: Vec<String>,
     /// Thread counts, comma-separated (default: 1, 2, 4, … up to the
     /// machine's available parallelism, and it).
-    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u64).range(1..=1024))]
+    #[arg(long, value_delimiter = ',', value_parser = cellbih::report::between::<u64, _>(1..=1024))]
     threads: Vec<u64>,
     /// Timed builds per row and round (after a warm-up); the table gives
     /// medians over every round's.
-    #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    #[arg(long, default_value_t = 7, value_parser = cellbih::report::between::<u64, _>(1..=1000))]
     runs: u64,
     /// Rounds over the contenders of a scene, each contender warmed up
     /// and timed once a round: a slow stretch of a shared machine then
     /// falls on one round of each rather than on all of one contender's
     /// builds.
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
+    #[arg(long, default_value_t = 3, value_parser = cellbih::report::between::<u64, _>(1..=100))]
     rounds: u64,
     /// The tree every builder makes (the peer, obvhs, has its own): the
     /// paper's by default; the quality knobs as `cellbih build` takes them.

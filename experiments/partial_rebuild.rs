@@ -39,16 +39,16 @@ const MAX_TRIANGLES: u64 = 10_000_000;
 )]
 struct Args {
     /// Smallest scene, in triangles (1 to 10,000,000).
-    #[arg(long, default_value_t = 10_000, value_parser = clap::value_parser!(u64).range(1..=MAX_TRIANGLES))]
+    #[arg(long, default_value_t = 10_000, value_parser = cellbih::report::between::<u64, _>(1..=MAX_TRIANGLES))]
     from: u64,
     /// Largest scene, in triangles (at least --from, at most 10,000,000).
-    #[arg(long, default_value_t = 100_000, value_parser = clap::value_parser!(u64).range(1..=MAX_TRIANGLES))]
+    #[arg(long, default_value_t = 100_000, value_parser = cellbih::report::between::<u64, _>(1..=MAX_TRIANGLES))]
     to: u64,
     /// Triangles added from one size to the next (at least 1).
     #[arg(long, default_value_t = 10_000, value_parser = cellbih::report::at_least_one::<u64>)]
     step: u64,
     /// Frames (moves) per scene size, 1 to 100,000.
-    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=MAX_FRAMES as u64))]
+    #[arg(long, default_value_t = 100, value_parser = cellbih::report::between::<u64, _>(1..=MAX_FRAMES as u64))]
     frames: u64,
     /// Seed of the scenes and of the moves.
     #[arg(long, default_value_t = 1)]

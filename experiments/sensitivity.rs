@@ -37,7 +37,7 @@ struct Args {
     data: Option<PathBuf>,
     /// SPE counts of the headline speedups, comma-separated (1 to 16;
     /// above 8 a what-if).
-    #[arg(long, default_value = "6,8", value_delimiter = ',', value_parser = clap::value_parser!(u64).range(1..=16))]
+    #[arg(long, default_value = "6,8", value_delimiter = ',', value_parser = cellbih::report::between::<u64, _>(1..=16))]
     spes: Vec<u64>,
     /// The cost model the rates are moved on.
     #[arg(long, value_enum, default_value = "measured")]

@@ -45,7 +45,7 @@ struct Args {
     scenes: Vec<String>,
     /// Most SPEs (1 to 16; above 8 a what-if: more SPEs on the one memory
     /// interface): every count from 1 up to it is run.
-    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..=16))]
+    #[arg(long, default_value_t = 8, value_parser = cellbih::report::between::<u64, _>(1..=16))]
     max_spes: u64,
     /// The scene zoo instead of --scenes: scenes nobody tuned a default
     /// on (a model on a floor 10 and 1,000 times its size, the teapot in

@@ -52,7 +52,7 @@ struct Args {
     scenes: Vec<String>,
     /// SPEs of the emulated Cell for the multi-SPE builders (1 to 16; above
     /// 8 a what-if).
-    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=16))]
+    #[arg(long, default_value_t = 6, value_parser = cellbih::report::between::<u64, _>(1..=16))]
     spes: u64,
     #[command(flatten)]
     camera: ViewsArg,

@@ -83,15 +83,15 @@ enum Command {
         tree: TreeArgs,
         /// SPEs of the emulated Cell for the multi-SPE builders, 1 to 16
         /// (9 to 16: a what-if).
-        #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(1..=16))]
+        #[arg(long, default_value_t = 6, value_parser = cellbih::report::between::<u64, _>(1..=16))]
         spes: u64,
         /// Main memory of the emulated Cell, MiB (a PS3 has 256). A build
         /// that does not fit fails alone, named; the others are compared.
-        #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u64).range(1..=4096))]
+        #[arg(long, default_value_t = 256, value_parser = cellbih::report::between::<u64, _>(1..=4096))]
         memory_mib: u64,
         /// Host threads of the builders that build on the host's cores
         /// (host_shared, …) [default: the machine's available parallelism]
-        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
+        #[arg(long, value_parser = cellbih::report::between::<u64, _>(1..=1024))]
         threads: Option<u64>,
         #[command(flatten)]
         camera: CameraArg,
@@ -167,7 +167,7 @@ enum Command {
         anim: AnimationArg,
         /// Frames to play, 0 to 100,000.
         #[arg(long, default_value_t = 20,
-              value_parser = clap::value_parser!(u64).range(0..=MAX_FRAMES as u64))]
+              value_parser = cellbih::report::between::<u64, _>(0..=MAX_FRAMES as u64))]
         frames: u64,
         /// local (Algorithm 1) | deep (section 5) | rebuild (every frame).
         #[arg(long, default_value = "local")]
@@ -191,7 +191,7 @@ enum Command {
         anim: AnimationArg,
         /// Frames to play, 1 to 100,000.
         #[arg(long, default_value_t = 10,
-              value_parser = clap::value_parser!(u64).range(1..=MAX_FRAMES as u64))]
+              value_parser = cellbih::report::between::<u64, _>(1..=MAX_FRAMES as u64))]
         frames: u64,
         /// How the tree follows the moves: rebuild (every frame, with
         /// --builder), local (Algorithm 1), deep (section 5), or auto
@@ -208,7 +208,7 @@ enum Command {
         /// SPEs that update the tree; the others render meanwhile (the
         /// paper's arrangement: 1). Default: all of --spes, which build and
         /// then all render (section 5's).
-        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=16))]
+        #[arg(long, value_parser = cellbih::report::between::<u64, _>(1..=16))]
         build_spes: Option<u64>,
         /// Image width in pixels: one primary ray each.
         #[arg(long, default_value_t = 640)]
@@ -285,11 +285,16 @@ fn run(cli: Cli) -> Res<()> {
             camera,
             format,
         }) => {
-            let s = scene.load()?;
-            // A viewpoint of another scene is refused before any build.
-            camera.view.camera(&s.name, &s.bounds(), 1, 1)?;
             let mut cell = CellConfig::ps3().with_spes(spes as usize);
             cell.main_memory_bytes = memory_mib * 1024 * 1024;
+            // A scene whose triangle records alone overflow the emulated
+            // Cell fails every emulated builder: refused before any build.
+            let emulated = Build::new(BuilderKind::SPE_BFS).on(&cell);
+            scene.check_fits(&emulated, None)?;
+            let s = scene.load()?;
+            check_memory(&s.name, (s.len(), 0), None, &emulated, Default::default())?;
+            // A viewpoint of another scene is refused before any build.
+            camera.view.camera(&s.name, &s.bounds(), 1, 1)?;
             let threads = threads.map_or_else(
                 || std::thread::available_parallelism().map_or(1, |n| n.get()),
                 |n| n as usize,
@@ -305,7 +310,12 @@ fn run(cli: Cli) -> Res<()> {
             compare::print(&s, &shared, &c, format, &camera.view);
             match c.failed.len() {
                 0 => Ok(()),
-                n => Err(format!("{n} builder(s) failed: {}", names(&c.failed)).into()),
+                n => Err(format!(
+                    "{} failed: {}",
+                    cellbih::report::count(n as u64, "builder"),
+                    names(&c.failed)
+                )
+                .into()),
             }
         }
         Some(Command::Frame {
@@ -489,8 +499,9 @@ fn run(cli: Cli) -> Res<()> {
             write_file(&out, |w| rays_csv::write_hits(w, &hits))?;
             let n_hit = hits.iter().flatten().count();
             eprintln!(
-                "{} rays, {n_hit} hits ({}), written to {}",
-                hits.len(),
+                "{}, {} ({}), written to {}",
+                cellbih::report::count(hits.len() as u64, "ray"),
+                cellbih::report::count(n_hit as u64, "hit"),
                 c.describe(),
                 shown(&out)
             );

@@ -161,7 +161,7 @@ fn the_registry_and_spes_reach_every_command() {
     assert_ok(&out);
     assert!(String::from_utf8_lossy(&out.stdout).contains("builder spe_dfs on 2 SPEs"));
     let out = cellbih(&["build", "--spes", "0"]);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("0 is not in 1..=16"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("0 is not between 1 and 16"));
 }
 
 /// `--mode`: checked and timed give the same cycles and tree; functional

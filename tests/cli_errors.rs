@@ -155,9 +155,18 @@ fn experiments_check_their_arguments_and_output_before_the_work() {
     let out = tmp("exp-out");
     let o = out.to_str().unwrap();
     for (args, msg) in [
-        (&["--mib", "0", "--out", o][..], "0 is not in 1..=1024"),
-        (&["--max-spes", "0", "--out", o][..], "0 is not in 1..=16"),
-        (&["--max-spes", "17", "--out", o][..], "17 is not in 1..=16"),
+        (
+            &["--mib", "0", "--out", o][..],
+            "0 is not between 1 and 1024",
+        ),
+        (
+            &["--max-spes", "0", "--out", o][..],
+            "0 is not between 1 and 16",
+        ),
+        (
+            &["--max-spes", "17", "--out", o][..],
+            "17 is not between 1 and 16",
+        ),
         (&["--out", "/proc/x"][..], "/proc/x: cannot write"),
     ] {
         assert_fails_with(&run_limited(dma, args, limit), msg);
@@ -168,14 +177,17 @@ fn experiments_check_their_arguments_and_output_before_the_work() {
             &["--step", "0", "--out", o][..],
             "0 is less than 1: give a whole number of at least 1",
         ),
-        (&["--frames", "0", "--out", o][..], "0 is not in 1..=100000"),
+        (
+            &["--frames", "0", "--out", o][..],
+            "0 is not between 1 and 100000",
+        ),
         (
             &["--from", "5000", "--to", "4000", "--out", o][..],
             "--from 5000 is larger than --to 4000",
         ),
         (
             &["--to", "100000000", "--out", o][..],
-            "100000000 is not in 1..=10000000",
+            "100000000 is not between 1 and 10000000",
         ),
         (
             &["--format", "yaml", "--out", o][..],

@@ -334,3 +334,51 @@ fn a_relative_obj_path_is_read_without_a_wrong_note() {
         stderr(&out)
     );
 }
+
+/// Counts agree with their nouns ("1 ray, 1 hit", "1 SPE", "2 SPEs"), a
+/// range is said in words, and an experiment's error has the one prefix.
+#[test]
+fn words_agree_with_their_counts() {
+    let rays = tmp("words.rays.csv");
+    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
+    let out = cellbih(&[
+        "raycast",
+        "--rays",
+        rays.to_str().unwrap(),
+        "--out",
+        "/dev/null",
+    ]);
+    assert!(
+        stderr(&out).starts_with("1 ray, 1 hit ("),
+        "{}",
+        stderr(&out)
+    );
+    let out = cellbih(&["compare", "--spes", "1"]);
+    let text = common::stdout(&out)
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(text.contains("multi-SPE builders on 1 SPE)"), "{text}");
+    assert!(!text.contains("(s)"), "{text}");
+    let out = cellbih(&["build", "--spes", "0"]);
+    assert_fails_with(&out, "0 is not between 1 and 16");
+    let dir = tmp("words-dma");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_dma_bandwidth"))
+        .args([
+            "--mib",
+            "1",
+            "--max-spes",
+            "2",
+            "--out",
+            dir.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let table = common::stdout(&out);
+    assert!(table.contains("   1 SPE   2 SPEs"), "{table}");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_dma_bandwidth"))
+        .args(["--out", "/proc/self"])
+        .output()
+        .unwrap();
+    assert!(stderr(&out).starts_with("error: "), "{}", stderr(&out));
+}

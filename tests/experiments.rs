@@ -271,8 +271,8 @@ fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
         assert_eq!(counts, (1..=16).collect::<Vec<u64>>(), "{b}");
     }
     for (args, msg) in [
-        (&["--max-spes", "0"][..], "0 is not in 1..=16"),
-        (&["--max-spes", "17"][..], "17 is not in 1..=16"),
+        (&["--max-spes", "0"][..], "0 is not between 1 and 16"),
+        (&["--max-spes", "17"][..], "17 is not between 1 and 16"),
         (&["--out", "/proc/x"][..], "/proc/x: cannot write"),
     ] {
         let out = std::process::Command::new(exe).args(args).output().unwrap();

@@ -25,11 +25,11 @@ pub struct BuildArgs {
     /// whole Cell; 9 to 16 is a what-if: more SPEs on the same memory
     /// interface, docs/many-spes.md). Builders that use fewer leave the
     /// others idle [default: 6]
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=16))]
+    #[arg(long, value_parser = cellbih::report::between::<u64, _>(1..=16))]
     pub spes: Option<u64>,
     /// Main memory of the emulated Cell, MiB (a PS3 has 256). A build
     /// that does not fit fails, naming the buffer [default: 256]
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=4096))]
+    #[arg(long, value_parser = cellbih::report::between::<u64, _>(1..=4096))]
     pub memory_mib: Option<u64>,
     /// How the Cell is emulated: checked (timed, every DMA rule and race
     /// checked: the reference), timed (the same cycles, no race checks),
@@ -51,7 +51,7 @@ pub struct BuildArgs {
     /// Threads of a builder that builds on the host's cores (host_shared,
     /// …), at least 1 [default: the machine's available parallelism]. The
     /// others build on one thread (the emulator runs one) and refuse it
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
+    #[arg(long, value_parser = cellbih::report::between::<u64, _>(1..=1024))]
     pub threads: Option<u64>,
     /// The strategies' knobs, as the registry's tables declare them.
     #[command(flatten)]

@@ -25,20 +25,20 @@ pub struct CastArgs {
 pub struct CacheArgs {
     /// Casting on the Cell: the software cache's size in each local store,
     /// KiB (1 to 128) [default: 32]
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=128))]
+    #[arg(long, value_parser = cellbih::report::between::<u32, _>(1..=128))]
     pub cache_kib: Option<u32>,
     /// Casting on the Cell: the software cache's lines per set (1 to 16)
     /// [default: 4]
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    #[arg(long, value_parser = cellbih::report::between::<u32, _>(1..=16))]
     pub cache_ways: Option<u32>,
     /// Casting on the Cell: consecutive 128-byte lines one cache miss
     /// fetches in one get (1 to 128; Bullet's SPU code fetched 2 KiB, 16
     /// lines) [default: 1]
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=128))]
+    #[arg(long, value_parser = cellbih::report::between::<u32, _>(1..=128))]
     pub fetch_lines: Option<u32>,
     /// Casting on the Cell: rays an SPE takes at a time from the shared
     /// tile counter (1 to 256) [default: 64]
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=256))]
+    #[arg(long, value_parser = cellbih::report::between::<u32, _>(1..=256))]
     pub tile_rays: Option<u32>,
     /// Casting on the Cell: the arithmetic the SPEs are charged for:
     /// single (single-precision SIMD, as Cell ray tracers ran) or double
@@ -51,7 +51,7 @@ pub struct CacheArgs {
     /// more than one, a ray whose cache line is on its way yields to
     /// another (Benthin et al. 2006's "software hyperthreading"); with
     /// one, the SPE waits for each miss [default: 1]
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    #[arg(long, value_parser = cellbih::report::between::<u32, _>(1..=16))]
     pub rays_in_flight: Option<u32>,
     /// Casting on the Cell: rays traced together as one packet, W×H of
     /// the image (each 1 to 8; e.g. 4x4): one traversal, each node and
@@ -164,7 +164,8 @@ pub fn describe(r: &CastReport, spes: usize) -> String {
     let packed = if packets > 0 {
         let nodes: u64 = r.spes.iter().map(|s| s.packet_nodes).sum();
         format!(
-            "; {packets} packets, {:.1} nodes each",
+            "; {}, {:.1} nodes each",
+            cellbih::report::count(packets, "packet"),
             nodes as f64 / packets as f64
         )
     } else {

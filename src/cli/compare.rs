@@ -336,8 +336,7 @@ pub fn print(s: &Scene, shared: &Build, c: &Compared, format: Format, view: &Vie
         format!(" with {}", cfg.flags())
     };
     let note = format!(
-        "trees{with} valid. Cell ms: simulated time on the PS3 model (multi-SPE builders on up to \
-         {}: a small scene runs on fewer, --tris-per-spe); \
+        "trees{with} valid. Cell ms: simulated time on the PS3 model (multi-SPE builders on {}{}); \
          speedup: over spe_bfs (one SPE, the paper's baseline); host figures: this machine, one \
          thread ({} build on --threads, by default every core); tree KiB: nodes and triangle \
          ids; Cell MiB: main memory the emulated build used \
@@ -346,7 +345,14 @@ pub fn print(s: &Scene, shared: &Build, c: &Compared, format: Format, view: &Vie
          in random directions); Cell render: simulated ms to cast the camera's {}×{} primary rays \
          through the tree on the SPEs.",
         // Kept on one line: "6 SPEs" is one phrase.
-        super::spes(spes).replace(' ', "\u{1}"),
+        match spes {
+            1 => "1\u{1}SPE".to_string(),
+            n => format!("up\u{1}to\u{1}{n}\u{1}SPEs"),
+        },
+        match spes {
+            1 => "",
+            _ => ": a small scene runs on fewer, --tris-per-spe",
+        },
         {
             let names: Vec<&str> = (BuilderKind::ALL.iter())
                 .filter(|b| b.host_threads())
@@ -385,7 +391,12 @@ pub fn demo() -> super::Res<()> {
     let c = rows(&s, &shared, &View::Default)?;
     print(&s, &shared, &c, Format::Text, &View::Default);
     if !c.failed.is_empty() {
-        return Err(format!("builder(s) failed: {}", super::names(&c.failed)).into());
+        return Err(format!(
+            "{} failed: {}",
+            cellbih::report::count(c.failed.len() as u64, "builder"),
+            super::names(&c.failed)
+        )
+        .into());
     }
     let r = c.last.expect("every builder built");
     let cam = View::Default.camera(&s.name, &s.bounds(), 640, 480)?;

@@ -80,13 +80,12 @@ pub fn check_memory(
     order: cellbih::cast::RecordOrder,
 ) -> Res<()> {
     let have = c.cell.main_memory_bytes;
-    let mib = |b: u64| b as f64 / (1 << 20) as f64;
     let records = triangles as u64 * size_of::<TriRecord>() as u64;
     if c.builder.emulated() && records > have {
         return Err(format!(
-            "{scene}: its {triangles} triangle records alone take {:.0} MiB, more than the \
+            "{scene}: its {triangles} triangle records alone take {} MiB, more than the \
              emulated Cell's {} MiB (--memory-mib): nothing built",
-            mib(records),
+            records.div_ceil(1 << 20),
             have >> 20
         )
         .into());
@@ -98,11 +97,12 @@ pub fn check_memory(
                 0 => ("at least ", "above", "nothing built or cast"),
                 _ => ("", "from", "the tree was built, nothing cast"),
             };
+            // Rounded up: "needs 257 MiB, has 257" must not happen.
             return Err(format!(
-                "{scene}: the cast on the Cell ({rays} rays) needs {least}{:.0} MiB of its main \
+                "{scene}: the cast on the Cell ({rays} rays) needs {least}{} MiB of its main \
                  memory for the tree, {triangles} triangles as the build left them, the rays \
                  and their hits; the emulated Cell has {} MiB (--memory-mib: {fits} {} up): {done}",
-                mib(need),
+                need.div_ceil(1 << 20),
                 have >> 20,
                 need.div_ceil(1 << 20),
             )

@@ -91,6 +91,29 @@ pub fn file_part(spec: &str) -> String {
         .collect()
 }
 
+/// A command-line value parser for a whole number in `range`, whose
+/// error says so in words ("0 is not between 1 and 16"; clap's own range
+/// check says `0 is not in 1..=16`).
+pub fn between<T, N>(
+    range: std::ops::RangeInclusive<N>,
+) -> impl Fn(&str) -> Result<T, String> + Clone + Send + Sync + 'static
+where
+    T: TryFrom<i128>,
+    N: Into<i128> + Copy,
+{
+    let (lo, hi): (i128, i128) = ((*range.start()).into(), (*range.end()).into());
+    move |text: &str| {
+        let v: i128 = text
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{text}' is not a whole number"))?;
+        if !(lo..=hi).contains(&v) {
+            return Err(format!("{v} is not between {lo} and {hi}"));
+        }
+        T::try_from(v).map_err(|_| format!("{v} is not between {lo} and {hi}"))
+    }
+}
+
 /// `text` wrapped at spaces into lines of at most `width` characters (a
 /// word longer than that stands alone on its line).
 pub fn wrap(text: &str, width: usize) -> String {

@@ -25,7 +25,7 @@ pub struct ThreadsArg {
     /// Host threads that run the independent emulations side by side
     /// (default: the machine's available parallelism). Simulated figures
     /// do not depend on it; host times measured side by side do.
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1024))]
+    #[arg(long, value_parser = crate::report::between::<u64, _>(1..=1024))]
     pub threads: Option<u64>,
 }
 

@@ -23,7 +23,7 @@ pub struct TreeArgs {
     #[arg(long, value_enum, default_value = "gh")]
     pub split: SplitArg,
     /// --split sah: bins per axis (2 to 256) [default: 16].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(2..=MAX_BINS as i64))]
+    #[arg(long, value_parser = crate::report::between::<u32, _>(2..=MAX_BINS))]
     pub sah_bins: Option<u32>,
     /// --split sah: nodes of at most this many triangles take the global
     /// heuristic's halving instead of binning (0: every node bins). A
@@ -39,7 +39,7 @@ pub struct TreeArgs {
     pub empty_cut: Option<u32>,
     /// Deepest leaf (root = 0), at most 126 (the traversal stack's depth).
     #[arg(long, default_value_t = BihConfig::default().max_depth,
-          value_parser = clap::value_parser!(u32).range(0..=BihConfig::MAX_SUPPORTED_DEPTH as i64))]
+          value_parser = crate::report::between::<u32, _>(0..=BihConfig::MAX_SUPPORTED_DEPTH))]
     pub max_depth: u32,
 }
 
@@ -74,7 +74,7 @@ impl TreeArgs {
 fn percent(v: &str) -> Result<u32, String> {
     match v.parse::<u32>() {
         Ok(p) if (1..=99).contains(&p) => Ok(p),
-        Ok(p) => Err(format!("{p} is not in 1..=99")),
+        Ok(p) => Err(format!("{p} is not between 1 and 99")),
         Err(_) if v.parse::<f64>().is_ok() => Err(format!(
             "a whole percentage is wanted (1 to 99), not {v}: round it"
         )),
