@@ -231,10 +231,16 @@ fn verify(
 }
 
 /// One line of progress on stderr, when it is a terminal.
+/// What the run is doing, on stderr: over itself on a terminal; a line
+/// of its own, with the time so far, anywhere else (a log, CI).
 fn progress(what: &str) {
     use std::io::IsTerminal;
+    static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+    let start = START.get_or_init(std::time::Instant::now);
     if std::io::stderr().is_terminal() {
         eprint!("{:60}\r{what}", "");
+    } else if !what.is_empty() {
+        eprintln!("footprint: {what} ({:.0} s)", start.elapsed().as_secs_f64());
     }
 }
 

@@ -382,3 +382,28 @@ fn words_agree_with_their_counts() {
         .unwrap();
     assert!(stderr(&out).starts_with("error: "), "{}", stderr(&out));
 }
+
+/// A run of more than a moment shows its progress on a stderr that is not
+/// a terminal (a log, CI): lines counting the builds done, and a last one.
+#[test]
+fn a_long_run_shows_progress_off_a_terminal() {
+    let dir = tmp("progress");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_spe_scaling"))
+        .args([
+            "--scenes",
+            "rtperf:400000",
+            "--max-spes",
+            "8",
+            "--defaults-only",
+        ])
+        .args(["--threads", "1", "--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    common::assert_ok(&out);
+    let err = stderr(&out);
+    assert!(err.contains("builds: 24/24 done ("), "{err}");
+    assert!(
+        err.lines().filter(|l| l.starts_with("builds: ")).count() >= 2,
+        "{err}"
+    );
+}

@@ -2,9 +2,6 @@
 //! objects move, the tree follows by the policy, the primary rays are cast
 //! on the SPEs; every time is simulated PS3 time.
 
-use std::io::IsTerminal;
-
-use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use cellbih::frame::{FrameConfig, FrameRun, Policy, play};
@@ -61,17 +58,9 @@ pub fn run(
     format: Format,
     settings: &cellbih::report::Settings,
 ) -> Res<()> {
-    let bar = if std::io::stderr().is_terminal() {
-        let b = ProgressBar::new(anim.frames.len() as u64);
-        b.set_style(ProgressStyle::with_template(
-            "frames {bar:30} {pos}/{len} {elapsed}",
-        )?);
-        b
-    } else {
-        ProgressBar::hidden()
-    };
-    let run = play(s, anim, cfg, |_| bar.inc(1))?;
-    bar.finish_and_clear();
+    let progress = cellbih::report::Progress::new("frames", anim.frames.len() as u64);
+    let run = play(s, anim, cfg, |_| progress.inc())?;
+    progress.finish();
     print(s, anim, cfg, &run, format, settings);
     Ok(())
 }

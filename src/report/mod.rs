@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::prelude::*;
 
-pub use parallel::{JOB_STACK_BYTES, ThreadsArg, side_by_side};
+pub use parallel::{JOB_STACK_BYTES, Progress, ThreadsArg, side_by_side};
 pub use settings::{CellSettings, Settings};
 pub use step::step;
 pub use tree_args::TreeArgs;

@@ -8,6 +8,9 @@
 //! host times measured side by side share the host's cores and say so.
 
 use std::io::IsTerminal;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -47,16 +50,48 @@ impl ThreadsArg {
 }
 
 /// Runs `f` on every one of `jobs` side by side on the current pool's
-/// threads; the results in the jobs' order. A bar on stderr, when it is a
-/// terminal, counts the jobs done (`what` names them).
+/// threads; the results in the jobs' order, with [`Progress`] counting the
+/// jobs done on stderr (`what` names them).
 pub fn side_by_side<J: Sync, R: Send>(
     what: &str,
     jobs: &[J],
     f: impl Fn(&J) -> R + Sync,
 ) -> Vec<R> {
-    let bar = match std::io::stderr().is_terminal() {
-        true => {
-            let bar = ProgressBar::new(jobs.len() as u64);
+    let progress = Progress::new(what, jobs.len() as u64);
+    let out = (jobs.par_iter())
+        .map(|j| {
+            let r = f(j);
+            progress.inc();
+            r
+        })
+        .collect();
+    progress.finish();
+    out
+}
+
+/// How often a long run's progress line is repeated on a stderr that is
+/// not a terminal (a log file, CI): often enough to see it move, rarely
+/// enough to read.
+pub const PROGRESS_EVERY: Duration = Duration::from_secs(10);
+
+/// Work counted as it is done, on stderr: a bar on a terminal; elsewhere,
+/// once the work has run for [`super::step::QUIET_FOR`], a line such as
+/// `spe_scaling runs: 12/80 done (45 s)` every [`PROGRESS_EVERY`], and a
+/// last one when all is done. Quick work prints nothing.
+pub struct Progress {
+    bar: Option<ProgressBar>,
+    what: String,
+    total: u64,
+    done: AtomicU64,
+    start: Instant,
+    /// When the last line was printed (not a terminal), if one was.
+    last: Mutex<Option<Instant>>,
+}
+
+impl Progress {
+    pub fn new(what: &str, total: u64) -> Self {
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let bar = ProgressBar::new(total);
             if let Ok(style) =
                 ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} ({elapsed})")
             {
@@ -64,16 +99,54 @@ pub fn side_by_side<J: Sync, R: Send>(
             }
             bar.set_message(what.to_string());
             bar
+        });
+        Progress {
+            bar,
+            what: what.to_string(),
+            total,
+            done: AtomicU64::new(0),
+            start: Instant::now(),
+            last: Mutex::new(None),
         }
-        false => ProgressBar::hidden(),
-    };
-    let out = (jobs.par_iter())
-        .map(|j| {
-            let r = f(j);
+    }
+
+    /// One more piece of the work is done.
+    pub fn inc(&self) {
+        let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+        if let Some(bar) = &self.bar {
             bar.inc(1);
-            r
-        })
-        .collect();
-    bar.finish_and_clear();
-    out
+            return;
+        }
+        let now = Instant::now();
+        if now - self.start < super::step::QUIET_FOR {
+            return;
+        }
+        let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
+        if last.is_none_or(|t| now - t >= PROGRESS_EVERY) {
+            *last = Some(now);
+            self.line(done);
+        }
+    }
+
+    fn line(&self, done: u64) {
+        eprintln!(
+            "{}: {done}/{} done ({:.0} s)",
+            self.what,
+            self.total,
+            self.start.elapsed().as_secs_f64()
+        );
+    }
+
+    /// All done: the bar is cleared; where lines were printed, a last one.
+    pub fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+            return;
+        }
+        let last = self.last.lock().unwrap_or_else(|e| e.into_inner());
+        let done = self.done.load(Ordering::Relaxed);
+        if last.is_some() && done > 0 {
+            self.line(done);
+        }
+    }
 }
