@@ -46,7 +46,7 @@ use update::{AnimationArg, update};
 #[derive(Parser)]
 #[command(
     name = "cellbih",
-    version,
+    version = cellbih::report::settings::version_static(),
     about = "Bounding Interval Hierarchies on an emulated Cell Broadband Engine",
     after_help = "With no command, runs the demo: every builder on the embedded default \
                   scene, a table of their times and trees, and the image cellbih-demo.png \

@@ -407,3 +407,29 @@ fn a_long_run_shows_progress_off_a_terminal() {
         "{err}"
     );
 }
+
+/// `--version` names the commit and says `-dirty` exactly when the files
+/// the build reads differ from it (as `git status` sees them).
+#[test]
+fn the_version_says_when_the_sources_were_modified() {
+    let version = common::stdout(&cellbih(&["--version"]));
+    let root = env!("CARGO_MANIFEST_DIR");
+    let status = std::process::Command::new("git")
+        .args(["status", "--porcelain", "--untracked-files=no", "--"])
+        .args(["src", "experiments", "scenes", "scripts/meshes.tsv"])
+        .args(["Cargo.toml", "Cargo.lock", "build.rs"])
+        .current_dir(root)
+        .output();
+    match status {
+        Ok(s) if s.status.success() => {
+            let dirty = !s.stdout.is_empty();
+            assert!(
+                version.contains(" ("),
+                "a checkout's build names its commit: {version}"
+            );
+            assert_eq!(version.contains("-dirty)"), dirty, "{version}");
+        }
+        // Not a checkout (a source archive): the version alone.
+        _ => assert!(!version.contains('('), "{version}"),
+    }
+}

@@ -80,8 +80,14 @@ impl CellSettings {
     }
 }
 
+/// [`version`] for the lifetime of the program (what `--version` prints).
+pub fn version_static() -> &'static str {
+    static V: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    V.get_or_init(version)
+}
+
 /// cellbih's version, and the commit it was built from when it was built
-/// from a checkout.
+/// from a checkout, `-dirty` when the sources differed from it.
 pub fn version() -> String {
     match option_env!("CELLBIH_COMMIT") {
         Some(c) if !c.is_empty() => format!("{} ({c})", env!("CARGO_PKG_VERSION")),
