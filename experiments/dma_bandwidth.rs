@@ -19,6 +19,7 @@ use cellbih::report::{OutputArgs, Series, count, line_plot, output};
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "DMA bandwidth of 1 to 8 SPEs streaming gets of 128 B to 16 KiB, single- and double-buffered (default run: about 14 s)"
 )]
 struct Args {

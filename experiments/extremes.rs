@@ -25,6 +25,7 @@ use cellbih::scene::{Scene, extremes};
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "Every builder at the numerical extremes (1e-15 to 1e15, flat, degenerate, stacks, far clusters), each tree checked against brute force (default run: about 5 s)"
 )]
 struct Args {
@@ -121,7 +122,7 @@ fn stalls(scene: &Scene, cfg: &BihConfig) -> u64 {
 /// the stalls of the paper's tree and of the knobs' tree.
 fn print_table(rows: &[Value]) {
     println!(
-        "{:<26} {:>6} {:>6} {:>9} {:>10} {:>9} {:>9} {:>13}",
+        "{:<25} {:>5} {:>5} {:>5} {:>8} {:>5} {:>8} {:>10}",
         "case", "tris", "degen", "valid", "disagree", "depth", "leaf max", "f32 stalls"
     );
     for &name in extremes::CASES {
@@ -149,7 +150,7 @@ fn print_table(rows: &[Value]) {
                 .map_or(0, |r| n(r, "f32_stalls"))
         };
         println!(
-            "{:<26} {:>6} {:>6} {:>9} {:>10} {:>9} {:>9} {:>13}",
+            "{:<25} {:>5} {:>5} {:>5} {:>8} {:>5} {:>8} {:>10}",
             name,
             n(of[0], "triangles"),
             n(of[0], "degenerate"),
@@ -163,12 +164,15 @@ fn print_table(rows: &[Value]) {
             .iter()
             .filter(|r| r["valid"] == false || n(r, "disagree") > 0)
         {
-            println!(
-                "    {} {}: {}",
+            let line = format!(
+                "{} {}: {}",
                 r["builder"].as_str().unwrap_or(""),
                 r["setting"].as_str().unwrap_or(""),
                 r["violation"]
             );
+            for l in cellbih::report::wrap(&line, 76).lines() {
+                println!("    {l}");
+            }
         }
     }
     let knobs: Vec<&str> = (BuilderKind::every_run(BihConfig::SAH_CUT).iter())

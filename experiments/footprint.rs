@@ -30,6 +30,7 @@ use cellbih::spe::footprint::{Footprint, Purpose};
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "Each emulated builder's main memory by purpose, and the largest rtperf:N it \
              builds in the emulated memory, predicted and verified (default run: about 30 s)",
     after_help = "What to expect: the default run (256 MiB) takes about 30 s and at most \
@@ -245,25 +246,18 @@ fn progress(what: &str) {
 }
 
 fn print_table(rows: &[Value], mib: u64) {
+    // Two tables of 80 columns: bytes a triangle by purpose, then the
+    // largest scene that fits.
     println!(
-        "{:<16} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>11} {:>11} {:>11}  buffer named",
-        "builder",
-        "B/tri",
-        "records",
-        "WorkPPE",
-        "queues",
-        "nodes",
-        "unused",
-        "keys",
-        "predicted",
-        "builds",
-        "OOM at",
+        "{:<16} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}",
+        "builder", "B/tri", "records", "WorkPPE", "queues", "nodes", "unused", "keys",
     );
     let f = |r: &Value, k: &str| r[k].as_f64().unwrap_or(0.0);
+    let name = |r: &Value| r["builder"].as_str().unwrap_or("").to_string();
     for r in rows {
         println!(
-            "{:<16} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>11} {:>11} {:>11}  {}",
-            r["builder"].as_str().unwrap_or(""),
+            "{:<16} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>7.1} {:>7.1}",
+            name(r),
             f(r, "bytes_per_triangle"),
             f(r, "per_triangle_records"),
             f(r, "per_triangle_work_ppe"),
@@ -271,27 +265,43 @@ fn print_table(rows: &[Value], mib: u64) {
             f(r, "per_triangle_nodes"),
             f(r, "unused_node_bytes_per_triangle"),
             f(r, "per_triangle_keys"),
+        );
+    }
+    println!(
+        "\n{:<16} {:>10} {:>10} {:>10}  buffer named",
+        "builder", "predicted", "builds", "OOM at",
+    );
+    for r in rows {
+        let columns = format!(
+            "{:<16} {:>10} {:>10} {:>10}  ",
+            name(r),
             r["predicted_n"].as_u64().unwrap_or(0),
             r["fits_n"].as_u64().map_or("—".into(), |n| n.to_string()),
             r["fails_n"].as_u64().map_or("—".into(), |n| n.to_string()),
-            match (r["fits_n"].is_null(), r["oom_buffer"].as_str()) {
-                (true, _) => "(not verified)",
-                (false, Some(b)) => b,
-                (false, None) => "(none up to 1.1x the prediction)",
-            },
+        );
+        let buffer = match (r["fits_n"].is_null(), r["oom_buffer"].as_str()) {
+            (true, _) => "(not verified)",
+            (false, Some(b)) => b,
+            (false, None) => "(none up to 1.1x the prediction)",
+        };
+        // The buffer's words wrapped in its own column.
+        let width = columns.chars().count();
+        let text = cellbih::report::wrap(buffer, 80 - width);
+        println!(
+            "{columns}{}",
+            text.replace('\n', &format!("\n{:width$}", ""))
         );
     }
     for r in rows {
         if let Some(why) = r["not_verified"].as_str() {
-            println!(
-                "{}: not verified: {why}",
-                r["builder"].as_str().unwrap_or("")
-            );
+            let line = format!("{}: not verified: {why}", name(r));
+            println!("{}", cellbih::report::wrap(&line, 80));
         }
     }
-    println!(
+    let note = format!(
         "bytes of main memory per triangle of rtperf by purpose (fitted on rtperf:{SMALL} and rtperf:{LARGE}; \
          unused: node slots never written, within nodes); the largest rtperf:N in {mib} MiB: predicted, \
          the largest size that built, the smallest that ran out of memory and the buffer it named (6 SPEs, functional mode)"
     );
+    println!("{}", cellbih::report::wrap(&note, 80));
 }

@@ -35,6 +35,7 @@ use cellbih::update::{Animation, Method};
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "The whole frame on the Cell: each policy and arrangement on animated scenes, section 5's metric against the oracle (default run: about 6 min)"
 )]
 struct Args {
@@ -298,20 +299,39 @@ fn run(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
+/// The rows in two tables of 80 columns (times, then the policy's
+/// choices), and the note wrapped.
 fn table(rows: &[Value], note: &str) {
+    let lead = |r: &Value| {
+        format!(
+            "{:<13} {:>9} {:<9} {:<7}",
+            cut(r["scene"].as_str().unwrap_or(""), 13),
+            format!("{}x{}", r["width"], r["height"]),
+            r["arrangement"].as_str().unwrap_or(""),
+            r["policy"].as_str().unwrap_or(""),
+        )
+    };
+    let head = format!(
+        "{:<13} {:>9} {:<9} {:<7}",
+        "scene", "size", "arrange", "policy"
+    );
     println!(
-        "{:<16} {:>9} {:<10} {:<8} {:>10} {:>7} {:>10} {:>10} {:>9} {:>8} {:>10}",
-        "scene",
-        "size",
-        "arrange",
-        "policy",
-        "total ms",
-        "fps",
-        "update ms",
-        "render ms",
-        "rebuilds",
-        "near",
-        "pred err"
+        "{head} {:>9} {:>7} {:>9} {:>9}",
+        "total ms", "fps", "update ms", "render ms"
+    );
+    for r in rows {
+        println!(
+            "{} {:>9.2} {:>7.1} {:>9.2} {:>9.2}",
+            lead(r),
+            r["total_ms"].as_f64().unwrap_or(0.0),
+            r["fps"].as_f64().unwrap_or(0.0),
+            r["mean_update_ms"].as_f64().unwrap_or(0.0),
+            r["mean_render_ms"].as_f64().unwrap_or(0.0),
+        );
+    }
+    println!(
+        "\n{head} {:>8} {:>9} {:>9}",
+        "rebuilds", "near best", "pred err"
     );
     for r in rows {
         let pct = |k: &str| {
@@ -319,21 +339,23 @@ fn table(rows: &[Value], note: &str) {
                 .map_or("-".into(), |v| format!("{:.0} %", v * 100.0))
         };
         println!(
-            "{:<16} {:>9} {:<10} {:<8} {:>10.2} {:>7.1} {:>10.2} {:>10.2} {:>9} {:>8} {:>10}",
-            r["scene"].as_str().unwrap_or(""),
-            format!("{}x{}", r["width"], r["height"]),
-            r["arrangement"].as_str().unwrap_or(""),
-            r["policy"].as_str().unwrap_or(""),
-            r["total_ms"].as_f64().unwrap_or(0.0),
-            r["fps"].as_f64().unwrap_or(0.0),
-            r["mean_update_ms"].as_f64().unwrap_or(0.0),
-            r["mean_render_ms"].as_f64().unwrap_or(0.0),
+            "{} {:>8} {:>9} {:>9}",
+            lead(r),
             r["complete_rebuilds"].as_u64().unwrap_or(0),
             pct("near_best"),
             pct("prediction_error"),
         );
     }
-    println!("{note}");
+    println!("{}", cellbih::report::wrap(note, 80));
+}
+
+/// `text` cut to `n` characters, an ellipsis in the last place when cut
+/// (a scene given as a long path still fits its column).
+fn cut(text: &str, n: usize) -> String {
+    match text.chars().count() > n {
+        true => text.chars().take(n - 1).chain(['…']).collect(),
+        false => text.to_string(),
+    }
 }
 
 /// The metric's goals per case (scene, size, arrangement): `auto`'s total
@@ -341,8 +363,8 @@ fn table(rows: &[Value], note: &str) {
 /// within 10 % of the oracle's best, its mean prediction error at most 5 %.
 fn goals(rows: &[Value]) {
     println!(
-        "\n{:<16} {:>9} {:<10} {:<8} {:>11} {:>10} {:>7} {:>7} {:>9}",
-        "scene", "size", "arrange", "best", "best ms", "auto ms", "x best", "near", "pred err"
+        "\n{:<13} {:>9} {:<9} {:<7} {:>8} {:>8} {:>6} {:>5} {:>6}",
+        "scene", "size", "arrange", "best", "best ms", "auto ms", "x best", "near", "pred"
     );
     let case = |r: &Value| {
         (
@@ -373,8 +395,8 @@ fn goals(rows: &[Value]) {
         cases += 1;
         met += (ratio <= 1.05 && near >= 0.9 && err <= 0.05) as usize;
         println!(
-            "{:<16} {:>9} {:<10} {:<8} {:>11.2} {:>10.2} {:>7.3} {:>6.0} % {:>7.1} %",
-            auto["scene"].as_str().unwrap_or(""),
+            "{:<13} {:>9} {:<9} {:<7} {:>8.2} {:>8.2} {:>6.3} {:>3.0} % {:>4.1} %",
+            cut(auto["scene"].as_str().unwrap_or(""), 13),
             format!("{}x{}", auto["width"], auto["height"]),
             auto["arrangement"].as_str().unwrap_or(""),
             best["policy"].as_str().unwrap_or(""),
@@ -385,8 +407,9 @@ fn goals(rows: &[Value]) {
             err * 100.0,
         );
     }
-    println!(
+    let line = format!(
         "goals (auto within 5 % of the best fixed policy, 90 % of its frames within 10 % \
          of the oracle's best, mean prediction error 5 % at most): met in {met} of {cases} cases"
     );
+    println!("{}", cellbih::report::wrap(&line, 80));
 }

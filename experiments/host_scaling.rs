@@ -40,6 +40,7 @@ use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "Section 5's strategies on the host's own cores, 1 to N threads, the machine's ceiling and obvhs beside them (default run: about 7 min)"
 )]
 struct Args {

@@ -35,6 +35,7 @@ const MAX_TRIANGLES: u64 = 10_000_000;
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "Fig. 3: the local and the deep update against complete rebuilds over scene sizes (default run: about 14 s)"
 )]
 struct Args {

@@ -26,6 +26,7 @@ use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "How the headline speedups move when every unpinned rate crosses its documented band (default run: about 2 min)"
 )]
 struct Args {

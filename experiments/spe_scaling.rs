@@ -30,16 +30,20 @@ use cellbih::strategy::Knobs;
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "Section 5's strategies on 1 to 8 SPEs beside the single-SPE baseline: simulated time, speedup, where the time goes (default run: about 11 min)"
 )]
 struct Args {
     /// Directory of the real meshes (default: $CELLBIH_DATA).
     #[arg(long)]
     data: Option<PathBuf>,
-    /// Scenes, comma-separated.
+    /// Scenes, comma-separated [default: default, bunny, dragon,
+    /// sponza-dabrovic, sibenik, rtperf:1000000, teapot, iss-nasa, homer,
+    /// rocker-arm, beast, nefertiti, ogre]
     #[arg(
         long,
         value_delimiter = ',',
+        hide_default_value = true,
         default_value = "default,bunny,dragon,sponza-dabrovic,sibenik,rtperf:1000000,teapot,iss-nasa,homer,rocker-arm,beast,nefertiti,ogre"
     )]
     scenes: Vec<String>,

@@ -24,6 +24,7 @@ use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "Table 1: the paper's four builders (and section 5's) on the paper's models, simulated PS3 ms (default run: a few seconds)"
 )]
 struct Args {
@@ -208,49 +209,59 @@ fn run(args: &Args) -> Result<(), String> {
 const MIB: f64 = 1024.0 * 1024.0;
 
 fn print_table(rows: &[serde_json::Value]) {
-    println!(
-        "{:<24} {:<24} {:>12} {:>10} {:>11} {:>8} {:>8} {:>9} {:>8}",
-        "model",
-        "method",
-        "ours (ms)",
-        "paper (ms)",
-        "ours/paper",
-        "speedup",
-        "paper",
-        "host (ms)",
-        "MiB"
-    );
+    // Two tables of 80 columns: the times beside the paper's, then the
+    // ratio, the host's time and the memory. Each row is led by its model
+    // (on its first row) and method.
     let mut last = "";
-    for r in rows {
-        let model = r["model"].as_str().unwrap_or("");
-        let label = if model != last {
-            last = model;
-            let star = if r["stand_in"].is_null() { "" } else { "*" };
-            format!("{model}{star} ({})", r["triangles"])
-        } else {
-            String::new()
-        };
-        // No paper figure: out of memory for the paper's methods; the
-        // multi-SPE strategies are not in the paper.
+    let leads: Vec<String> = (rows.iter())
+        .map(|r| {
+            let model = r["model"].as_str().unwrap_or("");
+            let label = if model != last {
+                last = model;
+                let star = if r["stand_in"].is_null() { "" } else { "*" };
+                format!("{model}{star} ({})", r["triangles"])
+            } else {
+                String::new()
+            };
+            format!("{label:<21} {:<15}", r["method"].as_str().unwrap_or(""))
+        })
+        .collect();
+    // No paper figure: out of memory for the paper's methods; the
+    // multi-SPE strategies are not in the paper.
+    let opt = |r: &serde_json::Value, k: &str, w: usize, p: usize| {
         let paper_method = METHODS.iter().any(|m| r["method"] == m.name());
-        let opt = |k: &str, w: usize, p: usize| match r[k].as_f64() {
+        match r[k].as_f64() {
             Some(v) => format!("{v:>w$.p$}"),
             None if paper_method => format!("{:>w$}", "OOM"),
             None => format!("{:>w$}", "—"),
-        };
+        }
+    };
+    println!(
+        "{:<21} {:<15} {:>10} {:>10} {:>7} {:>7}",
+        "model", "method", "ours (ms)", "paper (ms)", "speedup", "paper"
+    );
+    for (r, lead) in rows.iter().zip(&leads) {
         println!(
-            "{:<24} {:<24} {:>12.1} {} {} {:>8.2} {} {:>9.0} {:>8.1}",
-            label,
-            r["method"].as_str().unwrap_or(""),
+            "{lead} {:>10.1} {} {:>7.2} {}",
             r["simulated_ms"].as_f64().unwrap_or(0.0),
-            opt("paper_ms", 10, 0),
-            opt("ratio", 11, 2),
+            opt(r, "paper_ms", 10, 0),
             r["speedup"].as_f64().unwrap_or(0.0),
-            opt("paper_speedup", 8, 2),
+            opt(r, "paper_speedup", 7, 2),
+        );
+    }
+    println!(
+        "\n{:<21} {:<15} {:>10} {:>9} {:>8}",
+        "model", "method", "ours/paper", "host (ms)", "MiB"
+    );
+    for (r, lead) in rows.iter().zip(&leads) {
+        println!(
+            "{lead} {} {:>9.0} {:>8.1}",
+            opt(r, "ratio", 10, 2),
             r["host_ms"].as_f64().unwrap_or(0.0),
             r["memory_mib"].as_f64().unwrap_or(0.0),
         );
     }
+    let wrap = |text: &str| println!("{}", cellbih::report::wrap(text, 80));
     let mut models: Vec<&str> = rows.iter().filter_map(|r| r["model"].as_str()).collect();
     models.dedup();
     for name in models {
@@ -264,7 +275,7 @@ fn print_table(rows: &[serde_json::Value]) {
             .map(|r| r["simulated_ms"].as_f64().unwrap_or(0.0))
             .collect();
         let ordered = ms.windows(2).all(|w| w[0] > w[1]);
-        println!(
+        wrap(&format!(
             "{}: {}",
             model[0]["model"].as_str().unwrap_or(""),
             if ordered {
@@ -272,14 +283,14 @@ fn print_table(rows: &[serde_json::Value]) {
             } else {
                 "NOT the paper's order"
             }
-        );
+        ));
     }
     if rows.iter().any(|r| !r["stand_in"].is_null()) {
-        println!(
-            "* stand-in: an rtPerf scene of the model's triangle count (the model is not in the data directory)"
+        wrap(
+            "* stand-in: an rtPerf scene of the model's triangle count (the model is not in the data directory)",
         );
     }
-    println!(
-        "OOM: the paper's build ran out of memory; —: not in the paper (section 5's strategies, on 6 SPEs). Simulated ms are deterministic; host ms is the emulation's wall time, one thread; MiB: the build's main memory (every buffer; by purpose: cellbih build)."
+    wrap(
+        "OOM: the paper's build ran out of memory; —: not in the paper (section 5's strategies, on 6 SPEs). Simulated ms are deterministic; host ms is the emulation's wall time, one thread; MiB: the build's main memory (every buffer; by purpose: cellbih build).",
     );
 }

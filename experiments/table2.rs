@@ -24,6 +24,7 @@ use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateRepo
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "Table 2: the paper's local update on the car and the cup, host and simulated PS3 times (default run: about 15 s)"
 )]
 struct Args {

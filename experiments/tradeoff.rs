@@ -37,6 +37,7 @@ use cellbih::strategy::Knobs;
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "Build time against tree quality: every builder and quality setting on five scenes, the Pareto fronts (default run: 20–31 min and 13–15 GB of memory at its peak, on a 2-core machine)"
 )]
 struct Args {
@@ -377,9 +378,11 @@ fn print_tables(rows: &[Value]) {
             .filter(|r| r["scene"] == scene.as_str())
             .collect();
         println!("\n{scene} ({} triangles)", of[0]["triangles"]);
+        // 80 columns: each setting on a line of its own, its figures
+        // indented on the next.
+        println!("builder setting");
         println!(
-            "{:<46} {:>9} {:>9} {:>8} {:>8} {:>13} {:>7} {:>13} {:>7} {:>6}",
-            "builder setting",
+            "  {:>8} {:>8} {:>7} {:>7} {:>11} {:>6} {:>11} {:>6} {:>5}",
             "Cell ms",
             "host ms",
             "SAH",
@@ -399,13 +402,13 @@ fn print_tables(rows: &[Value]) {
             let sim = r["simulated_ms"]
                 .as_f64()
                 .map_or("-".into(), |v| format!("{v:.2}"));
+            println!("{}", cellbih::report::wrap(&label(r), 80));
             println!(
-                "{:<46} {:>9} {:>9.2} {:>8.1} {:>8} {:>13} {:>7.2} {:>13} {:>7.2} {:>6}",
-                label(r),
+                "  {:>8} {:>8.2} {:>7.1} {:>7} {:>11} {:>6.2} {:>11} {:>6.2} {:>5}",
                 sim,
                 num(&r["host_ms"]),
                 num(&r["sah"]),
-                r["nodes"],
+                r["nodes"].as_u64().unwrap_or(0),
                 format!(
                     "{:.1}+{:.1}",
                     num(&r["primary_nodes"]),
@@ -421,6 +424,10 @@ fn print_tables(rows: &[Value]) {
                 front
             );
         }
+        let wrapped = |text: &str| {
+            let body = cellbih::report::wrap(text, 76);
+            println!("  {}", body.replace('\n', "\n    "));
+        };
         println!("frame of R rays, host (one thread): the setting with the least build + trace ms");
         for f in frames(rows).iter().filter(|f| f["scene"] == scene.as_str()) {
             let cell = |set: &str| {
@@ -431,34 +438,36 @@ fn print_tables(rows: &[Value]) {
                     num(&b["total_ms"])
                 )
             };
-            println!(
-                "  R = {:>9.0e}: primary {:<44} incoherent {}",
+            wrapped(&format!(
+                "R = {:.0e}: primary {}; incoherent {}",
                 num(&f["rays"]),
                 cell("primary"),
                 cell("incoherent")
-            );
+            ));
         }
         println!(
-            "frame of R primary rays on the PS3 (simulated): the setting with the least build + cast on the SPEs"
+            "frame of R primary rays on the PS3 (simulated): the setting with the least\n\
+             build + cast on the SPEs"
         );
         for f in frames(rows).iter().filter(|f| f["scene"] == scene.as_str()) {
             let b = &f["ps3"];
-            println!(
-                "  R = {:>9.0e}: {} ({:.1} ms: build {:.1} + render {:.1})",
+            wrapped(&format!(
+                "R = {:.0e}: {} ({:.1} ms: build {:.1} + render {:.1})",
                 num(&f["rays"]),
                 b["setting"].as_str().unwrap_or("-"),
                 num(&b["total_ms"]),
                 num(&b["build_ms"]),
                 num(&b["render_ms"])
-            );
+            ));
         }
     }
-    println!(
-        "\nCell ms: simulated PS3 time (multi-SPE builders on --spes SPEs); host ms: this machine, one \
+    let note = format!(
+        "Cell ms: simulated PS3 time (multi-SPE builders on --spes SPEs); host ms: this machine, one \
          thread (host builder: median of 3; emulated builders: the emulation); primary, incoherent: \
          nodes visited + triangles tested per ray; front: on the Pareto front of PS3 builds (Cell ms) \
          or host builds (host ms) against the primary cost"
     );
+    println!("\n{}", cellbih::report::wrap(&note, 80));
 }
 
 /// One SVG per scene: build ms (log) against primary cost; PS3 builds and

@@ -25,6 +25,7 @@ use cellbih::report::{
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     about = "The machine model held against published PS3 measurements with several SPEs, and SPU kernels timed on a PS3 beside their instruction counts (default run: under a second)"
 )]
 struct Args {

@@ -16,7 +16,7 @@ use cellbih::cell::CellConfig;
 use cellbih::output::{check_writable, write_file};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::{Frame, trace};
-use cellbih::report::{Settings, step};
+use cellbih::report::{Settings, step, wrap};
 use cellbih::update::{MAX_FRAMES, Method, Updater};
 use cellbih::{rays_csv, render};
 
@@ -45,6 +45,7 @@ use update::{AnimationArg, update};
 
 #[derive(Parser)]
 #[command(
+    term_width = 80,
     name = "cellbih",
     version = cellbih::report::settings::version_static(),
     about = "Bounding Interval Hierarchies on an emulated Cell Broadband Engine",
@@ -498,17 +499,18 @@ fn run(cli: Cli) -> Res<()> {
             };
             write_file(&out, |w| rays_csv::write_hits(w, &hits))?;
             let n_hit = hits.iter().flatten().count();
-            eprintln!(
+            let said = format!(
                 "{}, {} ({}), written to {}",
                 cellbih::report::count(hits.len() as u64, "ray"),
                 cellbih::report::count(n_hit as u64, "hit"),
                 c.describe(),
                 shown(&out)
             );
+            eprintln!("{}", wrap(&said, 80));
             let settings = Settings::new(&c, on_cell).with("rays", rays_path.as_str());
-            eprintln!("settings: {}", settings.line());
+            eprintln!("{}", wrap(&format!("settings: {}", settings.line()), 80));
             if let Some(r) = &cell_report {
-                eprintln!("{}", cast_args::describe(r, c.cell.spes));
+                eprintln!("{}", wrap(&cast_args::describe(r, c.cell.spes), 80));
                 cast_args::write_trace(&cast, r)?;
             }
             Ok(())
@@ -562,7 +564,7 @@ fn run(cli: Cli) -> Res<()> {
             };
             write_png(&out, &img)?;
             let st = frame.stats;
-            eprintln!(
+            let said = format!(
                 "{} written ({}); per ray: {:.1} nodes, {:.1} triangles{}",
                 shown(&out),
                 c.describe(),
@@ -574,14 +576,15 @@ fn run(cli: Cli) -> Res<()> {
                     String::new()
                 }
             );
+            eprintln!("{}", wrap(&said, 80));
             let settings = Settings::new(&c, on_cell)
                 .with_view(&camera.view)
                 .with("width", width)
                 .with("height", height)
                 .with("heatmap", heatmap);
-            eprintln!("settings: {}", settings.line());
+            eprintln!("{}", wrap(&format!("settings: {}", settings.line()), 80));
             if let Some(r) = &cell_report {
-                eprintln!("{}", cast_args::describe(r, c.cell.spes));
+                eprintln!("{}", wrap(&cast_args::describe(r, c.cell.spes), 80));
                 cast_args::write_trace(&cast, r)?;
             }
             Ok(())

@@ -433,3 +433,103 @@ fn the_version_says_when_the_sources_were_modified() {
         _ => assert!(!version.contains('('), "{version}"),
     }
 }
+
+/// Lines of at most 80 characters: every help text (clap wraps them), and
+/// what the commands and experiments print — tables split or narrowed,
+/// notes and settings wrapped.
+#[test]
+fn what_a_person_reads_fits_80_columns() {
+    let wide = |what: &str, text: &str| {
+        let long: Vec<&str> = text.lines().filter(|l| l.chars().count() > 80).collect();
+        assert!(
+            long.is_empty(),
+            "{what}: {} lines over 80: {:?}",
+            long.len(),
+            long.first()
+        );
+    };
+    let experiments = [
+        env!("CARGO_BIN_EXE_table1"),
+        env!("CARGO_BIN_EXE_table2"),
+        env!("CARGO_BIN_EXE_tradeoff"),
+        env!("CARGO_BIN_EXE_frame_loop"),
+        env!("CARGO_BIN_EXE_footprint"),
+        env!("CARGO_BIN_EXE_extremes"),
+        env!("CARGO_BIN_EXE_validate"),
+        env!("CARGO_BIN_EXE_sensitivity"),
+        env!("CARGO_BIN_EXE_spe_scaling"),
+        env!("CARGO_BIN_EXE_partial_rebuild"),
+        env!("CARGO_BIN_EXE_dma_bandwidth"),
+    ];
+    let run = |exe: &str, args: &[&str]| {
+        let out = std::process::Command::new(exe).args(args).output().unwrap();
+        format!("{}{}", common::stdout(&out), stderr(&out))
+    };
+    for exe in experiments {
+        wide(exe, &run(exe, &["--help"]));
+    }
+    for cmd in [
+        "", "info", "compare", "build", "raycast", "render", "update", "frame", "builders",
+    ] {
+        let args: Vec<&str> = [cmd, "--help"]
+            .into_iter()
+            .filter(|a| !a.is_empty())
+            .collect();
+        wide(cmd, &run(EXE, &args));
+    }
+    let out = tmp("narrow");
+    let o = out.to_str().unwrap();
+    let rays = tmp("narrow.rays.csv");
+    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
+    let png = tmp("narrow.png");
+    for (exe, args) in [
+        (
+            env!("CARGO_BIN_EXE_frame_loop"),
+            vec![
+                "--scenes",
+                "rtperf:2000",
+                "--sizes",
+                "32x24",
+                "--frames",
+                "2",
+                "--out",
+                o,
+            ],
+        ),
+        (
+            env!("CARGO_BIN_EXE_footprint"),
+            vec!["--memory-mib", "32", "--out", o],
+        ),
+        (env!("CARGO_BIN_EXE_extremes"), vec!["--out", o]),
+        (
+            env!("CARGO_BIN_EXE_tradeoff"),
+            vec!["--scenes", "default", "--out", o],
+        ),
+        (
+            EXE,
+            vec![
+                "raycast",
+                "--rays",
+                rays.to_str().unwrap(),
+                "--out",
+                "/dev/null",
+                "--on-cell",
+            ],
+        ),
+        (
+            EXE,
+            vec![
+                "render",
+                "--out",
+                png.to_str().unwrap(),
+                "--on-cell",
+                "--width",
+                "16",
+                "--height",
+                "16",
+            ],
+        ),
+    ] {
+        wide(&format!("{exe} {args:?}"), &run(exe, &args));
+    }
+}

@@ -312,12 +312,12 @@ fn reported(cmd: &str, args: &[String]) -> String {
     let out = cellbih(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert_ok(&out);
     if matches!(cmd, "raycast" | "render") {
+        // The settings paragraph (wrapped at 80 columns), up to the cast's.
         let err = stderr(&out);
-        let line = err
-            .lines()
-            .find(|l| l.starts_with("settings: "))
-            .expect(&err);
-        return line.to_string();
+        let from = err.find("settings: ").expect(&err);
+        let rest = &err[from..];
+        let end = rest.find("on the Cell: ").unwrap_or(rest.len());
+        return rest[..end].split_whitespace().collect::<Vec<_>>().join(" ");
     }
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     v["settings"].to_string()

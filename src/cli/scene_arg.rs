@@ -120,7 +120,7 @@ pub struct CameraArg {
     /// whole scene from outside), framing (the whole scene from outside),
     /// a viewpoint by name (atrium, nave), or EX,EY,EZ:AX,AY,AZ[:FOV] (an
     /// eye, the point it looks at, the vertical field of view in degrees,
-    /// 45 unless given) [default: default]
+    /// 45 unless given)
     #[arg(long = "camera", value_parser = cellbih::render::View::parse, default_value = "default")]
     pub view: cellbih::render::View,
 }
