@@ -461,13 +461,13 @@ fn print_tables(rows: &[Value]) {
             ));
         }
     }
-    let note = format!(
+    let note = concat!(
         "Cell ms: simulated PS3 time (multi-SPE builders on --spes SPEs); host ms: this machine, one \
          thread (host builder: median of 3; emulated builders: the emulation); primary, incoherent: \
          nodes visited + triangles tested per ray; front: on the Pareto front of PS3 builds (Cell ms) \
          or host builds (host ms) against the primary cost"
     );
-    println!("\n{}", cellbih::report::wrap(&note, 80));
+    println!("\n{}", cellbih::report::wrap(note, 80));
 }
 
 /// One SVG per scene: build ms (log) against primary cost; PS3 builds and
