@@ -461,12 +461,10 @@ fn print_tables(rows: &[Value]) {
             ));
         }
     }
-    let note = concat!(
-        "Cell ms: simulated PS3 time (multi-SPE builders on --spes SPEs); host ms: this machine, one \
+    let note = "Cell ms: simulated PS3 time (multi-SPE builders on --spes SPEs); host ms: this machine, one \
          thread (host builder: median of 3; emulated builders: the emulation); primary, incoherent: \
          nodes visited + triangles tested per ray; front: on the Pareto front of PS3 builds (Cell ms) \
-         or host builds (host ms) against the primary cost"
-    );
+         or host builds (host ms) against the primary cost";
     println!("\n{}", cellbih::report::wrap(note, 80));
 }
 
