@@ -30,7 +30,6 @@ use cellbih::frame::{FrameConfig, Policy, play};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::ViewsArg;
 use cellbih::report::{OutputArgs, Series, ThreadsArg, TreeArgs, line_plot, output, side_by_side};
-use cellbih::scene;
 use cellbih::update::{Animation, Method};
 
 #[derive(Parser)]
@@ -133,7 +132,6 @@ fn run(args: &Args) -> Result<(), String> {
     let scenes: Vec<(String, &str)> = (args.scenes.iter())
         .map(|s| (s.clone(), animation_of(s)))
         .collect();
-    let data = scene::data_dir(args.data.as_deref());
     let spes = args.spes as usize;
     let policies = [
         Policy::Fixed(Method::Rebuild),
@@ -142,9 +140,10 @@ fn run(args: &Args) -> Result<(), String> {
         Policy::Auto,
     ];
     let arrangements = [("section 5", spes), ("paper", 1)];
+    // Every scene loaded before any work; every one that does not, named.
+    let loaded = cellbih::report::load_scenes(&args.scenes, args.data.as_deref())?;
     let mut played = Vec::new();
-    for (spec, anim_name) in &scenes {
-        let s = scene::load(spec, data.as_deref()).map_err(|e| e.to_string())?;
+    for ((spec, anim_name), s) in scenes.iter().zip(loaded) {
         let s = Animation::prepare(anim_name, s).map_err(|e| e.to_string())?;
         let anim = Animation::named(anim_name, &s, args.frames as usize, args.seed)?;
         played.push((spec, *anim_name, s, anim));

@@ -533,3 +533,25 @@ fn what_a_person_reads_fits_80_columns() {
         wide(&format!("{exe} {args:?}"), &run(exe, &args));
     }
 }
+
+/// Every scene of `--scenes` that does not load is named, `frame_loop`'s
+/// too, and a reason shared by several is said once.
+#[test]
+fn every_bad_scene_is_named_and_a_reason_said_once() {
+    let dir = tmp("bad-scenes");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_frame_loop"))
+        .args([
+            "--scenes",
+            "nope1,car,nope2",
+            "--out",
+            dir.to_str().unwrap(),
+        ])
+        .env_remove("CELLBIH_DATA")
+        .output()
+        .unwrap();
+    assert_fails_with(&out, "2 scenes of --scenes did not load");
+    let err = stderr(&out);
+    assert!(err.contains("'nope1', 'nope2'"), "{err}");
+    assert_eq!(err.matches("not a procedural scene").count(), 1, "{err}");
+    assert!(err.lines().all(|l| l.chars().count() <= 80), "{err}");
+}

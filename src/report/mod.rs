@@ -178,23 +178,53 @@ pub fn load_scenes(
 ) -> Result<Vec<crate::scene::Scene>, String> {
     let data = crate::scene::data_dir(data);
     let mut scenes = Vec::new();
-    let mut failed = Vec::new();
+    let mut failed: Vec<String> = Vec::new();
+    // Unknown names that fail for one reason are named together, the
+    // reason said once.
+    let mut unknown: Vec<(String, Vec<String>)> = Vec::new();
+    let mut n = 0;
     for spec in specs {
         match crate::scene::load(spec, data.as_deref()) {
             Ok(s) => scenes.push(s),
-            Err(e) => failed.push(e.to_string()),
+            Err(crate::scene::SceneError::Unknown { spec, why }) => {
+                n += 1;
+                match unknown.iter_mut().find(|(w, _)| *w == why) {
+                    Some((_, names)) => names.push(spec),
+                    None => unknown.push((why, vec![spec])),
+                }
+            }
+            Err(e) => {
+                n += 1;
+                failed.push(e.to_string());
+            }
         }
     }
-    match failed.len() {
+    for (why, names) in unknown {
+        let quoted: Vec<String> = names.iter().map(|s| format!("'{s}'")).collect();
+        failed.push(match names.len() {
+            1 => format!("unknown scene {}: {why}", quoted[0]),
+            _ => format!("unknown scenes {}: {why}", quoted.join(", ")),
+        });
+    }
+    // 80 columns: each failure indented, its lines after the first more.
+    let failed: Vec<String> = (failed.iter())
+        .map(|f| wrap(f, 76).replace('\n', "\n    "))
+        .collect();
+    match n {
         0 if scenes.is_empty() => Err("--scenes names no scene: nothing measured".into()),
         0 => Ok(scenes),
         n => Err(format!(
-            "{} of --scenes did not load: nothing measured, no file written\n  {}\n(leave {} \
-             out of --scenes, or give the data directory: --data DIR or {})",
+            "{} of --scenes did not load: nothing measured, no file written\n  {}\n{}",
             count(n as u64, "scene"),
             failed.join("\n  "),
-            if n == 1 { "it" } else { "them" },
-            crate::scene::DATA_ENV,
+            wrap(
+                &format!(
+                    "(leave {} out of --scenes, or give the data directory: --data DIR or {})",
+                    if n == 1 { "it" } else { "them" },
+                    crate::scene::DATA_ENV,
+                ),
+                80
+            ),
         )),
     }
 }
