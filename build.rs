@@ -18,6 +18,9 @@ fn main() {
     let git = |args: &[&str]| {
         std::process::Command::new("git")
             .args(args)
+            // `git status` would otherwise refresh the index, which this
+            // script watches: every build would then run it again.
+            .env("GIT_OPTIONAL_LOCKS", "0")
             .output()
             .ok()
             .filter(|o| o.status.success())
@@ -43,6 +46,9 @@ fn main() {
     ]
     .into_iter()
     .chain(SOURCES)
+    // A path that does not exist counts as changed on every build, and
+    // would rebuild everything each time: only those there are named.
+    .filter(|p| std::path::Path::new(p).exists())
     {
         println!("cargo:rerun-if-changed={path}");
     }
