@@ -402,7 +402,7 @@ fn a_cast_too_big_for_the_emulated_memory_is_refused_naming_it() {
     ]);
     assert_fails_with(
         &out,
-        &format!("default: the cast on the Cell ({rays} rays) needs 1 MiB"),
+        &format!("default: the cast on the Cell ({rays} rays) needs 2 MiB"),
     );
     assert!(
         stderr(&out).contains("(--memory-mib: from 2 up): the tree was built, nothing cast"),
