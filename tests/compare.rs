@@ -129,7 +129,7 @@ fn a_failing_builder_is_named_and_the_others_are_compared() {
         stdout.contains("FAILED: builder ") && stdout.contains("main memory full"),
         "{stdout}"
     );
-    assert!(stderr.contains("builder(s) failed"), "{stderr}");
+    assert!(stderr.contains("5 builders failed"), "{stderr}");
     // The cast on the SPEs does not fit 2 MiB either: said, not fatal.
     assert!(stdout.contains("not cast on the SPEs, builder"), "{stdout}");
     let mut json = args.to_vec();

@@ -585,7 +585,8 @@ fn every_experiment_says_what_it_measures_and_how_long_it_takes() {
             .output()
             .unwrap();
         let help = String::from_utf8_lossy(&out.stdout);
-        let first = help.lines().next().unwrap_or("");
+        // The first paragraph (wrapped at 80 columns).
+        let first = help.split("\n\n").next().unwrap_or("").replace('\n', " ");
         assert!(
             first.contains("(default run: ") && !first.starts_with("Usage"),
             "{exe}: {first}"

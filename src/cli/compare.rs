@@ -337,7 +337,7 @@ pub fn print(s: &Scene, shared: &Build, c: &Compared, format: Format, view: &Vie
     };
     let note = format!(
         "trees{with} valid. Cell ms: simulated time on the PS3 model (multi-SPE builders on {}{}); \
-         speedup: over spe_bfs (one SPE, the paper's baseline); host figures: this machine, one \
+         speedup: over\u{1}spe_bfs (one SPE, the paper's baseline); host figures: this machine, one \
          thread ({} build on --threads, by default every core); tree KiB: nodes and triangle \
          ids; Cell MiB: main memory the emulated build used \
          (every buffer). primary, incoherent: nodes visited + triangles tested per ray, closest \
