@@ -11,6 +11,14 @@ use common::{assert_fails_with, cellbih, run_limited, stderr, tmp};
 
 const EXE: &str = env!("CARGO_BIN_EXE_cellbih");
 
+/// A rays file of one ray that hits the default scene, in this test
+/// process's temporary directory.
+fn one_ray(name: &str) -> String {
+    let path = tmp(name);
+    std::fs::write(&path, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
+    path.to_str().unwrap().to_string()
+}
+
 #[test]
 fn a_text_input_without_newlines_is_refused_by_its_line() {
     let limit = Duration::from_secs(20);
@@ -64,9 +72,8 @@ fn a_text_input_without_newlines_is_refused_by_its_line() {
 fn two_outputs_that_name_one_file_are_refused() {
     let dir = tmp("same-out");
     std::fs::create_dir_all(&dir).unwrap();
-    let rays = dir.join("one.rays.csv");
-    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
-    let rays = rays.to_str().unwrap();
+    let rays = one_ray("one.rays.csv");
+    let rays = rays.as_str();
     let same = dir.join("same.out");
     let same = same.to_str().unwrap();
     let png = dir.join("same.png");
@@ -148,15 +155,8 @@ fn two_outputs_that_name_one_file_are_refused() {
 /// probe an experiment writes to check its directory.
 #[test]
 fn errors_name_the_path_the_user_gave() {
-    let rays = tmp("temp-name.rays.csv");
-    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
-    let out = cellbih(&[
-        "raycast",
-        "--rays",
-        rays.to_str().unwrap(),
-        "--out",
-        "/proc/x.csv",
-    ]);
+    let rays = one_ray("temp-name.rays.csv");
+    let out = cellbih(&["raycast", "--rays", &rays, "--out", "/proc/x.csv"]);
     assert_fails_with(&out, "/proc/x.csv: cannot write");
     assert!(!stderr(&out).contains(".tmp"), "{}", stderr(&out));
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_table1"))
@@ -339,15 +339,8 @@ fn a_relative_obj_path_is_read_without_a_wrong_note() {
 /// range is said in words, and an experiment's error has the one prefix.
 #[test]
 fn words_agree_with_their_counts() {
-    let rays = tmp("words.rays.csv");
-    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
-    let out = cellbih(&[
-        "raycast",
-        "--rays",
-        rays.to_str().unwrap(),
-        "--out",
-        "/dev/null",
-    ]);
+    let rays = one_ray("words.rays.csv");
+    let out = cellbih(&["raycast", "--rays", &rays, "--out", "/dev/null"]);
     assert!(
         stderr(&out).starts_with("1 ray, 1 hit ("),
         "{}",
@@ -479,8 +472,7 @@ fn what_a_person_reads_fits_80_columns() {
     }
     let out = tmp("narrow");
     let o = out.to_str().unwrap();
-    let rays = tmp("narrow.rays.csv");
-    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
+    let rays = one_ray("narrow.rays.csv");
     let png = tmp("narrow.png");
     for (exe, args) in [
         (
@@ -510,7 +502,7 @@ fn what_a_person_reads_fits_80_columns() {
             vec![
                 "raycast",
                 "--rays",
-                rays.to_str().unwrap(),
+                &rays,
                 "--out",
                 "/dev/null",
                 "--on-cell",
