@@ -150,6 +150,152 @@ fn get_meshes_converts_a_ply_in_a_tarball() {
     assert!(!out.status.success());
 }
 
+/// A chunk of a 3DS file: its id, length and body.
+fn chunk(id: u16, body: &[u8]) -> Vec<u8> {
+    let mut c = id.to_le_bytes().to_vec();
+    c.extend(((body.len() + 6) as u32).to_le_bytes());
+    c.extend(body);
+    c
+}
+
+/// A mesh published as 3DS (as the Dabrovic scenes are) is converted by
+/// `scripts/3ds-to-obj` to the data directory's text — the header its
+/// conversion wrote, every object's positions as the shortest decimals
+/// that read back as the same f32, faces one-based — and installed.
+#[test]
+fn get_meshes_converts_a_3ds_file() {
+    let src = tmp("3ds-source");
+    std::fs::create_dir_all(&src).unwrap();
+    let mut vertices = 3u16.to_le_bytes().to_vec();
+    for x in [0.1f32, 0.0, -2.5, 1.0, 0.0, 0.0, 0.0, 0.00001, 0.0] {
+        vertices.extend(x.to_le_bytes());
+    }
+    let mut faces = 1u16.to_le_bytes().to_vec();
+    for i in [0u16, 1, 2, 0] {
+        faces.extend(i.to_le_bytes());
+    }
+    let mesh = chunk(
+        0x4100,
+        &[chunk(0x4110, &vertices), chunk(0x4120, &faces)].concat(),
+    );
+    let object = chunk(0x4000, &[b"wall\0".to_vec(), mesh].concat());
+    let file = chunk(0x4D4D, &chunk(0x3D3D, &object));
+    std::fs::write(src.join("s.3ds"), file).unwrap();
+    std::fs::write(src.join("bad.3ds"), b"not a 3ds file").unwrap();
+    let obj = "# sibenik: Sibenik cathedral by Marko Dabrovic, from sibenik.3ds (repository \
+               inavratil/fit-renderer, data/obj/scenes/sibenik.3ds)\n# converted 3DS->OBJ: \
+               positions and triangles of all 1 mesh objects, in file order; coordinates as \
+               stored (Z up)\n# vertices 3 triangles 1\no sibenik\nv 0.1 0 -2.5\nv 1 0 0\n\
+               v 0 0.00001 0\nf 1 2 3\n";
+    let sum = sha256(obj.as_bytes());
+    let manifest = tmp("3ds-meshes.tsv");
+    let rows = [
+        format!(
+            "sibenik\t1\t{sum}\t-\t3ds:file://{}",
+            src.join("s.3ds").display()
+        ),
+        format!(
+            "bad\t1\t{sum}\t-\t3ds:file://{}",
+            src.join("bad.3ds").display()
+        ),
+    ];
+    std::fs::write(
+        &manifest,
+        format!(
+            "name\ttriangles\tobj_sha256\tgz_sha256\tdownload\n{}\n",
+            rows.join("\n")
+        ),
+    )
+    .unwrap();
+    let data = tmp("3ds-data");
+    let _ = std::fs::remove_dir_all(&data);
+    let out = Command::new("bash")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/get-meshes"))
+        .arg(&data)
+        .env("CELLBIH_MESHES_MANIFEST", &manifest)
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert_eq!(
+        String::from_utf8(gunzip(&data.join("sibenik.obj.gz"))).unwrap(),
+        obj,
+        "{err}"
+    );
+    assert!(
+        err.contains("not a 3DS file") && err.contains("bad: cannot convert"),
+        "{err}"
+    );
+    assert!(!data.join("bad.obj.gz").exists() && !out.status.success());
+}
+
+/// A mesh published as binary glTF (as the ISS is) is converted by
+/// `scripts/gltf-to-obj`: every primitive through its node's world
+/// transform (here a scale of 2 over a translation), the header its
+/// conversion wrote.
+#[test]
+fn get_meshes_converts_a_gltf_file() {
+    let src = tmp("gltf-source");
+    std::fs::create_dir_all(&src).unwrap();
+    let mut bin = Vec::new();
+    for x in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.25, 0.0] {
+        bin.extend(x.to_le_bytes());
+    }
+    for i in [0u16, 1, 2, 0] {
+        bin.extend(i.to_le_bytes());
+    }
+    let json = r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
+        "nodes":[{"scale":[2,2,2],"children":[1]},{"mesh":0,"translation":[1,0,0]}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+        "buffers":[{"byteLength":44}],
+        "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},
+                       {"buffer":0,"byteOffset":36,"byteLength":6}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3"},
+                     {"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#;
+    let mut json = json.as_bytes().to_vec();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let mut glb = b"glTF".to_vec();
+    glb.extend(2u32.to_le_bytes());
+    glb.extend(((12 + 8 + json.len() + 8 + bin.len()) as u32).to_le_bytes());
+    glb.extend((json.len() as u32).to_le_bytes());
+    glb.extend(0x4E4F534Au32.to_le_bytes());
+    glb.extend(&json);
+    glb.extend((bin.len() as u32).to_le_bytes());
+    glb.extend(0x004E4942u32.to_le_bytes());
+    glb.extend(&bin);
+    std::fs::write(src.join("m.glb"), glb).unwrap();
+    let obj = "# iss: International Space Station (NASA IGOAL ISSComplete1), from \
+               ISSComplete1.glb (repository karx/homepage, assets/models/ISSComplete1.glb, \
+               commit f9c3df98752050e22b18031c0b63a2d811a67587; NASA-3D-Resources model)\n\
+               # converted glTF->OBJ: positions and triangles of all primitives with node \
+               transforms applied; glTF units, Y up\n# vertices 3 triangles 1\no iss\n\
+               v 2 0 0\nv 4 0 0\nv 2 0.5 0\nf 1 2 3\n";
+    let manifest = tmp("gltf-meshes.tsv");
+    std::fs::write(
+        &manifest,
+        format!(
+            "name\ttriangles\tobj_sha256\tgz_sha256\tdownload\niss-nasa\t1\t{}\t-\tgltf:file://{}\n",
+            sha256(obj.as_bytes()),
+            src.join("m.glb").display()
+        ),
+    )
+    .unwrap();
+    let data = tmp("gltf-data");
+    let _ = std::fs::remove_dir_all(&data);
+    let out = Command::new("bash")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/get-meshes"))
+        .arg(&data)
+        .env("CELLBIH_MESHES_MANIFEST", &manifest)
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    assert_eq!(
+        String::from_utf8(gunzip(&data.join("iss-nasa.obj.gz"))).unwrap(),
+        obj
+    );
+}
+
 /// A mesh read by name whose text is not the manifest's is named on
 /// stderr (once), and still loads; the data directory's meshes, where
 /// there is one, are the manifest's and load without a word.
