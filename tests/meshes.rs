@@ -198,6 +198,11 @@ fn get_meshes_converts_a_3ds_file() {
             "bad\t1\t{sum}\t-\t3ds:file://{}",
             src.join("bad.3ds").display()
         ),
+        format!(
+            "other\t1\t{sum}\t-\t3ds:file://{}@sha256:{}",
+            src.join("s.3ds").display(),
+            "0".repeat(64)
+        ),
     ];
     std::fs::write(
         &manifest,
@@ -225,6 +230,12 @@ fn get_meshes_converts_a_3ds_file() {
         err.contains("not a 3DS file") && err.contains("bad: cannot convert"),
         "{err}"
     );
+    // A published file that is not the one the data directory was made from.
+    assert!(
+        err.contains("other: the file downloaded has SHA-256"),
+        "{err}"
+    );
+    assert!(!data.join("other.obj.gz").exists());
     assert!(!data.join("bad.obj.gz").exists() && !out.status.success());
 }
 
