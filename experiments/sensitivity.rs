@@ -18,10 +18,7 @@ use serde_json::json;
 use cellbih::cell::{CellConfig, CostModel, Cycles};
 use cellbih::kernels::rates::RateOverrides;
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::report::{
-    Format, OutputArgs, ThreadsArg, document, output, print_rows, side_by_side, write_csv,
-    write_document,
-};
+use cellbih::report::{Format, OutputArgs, ThreadsArg, side_by_side};
 use cellbih::scene::{self, Scene};
 
 #[derive(Parser)]
@@ -345,20 +342,11 @@ fn run(args: &Args) -> Result<(), String> {
         "rate,end,value,largest_move,flips,{}",
         heads.join(",").replace(' ', "_")
     );
-    let path = output(&args.output.out, "sensitivity.csv").map_err(|e| e.to_string())?;
-    write_csv(&path, &header, &csv).map_err(|e| e.to_string())?;
-    let doc = document(
+    args.output.report_printed(
+        "sensitivity",
+        (&header, &csv),
         &json!({ "rows": rows, "bands": band_rows }),
         Some(&Build::new(BuilderKind::HOST)),
-    );
-    if !text {
-        print_rows(args.output.format, &doc, &rows, |_| {})?;
-    }
-    let path = output(&args.output.out, "sensitivity.json").map_err(|e| e.to_string())?;
-    write_document(&path, &doc).map_err(|e| e.to_string())?;
-    eprintln!(
-        "written: {}/sensitivity.{{csv,json}}",
-        args.output.out.display()
-    );
+    )?;
     Ok(())
 }

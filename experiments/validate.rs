@@ -18,10 +18,7 @@ use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea, LsAddr, 
 mod compute;
 #[path = "validate_contention.rs"]
 mod contention;
-use cellbih::report::{
-    Format, OutputArgs, ThreadsArg, document, output, print_rows, side_by_side, write_csv,
-    write_document,
-};
+use cellbih::report::{Format, OutputArgs, ThreadsArg, side_by_side};
 
 #[derive(Parser)]
 #[command(
@@ -595,18 +592,8 @@ fn run(args: &Args) -> Result<(), String> {
         })
         .collect();
     let header = "figure,source,unit,published,emulated,ratio,tolerance,pass,role,sets";
-    let path = output(&args.output.out, "validate.csv").map_err(|e| e.to_string())?;
-    write_csv(&path, header, &csv).map_err(|e| e.to_string())?;
-    let doc = document(&json!({ "rows": rows }), None);
-    if !text {
-        print_rows(args.output.format, &doc, &rows, |_| {})?;
-    }
-    let path = output(&args.output.out, "validate.json").map_err(|e| e.to_string())?;
-    write_document(&path, &doc).map_err(|e| e.to_string())?;
-    eprintln!(
-        "written: {}/validate.{{csv,json}}",
-        args.output.out.display()
-    );
+    args.output
+        .report_printed("validate", (header, &csv), &json!({ "rows": rows }), None)?;
     match failed.len() {
         0 => Ok(()),
         n => Err(format!(

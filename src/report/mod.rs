@@ -444,4 +444,28 @@ impl OutputArgs {
         let json = output(&self.out, &format!("{name}.json")).map_err(io)?;
         write_document(&json, &doc).map_err(io)
     }
+
+    /// The result of an experiment that printed its tables as it ran (in
+    /// text): `NAME.csv` (`header` and `lines`) and `NAME.json` (`doc` with
+    /// its settings) written into `--out`; with `--format json` the
+    /// document printed as well. Says what it wrote on stderr.
+    pub fn report_printed(
+        &self,
+        name: &str,
+        (header, lines): (&str, &[String]),
+        doc: &serde_json::Value,
+        shared: Option<&crate::registry::Build>,
+    ) -> Result<(), String> {
+        let io = |e: OutputError| e.to_string();
+        let csv = output(&self.out, &format!("{name}.csv")).map_err(io)?;
+        write_csv(&csv, header, lines).map_err(io)?;
+        let doc = document(doc, shared);
+        if self.format == Format::Json {
+            print_rows(self.format, &doc, &[], |_| {})?;
+        }
+        let json = output(&self.out, &format!("{name}.json")).map_err(io)?;
+        write_document(&json, &doc).map_err(io)?;
+        eprintln!("written: {}/{name}.{{csv,json}}", self.out.display());
+        Ok(())
+    }
 }
