@@ -1,12 +1,15 @@
 //! Names the commit cellbih is built from, when it is built from a git
 //! checkout, so that every report can say what made it
-//! (`report::settings::version`); `-dirty` after it when the files the
+//! (`registry::settings::version`); `-dirty` after it when the files the
 //! build reads differ from that commit.
 
 /// What the build reads: a change here changes the program.
-const SOURCES: [&str; 7] = [
+const SOURCES: [&str; 10] = [
     "src",
-    "experiments",
+    "cell",
+    "cli/src",
+    "cli/experiments",
+    "cli/Cargo.toml",
     "scenes",
     "scripts/meshes.tsv",
     "Cargo.toml",

@@ -11,9 +11,8 @@ use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::View;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
-#[path = "common/scenes.rs"]
-mod scenes;
-use scenes::default_bunny_dragon as scenes;
+mod common;
+use common::scenes::default_bunny_dragon as scenes;
 
 fn build(c: &mut Criterion) {
     let mut g = c.benchmark_group("host_build");

@@ -13,9 +13,8 @@ use cellbih::bih::BihConfig;
 use cellbih::registry::{Build, BuilderKind};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
-#[path = "common/scenes.rs"]
-mod scenes;
-use scenes::default_bunny_dragon as scenes;
+mod common;
+use common::scenes::default_bunny_dragon as scenes;
 
 fn threads() -> Vec<usize> {
     let most = std::thread::available_parallelism().map_or(1, |n| n.get());

@@ -6,8 +6,8 @@
 //!
 //! `CELLBIH_DATA=../shared/data cargo bench --bench multi_spe`
 
-#[path = "common/simulated.rs"]
-mod simulated;
+mod common;
+use common::simulated;
 
 use cellbih::cell::CellConfig;
 use cellbih::registry::BuilderKind;

@@ -12,8 +12,8 @@
 //! `cargo bench --bench paper_builders` (the default scene), with
 //! `CELLBIH_DATA=../shared/data` also the Bunny.
 
-#[path = "common/simulated.rs"]
-mod simulated;
+mod common;
+use common::simulated;
 
 use cellbih::cell::CellConfig;
 use cellbih::registry::BuilderKind;

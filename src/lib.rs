@@ -14,7 +14,10 @@
 //! [`strategy`] (programs for the emulated Cell), and on top of both
 //! families the [`registry`] of builders, which every command, test, bench
 //! and experiment iterates. Then [`update`] (section 3's local update),
-//! [`quality`], [`render`] and [`report`].
+//! [`quality`] and [`render`]. The library does not print, parse
+//! arguments or exit: the `cellbih` command, the experiments and their
+//! harness are the `cellbih-cli` crate (`cli/`), and the emulator is the
+//! `cellbih-cell` crate (`cell/`), re-exported here as [`cell`].
 //!
 //! Load a scene, build its tree with a builder of the registry on the
 //! emulated PS3 (one [`registry::Build`] request), check the tree, and cast a ray through it:
@@ -49,18 +52,17 @@
 pub mod aabb;
 pub mod bih;
 pub mod cast;
-pub mod cell;
+pub use cellbih_cell as cell;
 pub mod frame;
 pub mod host;
 pub mod kernels;
-pub mod output;
 pub mod quality;
 pub mod rays_csv;
 pub mod registry;
 pub mod render;
-pub mod report;
 pub mod scene;
 pub mod spe;
 pub mod strategy;
 pub mod text_input;
 pub mod update;
+pub mod words;

@@ -1,5 +1,5 @@
 //! Each case of the numerical extremes (`scene::extremes`, the table of
-//! `experiments/extremes.rs`) as a test: every builder with the paper's
+//! `cli/experiments/extremes.rs`) as a test: every builder with the paper's
 //! settings, and the builders that build the quality knobs with binned SAH
 //! and the empty-space cut-off, give a valid tree whose every ray agrees
 //! with brute force; the multi-SPE builders also on 1 and on 8 SPEs with

@@ -381,9 +381,8 @@ fn the_object_arena_gives_back_its_nodes_from_either_block_source() {
 fn a_growing_object_arena_pool_keeps_ids_as_slots() {
     use cellbih::bih::BihNode;
     use cellbih::cell::{Cell, CellConfig, Ea};
-    use cellbih::strategy::machinery::arena::{
-        BLOCK_BYTES, BLOCK_NODES, BlockSource, ObjectArena, PoolServer,
-    };
+    use cellbih::strategy::machinery::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource, ObjectArena};
+    use cellbih::strategy::machinery::pool_server::PoolServer;
     use std::cell::RefCell;
     use std::rc::Rc;
 

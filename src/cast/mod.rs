@@ -13,6 +13,7 @@
 
 mod packet;
 mod program;
+mod walk;
 
 pub use crate::spe::software_cache::{CacheConfig, CacheRates, CacheStats};
 pub use program::SpeCast;

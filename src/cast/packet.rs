@@ -15,7 +15,7 @@
 
 use glam::{DVec3, Vec3};
 
-use super::program::{At, Read, Step};
+use super::walk::{At, Read, Step};
 use super::{CastRates, Job};
 use crate::bih::{
     BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,

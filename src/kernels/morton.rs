@@ -36,8 +36,6 @@ use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
 use crate::scene::Scene;
 
-pub use super::halving::HalvingTable;
-
 /// The order of a key's bits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum KeyOrder {

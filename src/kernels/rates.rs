@@ -81,6 +81,82 @@ impl KernelRates {
     };
 }
 
+/// One rate of a rate set `S` (the shared kernels' [`KernelRates`], a
+/// strategy's own): its name, written once, where it lives in the set, and
+/// how sure its value is. The set's table of these is what overrides,
+/// sensitivity and the registry read: a name in one place only.
+pub struct Rate<S: 'static> {
+    /// The rate's name, as [`RateOverrides`] takes it.
+    pub name: &'static str,
+    /// The rate in a set.
+    pub at: fn(&mut S) -> &mut Cycles,
+    pub band: Band,
+}
+
+/// How sure a rate's value is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Band {
+    /// Fitted on a figure timed on hardware: it does not move.
+    Fitted,
+    /// Not pinned, and no band given (why not).
+    Open(&'static str),
+    /// Not pinned by a measurement; plausibly between `low` and `high`
+    /// (why the band is what it is).
+    Between {
+        low: Cycles,
+        high: Cycles,
+        why: &'static str,
+    },
+}
+
+/// A rate of some set with its type left out: what the registry lists.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RateInfo {
+    pub name: &'static str,
+    pub band: Band,
+}
+
+impl<S> Rate<S> {
+    /// The rate without its set.
+    pub fn info(&self) -> RateInfo {
+        RateInfo {
+            name: self.name,
+            band: self.band,
+        }
+    }
+}
+
+impl RateInfo {
+    /// The rate as the sensitivity report moves it, if it has a band.
+    pub fn uncertain(&self) -> Option<Uncertain> {
+        match self.band {
+            Band::Between { low, high, why } => Some(Uncertain {
+                name: self.name,
+                low,
+                high,
+                why,
+            }),
+            Band::Fitted | Band::Open(_) => None,
+        }
+    }
+}
+
+/// Every rate of `table`, without its set.
+pub fn infos<S>(table: &[Rate<S>]) -> Vec<RateInfo> {
+    table.iter().map(Rate::info).collect()
+}
+
+/// `base` with the rates of `table` that `overrides` moves.
+pub fn overridden<S: Copy>(base: S, table: &[Rate<S>], overrides: &RateOverrides) -> S {
+    let mut set = base;
+    for rate in table {
+        if let Some(v) = overrides.get(rate.name) {
+            *(rate.at)(&mut set) = v;
+        }
+    }
+    set
+}
+
 /// A rate whose value is not pinned by a measurement, and the band it may
 /// plausibly lie in: what the sensitivity report moves.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -95,6 +171,8 @@ pub struct Uncertain {
 
 /// Rates moved from their PS3 values for one run, by name (the
 /// sensitivity report's); empty: every rate as calibrated and derived.
+/// A name no rate table holds is refused when a build is checked
+/// (`registry::Build::check`).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RateOverrides(Vec<(&'static str, Cycles)>);
 
@@ -118,67 +196,132 @@ impl RateOverrides {
 
     /// The shared kernels' rates with these overrides.
     pub fn kernels(&self) -> KernelRates {
-        let mut k = KernelRates::PS3;
-        for (name, field) in [
-            ("ppe_node", &mut k.ppe_node),
-            ("spe_bounds_item", &mut k.spe_bounds_item),
-            ("spe_job", &mut k.spe_job),
-            ("spe_bin_item", &mut k.spe_bin_item),
-            ("spe_sah_bin", &mut k.spe_sah_bin),
-            ("ppe_sah_bin", &mut k.ppe_sah_bin),
-            ("spe_level_scan", &mut k.spe_level_scan),
-        ] {
-            if let Some(v) = self.get(name) {
-                *field = v;
-            }
-        }
-        k
+        overridden(KernelRates::PS3, KernelRates::TABLE, self)
+    }
+}
+
+/// A derived rate's band: from its value (the instruction count scaled
+/// like the partition) to 1.6 times it (the partition's own derived count
+/// misses its fit by that much before scaling: the key-bit rate's 30 to
+/// 49 cycles).
+pub const fn derived(low: u64, high: u64) -> Band {
+    Band::Between {
+        low: Cycles(low),
+        high: Cycles(high),
+        why: "derived",
+    }
+}
+
+/// An estimate's band: from half to twice its value.
+const fn estimate(value: u64) -> Band {
+    Band::Between {
+        low: Cycles(value / 2),
+        high: Cycles(value * 2),
+        why: "estimate",
     }
 }
 
 impl KernelRates {
-    /// The shared kernels' rates that are estimates, derived or by
-    /// analogy, with their plausible bands: an estimate from half to twice
-    /// its value; a derived rate from its value (the instruction count
-    /// scaled like the partition) to 1.6 times it (the partition's own
-    /// derived count misses its fit by that much before scaling: the
-    /// key-bit rate's 30 to 49 cycles). The two fitted rates do not move.
-    pub const UNCERTAIN: &'static [Uncertain] = &[
-        Uncertain {
+    /// Every shared kernel rate: an estimate from half to twice its value;
+    /// a derived rate by [`derived`]'s band. The two fitted rates do not
+    /// move.
+    pub const TABLE: &'static [Rate<KernelRates>] = &[
+        Rate {
+            name: "ppe_partition_item",
+            at: |k| &mut k.ppe_partition_item,
+            band: Band::Fitted,
+        },
+        Rate {
             name: "ppe_node",
-            low: Cycles(500),
-            high: Cycles(2000),
-            why: "estimate",
+            at: |k| &mut k.ppe_node,
+            band: estimate(1000),
         },
-        Uncertain {
+        Rate {
+            name: "spe_partition_item",
+            at: |k| &mut k.spe_partition_item,
+            band: Band::Fitted,
+        },
+        Rate {
             name: "spe_bounds_item",
-            low: Cycles(10),
-            high: Cycles(40),
-            why: "estimate",
+            at: |k| &mut k.spe_bounds_item,
+            band: estimate(20),
         },
-        Uncertain {
+        Rate {
             name: "spe_job",
-            low: Cycles(100),
-            high: Cycles(400),
-            why: "estimate",
+            at: |k| &mut k.spe_job,
+            band: estimate(200),
         },
-        Uncertain {
+        Rate {
             name: "spe_bin_item",
-            low: Cycles(160),
-            high: Cycles(256),
-            why: "derived",
+            at: |k| &mut k.spe_bin_item,
+            band: derived(160, 256),
         },
-        Uncertain {
+        Rate {
             name: "spe_sah_bin",
-            low: Cycles(300),
-            high: Cycles(480),
-            why: "derived",
+            at: |k| &mut k.spe_sah_bin,
+            band: derived(300, 480),
         },
-        Uncertain {
+        Rate {
+            name: "ppe_sah_bin",
+            at: |k| &mut k.ppe_sah_bin,
+            band: Band::Open("by analogy with spe_sah_bin"),
+        },
+        Rate {
             name: "spe_level_scan",
-            low: Cycles(8),
-            high: Cycles(13),
-            why: "derived",
+            at: |k| &mut k.spe_level_scan,
+            band: derived(8, 13),
         },
     ];
+}
+
+/// Checks a rate table against its set: every field is in the table once,
+/// under its own name (`prefix` + the field's), and overriding a name
+/// moves that field and no other.
+#[cfg(test)]
+pub(crate) fn check_table<S: Copy + serde::Serialize>(base: S, table: &[Rate<S>], prefix: &str) {
+    let fields = |s: &S| match serde_json::to_value(s).unwrap() {
+        serde_json::Value::Object(m) => m,
+        _ => panic!("a rate set serializes as an object"),
+    };
+    let plain = fields(&base);
+    let mut named: Vec<&str> = table.iter().map(|r| r.name).collect();
+    named.sort_unstable();
+    named.dedup();
+    assert_eq!(named.len(), table.len(), "a name twice");
+    assert_eq!(plain.len(), table.len(), "a field without a rate, or more");
+    for r in table {
+        let field = r.name.strip_prefix(prefix).expect("the set's prefix");
+        let old = plain[field].as_u64().expect("cycles");
+        let moved = overridden(
+            base,
+            table,
+            &RateOverrides::default().with(r.name, Cycles(old + 7)),
+        );
+        let changed: Vec<String> = (fields(&moved).into_iter())
+            .filter(|(k, v)| plain[k] != *v)
+            .map(|(k, _)| k)
+            .collect();
+        assert_eq!(changed, [field.to_string()], "{}", r.name);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_kernel_table_names_every_rate_once() {
+        check_table(KernelRates::PS3, KernelRates::TABLE, "");
+        let mut base = KernelRates::PS3;
+        for r in KernelRates::TABLE {
+            if let Band::Between { low, high, .. } = r.band {
+                let at = *(r.at)(&mut base);
+                assert!(
+                    low <= at && at <= high,
+                    "{}: {at:?} outside its band",
+                    r.name
+                );
+            }
+        }
+    }
 }

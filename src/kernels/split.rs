@@ -88,7 +88,7 @@ pub fn choose_split(candidate: &mut Aabb, centers: &Aabb) -> Option<Split> {
 
 /// [`choose_split`], adding one to `stalls` for each halving `f32` could
 /// not make (the candidate stopped shrinking, so the plane fell back to the
-/// centers or the axis was collapsed): what `experiments/extremes.rs`
+/// centers or the axis was collapsed): what `cli/experiments/extremes.rs`
 /// reports.
 pub fn choose_split_counted(
     candidate: &mut Aabb,

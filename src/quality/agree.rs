@@ -3,7 +3,7 @@
 //! triangle, on rays made to probe the tree's corners — from outside and
 //! inside the scene box, aimed at vertices, with zero direction components,
 //! axis-parallel, with finite `tmax`. The property tests and
-//! `experiments/extremes.rs` use the same rays and the same check.
+//! `cli/experiments/extremes.rs` use the same rays and the same check.
 
 use glam::DVec3;
 

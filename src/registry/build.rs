@@ -3,7 +3,7 @@
 //! of a builder that builds on the host's cores — made once (from the
 //! command line or by a caller), checked once, carried whole to every
 //! command, test, bench and experiment, and named by every report
-//! ([`crate::report::Settings`]).
+//! ([`crate::registry::Settings`]).
 
 use std::time::Duration;
 
@@ -114,7 +114,7 @@ impl Build {
         if self.threads.is_some() {
             self.builder.check_threads()?;
         }
-        Ok(())
+        BuilderKind::check_rates(&self.rates)
     }
 
     /// Builds the tree of `scene`.
@@ -155,10 +155,10 @@ impl Build {
     /// host threads" (a builder on the host's cores).
     pub fn describe(&self) -> String {
         if self.builder.emulated() {
-            let spes = crate::report::count(self.cell.spes as u64, "SPE");
+            let spes = crate::words::count(self.cell.spes as u64, "SPE");
             format!("builder {} on {spes}", self.builder)
         } else if let Some(n) = self.threads_used() {
-            let threads = crate::report::count(n as u64, "host thread");
+            let threads = crate::words::count(n as u64, "host thread");
             format!("builder {} on {threads}", self.builder)
         } else {
             format!("builder {}", self.builder)
@@ -231,5 +231,38 @@ mod tests {
                 assert!(threads.run(&s).is_err(), "{b}");
             }
         }
+    }
+
+    /// A rate override naming no rate is refused, naming it, before any
+    /// build; every rate of the registry's tables is taken.
+    #[test]
+    fn a_rate_that_names_no_rate_is_refused() {
+        use crate::cell::Cycles;
+        use crate::kernels::rates::RateOverrides;
+        let s = crate::scene::load("rtperf:500:1", None).unwrap();
+        let typo = RateOverrides::default().with("spe_jbo", Cycles(100));
+        let b = Build::new(BuilderKind::SPE_BFS).with_rates(&typo);
+        let e = b.check().unwrap_err().to_string();
+        assert!(
+            e.contains("no rate named spe_jbo") && e.contains("spe_job"),
+            "{e}"
+        );
+        assert!(b.run(&s).is_err());
+        for r in BuilderKind::rates() {
+            let o = RateOverrides::default().with(r.name, Cycles(100));
+            assert!(
+                Build::new(BuilderKind::SPE_BFS)
+                    .with_rates(&o)
+                    .check()
+                    .is_ok(),
+                "{}",
+                r.name
+            );
+        }
+        assert!(
+            BuilderKind::rates()
+                .iter()
+                .any(|r| r.name == "spe_morton.key_bit")
+        );
     }
 }

@@ -10,14 +10,17 @@ use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig};
 use crate::cell::CellError;
 use crate::host::HostBuilder;
+use crate::kernels::rates::{KernelRates, RateInfo, RateOverrides, Uncertain, infos};
 use crate::scene::Scene;
 use crate::strategy::{self, Strategy};
 
 mod build;
+pub mod settings;
 
 pub use crate::bih::Quality;
 pub use crate::strategy::Simulated;
 pub use build::{Build, BuildReport};
+pub use settings::{CellSettings, Settings};
 
 /// A handle on one of the registered builders; what `--builder` names.
 /// Each is a value its own file defines: a [`HostBuilder`] or a
@@ -169,21 +172,48 @@ impl BuilderKind {
         k
     }
 
-    /// Every kernel rate the builders may charge that no measurement pins,
-    /// with its plausible band: the shared kernels' and each strategy's
-    /// own (the sensitivity report moves each in turn).
-    pub fn uncertain_rates() -> Vec<crate::kernels::rates::Uncertain> {
-        let mut v: Vec<_> = crate::kernels::rates::KernelRates::UNCERTAIN.to_vec();
+    /// Every kernel rate the builders may charge: the shared kernels' and
+    /// each strategy's own, each once, with its band.
+    pub fn rates() -> Vec<RateInfo> {
+        let mut v = infos(KernelRates::TABLE);
         for b in Self::ALL {
             if let Family::Cell(s) = b.0 {
-                for u in s.uncertain {
-                    if !v.contains(u) {
-                        v.push(*u);
+                for r in (s.rates)() {
+                    if !v.iter().any(|h| h.name == r.name) {
+                        v.push(r);
                     }
                 }
             }
         }
         v
+    }
+
+    /// Every kernel rate the builders may charge that no measurement pins,
+    /// with its plausible band (the sensitivity report moves each in turn).
+    pub fn uncertain_rates() -> Vec<Uncertain> {
+        Self::rates()
+            .iter()
+            .filter_map(RateInfo::uncertain)
+            .collect()
+    }
+
+    /// Refuses rate overrides that name no rate of [`Self::rates`], naming
+    /// them and the rates there are (a misspelt name would otherwise move
+    /// nothing, silently).
+    pub fn check_rates(overrides: &RateOverrides) -> Result<(), CellError> {
+        let rates = Self::rates();
+        let unknown: Vec<&str> = (overrides.names())
+            .filter(|n| !rates.iter().any(|r| r.name == *n))
+            .collect();
+        if unknown.is_empty() {
+            return Ok(());
+        }
+        let names: Vec<&str> = rates.iter().map(|r| r.name).collect();
+        Err(CellError::Config(format!(
+            "no rate named {}; the rates are: {}",
+            unknown.join(", "),
+            names.join(", ")
+        )))
     }
 
     /// Refuses a strategy knob (`--NAME`) the builder does not take,

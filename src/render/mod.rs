@@ -11,7 +11,7 @@ use crate::aabb::Aabb;
 use crate::bih::{Hit, PACKET_RAYS, Ray, RayStats, Tracer};
 
 mod view;
-pub use view::{View, ViewsArg, has_viewpoint};
+pub use view::{View, has_viewpoint};
 
 /// The widest or tallest image [`trace`] makes.
 pub const MAX_SIDE: u32 = 16_384;

@@ -175,27 +175,6 @@ impl View {
     }
 }
 
-/// `--camera` of an experiment over several scenes: each scene's own
-/// viewpoint, or every scene from outside its box.
-#[derive(clap::Args, Clone, Debug)]
-pub struct ViewsArg {
-    /// Where each scene's camera stands: default (the scene's own
-    /// viewpoint inside it where it has one — Sponza's atrium, Šibenik's
-    /// nave — else the whole scene from outside) or framing (every scene
-    /// from outside its box)
-    #[arg(long = "camera", value_parser = ["default", "framing"], default_value = "default")]
-    pub camera: String,
-}
-
-impl ViewsArg {
-    pub fn view(&self) -> View {
-        match self.camera.as_str() {
-            "framing" => View::Framing,
-            _ => View::Default,
-        }
-    }
-}
-
 /// The named viewpoints.
 pub fn names() -> Vec<&'static str> {
     VIEWPOINTS.iter().map(|v| v.name).collect()

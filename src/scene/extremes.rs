@@ -1,5 +1,5 @@
 //! Scenes at the numerical extremes: what
-//! `experiments/extremes.rs` builds with every builder and what
+//! `cli/experiments/extremes.rs` builds with every builder and what
 //! `tests/extremes.rs` checks, one test per case. Each is deterministic
 //! (seeded) and small enough (2,000 triangles or so) for a brute-force
 //! check of every ray.

@@ -239,14 +239,40 @@ impl Scene {
 /// binary so that it runs on a fresh clone with no data.
 pub const DEFAULT_SCENE_OBJ: &str = include_str!("../../scenes/default.obj");
 
-/// Says `why` on stderr, once per mesh `name` in a process (an experiment
-/// loads a mesh more than once).
+/// Where the loader's warnings go: the front end's function (which prints
+/// them), set once with [`on_warning`]; until then they are kept for
+/// [`warnings`].
+static WARNING_SINK: std::sync::OnceLock<fn(&str)> = std::sync::OnceLock::new();
+
+/// Warnings said while no sink was set, in order.
+static WARNINGS: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+
+/// Sends every later warning of the loader (a mesh that differs from the
+/// manifest's) to `sink`, which a front end sets once at start-up to say
+/// them; the library itself never prints. A second call is ignored.
+pub fn on_warning(sink: fn(&str)) {
+    let _ = WARNING_SINK.set(sink);
+}
+
+/// The warnings said while no sink was set ([`on_warning`]).
+pub fn warnings() -> Vec<String> {
+    WARNINGS.lock().unwrap_or_else(|e| e.into_inner()).clone()
+}
+
+/// Says `why`, once per mesh `name` in a process (an experiment loads a
+/// mesh more than once).
 fn warn_once(name: &str, why: &str) {
     static WARNED: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
     let mut warned = WARNED.lock().unwrap_or_else(|e| e.into_inner());
     if !warned.iter().any(|w| w == name) {
         warned.push(name.to_string());
-        eprintln!("warning: {why}");
+        match WARNING_SINK.get() {
+            Some(sink) => sink(why),
+            None => WARNINGS
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push(why.to_string()),
+        }
     }
 }
 

@@ -11,6 +11,7 @@ pub mod knob;
 pub mod machinery;
 pub mod ppe_approx;
 pub mod ppe_naive;
+pub mod program;
 pub mod spe_bfs;
 pub mod spe_bfs_private;
 pub mod spe_bfs_shared;
@@ -18,175 +19,15 @@ pub mod spe_dfs;
 pub mod spe_morton;
 
 use crate::aabb::Aabb;
-use crate::bih::{Bih, BihConfig, BihNode, Quality};
-use crate::cell::{Cell, CellConfig, CellError, Ea, Ppe, RunReport, Trace};
+use crate::bih::{Bih, BihConfig, BihNode};
+use crate::cell::{Cell, CellConfig, CellError, RunReport, Trace};
 pub use crate::kernels::morton::KeyOrder;
-use crate::kernels::rates::{RateOverrides, Uncertain};
+use crate::kernels::rates::RateOverrides;
 use crate::kernels::recursion::BuildStats;
 use crate::scene::Scene;
-use crate::spe::footprint::Purpose;
 use crate::spe::layout;
 pub use knob::{Kind, Knob, Knobs};
-
-/// How a strategy starts: it spawns its programs on the Cell for the
-/// triangles of `Setup`, and returns how to read back what they leave
-/// (from what they return: [`crate::cell::Exit`]) once they have ended.
-pub type Spawn = fn(&mut Cell, &Setup, &BihConfig) -> Result<Readback, CellError>;
-
-/// A strategy's [`Output`], made once its programs have ended.
-pub type Readback = Box<dyn FnOnce() -> Result<Output, CellError>>;
-
-/// A strategy of the emulated Cell: what the registry needs of it. Each
-/// strategy's file defines one (`pub const STRATEGY: Strategy = …`).
-pub struct Strategy {
-    /// The `--builder` name.
-    pub name: &'static str,
-    /// One line for `cellbih builders`.
-    pub describe: &'static str,
-    /// It puts every SPE of the machine to work (`--spes` changes its time).
-    pub multi_spe: bool,
-    /// The quality knobs of [`BihConfig`] it builds beyond the paper's
-    /// tree; it refuses the others, by name.
-    pub quality: Quality,
-    /// The strategy knobs it takes (`--NAME`); the others are refused.
-    pub knobs: &'static [&'static Knob],
-    /// Settings of several of its knobs at once that experiments and
-    /// benches also try (each knob's own sweep values they try alone).
-    pub combos: &'static [&'static [(&'static Knob, &'static str)]],
-    /// Its own kernels' rates that are not pinned by a measurement, with
-    /// their plausible bands (the sensitivity report moves them).
-    pub uncertain: &'static [Uncertain],
-    /// Sets up its programs on the Cell.
-    pub spawn: Spawn,
-}
-
-impl Strategy {
-    /// A strategy that builds the paper's tree, takes no knob and uses one
-    /// SPE at most.
-    pub const fn new(name: &'static str, describe: &'static str, spawn: Spawn) -> Self {
-        Strategy {
-            name,
-            describe,
-            multi_spe: false,
-            quality: Quality::PAPER,
-            knobs: &[],
-            combos: &[],
-            uncertain: &[],
-            spawn,
-        }
-    }
-
-    /// It puts every SPE of the machine to work.
-    pub const fn on_every_spe(self) -> Self {
-        Strategy {
-            multi_spe: true,
-            ..self
-        }
-    }
-
-    /// It builds the quality knobs `quality`.
-    pub const fn with_quality(self, quality: Quality) -> Self {
-        Strategy { quality, ..self }
-    }
-
-    /// It takes the strategy knobs `knobs`.
-    pub const fn with_knobs(self, knobs: &'static [&'static Knob]) -> Self {
-        Strategy { knobs, ..self }
-    }
-
-    /// Its own kernels' rates `uncertain` are not pinned by a measurement.
-    pub const fn with_uncertain_rates(self, uncertain: &'static [Uncertain]) -> Self {
-        Strategy { uncertain, ..self }
-    }
-
-    /// Experiments and benches also try these settings of several knobs
-    /// at once.
-    pub const fn with_combos(
-        self,
-        combos: &'static [&'static [(&'static Knob, &'static str)]],
-    ) -> Self {
-        Strategy { combos, ..self }
-    }
-}
-
-/// Where a strategy finds its input in main memory, and its knobs.
-pub struct Setup {
-    pub triangles: Ea,
-    pub count: usize,
-    pub region: Aabb,
-    pub knobs: Knobs,
-    /// Kernel rates moved from their PS3 values (the sensitivity report);
-    /// a strategy charges `rates.kernels()` and its own rates with these.
-    pub rates: RateOverrides,
-}
-
-/// What a strategy's programs leave for reading back: the value its
-/// [`Readback`] makes of what they returned.
-#[derive(Default)]
-pub struct Output {
-    /// The node array, in one or more pieces (address, node count) that
-    /// concatenate in node-id order.
-    pub nodes: Vec<(Ea, usize)>,
-    pub stats: BuildStats,
-    /// The pieces hold unreachable slots (several arenas in one pool):
-    /// drop them on read-back, keeping the tree and its sibling pairs.
-    pub compact: bool,
-    /// Multi-SPE strategies: what each SPE did, by SPE.
-    pub spe_work: Vec<SpeWork>,
-    /// The SPEs its programs ran on: the strategy's own decision (a
-    /// multi-SPE strategy uses fewer than the machine has on a small
-    /// scene; the paper's builders use one or none).
-    pub spes: usize,
-    /// Where the triangles' final order is, if not in the array of records
-    /// they started in.
-    pub records: Option<Records>,
-    /// A strategy made of phases separated by barriers: each phase's name
-    /// and the cycle at which it ended (all SPEs through the barrier).
-    pub phases: Vec<(&'static str, u64)>,
-}
-
-/// Where a strategy leaves the triangles' final order (the leaves' ranges
-/// index it), if not in the array of records they started in.
-#[derive(Clone, Copy, Debug)]
-pub enum Records {
-    /// The records, permuted into another array.
-    Moved(Ea),
-    /// A column of triangle ids: in an array of `stride`-byte records at
-    /// `at`, each record's `u32` number `word`.
-    Ids { at: Ea, stride: u64, word: usize },
-}
-
-/// What one SPE of a multi-SPE build did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-pub struct SpeWork {
-    /// Jobs (nodes) it made.
-    pub jobs: u64,
-    /// Dealt jobs it stole from another SPE's list (`Knobs::steal`).
-    pub stolen: u64,
-    /// Takes from the shared job queue that found jobs (`spe_bfs_shared`),
-    /// or regions built (`spe_morton`).
-    pub taken: u64,
-    /// ObjectArena blocks it took, and their slots that hold no node
-    /// (skipped to keep a pair in one block, or never reached at the end).
-    pub arena_blocks: u64,
-    pub arena_unused: u64,
-    /// Its job-queue software cache (`spe_bfs_shared --job-cache`).
-    pub job_cache: crate::spe::software_cache::CacheStats,
-}
-
-/// The PPE allocates a node array in main memory and writes `nodes` into
-/// it; returns its address and node count, as [`Output::nodes`] holds them.
-pub(crate) async fn write_nodes(ppe: &Ppe, nodes: &[BihNode]) -> Result<(Ea, usize), CellError> {
-    let ea = ppe
-        .alloc(
-            Purpose::Nodes.buffer("node array"),
-            std::mem::size_of_val(nodes) as u64,
-            128,
-        )
-        .await?;
-    ppe.write_pod(ea, nodes).await?;
-    Ok((ea, nodes.len()))
-}
+pub use program::{Output, Readback, Records, Setup, Spawn, SpeWork, Strategy, write_nodes};
 
 /// The nodes reachable from node 0, renumbered breadth first (children
 /// stay adjacent): what is left of a pool shared by several arenas once its

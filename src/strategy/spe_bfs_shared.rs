@@ -40,11 +40,11 @@
 
 use crate::spe::footprint::Purpose;
 
-use super::machinery::arena::NodeWrites;
 use super::machinery::breadth_first::{
     DMA_LISTS, DOUBLE_BUFFER, Job, NO_PREFETCH, QueueKnobs, SpeBuilder,
 };
 use super::machinery::coop::Coop;
+use super::machinery::node_writes::NodeWrites;
 use super::machinery::top::{
     COOP_PARTITION, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE,
     TopKnobs, build_top, help_top,

@@ -299,11 +299,26 @@ async fn recursion(
     .await?;
     let mut nodes = vec![BihNode::default()];
     let mut stats = BuildStats::default();
-    // (node, first, count, candidate, side, depth, region), depth
-    // first, left first.
-    let mut stack: Vec<(usize, usize, usize, Aabb, Side, u32, Aabb)> =
-        vec![(0, 0, n, region, all, 0, region)];
-    while let Some((id, first, count, mut candidate, side, depth, region)) = stack.pop() {
+    // Depth first, left first.
+    let mut stack = vec![Pending {
+        id: 0,
+        first: 0,
+        count: n,
+        candidate: region,
+        side: all,
+        depth: 0,
+        region,
+    }];
+    while let Some(Pending {
+        id,
+        first,
+        count,
+        mut candidate,
+        side,
+        depth,
+        region,
+    }) = stack.pop()
+    {
         ppe.compute(k.ppe_node);
         let leaf = BihNode::leaf(first as u32, count as u32);
         let view = NodeView::of_side((first, count, depth), region, &side, candidate);
@@ -313,7 +328,15 @@ async fn recursion(
                 // A clip node (the empty-space cut-off): no SPE work.
                 stats.clip_nodes += 1;
                 let full = clip.make_in(&mut nodes, id);
-                stack.push((full, first, count, candidate, side, depth + 1, clip.region));
+                stack.push(Pending {
+                    id: full,
+                    first,
+                    count,
+                    candidate,
+                    side,
+                    depth: depth + 1,
+                    region: clip.region,
+                });
                 continue;
             }
             Decision::Split(split, c) => {
@@ -352,8 +375,24 @@ async fn recursion(
         let [lc, rc] = split.candidates(candidate);
         let [lr, rr] = child_regions(region, split.axis, [cl, cr]);
         let d = depth + 1;
-        stack.push((children + 1, first + l.count, r.count, rc, r, d, rr));
-        stack.push((children, first, l.count, lc, l, d, lr));
+        stack.push(Pending {
+            id: children + 1,
+            first: first + l.count,
+            count: r.count,
+            candidate: rc,
+            side: r,
+            depth: d,
+            region: rr,
+        });
+        stack.push(Pending {
+            id: children,
+            first,
+            count: l.count,
+            candidate: lc,
+            side: l,
+            depth: d,
+            region: lr,
+        });
     }
     // The SPE ends on STOP without an answer.
     let stop = DfsJob {
@@ -371,4 +410,17 @@ async fn recursion(
         spes: 1,
         ..Output::default()
     })
+}
+
+/// A node the PPE's depth-first loop has still to make: its slot, its
+/// triangles (`first`, `count`), its candidate box, the side of its
+/// parent's partition that holds them, its depth and its region.
+struct Pending {
+    id: usize,
+    first: usize,
+    count: usize,
+    candidate: Aabb,
+    side: Side,
+    depth: u32,
+    region: Aabb,
 }

@@ -2,9 +2,6 @@
 //! proptest, the brute-force comparison, and the data directory.
 #![allow(dead_code)]
 
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
-
 use cellbih::bih::{Bih, Hit};
 #[allow(unused_imports)]
 pub use cellbih::quality::agree::{check_ray, rays_for};
@@ -12,103 +9,11 @@ use cellbih::scene::{Scene, SplitMix64, Triangle};
 use glam::Vec3;
 use proptest::prelude::*;
 
-/// Runs the `cellbih` binary with `args`.
-pub fn cellbih(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_cellbih"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-/// Fails with the command's stderr unless it succeeded.
-pub fn assert_ok(out: &std::process::Output) {
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-/// Runs experiment binary `exe` with `args`, `--format json` and `--out`
-/// a fresh directory named `name`; returns its rows and the directory.
-pub fn run_experiment(
-    exe: &str,
-    name: &str,
-    args: &[&str],
-) -> (Vec<serde_json::Value>, std::path::PathBuf) {
-    let dir = tmp(name);
-    let out = std::process::Command::new(exe)
-        .args(args)
-        .args(["--format", "json", "--out", dir.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert_ok(&out);
-    // The standard output carries the file's document, settings included.
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert!(
-        doc["settings"]["version"].is_string(),
-        "{exe}: stdout has no settings"
-    );
-    // Every JSON file it wrote names its settings: the command line that
-    // made it and the version.
-    for f in std::fs::read_dir(&dir).unwrap() {
-        let path = f.unwrap().path();
-        if path.extension().is_some_and(|e| e == "json") {
-            let doc: serde_json::Value =
-                serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
-            let settings = &doc["settings"];
-            let command = settings["command"].as_str().unwrap_or_default();
-            assert!(
-                command.contains(args.first().copied().unwrap_or_default())
-                    && settings["version"].is_string(),
-                "{}: settings {settings}",
-                path.display()
-            );
-        }
-    }
-    (doc["rows"].as_array().unwrap().clone(), dir)
-}
-
 /// A path in this test process's own temporary directory.
 pub fn tmp(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("cellbih-test-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     d.join(name)
-}
-
-/// Panics unless every two complete ("X") events on one track of a Chrome
-/// trace are apart or nested, as the format requires (Perfetto drops or
-/// misdraws the others). Compared in whole nanoseconds, as Perfetto reads
-/// them.
-pub fn assert_slices_nest(trace: &serde_json::Value) {
-    let ns = |v: &serde_json::Value| (v.as_f64().unwrap() * 1000.0).round() as i64;
-    let mut by_track: std::collections::BTreeMap<i64, Vec<(i64, i64)>> = Default::default();
-    for e in trace["traceEvents"].as_array().unwrap() {
-        if e["ph"] == "X" {
-            let start = ns(&e["ts"]);
-            by_track
-                .entry(e["tid"].as_i64().unwrap())
-                .or_default()
-                .push((start, start + ns(&e["dur"])));
-        }
-    }
-    for (tid, mut slices) in by_track {
-        // Longest first among equal starts, so that a parent precedes its children.
-        slices.sort_by_key(|&(a, b)| (a, std::cmp::Reverse(b)));
-        let mut open: Vec<i64> = Vec::new();
-        for (a, b) in slices {
-            while open.last().is_some_and(|&end| end <= a) {
-                open.pop();
-            }
-            if let Some(&end) = open.last() {
-                assert!(
-                    b <= end,
-                    "track {tid}: slice {a}..{b} ns overlaps its neighbour ending at {end} without nesting"
-                );
-            }
-            open.push(b);
-        }
-    }
 }
 
 /// A scene of `n` triangles at a scale of `10^exp`, offset by `offset`
@@ -217,46 +122,6 @@ pub fn check_multi_spe_runs(
         * cellbih::strategy::machinery::arena::BLOCK_NODES as u64;
     let unused: u64 = a.spe_work.iter().map(|w| w.arena_unused).sum();
     assert_eq!(slots - unused, jobs, "{what}");
-}
-
-/// Runs `exe` with `args`, killing it after `limit`: a refusal must come
-/// at once, so a run that takes longer is a failure (a hang or a huge
-/// allocation), not a slow pass.
-pub fn run_limited(exe: &str, args: &[&str], limit: Duration) -> Output {
-    let mut child = Command::new(exe)
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > limit {
-            child.kill().unwrap();
-            panic!("{exe} {args:?} still ran after {limit:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
-}
-
-pub fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-pub fn stdout(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-/// Fails unless the command failed with `msg` in its stderr.
-pub fn assert_fails_with(out: &Output, msg: &str) {
-    let err = stderr(out);
-    assert!(
-        !out.status.success() && err.contains(msg),
-        "expected a failure saying '{msg}', got {:?}: {err}",
-        out.status
-    );
-    assert!(!err.contains("panicked"), "{err}");
 }
 
 /// Bitwise the same answer (`Hit`'s f64 compared by bits, so that a NaN

@@ -6,8 +6,10 @@
 //! multi-SPE strategies and their ObjectArena pool ([`top`]).
 
 pub mod arena;
+pub mod arena_words;
 pub mod breadth_first;
 pub mod coop;
+pub mod node_writes;
 pub mod pool_server;
 pub mod top;
 pub mod work_queue;

@@ -2,8 +2,7 @@
 //! ObjectArena lists in one index space, grown as the paper's arena grows:
 //! a block on request by mailbox). See `arena.rs`.
 
-use super::arena::{BLOCK_BYTES, REQUEST_BLOCK, ea_word};
-use crate::bih::BihNode;
+use super::arena_words::{BLOCK_BYTES, NODE_LINE, REQUEST_BLOCK, ea_word};
 use crate::cell::{CellError, Ea, Ppe};
 use crate::spe::footprint::Purpose;
 
@@ -19,10 +18,6 @@ pub struct PoolServer {
     spes: usize,
 }
 
-/// Bytes between overflow blocks' starts and the pool's base are a
-/// multiple of this: whole nodes (12 bytes) and whole lines (128).
-const NODE_LINE: u64 = 384;
-
 impl PoolServer {
     /// Serving `spes` SPEs, for the pool of `blocks` blocks at `base`.
     pub fn new(base: Ea, blocks: u32, spes: usize) -> Self {
@@ -31,12 +26,6 @@ impl PoolServer {
             end: base.offset(blocks as u64 * BLOCK_BYTES),
             spes,
         }
-    }
-
-    /// The slot (node id) at address `ea` of the pool at `base`.
-    pub(super) fn slot_of(base: Ea, ea: Ea) -> u32 {
-        debug_assert!(ea.0 >= base.0 && (ea.0 - base.0).is_multiple_of(NODE_LINE));
-        ((ea.0 - base.0) / size_of::<BihNode>() as u64) as u32
     }
 
     /// Serves block requests until a word it does not know (returned with

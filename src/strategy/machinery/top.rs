@@ -9,8 +9,9 @@
 //! wait. Then `spe_bfs_private` deals that level and `spe_bfs_shared` puts
 //! it in its shared queue.
 
-use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource, PoolServer};
+use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource};
 use super::coop::{Coop, CoopArea, GO};
+use super::pool_server::PoolServer;
 use super::work_queue::Level;
 use crate::aabb::Aabb;
 use crate::bih::BihConfig;
@@ -18,8 +19,9 @@ use crate::cell::Exit;
 use crate::cell::{Cell, CellError, Ea, Spe};
 use crate::spe::footprint::Purpose;
 use crate::spe::layout::TriRecord;
+use crate::strategy::knob::{Knob, Knobs};
 use crate::strategy::machinery::breadth_first::{Job, SpeBuilder, TopEnd};
-use crate::strategy::{Knob, Knobs, Output, Readback, SpeWork};
+use crate::strategy::program::{Output, Readback, Records, Setup, SpeWork};
 
 /// `--no-coop-top`: `TopKnobs::coop` off.
 pub const NO_COOP_TOP: Knob = Knob::flag(
@@ -188,7 +190,7 @@ impl Start {
     /// areas for the top knobs `top`.
     pub fn set_up(
         cell: &mut Cell,
-        setup: &super::super::Setup,
+        setup: &Setup,
         cfg: &BihConfig,
         top: &TopKnobs,
         auto_work: u64,
@@ -366,7 +368,7 @@ impl Pool {
         self,
         exits: Vec<Exit<SpeExit>>,
         reach: Exit<Ea>,
-        records: Option<super::super::Records>,
+        records: Option<Records>,
     ) -> Readback {
         Box::new(move || {
             let end = reach.take("PPE")?;

@@ -64,7 +64,7 @@ impl Areas {
         let (n, mut mem) = (setup.count, cell.memory_mut());
         let n64 = n as u64;
         let line = 128;
-        let subtops = ((top::SUBTOPS_PER_SPE * spes + 1) * top::RANGE) as u64;
+        let subtops = ((top::SUBTOPS_PER_SPE * spes + 1) * super::ranges::RANGE) as u64;
         let pairs = Pairs::for_bits(knobs.key_bits);
         let key_bytes = n64 * pairs.bytes as u64;
         let keys = [
@@ -114,6 +114,40 @@ impl Areas {
             pool: pool.base,
             blocks: pool.blocks,
         })
+    }
+}
+
+/// The region tables the PPE allocates once SPE 0 knows how many regions
+/// the top of the tree made, in the order the PPE sends their addresses.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct RegionTables {
+    /// The region jobs, largest first.
+    pub(super) jobs: Ea,
+    /// Their bounds, by the same position.
+    pub(super) bounds: Ea,
+    /// The static deal.
+    pub(super) deal: Ea,
+    /// Each unsorted place's sorted position.
+    pub(super) positions: Ea,
+    /// The large regions' WorkAPPE/WorkBPPE, a part for each SPE.
+    pub(super) spill: Ea,
+    /// Unless `--permute`: the large regions' records in key order, a
+    /// part for each SPE.
+    pub(super) sorted: Ea,
+}
+
+impl RegionTables {
+    /// The tables, in the order the PPE allocates them and sends their
+    /// addresses (and the take line holds them).
+    pub(super) fn in_order(&mut self) -> [&mut Ea; 6] {
+        [
+            &mut self.jobs,
+            &mut self.bounds,
+            &mut self.deal,
+            &mut self.positions,
+            &mut self.spill,
+            &mut self.sorted,
+        ]
     }
 }
 

@@ -42,22 +42,26 @@
 
 mod areas;
 mod pairs;
+mod ranges;
 mod regions;
 mod rekey;
 mod sort;
 mod top;
 
-use areas::{Areas, serve};
+use areas::{Areas, RegionTables, serve};
 
-use super::machinery::arena::{NodeWrites, ObjectArena};
+use super::machinery::arena::ObjectArena;
 use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, Job, NO_PREFETCH, QueueKnobs};
+use super::machinery::node_writes::NodeWrites;
 use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, spes_used};
 use super::{Knob, Knobs, Readback, Records, Setup, SpeWork};
 use crate::bih::BihConfig;
-use crate::cell::{Cell, CellError, Cycles, Ea, LsAddr, Spe};
+use crate::cell::{Cell, CellError, Cycles, LsAddr, Spe};
 use crate::kernels::morton::{KeyOrder, KeySpec, auto_key_bits, auto_region_size};
 use crate::kernels::radix;
-use crate::kernels::rates::{FITTED_OVER_DERIVED, KernelRates, RateOverrides, Uncertain};
+use crate::kernels::rates::{
+    FITTED_OVER_DERIVED, KernelRates, Rate, RateOverrides, derived, infos, overridden,
+};
 use crate::spe::barrier::Barrier;
 use crate::spe::layout::TriRecord;
 
@@ -68,7 +72,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     spawn,
 )
 .on_every_spe()
-.with_uncertain_rates(MortonRates::UNCERTAIN)
+.with_rates(|| infos(MortonRates::TABLE))
 .with_knobs(&[
     &KEY_ORDER,
     &KEY_BITS,
@@ -207,7 +211,7 @@ impl MortonKnobs {
 /// from an instruction count on the SPU's two pipelines (7.5, 7.5, 3 and
 /// 5.5 cycles) and scaled by the partition's fitted/derived ratio
 /// ([`crate::kernels::rates::FITTED_OVER_DERIVED`]), `docs/cost-model.md`.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct MortonRates {
     /// Per triangle, once per key: its record loaded and its center made
     /// (four triangles a vector), the key's cell started, the key pair
@@ -238,46 +242,31 @@ pub const RATES: MortonRates = MortonRates {
 impl MortonRates {
     /// The PS3's rates with `overrides`.
     fn with(overrides: &RateOverrides) -> Self {
-        let mut r = RATES;
-        for (name, field) in [
-            ("spe_morton.key_setup", &mut r.key_setup),
-            ("spe_morton.key_bit", &mut r.key_bit),
-            ("spe_morton.radix_count", &mut r.radix_count),
-            ("spe_morton.radix_scatter", &mut r.radix_scatter),
-        ] {
-            if let Some(v) = overrides.get(name) {
-                *field = v;
-            }
-        }
-        r
+        overridden(RATES, Self::TABLE, overrides)
     }
 
-    /// Its rates' plausible bands: derived, from the value to 1.6 times it
-    /// (the key-bit rate's 30 to 49 cycles; `KernelRates::UNCERTAIN`).
-    pub const UNCERTAIN: &'static [Uncertain] = &[
-        Uncertain {
+    /// Its rates, each derived: from the value to 1.6 times it (the
+    /// key-bit rate's 30 to 49 cycles; [`crate::kernels::rates::derived`]).
+    pub const TABLE: &'static [Rate<MortonRates>] = &[
+        Rate {
             name: "spe_morton.key_setup",
-            low: Cycles(30),
-            high: Cycles(49),
-            why: "derived",
+            at: |r| &mut r.key_setup,
+            band: derived(30, 49),
         },
-        Uncertain {
+        Rate {
             name: "spe_morton.key_bit",
-            low: Cycles(30),
-            high: Cycles(49),
-            why: "derived",
+            at: |r| &mut r.key_bit,
+            band: derived(30, 49),
         },
-        Uncertain {
+        Rate {
             name: "spe_morton.radix_count",
-            low: Cycles(12),
-            high: Cycles(19),
-            why: "derived",
+            at: |r| &mut r.radix_count,
+            band: derived(12, 19),
         },
-        Uncertain {
+        Rate {
             name: "spe_morton.radix_scatter",
-            low: Cycles(22),
-            high: Cycles(35),
-            why: "derived",
+            at: |r| &mut r.radix_scatter,
+            band: derived(22, 35),
         },
     ];
 }
@@ -366,12 +355,9 @@ struct Program<'a> {
     regions_built: u64,
     /// SPE 0: each phase and the cycle it ended at.
     phases: Vec<(&'static str, u64)>,
-    /// The region jobs (largest first), their bounds (by the same
-    /// position), the static deal, each unsorted place's sorted position,
-    /// the large regions' WorkAPPE/WorkBPPE and (unless `--permute`) their
-    /// records in key order, where the PPE allocated them.
-    tables: [Ea; 6],
-    /// Bytes of each SPE's part of the spill area (`tables[4]`).
+    /// Where the PPE allocated the region tables.
+    tables: RegionTables,
+    /// Bytes of each SPE's part of the spill area (`tables.spill`).
     spill_per_spe: u64,
     /// The regions this SPE's top made (every round), until their tables;
     /// then where they start in the unsorted table, and how many.
@@ -437,7 +423,7 @@ impl<'a> Program<'a> {
             partitions: 0,
             regions_built: 0,
             phases: Vec::new(),
-            tables: [Ea(0); 6],
+            tables: RegionTables::default(),
             spill_per_spe: 0,
             regions: Vec::new(),
             region_offset: 0,
@@ -543,5 +529,15 @@ impl<'a> Program<'a> {
             partitions: self.partitions,
             phases: std::mem::take(&mut self.phases),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{MortonRates, RATES};
+
+    #[test]
+    fn the_rate_table_names_every_rate_once() {
+        crate::kernels::rates::check_table(RATES, MortonRates::TABLE, "spe_morton.");
     }
 }

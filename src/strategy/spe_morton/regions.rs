@@ -55,7 +55,7 @@ impl Program<'_> {
             header[2 * s + 1] = l.len() as u32;
             all.extend_from_slice(l);
         }
-        self.write_array(self.tables[2], &all).await?;
+        self.write_array(self.tables.deal, &all).await?;
         self.write_array(self.a.deal_header, &header).await
     }
 
@@ -74,7 +74,7 @@ impl Program<'_> {
             );
             let mut v = Vec::with_capacity(len);
             for i in 0..len {
-                let at = self.tables[2].offset(((start + i) * 4) as u64);
+                let at = self.tables.deal.offset(((start + i) * 4) as u64);
                 self.spe.get(line, Ea(at.0 & !15), 16, tag).await?;
                 self.spe.wait_tag(tag).await?;
                 v.push(self.spe.ls_read::<u32>(line, 4)?[(at.0 as usize & 15) / 4]);
@@ -122,7 +122,7 @@ impl Program<'_> {
                 side.lo.x, side.lo.y, side.lo.z, 0.0, side.hi.x, side.hi.y, side.hi.z, 0.0,
             ];
             self.spe.ls_write(line, &bounds)?;
-            let at = self.tables[1].offset(pos as u64 * 32);
+            let at = self.tables.bounds.offset(pos as u64 * 32);
             self.spe.put(line, at, 32, tag).await?;
             self.spe.wait_tag(tag).await?;
             self.regions_built += 1;
@@ -165,7 +165,7 @@ impl Program<'_> {
             }
         };
         *next += 1;
-        let at = self.tables[0].offset(pos as u64 * JOB as u64);
+        let at = self.tables.jobs.offset(pos as u64 * JOB as u64);
         self.spe.get(line, at, JOB as u32, tag).await?;
         self.spe.wait_tag(tag).await?;
         Ok(Some((
@@ -198,7 +198,7 @@ impl Program<'_> {
     /// of the area the PPE allocates for regions too large for a local
     /// store (place `first` of the region it builds at its start).
     pub(super) fn sorted(&self) -> Ea {
-        self.a.sorted.unwrap_or(self.tables[5])
+        self.a.sorted.unwrap_or(self.tables.sorted)
     }
 
     /// Where the records of a region too large for a local store, from
@@ -208,7 +208,7 @@ impl Program<'_> {
             Some(all) => all.offset((first * RECORD) as u64),
             None => {
                 let part = (self.largest * RECORD).next_multiple_of(128) as u64;
-                self.tables[5].offset(self.spe.id() as u64 * part)
+                self.tables.sorted.offset(self.spe.id() as u64 * part)
             }
         }
     }
@@ -333,7 +333,10 @@ impl Program<'_> {
             }
         };
         let at = base.offset((place * RECORD) as u64);
-        let mine = self.tables[4].offset(self.spe.id() as u64 * self.spill_per_spe);
+        let mine = self
+            .tables
+            .spill
+            .offset(self.spe.id() as u64 * self.spill_per_spe);
         let half = self.spill_per_spe / 2;
         let work_ppe = ([mine, mine.offset(half)], half);
         let mark = self.spe.ls_mark();

@@ -35,7 +35,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3A;
 
 use super::pairs::{KeyRec, ls_for, span};
-use super::top::Range;
+use super::ranges::Range;
 use super::{Program, RECORD, RECORDS_PER_BLOCK};
 use crate::aabb::Aabb;
 use crate::cell::{CellError, Cycles, ListElement};

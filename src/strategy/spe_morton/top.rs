@@ -19,10 +19,11 @@
 //!    regions' bounds, bottom up, and each sub-top's bounds; then SPE 0
 //!    the nodes above the sub-tops.
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Pod;
 use glam::Vec3;
 
 use super::pairs::{ls_for, span};
+use super::ranges::{RANGE, Range};
 use super::rekey::{Found, Placed};
 use super::{JOB, Program, REGIONS, SPILL_UNIT};
 use crate::aabb::Aabb;
@@ -36,24 +37,6 @@ use crate::strategy::machinery::work_queue::{from_wire, to_wire};
 /// Ranges SPE 0 splits the top into before every SPE takes a part, per
 /// SPE: enough that taking them largest first balances the probes.
 pub(super) const SUBTOPS_PER_SPE: usize = 4;
-
-/// A range of sorted keys still to split: 32 bytes in the sub-top table.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub(super) struct Range {
-    pub(super) first: u32,
-    pub(super) count: u32,
-    /// The node it becomes.
-    pub(super) id: u32,
-    pub(super) depth: u32,
-    /// Key bits its cell has consumed.
-    pub(super) used: u32,
-    /// The keys it is split by: `Program::specs` (0 the scene's, then one
-    /// per re-keyed range).
-    pub(super) spec: u32,
-    pub(super) pad: [u32; 2],
-}
-pub(super) const RANGE: usize = size_of::<Range>();
 
 /// One node of the top of the tree, as an SPE keeps it until the regions'
 /// bounds are known. Children come after their parents.
@@ -339,14 +322,14 @@ impl Program<'_> {
             self.spe.write_out_mbox(total).await;
             self.spe.write_out_mbox(spill).await;
             self.spe.write_out_mbox(large).await;
-            for t in &mut self.tables {
+            for t in self.tables.in_order() {
                 *t = Ea(self.spe.read_in_mbox().await as u64);
             }
-            let tables = self.tables;
+            let mut tables = self.tables;
             self.spe
                 .atomic_update_line(line, self.a.take, |w| {
                     (w[0], w[1]) = (0, total);
-                    for (i, t) in tables.iter().enumerate() {
+                    for (i, t) in tables.in_order().into_iter().enumerate() {
                         w[2 + i] = t.0 as u32;
                     }
                     w[8] = spill;
@@ -358,7 +341,7 @@ impl Program<'_> {
         self.barrier().await?;
         self.read_take_line().await?;
         let offset = self.spe.ls_read::<u32>(line, 32)?[9 + self.spe.id()] as usize;
-        let at = self.tables[0].offset((offset * JOB) as u64);
+        let at = self.tables.jobs.offset((offset * JOB) as u64);
         self.write_array(at, &to_wire(regions, JOB)).await?;
         self.barrier().await?;
         Ok(offset)
@@ -371,7 +354,7 @@ impl Program<'_> {
         self.spe.get(line, self.a.take, 128, tag).await?;
         self.spe.wait_tag(tag).await?;
         let w = self.spe.ls_read::<u32>(line, 9)?;
-        for (i, t) in self.tables.iter_mut().enumerate() {
+        for (i, t) in self.tables.in_order().into_iter().enumerate() {
             *t = Ea(w[2 + i] as u64);
         }
         self.spill_per_spe = w[8] as u64 * SPILL_UNIT;
@@ -384,7 +367,7 @@ impl Program<'_> {
     /// position written to the positions table (and the static deal).
     async fn sort_regions(&mut self) -> Result<(), CellError> {
         let total = self.read_take_line().await? as usize;
-        let wire: Vec<u8> = self.read_array(self.tables[0], total * JOB).await?;
+        let wire: Vec<u8> = self.read_array(self.tables.jobs, total * JOB).await?;
         let jobs: Vec<Job> = from_wire(&wire, JOB);
         let mut order: Vec<usize> = (0..total).collect();
         order.sort_by_key(|&r| std::cmp::Reverse(jobs[r].count));
@@ -394,9 +377,9 @@ impl Program<'_> {
             position[r] = pos as u32;
         }
         let sorted: Vec<Job> = order.iter().map(|&r| jobs[r]).collect();
-        self.write_array(self.tables[0], &to_wire(&sorted, JOB))
+        self.write_array(self.tables.jobs, &to_wire(&sorted, JOB))
             .await?;
-        self.write_array(self.tables[3], &position).await?;
+        self.write_array(self.tables.positions, &position).await?;
         if self.knobs.static_regions {
             self.deal(&sorted).await?;
         }
@@ -435,8 +418,11 @@ impl Program<'_> {
         let total = self.read_take_line().await? as usize;
         let mut region_bounds = Vec::new();
         if self.region_count > 0 {
-            let bounds: Vec<[f32; 8]> = self.read_array(self.tables[1], total).await?;
-            let at = self.tables[3].offset((4 * self.region_offset as u64) & !15);
+            let bounds: Vec<[f32; 8]> = self.read_array(self.tables.bounds, total).await?;
+            let at = self
+                .tables
+                .positions
+                .offset((4 * self.region_offset as u64) & !15);
             let skip = self.region_offset % 4;
             let positions: Vec<u32> = self.read_array(at, skip + self.region_count).await?;
             region_bounds = positions[skip..]

@@ -30,7 +30,8 @@ mod job;
 
 use crate::kernels::rates::KernelRates;
 
-use super::arena::{BlockSource, NodeWrites, ObjectArena};
+use super::arena::{BlockSource, ObjectArena};
+use super::node_writes::NodeWrites;
 use super::work_queue::{Level, WorkQueue};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
@@ -41,7 +42,7 @@ use crate::kernels::sah::Bins;
 use crate::kernels::split::{Side, Split, clip_planes};
 use crate::spe::fig1::{Fig1Buffers, stream_bounds};
 use crate::spe::layout::TriRecord;
-use crate::strategy::{Knob, Knobs};
+use crate::strategy::knob::{Knob, Knobs};
 pub use job::Job;
 
 /// `--double-buffer`: `QueueKnobs::double_buffer`.

@@ -1,0 +1,199 @@
+//! `spe_scaling`'s summary: per scene and builder the speedup on 4, 6 and 8
+//! SPEs, whether 8 are slower than 4 and whether the tree is the
+//! baseline's; with `--zoo` the goals checked (on every scene of at least
+//! 100,000 triangles the best breadth-first builder at least 6.5x on 8
+//! SPEs and `spe_morton` at least 10x; on every scene 8 SPEs never slower
+//! than 4; every tree the baseline's), and a plot of the speedup on 8 SPEs
+//! against the scene's size.
+
+use std::path::Path;
+
+use serde_json::{Value, json};
+
+use cellbih_cli::report::{Series, output, scatter_plot};
+
+/// Scenes the size goals hold on: at least this many triangles.
+const GOAL_TRIANGLES: u64 = 100_000;
+const GOAL_BREADTH_FIRST: f64 = 6.5;
+const GOAL_MORTON: f64 = 10.0;
+
+pub struct Summary {
+    pub rows: Vec<Value>,
+    /// With `--zoo`: each goal, met or not, with the measured figure.
+    pub goals: Vec<Value>,
+}
+
+/// The default-knob rows of `rows` (a builder's name without options).
+fn defaults(rows: &[Value]) -> impl Iterator<Item = &Value> {
+    rows.iter()
+        .filter(|r| !r["builder"].as_str().unwrap_or_default().contains(' '))
+}
+
+fn speedup(rows: &[Value], scene: &str, builder: &str, spes: u64) -> Option<f64> {
+    rows.iter()
+        .find(|r| r["scene"] == scene && r["builder"] == builder && r["spes"] == spes)
+        .and_then(|r| r["speedup"].as_f64())
+}
+
+pub fn summary(rows: &[Value], zoo: bool) -> Summary {
+    let mut pairs: Vec<(String, String, u64, f64)> = Vec::new();
+    for r in defaults(rows) {
+        let (scene, builder) = (
+            r["scene"].as_str().unwrap_or_default(),
+            r["builder"].as_str().unwrap_or_default(),
+        );
+        if !pairs.iter().any(|p| p.0 == scene && p.1 == builder) {
+            let (n, base) = (
+                r["triangles"].as_u64().unwrap_or(0),
+                r["baseline_ms"].as_f64().unwrap_or(0.0),
+            );
+            pairs.push((scene.into(), builder.into(), n, base));
+        }
+    }
+    let mut out = Vec::new();
+    for (scene, builder, n, base) in &pairs {
+        let at = |spes| speedup(rows, scene, builder, spes);
+        let same = defaults(rows)
+            .filter(|r| r["scene"] == scene.as_str() && r["builder"] == builder.as_str())
+            .all(|r| r["baseline_tree"] == true);
+        out.push(json!({
+            "scene": scene, "triangles": n, "baseline_ms": base, "builder": builder,
+            "speedup_4": at(4), "speedup_6": at(6), "speedup_8": at(8),
+            "eight_slower_than_four": matches!((at(8), at(4)), (Some(e), Some(f)) if e < f),
+            "baseline_tree": same,
+        }));
+    }
+    let goals = if zoo { goals(&out) } else { Vec::new() };
+    Summary { rows: out, goals }
+}
+
+fn goals(summary: &[Value]) -> Vec<Value> {
+    let mut goals = Vec::new();
+    let mut scenes: Vec<&str> = summary.iter().filter_map(|r| r["scene"].as_str()).collect();
+    scenes.dedup();
+    let on8 = |scene: &str, pick: &dyn Fn(&str) -> bool| -> Option<f64> {
+        summary
+            .iter()
+            .filter(|r| r["scene"] == scene && pick(r["builder"].as_str().unwrap_or_default()))
+            .filter_map(|r| r["speedup_8"].as_f64())
+            .reduce(f64::max)
+    };
+    for &scene in &scenes {
+        let big = summary
+            .iter()
+            .any(|r| r["scene"] == scene && r["triangles"].as_u64().unwrap_or(0) >= GOAL_TRIANGLES);
+        if big {
+            if let Some(x) = on8(scene, &|b| b.starts_with("spe_bfs_")) {
+                goals.push(json!({ "scene": scene, "goal": format!("best breadth-first >= {GOAL_BREADTH_FIRST}x on 8 SPEs"), "measured": x, "met": x >= GOAL_BREADTH_FIRST }));
+            }
+            if let Some(x) = on8(scene, &|b| b == "spe_morton") {
+                goals.push(json!({ "scene": scene, "goal": format!("spe_morton >= {GOAL_MORTON}x on 8 SPEs"), "measured": x, "met": x >= GOAL_MORTON }));
+            }
+        }
+        let slower: Vec<&str> = summary
+            .iter()
+            .filter(|r| r["scene"] == scene && r["eight_slower_than_four"] == true)
+            .filter_map(|r| r["builder"].as_str())
+            .collect();
+        goals.push(json!({ "scene": scene, "goal": "8 SPEs never slower than 4", "measured": slower.join(", "), "met": slower.is_empty() }));
+        let other: Vec<&str> = summary
+            .iter()
+            .filter(|r| r["scene"] == scene && r["baseline_tree"] != true)
+            .filter_map(|r| r["builder"].as_str())
+            .collect();
+        goals.push(json!({ "scene": scene, "goal": "every tree the baseline's", "measured": other.join(", "), "met": other.is_empty() }));
+    }
+    goals
+}
+
+pub fn print(s: &Summary) {
+    println!(
+        "\n{}",
+        cellbih_cli::report::wrap(
+            "summary: speedup over spe_bfs (one SPE) with each builder's defaults, simulated \
+             PS3 time; notes: 8<4 where 8 SPEs were slower than 4, tree! where the tree is \
+             not the baseline's",
+            80
+        )
+    );
+    println!(
+        "{:<22} {:>9} {:<16} {:>6} {:>6} {:>6}  notes",
+        "scene", "triangles", "builder", "4", "6", "8"
+    );
+    let f = |v: &Value| v.as_f64().map_or("-".into(), |x| format!("{x:.2}"));
+    for r in &s.rows {
+        let mut notes = Vec::new();
+        if r["eight_slower_than_four"] == true {
+            notes.push("8<4");
+        }
+        if r["baseline_tree"] != true {
+            notes.push("tree!");
+        }
+        println!(
+            "{:<22} {:>9} {:<16} {:>6} {:>6} {:>6}  {}",
+            r["scene"].as_str().unwrap_or_default(),
+            r["triangles"].as_u64().unwrap_or(0),
+            r["builder"].as_str().unwrap_or_default(),
+            f(&r["speedup_4"]),
+            f(&r["speedup_6"]),
+            f(&r["speedup_8"]),
+            notes.join("; ")
+        );
+    }
+    if s.goals.is_empty() {
+        return;
+    }
+    let missed: Vec<&Value> = s.goals.iter().filter(|g| g["met"] != true).collect();
+    println!(
+        "\ngoals: {} of {} met",
+        s.goals.len() - missed.len(),
+        s.goals.len()
+    );
+    for g in missed {
+        let line = format!(
+            "  NOT met: {} · {}: {}",
+            g["scene"].as_str().unwrap_or_default(),
+            g["goal"].as_str().unwrap_or_default(),
+            match &g["measured"] {
+                Value::String(s) => s.clone(),
+                v => f(v) + "x",
+            }
+        );
+        println!("{}", cellbih_cli::report::wrap(&line, 80));
+    }
+}
+
+/// spe_scaling_speedup8.svg: each builder's speedup on 8 SPEs (defaults)
+/// against the scene's triangles, one dot per scene.
+pub fn plot(dir: &Path, rows: &[Value]) -> Result<(), Box<dyn std::error::Error>> {
+    let mut builders: Vec<&str> = defaults(rows)
+        .filter_map(|r| r["builder"].as_str())
+        .collect();
+    builders.sort_unstable();
+    builders.dedup();
+    let points: Vec<Series> = builders
+        .iter()
+        .enumerate()
+        .map(|(i, &b)| Series {
+            name: b.to_string(),
+            points: defaults(rows)
+                .filter(|r| r["builder"] == b && r["spes"] == 8)
+                .filter_map(|r| Some((r["triangles"].as_f64()?, r["speedup"].as_f64()?)))
+                .collect(),
+            color: i,
+            dashed: false,
+        })
+        .filter(|s| !s.points.is_empty())
+        .collect();
+    if points.is_empty() {
+        return Ok(());
+    }
+    scatter_plot(
+        &output(dir, "spe_scaling_speedup8.svg")?,
+        "speedup on 8 SPEs over spe_bfs on one, each scene (simulated PS3 time)",
+        "triangles",
+        "speedup on 8 SPEs",
+        &points,
+        &[],
+    )
+}

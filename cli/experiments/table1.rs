@@ -1,0 +1,296 @@
+//! Table 1 of the paper: the four builders on the PS3 model, for the four
+//! models, beside the paper's figures.
+//!
+//! `cargo run --release --bin table1 -- --data DIR [--format json] [--threads N] [--out results]`
+//!
+//! Bunny and dragon come from the data directory. The paper's ISS (17,633
+//! triangles) and Fairy Forest (174,117) are used when the data directory
+//! holds them with exactly those counts (`iss.obj.gz`, `fairyforest.obj.gz`);
+//! otherwise an rtPerf stand-in of the same triangle count is used, and the
+//! output says so. Times are simulated milliseconds (deterministic); the host
+//! time the emulation took is reported beside them. Writes table1.csv and
+//! table1.json to the output directory.
+
+use std::path::PathBuf;
+
+use clap::Parser;
+use serde_json::json;
+
+use cellbih::bih::BihConfig;
+use cellbih::cell::CellConfig;
+use cellbih::registry::{Build, BuilderKind};
+use cellbih::scene::{self, Scene};
+use cellbih_cli::report::{OutputArgs, ThreadsArg, side_by_side};
+
+#[derive(Parser)]
+#[command(
+    term_width = 80,
+    about = "Table 1: the paper's four builders (and section 5's) on the paper's models, simulated PS3 ms (default run: a few seconds)"
+)]
+struct Args {
+    /// Directory of the real meshes (default: $CELLBIH_DATA).
+    #[arg(long)]
+    data: Option<PathBuf>,
+    #[command(flatten)]
+    threads: ThreadsArg,
+    #[command(flatten)]
+    output: OutputArgs,
+}
+
+/// The paper's Table 1: model, triangles, file name, milliseconds for
+/// naive / approximate sorting / SPE depth first / SPE breadth first
+/// (`None`: out of memory).
+const PAPER: [(&str, usize, &str, [Option<f64>; 4]); 4] = [
+    (
+        "ISS",
+        17_633,
+        "iss",
+        [Some(106.0), Some(63.0), Some(47.0), Some(24.0)],
+    ),
+    (
+        "Bunny",
+        69_451,
+        "bunny",
+        [Some(340.0), Some(201.0), Some(133.0), Some(68.0)],
+    ),
+    (
+        "Fairy Forest",
+        174_117,
+        "fairyforest",
+        [Some(1478.0), Some(781.0), Some(385.0), Some(195.0)],
+    ),
+    (
+        "Dragon",
+        871_414,
+        "dragon",
+        [Some(5956.0), None, Some(1828.0), Some(897.0)],
+    ),
+];
+
+const METHODS: [BuilderKind; 4] = [
+    BuilderKind::PPE_NAIVE,
+    BuilderKind::PPE_APPROX,
+    BuilderKind::SPE_DFS,
+    BuilderKind::SPE_BFS,
+];
+
+/// The model's mesh, or a stand-in of the same triangle count.
+fn model(
+    name: &str,
+    count: usize,
+    file: &str,
+    data: Option<&std::path::Path>,
+) -> Result<(Scene, Option<String>), String> {
+    if let Some(dir) = data
+        && let Ok(s) = scene::load(file, Some(dir))
+        && s.len() == count
+    {
+        return Ok((s, None));
+    }
+    if file == "bunny" || file == "dragon" {
+        return Err(format!(
+            "{name} needs the data directory (--data DIR or CELLBIH_DATA) with {file}.obj.gz"
+        ));
+    }
+    let spec = format!("rtperf:{count}");
+    let s = scene::load(&spec, None).map_err(|e| e.to_string())?;
+    Ok((s, Some(spec)))
+}
+
+fn main() {
+    let mut args = Args::parse();
+    if args.data.is_none() {
+        args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
+    }
+    cellbih_cli::report::experiment_main("table1", &args.output.out, || run(&args));
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    args.threads.install()?;
+    let cfg = BihConfig::default();
+    let mut models = Vec::new();
+    for (name, count, file, paper) in PAPER {
+        let (scene, stand_in) = model(name, count, file, args.data.as_deref())?;
+        if let Some(spec) = &stand_in {
+            eprintln!(
+                "{name}: not in the data directory; stand-in `{spec}` ({})",
+                cellbih_cli::report::count(count as u64, "triangle")
+            );
+        }
+        models.push((name, scene, stand_in, paper));
+    }
+    // The paper's four methods on the PS3 (6 SPEs: the multi-SPE builders
+    // use them all), and section 5's strategies beside them (the paper has
+    // no figure for them): every build side by side.
+    let six = CellConfig::ps3().with_spes(6);
+    let builders: Vec<BuilderKind> = (METHODS.iter().copied())
+        .chain(BuilderKind::ALL.iter().copied().filter(|b| b.multi_spe()))
+        .collect();
+    let jobs: Vec<(usize, usize)> = (0..models.len())
+        .flat_map(|mi| (0..builders.len()).map(move |bi| (mi, bi)))
+        .collect();
+    let done = side_by_side("builds", &jobs, |&(mi, bi)| {
+        let (name, scene, ..) = &models[mi];
+        let b = builders[bi];
+        let r = Build::new(b)
+            .with_tree(cfg)
+            .on(&six)
+            .run(scene)
+            .map_err(|e| format!("{name}, {b}: {e}"))?;
+        let sim = r
+            .simulated
+            .expect("every Table 1 method runs on the emulated Cell");
+        let mib = sim.footprint.total as f64 / MIB;
+        Ok::<_, String>((
+            sim.run.ms,
+            mib,
+            r.host_time.as_secs_f64() * 1e3,
+            r.bih.nodes.len(),
+        ))
+    });
+    let mut rows = Vec::new();
+    let mut naive_ms = None;
+    for (&(mi, bi), done) in jobs.iter().zip(done) {
+        let (name, scene, stand_in, paper) = &models[mi];
+        let (ms, mib, host_ms, nodes) = done?;
+        if bi == 0 {
+            naive_ms = Some(ms);
+        }
+        let naive = naive_ms.expect("the naive build is each model's first");
+        let paper_naive = paper[0].expect("the paper's naive figure");
+        let (method, paper_ms) = match bi < METHODS.len() {
+            true => (builders[bi].name().to_string(), paper[bi]),
+            false => (format!("{} (6 SPEs)", builders[bi].name()), None),
+        };
+        rows.push(json!({
+            "model": name,
+            "triangles": scene.len(),
+            "stand_in": stand_in,
+            "method": method,
+            "simulated_ms": ms,
+            "paper_ms": paper_ms,
+            "ratio": paper_ms.map(|p| ms / p),
+            "speedup": naive / ms,
+            "paper_speedup": paper_ms.map(|p| paper_naive / p),
+            "host_ms": host_ms,
+            "nodes": nodes,
+            "memory_mib": mib,
+        }));
+    }
+
+    let doc = json!({ "rows": rows, "note": "simulated_ms on the PS3 model; paper_ms null = out of memory in the paper" });
+    args.output.report(
+        "table1",
+        (
+            &[
+                "model",
+                "triangles",
+                "stand_in",
+                "method",
+                "simulated_ms",
+                "paper_ms",
+                "ratio",
+                "speedup",
+                "paper_speedup",
+                "host_ms",
+                "memory_mib",
+            ],
+            &rows,
+        ),
+        &doc,
+        Some(&Build::new(BuilderKind::HOST).with_tree(cfg).on(&six)),
+        print_table,
+    )?;
+    Ok(())
+}
+
+/// Bytes per MiB, for the footprint column (main memory in use at the
+/// end of the build: every buffer by purpose, see `cellbih build`).
+const MIB: f64 = 1024.0 * 1024.0;
+
+fn print_table(rows: &[serde_json::Value]) {
+    // Two tables of 80 columns: the times beside the paper's, then the
+    // ratio, the host's time and the memory. Each row is led by its model
+    // (on its first row) and method.
+    let mut last = "";
+    let leads: Vec<String> = (rows.iter())
+        .map(|r| {
+            let model = r["model"].as_str().unwrap_or("");
+            let label = if model != last {
+                last = model;
+                let star = if r["stand_in"].is_null() { "" } else { "*" };
+                format!("{model}{star} ({})", r["triangles"])
+            } else {
+                String::new()
+            };
+            format!("{label:<21} {:<15}", r["method"].as_str().unwrap_or(""))
+        })
+        .collect();
+    // No paper figure: out of memory for the paper's methods; the
+    // multi-SPE strategies are not in the paper.
+    let opt = |r: &serde_json::Value, k: &str, w: usize, p: usize| {
+        let paper_method = METHODS.iter().any(|m| r["method"] == m.name());
+        match r[k].as_f64() {
+            Some(v) => format!("{v:>w$.p$}"),
+            None if paper_method => format!("{:>w$}", "OOM"),
+            None => format!("{:>w$}", "—"),
+        }
+    };
+    println!(
+        "{:<21} {:<15} {:>10} {:>10} {:>7} {:>7}",
+        "model", "method", "ours (ms)", "paper (ms)", "speedup", "paper"
+    );
+    for (r, lead) in rows.iter().zip(&leads) {
+        println!(
+            "{lead} {:>10.1} {} {:>7.2} {}",
+            r["simulated_ms"].as_f64().unwrap_or(0.0),
+            opt(r, "paper_ms", 10, 0),
+            r["speedup"].as_f64().unwrap_or(0.0),
+            opt(r, "paper_speedup", 7, 2),
+        );
+    }
+    println!(
+        "\n{:<21} {:<15} {:>10} {:>9} {:>8}",
+        "model", "method", "ours/paper", "host (ms)", "MiB"
+    );
+    for (r, lead) in rows.iter().zip(&leads) {
+        println!(
+            "{lead} {} {:>9.0} {:>8.1}",
+            opt(r, "ratio", 10, 2),
+            r["host_ms"].as_f64().unwrap_or(0.0),
+            r["memory_mib"].as_f64().unwrap_or(0.0),
+        );
+    }
+    let wrap = |text: &str| println!("{}", cellbih_cli::report::wrap(text, 80));
+    let mut models: Vec<&str> = rows.iter().filter_map(|r| r["model"].as_str()).collect();
+    models.dedup();
+    for name in models {
+        let model: Vec<&serde_json::Value> = rows
+            .iter()
+            .filter(|r| r["model"] == name)
+            .filter(|r| METHODS.iter().any(|m| r["method"] == m.name()))
+            .collect();
+        let ms: Vec<f64> = model
+            .iter()
+            .map(|r| r["simulated_ms"].as_f64().unwrap_or(0.0))
+            .collect();
+        let ordered = ms.windows(2).all(|w| w[0] > w[1]);
+        wrap(&format!(
+            "{}: {}",
+            model[0]["model"].as_str().unwrap_or(""),
+            if ordered {
+                "the paper's order (naive > approximate > depth first > breadth first)"
+            } else {
+                "NOT the paper's order"
+            }
+        ));
+    }
+    if rows.iter().any(|r| !r["stand_in"].is_null()) {
+        wrap(
+            "* stand-in: an rtPerf scene of the model's triangle count (the model is not in the data directory)",
+        );
+    }
+    wrap(
+        "OOM: the paper's build ran out of memory; —: not in the paper (section 5's strategies, on 6 SPEs). Simulated ms are deterministic; host ms is the emulation's wall time, one thread; MiB: the build's main memory (every buffer; by purpose: cellbih build).",
+    );
+}

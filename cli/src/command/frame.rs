@@ -1,0 +1,246 @@
+//! `cellbih frame`: the frame loop on the Cell: per frame the
+//! objects move, the tree follows by the policy, the primary rays are cast
+//! on the SPEs; every time is simulated PS3 time.
+
+use serde_json::json;
+
+use cellbih::frame::{FrameConfig, FrameRun, Policy, play};
+use cellbih::scene::Scene;
+use cellbih::update::Animation;
+
+use cellbih::registry::{Build, BuilderKind, Settings};
+
+use crate::Res;
+use crate::args::{CacheArgs, Format, FrameCommand, check_memory, parse_build_or};
+
+/// Runs `cellbih frame`.
+pub fn run(args: FrameCommand) -> Res<()> {
+    let FrameCommand {
+        scene,
+        build,
+        anim,
+        frames,
+        policy,
+        oracle,
+        build_spes,
+        width,
+        height,
+        camera,
+        cache,
+        format,
+    } = args;
+    let c = parse_build_or(&build, BuilderKind::SPE_BFS, true)?;
+    let asked = Asked {
+        policy: &policy,
+        oracle,
+        build_spes,
+        width,
+        height,
+        view: camera.view,
+        cache: &cache,
+    };
+    let cfg = config(&c, &asked)?;
+    let rays = Some(width as usize * height as usize);
+    scene.check_fits(&c, rays)?;
+    let settings = anim
+        .named(Settings::new(&cfg.build, Some(cfg.cast)).with_view(&cfg.view))
+        .with("frames", frames)
+        .with("policy", policy.as_str())
+        .with("oracle", oracle)
+        .with("build-spes", cfg.build_spes)
+        .with("width", width)
+        .with("height", height);
+    let (s, anim) = anim.load(&scene, frames)?;
+    check_memory(&s.name, (s.len(), 0), rays, &c, Default::default())?;
+    play_and_print(&s, &anim, &cfg, format, &settings)
+}
+
+/// What `frame` was asked, checked.
+pub struct Asked<'a> {
+    pub policy: &'a str,
+    pub oracle: bool,
+    pub build_spes: Option<u64>,
+    pub width: u32,
+    pub height: u32,
+    pub view: cellbih::render::View,
+    pub cache: &'a CacheArgs,
+}
+
+/// Checks the options before any work; the frame loop's configuration.
+pub fn config(c: &Build, a: &Asked) -> Res<FrameConfig> {
+    let policy = Policy::from_name(a.policy).ok_or_else(|| {
+        format!(
+            "unknown --policy '{}': rebuild, local, deep or auto",
+            a.policy
+        )
+    })?;
+    if !c.cell.cost.charge_compute {
+        return Err("frame measures simulated time: --mode functional has none".into());
+    }
+    cellbih::render::check_size(a.width, a.height)?;
+    let spes = c.cell.spes;
+    Ok(FrameConfig {
+        build: c.clone(),
+        policy,
+        oracle: a.oracle,
+        build_spes: a.build_spes.map_or(spes, |k| k as usize),
+        width: a.width,
+        height: a.height,
+        view: a.view.clone(),
+        cast: a.cache.config()?,
+    })
+}
+
+/// Plays the animation and prints every frame and the totals.
+pub fn play_and_print(
+    s: &Scene,
+    anim: &Animation,
+    cfg: &FrameConfig,
+    format: Format,
+    settings: &crate::report::Settings,
+) -> Res<()> {
+    let progress = crate::report::Progress::new("frames", anim.frames.len() as u64);
+    let run = play(s, anim, cfg, |_| progress.inc())?;
+    progress.finish();
+    print(s, anim, cfg, &run, format, settings);
+    Ok(())
+}
+
+fn print(
+    s: &Scene,
+    anim: &Animation,
+    cfg: &FrameConfig,
+    run: &FrameRun,
+    format: Format,
+    settings: &crate::report::Settings,
+) {
+    // "1 SPE builds", "2 SPEs build".
+    let verb = |n: usize, what: &str| match n {
+        1 => format!("1 SPE {what}s"),
+        n => format!("{n} SPEs {what}"),
+    };
+    let arrangement = match (cfg.all_spes_build(), cfg.spes()) {
+        (true, 1) => "the one SPE builds, then renders".to_string(),
+        (true, n) => format!("all {n} SPEs build, then all render"),
+        (false, _) => format!(
+            "{} the next frame while {} (the paper's arrangement)",
+            verb(cfg.build_spes, "build"),
+            verb(cfg.render_spes(), "render")
+        ),
+    };
+    if let Format::Json = format {
+        let v = json!({
+            "settings": settings.to_json(),
+            "scene": s.name,
+            "triangles": s.len(),
+            "animation": anim.name,
+            "builder": cfg.build.builder.name(),
+            "policy": cfg.policy.name(),
+            "spes": cfg.spes(),
+            "build_spes": cfg.build_spes,
+            "width": cfg.width,
+            "height": cfg.height,
+            "frames": run.frames,
+            "total_ms": run.total_ms,
+            "fps": run.fps,
+            "oracle": cfg.oracle,
+            "near_best": run.near_best,
+            "oracle_total_ms": run.oracle_total_ms,
+            "second_copy_bytes": run.second_copy_bytes,
+            "sharing_bound_ms": run.sharing_bound_ms,
+        });
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&v).expect("plain values")
+        );
+        return;
+    }
+    let title = format!(
+        "{} on {} ({}), {} × {}, policy {}, builder {}; {arrangement}",
+        anim.name,
+        s.name,
+        crate::report::count(s.len() as u64, "triangle"),
+        cfg.width,
+        cfg.height,
+        cfg.policy.name(),
+        cfg.build.builder
+    );
+    println!("{}", crate::report::wrap(&title, 80));
+    let line = format!("settings: {}", settings.line());
+    println!("{}", crate::report::wrap(&line, 80));
+    let oracle = run.frames.iter().any(|f| f.oracle_ms.is_some());
+    let predicted = run.frames.iter().any(|f| f.predicted.is_some());
+    println!(
+        "{:>5} {:>8} {:>8} {:>10} {:>10} {:>10} {:>9} {:>6}",
+        "frame", "choice", "rebuilt", "update ms", "render ms", "frame ms", "ray cost", "cache"
+    );
+    for f in &run.frames {
+        let choice = if f.full_rebuild { "rebuild" } else { f.choice };
+        println!(
+            "{:>5} {choice:>8} {:>8} {:>10.2} {:>10.2} {:>10.2} {:>9.1} {:>5.1}%",
+            f.frame,
+            f.rebuilt,
+            f.update_ms,
+            f.render_ms,
+            f.frame_ms,
+            f.ray_cost,
+            f.cache_hit_rate * 100.0
+        );
+    }
+    // What the metric predicted and what every option measured: a second
+    // table, so that each fits 80 columns.
+    if predicted || oracle {
+        print!("\n{:>5} {:>8}", "frame", "choice");
+        if predicted {
+            print!(" {:>11} {:>11}", "pred upd ms", "pred ren ms");
+        }
+        if oracle {
+            print!(" {:>10} {:>10} {:>10}", "rebuild ms", "local ms", "deep ms");
+        }
+        println!();
+        for f in &run.frames {
+            let choice = if f.full_rebuild { "rebuild" } else { f.choice };
+            print!("{:>5} {choice:>8}", f.frame);
+            if let Some(p) = f.predicted {
+                print!(" {:>11.2} {:>11.2}", p.update_ms, p.render_ms);
+            }
+            if let Some([r, l, d]) = f.oracle_ms {
+                print!(" {r:>10.2} {l:>10.2} {d:>10.2}");
+            }
+            println!();
+        }
+    }
+    let total = format!(
+        "total {:.2} ms for {}: {:.2} frames per second (simulated PS3 time; ray cost: nodes + \
+         triangles per ray; cache: the software cache's hit rate)",
+        run.total_ms,
+        crate::report::count(run.frames.len() as u64, "frame"),
+        run.fps
+    );
+    println!("\n{}", crate::report::wrap(&total, 80));
+    let sum = |f: fn(&cellbih::frame::FrameReport) -> f64| run.frames.iter().map(f).sum::<f64>();
+    let mut of_it = format!(
+        "of it: the PPE's share of the updates {:.2} ms, program switches {:.2} ms",
+        sum(|f| f.ppe_ms),
+        sum(|f| f.switch_ms)
+    );
+    if let (Some(bytes), Some(bound)) = (run.second_copy_bytes, run.sharing_bound_ms) {
+        of_it += &format!(
+            ", copies into the tree's second copy ({:.1} MiB) {:.2} ms; sharing the memory \
+             interface could add at most {bound:.2} ms ({:.1} %)",
+            bytes as f64 / (1u64 << 20) as f64,
+            sum(|f| f.copy_ms),
+            bound / run.total_ms.max(f64::MIN_POSITIVE) * 100.0
+        );
+    }
+    println!("{}", crate::report::wrap(&of_it, 80));
+    if let (Some(near), Some(best)) = (run.near_best, run.oracle_total_ms) {
+        let line = format!(
+            "oracle: {:.0} % of the frames within 10 % of the best option; every frame at its \
+             best: {best:.2} ms ({:+.1} %)",
+            near * 100.0,
+            (run.total_ms / best - 1.0) * 100.0
+        );
+        println!("{}", crate::report::wrap(&line, 80));
+    }
+}

@@ -1,0 +1,139 @@
+//! The `cellbih` command's subcommands, one file each, and what several
+//! of them share: how a cast on the Cell is described, paths as messages
+//! name them, PNG output.
+
+pub mod build;
+pub mod builders;
+pub mod compare;
+pub mod frame;
+pub mod info;
+pub mod print;
+pub mod raycast;
+pub mod render;
+pub mod update;
+
+use std::path::Path;
+
+use cellbih::cast::CastReport;
+use cellbih::registry::BuilderKind;
+
+use crate::Res;
+use crate::args::CastArgs;
+use crate::output::check_writable;
+
+/// "1 SPE", "6 SPEs".
+pub fn spes(n: usize) -> String {
+    crate::report::count(n as u64, "SPE")
+}
+
+/// The builders of `failed`, by name.
+pub fn names(failed: &[(BuilderKind, String)]) -> String {
+    let v: Vec<&str> = failed.iter().map(|(b, _)| b.name()).collect();
+    v.join(", ")
+}
+
+/// A path as messages name it: `-` is the standard output.
+pub fn shown(path: &Path) -> String {
+    match path.as_os_str() == "-" {
+        true => "the standard output".into(),
+        false => path.display().to_string(),
+    }
+}
+
+/// Checks before any work that `path` names a PNG file that can be written.
+pub fn check_png(path: &Path) -> Res<()> {
+    // `-`: the PNG goes to the standard output.
+    let png = path.as_os_str() == "-"
+        || path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if !png {
+        return Err(format!(
+            "{}: images are written as PNG: give a name ending in .png",
+            path.display()
+        )
+        .into());
+    }
+    Ok(check_writable(path)?)
+}
+
+/// Encodes `img` as PNG into `path`, whole or not at all.
+pub fn write_png(path: &Path, img: &image::RgbImage) -> Res<()> {
+    let mut png = Vec::new();
+    img.write_with_encoder(image::codecs::png::PngEncoder::new(&mut png))?;
+    Ok(crate::output::write_bytes(path, &png)?)
+}
+
+/// One paragraph on what casting on the Cell cost: simulated time, rays
+/// per second, the cache, where the SPEs' time went.
+pub fn describe(r: &CastReport, on: usize) -> String {
+    let st = r.stats();
+    let per = |x: u64| x as f64 / st.rays.max(1) as f64;
+    let cache = r.cache();
+    let sh = r.shares();
+    let switches: u64 = r.spes.iter().map(|s| s.switches).sum();
+    let switched = if switches > 0 {
+        format!(" ({switches} switches to another ray on a miss)")
+    } else {
+        String::new()
+    };
+    let packets: u64 = r.spes.iter().map(|s| s.packets).sum();
+    let packed = if packets > 0 {
+        let nodes: u64 = r.spes.iter().map(|s| s.packet_nodes).sum();
+        format!(
+            "; {}, {:.1} nodes each",
+            crate::report::count(packets, "packet"),
+            nodes as f64 / packets as f64
+        )
+    } else {
+        String::new()
+    };
+    let (time, shares) = match r.rays_per_s() {
+        Some(rps) => (
+            format!(
+                "{:.2} ms simulated on the PS3 model with {} ({:.2} M rays/s)",
+                r.run.ms,
+                spes(on),
+                rps / 1e6
+            ),
+            format!(
+                "; SPEs busy {:.0} % (least {:.0} %, most {:.0} %), waiting for DMA {:.0} %{switched}, atomic {:.1} %",
+                sh.busy * 100.0,
+                sh.busy_min * 100.0,
+                sh.busy_max * 100.0,
+                sh.dma_wait * 100.0,
+                sh.atomic * 100.0,
+            ),
+        ),
+        // Nothing was timed: no time and no shares of it.
+        None => (
+            format!("on {} in the functional mode (nothing timed)", spes(on)),
+            String::new(),
+        ),
+    };
+    format!(
+        "on the Cell: {time}; per ray {:.1} nodes, {:.1} triangles{packed}; software cache hit rate {:.1} % ({} misses){shares}",
+        per(st.nodes_visited),
+        per(st.triangles_tested),
+        cache.hit_rate() * 100.0,
+        cache.misses,
+    )
+}
+
+/// Writes the cast's timeline to `path` if one was asked for, and says so.
+pub fn write_trace(args: &CastArgs, r: &CastReport) -> Res<()> {
+    let Some(path) = &args.trace else {
+        return Ok(());
+    };
+    let timeline = r
+        .trace
+        .as_ref()
+        .ok_or("--trace: the cast kept no timeline")?;
+    crate::output::write_file(path, |w| timeline.write_chrome(w))?;
+    eprintln!(
+        "trace written to {} ({} spans)",
+        path.display(),
+        timeline.spans.len()
+    );
+    Ok(())
+}

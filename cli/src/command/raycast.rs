@@ -1,0 +1,84 @@
+//! `cellbih raycast`: builds the tree, casts the rays of a CSV file on the
+//! host or on the emulated Cell's SPEs, and writes the closest hits.
+
+use std::fs::File;
+use std::io::BufReader;
+
+use rayon::prelude::*;
+
+use cellbih::bih::{RayStats, Tracer};
+use cellbih::cast::cast_on_cell;
+use cellbih::rays_csv;
+use cellbih::registry::Settings;
+
+use super::shown;
+use crate::Res;
+use crate::args::{RaycastCommand, check_built, check_memory, parse_build};
+use crate::output::{check_writable, write_file};
+use crate::report::{step, wrap};
+
+/// Runs `cellbih raycast`.
+pub fn run(args: RaycastCommand) -> Res<()> {
+    let RaycastCommand {
+        scene,
+        build,
+        rays,
+        out,
+        cast,
+    } = args;
+    let c = parse_build(&build, cast.on_cell)?;
+    let on_cell = cast.config(c.cell.cost.charge_compute, &out)?;
+    check_writable(&out)?;
+    let rays_path = rays.display().to_string();
+    // `-`: the rays come on the standard input.
+    let rays = if rays.as_os_str() == "-" {
+        rays_csv::read_rays("standard input", std::io::stdin().lock())?
+    } else {
+        let path = rays.display().to_string();
+        let file = File::open(&rays).map_err(|e| format!("{path}: cannot open: {e}"))?;
+        rays_csv::read_rays(&path, BufReader::new(file))?
+    };
+    let cast_rays = on_cell.is_some().then_some(rays.len());
+    scene.check_fits(&c, cast_rays)?;
+    let s = scene.load()?;
+    check_memory(&s.name, (s.len(), 0), cast_rays, &c, Default::default())?;
+    let report = step(&format!("building {} with {}", s.name, c.builder), || {
+        c.run(&s)
+    })?;
+    let (hits, cell_report) = match &on_cell {
+        Some(cfg) => {
+            check_built(&s, &report, cast_rays, &c)?;
+            let mut cell = c.cell.clone();
+            cell.trace = cast.trace.is_some();
+            let r = step("casting the rays on the Cell", || {
+                cast_on_cell(&report.bih, &s, &rays, cfg, &cell, report.record_order())
+            })?;
+            (r.hits.clone(), Some(r))
+        }
+        None => {
+            let tracer = Tracer::new(&report.bih, &s);
+            let hits: Vec<_> = rays
+                .par_iter()
+                .map(|r| tracer.closest(r, &mut RayStats::default()))
+                .collect();
+            (hits, None)
+        }
+    };
+    write_file(&out, |w| rays_csv::write_hits(w, &hits))?;
+    let n_hit = hits.iter().flatten().count();
+    let said = format!(
+        "{}, {} ({}), written to {}",
+        crate::report::count(hits.len() as u64, "ray"),
+        crate::report::count(n_hit as u64, "hit"),
+        c.describe(),
+        shown(&out)
+    );
+    eprintln!("{}", wrap(&said, 80));
+    let settings = Settings::new(&c, on_cell).with("rays", rays_path.as_str());
+    eprintln!("{}", wrap(&format!("settings: {}", settings.line()), 80));
+    if let Some(r) = &cell_report {
+        eprintln!("{}", wrap(&super::describe(r, c.cell.spes), 80));
+        super::write_trace(&cast, r)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,108 @@
+//! `cellbih frame`: every frame and the totals printed, the JSON's
+//! fields, and the refusals before any work.
+
+use crate::common::{assert_fails_with, assert_ok, cellbih};
+
+/// `cellbih frame` prints each frame and the totals; its JSON has a
+/// `frames` array (choice, update, render and frame ms) and the total; a
+/// functional mode, an unknown policy, a host builder and the cast's
+/// options are checked before any work; `--policy auto --oracle` prints
+/// the predictions and the oracle's verdict.
+#[test]
+fn the_frame_command_reports_every_frame() {
+    let args = [
+        "frame",
+        "--scene",
+        "car",
+        "--animation",
+        "car",
+        "--frames",
+        "3",
+        "--builder",
+        "spe_bfs_shared",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--build-spes",
+        "2",
+    ];
+    let out = cellbih(&args);
+    assert_ok(&out);
+    let text = String::from_utf8_lossy(&out.stdout).replace('\n', " ");
+    assert!(
+        text.contains("2 SPEs build the next frame while 4 SPEs render"),
+        "{text}"
+    );
+    assert!(text.contains("frames per second"), "{text}");
+    // What the paper's arrangement adds is said: the second copy and the
+    // bound on sharing the memory interface.
+    assert!(
+        text.contains("of it: the PPE's share of the updates")
+            && text.contains("second copy")
+            && text.contains("sharing the memory interface could add at most"),
+        "{text}"
+    );
+    let mut json_args = args.to_vec();
+    json_args.extend(["--format", "json"]);
+    let out = cellbih(&json_args);
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let frames = v["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), 3);
+    let mut total = 0.0;
+    for f in frames {
+        for key in [
+            "choice",
+            "update_ms",
+            "render_ms",
+            "frame_ms",
+            "ppe_ms",
+            "copy_ms",
+        ] {
+            assert!(!f[key].is_null(), "{key}: {f}");
+        }
+        total += f["frame_ms"].as_f64().unwrap();
+    }
+    assert!((v["total_ms"].as_f64().unwrap() - total).abs() < 1e-9);
+    assert!(v["second_copy_bytes"].as_u64().is_some_and(|b| b > 0));
+    assert!(v["sharing_bound_ms"].as_f64().is_some_and(|b| b >= 0.0));
+    let out = cellbih(&[
+        "frame",
+        "--scene",
+        "car",
+        "--animation",
+        "car",
+        "--frames",
+        "2",
+        "--builder",
+        "spe_bfs",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--policy",
+        "auto",
+        "--oracle",
+    ]);
+    assert_ok(&out);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("pred upd ms") && text.contains("of the frames within 10 %"),
+        "{text}"
+    );
+    // Each refused before any work, the error naming what to change.
+    for (extra, says) in [
+        (&["--builder", "host"][..], "needs an emulated builder"),
+        (&["--mode", "functional"][..], "--mode functional has none"),
+        (&["--policy", "fastest"][..], "unknown --policy 'fastest'"),
+        (
+            &["--cache-kib", "1", "--cache-ways", "16"][..],
+            "whole sets",
+        ),
+    ] {
+        let mut args = vec!["frame", "--animation", "car", "--scene", "car"];
+        args.extend(extra);
+        assert_fails_with(&cellbih(&args), says);
+    }
+}

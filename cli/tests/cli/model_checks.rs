@@ -1,0 +1,179 @@
+//! The machine model's checks, run as a user runs them: `validate`
+//! (published PS3 figures, fitted apart from held out, and SPU kernels
+//! timed on hardware beside their instruction counts) and `sensitivity`
+//! (how the headline speedups move across every unpinned rate's band).
+
+/// `validate`: on the measured model every published PS3 figure is
+/// reproduced within its tolerance (exit 0, each row's ratio inside it,
+/// the files written); on the legacy model — every figure before the validation against real PS3s
+/// — the same probes leave their tolerances and the run fails naming
+/// them (the memory interface's ceiling, the hot spot on one local store,
+/// the lock lines).
+#[test]
+fn validate_holds_the_measured_model_to_every_published_figure() {
+    let exe = env!("CARGO_BIN_EXE_validate");
+    let dir = crate::common::tmp("validate");
+    let out = crate::common::command(exe)
+        .args(["--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("validate.json")).unwrap()).unwrap();
+    let rows = doc["rows"].as_array().unwrap();
+    assert!(rows.len() >= 20, "{} figures", rows.len());
+    for r in rows {
+        let (ratio, tol) = (
+            r["ratio"].as_f64().unwrap(),
+            r["tolerance"].as_f64().unwrap(),
+        );
+        assert!((ratio - 1.0).abs() <= tol && r["pass"] == true, "{r}");
+    }
+    let csv = std::fs::read_to_string(dir.join("validate.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + rows.len());
+    // The fitted figures (each names the rate it set) and the held-out
+    // ones are printed apart, each group with its pass count.
+    let fitted = rows.iter().filter(|r| r["role"] == "fitted").count();
+    let held_out = (rows.iter())
+        .filter(|r| r["role"] == "held-out" && r["section"] != "compute")
+        .count();
+    let kernels = rows.iter().filter(|r| r["section"] == "compute").count();
+    assert_eq!(fitted + held_out + kernels, rows.len());
+    assert!(
+        fitted > 0 && held_out > 0,
+        "{fitted} fitted, {held_out} held out"
+    );
+    for r in rows {
+        assert_eq!(r["sets"].is_string(), r["role"] == "fitted", "{r}");
+    }
+    let text = String::from_utf8_lossy(&out.stdout);
+    for line in [
+        format!("{fitted} of {fitted} pass"),
+        format!("{held_out} of {held_out} pass"),
+        format!("{kernels} of {kernels} pass"),
+    ] {
+        assert!(text.contains(&line), "{line}: {text}");
+    }
+    for line in text.lines() {
+        assert!(
+            line.chars().count() <= 80,
+            "{} columns: {line}",
+            line.chars().count()
+        );
+    }
+    let (a, b) = (
+        text.find("figures that set a rate"),
+        text.find("held-out figures"),
+    );
+    assert!(a.is_some() && b.is_some() && a < b, "{text}");
+    // The compute section: SPU kernels timed on hardware beside their
+    // instruction counts (a 12-instruction loop and an unhinted taken
+    // branch: 12 + 18 cycles), and the count times the derivation factor.
+    let compute: Vec<_> = rows.iter().filter(|r| r["section"] == "compute").collect();
+    assert!(compute.len() >= 5, "{} compute kernels", compute.len());
+    let branch = (compute.iter())
+        .find(|r| r["source"] == "cellmark spu_branch_kernel.S")
+        .unwrap();
+    assert_eq!(branch["emulated"], 30.0, "{branch}");
+    for r in &compute {
+        let x1 = r["ratio"].as_f64().unwrap();
+        let x4 = r["ratio_times_derivation_factor"].as_f64().unwrap();
+        assert!((x1 / x4 - 4.0).abs() < 0.01, "{r}");
+    }
+
+    let legacy = crate::common::command(exe)
+        .args(["--model", "legacy", "--out", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&legacy.stderr);
+    assert!(!legacy.status.success(), "the legacy model passed: {err}");
+    for figure in [
+        "16 KiB gets, 2 in flight",
+        "5 SPEs reading SPE 0's local store",
+        "putlluc on one line",
+        "6 SPEs putting 32 bytes into one line",
+        "handing one lock line round a ring",
+    ] {
+        assert!(err.contains(figure), "{figure}: {err}");
+    }
+}
+
+/// `sensitivity`: a row for the rates as calibrated and one for each end
+/// of every uncertain rate's band (each machine estimate, each kernel rate
+/// the registry marks uncertain), each with a speedup per headline (every
+/// multi-SPE builder of the registry on each SPE count); the calibrated
+/// row moves nothing, and moving a rate moves some headline.
+#[test]
+fn sensitivity_moves_every_uncertain_rate_across_its_band() {
+    use cellbih::registry::BuilderKind;
+    let exe = env!("CARGO_BIN_EXE_sensitivity");
+    let dir = crate::common::tmp("sensitivity");
+    let out = crate::common::command(exe)
+        .args([
+            "--scenes",
+            "default",
+            "--spes",
+            "2,6",
+            "--out",
+            dir.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        assert!(
+            line.chars().count() <= 80,
+            "{} columns: {line}",
+            line.chars().count()
+        );
+    }
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("sensitivity.json")).unwrap())
+            .unwrap();
+    let rows = doc["rows"].as_array().unwrap();
+    let uncertain =
+        cellbih::cell::CostModel::ESTIMATES.len() + BuilderKind::uncertain_rates().len();
+    // The rates as calibrated, each rate alone at each end, the 4 corners.
+    assert_eq!(rows.len(), 1 + 2 * uncertain + 4);
+    let heads = 2 * BuilderKind::ALL.iter().filter(|b| b.multi_spe()).count();
+    for r in rows {
+        assert_eq!(r["speedups"].as_array().unwrap().len(), heads, "{r}");
+    }
+    assert_eq!(rows[0]["largest_move"], 0.0);
+    let moved = (rows.iter()).filter(|r| r["largest_move"].as_f64().unwrap().abs() > 0.001);
+    assert!(moved.count() > rows.len() / 4, "moving rates moved little");
+    // A band per headline: its speedup as calibrated inside it, its ends
+    // the least and most over every variant.
+    let bands = doc["bands"].as_array().unwrap();
+    assert_eq!(bands.len(), heads);
+    for (h, b) in bands.iter().enumerate() {
+        let (at, low, high) = (
+            b["speedup"].as_f64().unwrap(),
+            b["low"].as_f64().unwrap(),
+            b["high"].as_f64().unwrap(),
+        );
+        assert!(low <= at && at <= high, "{b}");
+        let seen: Vec<f64> = (rows.iter())
+            .map(|r| r["speedups"][h]["speedup"].as_f64().unwrap())
+            .collect();
+        assert_eq!(
+            low,
+            seen.iter().copied().fold(f64::INFINITY, f64::min),
+            "{b}"
+        );
+        assert_eq!(
+            high,
+            seen.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            "{b}"
+        );
+    }
+    assert!(
+        bands.iter().any(|b| b["low"] != b["high"]),
+        "no band is wider than a point"
+    );
+}
