@@ -17,11 +17,10 @@ use common::simulated;
 
 use cellbih::cell::CellConfig;
 use cellbih::registry::BuilderKind;
-use cellbih::scene::{self, Scene};
+use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
 use criterion::measurement::Measurement;
-use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
-use simulated::SimulatedTime;
+use criterion::{BenchmarkGroup, Throughput};
 
 const METHODS: [BuilderKind; 4] = [
     BuilderKind::PPE_NAIVE,
@@ -29,15 +28,6 @@ const METHODS: [BuilderKind; 4] = [
     BuilderKind::SPE_DFS,
     BuilderKind::SPE_BFS,
 ];
-
-fn scenes() -> Vec<Scene> {
-    let mut v = vec![scene::load("default", None).unwrap()];
-    match scene::data_dir(None) {
-        Some(dir) => v.push(scene::load("bunny", Some(&dir)).unwrap()),
-        None => eprintln!("CELLBIH_DATA is not set: the default scene only"),
-    }
-    v
-}
 
 fn group<M: Measurement>(g: &mut BenchmarkGroup<M>, scenes: &[Scene]) {
     g.sample_size(10);
@@ -51,26 +41,4 @@ fn group<M: Measurement>(g: &mut BenchmarkGroup<M>, scenes: &[Scene]) {
     }
 }
 
-fn simulated(c: &mut Criterion<SimulatedTime>) {
-    let scenes = scenes();
-    let mut g = c.benchmark_group("paper_builders_simulated");
-    group(&mut g, &scenes);
-    g.finish();
-}
-
-fn host(c: &mut Criterion) {
-    let scenes = scenes();
-    let mut g = c.benchmark_group("paper_builders_host");
-    group(&mut g, &scenes);
-    g.finish();
-}
-
-criterion_group! {
-    name = simulated_time;
-    // Simulated time has no spread: criterion's plots of a comparison with
-    // an earlier run (a t-test over identical samples) would panic.
-    config = Criterion::default().with_measurement(SimulatedTime).without_plots();
-    targets = simulated
-}
-criterion_group!(host_time, host);
-criterion_main!(simulated_time, host_time);
+common::simulated::simulated_and_host!("paper_builders", group);

@@ -1,6 +1,6 @@
 //! What the benches share: their scenes and the simulated-time measurement.
 //! Each bench uses one of the two.
-#![allow(dead_code)]
+#![allow(dead_code, unused_macros, unused_imports)]
 
 pub mod scenes;
 pub mod simulated;

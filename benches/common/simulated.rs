@@ -90,3 +90,49 @@ impl ValueFormatter for SimulatedFormatter {
         "ns (simulated)"
     }
 }
+
+/// The simulated benches' scenes: the default scene, and the Bunny where
+/// `CELLBIH_DATA` is set (said so where it is not).
+pub fn default_and_bunny() -> Vec<Scene> {
+    let mut v = vec![cellbih::scene::load("default", None).unwrap()];
+    match cellbih::scene::data_dir(None) {
+        Some(dir) => v.push(cellbih::scene::load("bunny", Some(&dir)).unwrap()),
+        None => eprintln!("CELLBIH_DATA is not set: the default scene only"),
+    }
+    v
+}
+
+/// A bench's `main`, measuring its builds twice: `NAME_simulated/*` in
+/// simulated time ([`SimulatedTime`]), `NAME_host/*` in host time; `group`
+/// adds the builds of the scenes ([`default_and_bunny`]) to a group.
+macro_rules! simulated_and_host {
+    ($name:literal, $group:path) => {
+        fn simulated(c: &mut criterion::Criterion<common::simulated::SimulatedTime>) {
+            let scenes = common::simulated::default_and_bunny();
+            let mut g = c.benchmark_group(concat!($name, "_simulated"));
+            $group(&mut g, &scenes);
+            g.finish();
+        }
+
+        fn host(c: &mut criterion::Criterion) {
+            let scenes = common::simulated::default_and_bunny();
+            let mut g = c.benchmark_group(concat!($name, "_host"));
+            $group(&mut g, &scenes);
+            g.finish();
+        }
+
+        criterion::criterion_group! {
+            name = simulated_time;
+            // Simulated time has no spread: criterion's plots of a
+            // comparison with an earlier run (a t-test over identical
+            // samples) would panic.
+            config = criterion::Criterion::default()
+                .with_measurement(common::simulated::SimulatedTime)
+                .without_plots();
+            targets = simulated
+        }
+        criterion::criterion_group!(host_time, host);
+        criterion::criterion_main!(simulated_time, host_time);
+    };
+}
+pub(crate) use simulated_and_host;

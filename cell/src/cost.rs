@@ -297,52 +297,19 @@ impl CostModel {
     /// The machine's rates that are estimates (no published measurement
     /// pins them), by name: what the sensitivity report moves, from half to
     /// twice their value.
-    pub const ESTIMATES: &'static [Estimate] = &[
-        Estimate {
-            name: "mfc_list_element_cycles",
-            at: |c| &mut c.mfc_list_element_cycles,
-        },
-        Estimate {
-            name: "channel_cycles",
-            at: |c| &mut c.channel_cycles,
-        },
-        Estimate {
-            name: "mailbox_latency_cycles",
-            at: |c| &mut c.mailbox_latency_cycles,
-        },
-        Estimate {
-            name: "ppe_mmio_cycles",
-            at: |c| &mut c.ppe_mmio_cycles,
-        },
-        Estimate {
-            name: "signal_latency_cycles",
-            at: |c| &mut c.signal_latency_cycles,
-        },
-        Estimate {
-            name: "getllar_cycles",
-            at: |c| &mut c.getllar_cycles,
-        },
-        Estimate {
-            name: "atomic_hit_cycles",
-            at: |c| &mut c.atomic_hit_cycles,
-        },
-        Estimate {
-            name: "ppe_event_cycles",
-            at: |c| &mut c.ppe_event_cycles,
-        },
-        Estimate {
-            name: "ppe_alloc_cycles",
-            at: |c| &mut c.ppe_alloc_cycles,
-        },
-        Estimate {
-            name: "ppe_atomic_cycles",
-            at: |c| &mut c.ppe_atomic_cycles,
-        },
-        Estimate {
-            name: "put_ack_cycles",
-            at: |c| &mut c.put_ack_cycles,
-        },
-    ];
+    pub const ESTIMATES: &'static [Estimate] = estimates!(
+        mfc_list_element_cycles,
+        channel_cycles,
+        mailbox_latency_cycles,
+        ppe_mmio_cycles,
+        signal_latency_cycles,
+        getllar_cycles,
+        atomic_hit_cycles,
+        ppe_event_cycles,
+        ppe_alloc_cycles,
+        ppe_atomic_cycles,
+        put_ack_cycles,
+    );
 
     /// This model with the estimate `name` ([`CostModel::ESTIMATES`]) at
     /// `value` cycles; `None` for a name that is not one.
@@ -393,6 +360,17 @@ impl CostModel {
         }
     }
 }
+
+/// The table of estimates, each named by its field: a name written once.
+macro_rules! estimates {
+    ($($field:ident),* $(,)?) => {
+        &[$(Estimate {
+            name: stringify!($field),
+            at: |c| &mut c.$field,
+        }),*]
+    };
+}
+use estimates;
 
 /// One of the machine's estimates ([`CostModel::ESTIMATES`]): its name,
 /// written once, and where it lives in the model.

@@ -360,6 +360,16 @@ impl Machine {
             .fold(0u32, |a, t| a | 1 << t)
     }
 
+    /// Charges `cycles` of a program's computation on `core` (none in the
+    /// functional mode: `CostModel::charge_compute`).
+    pub fn compute(&mut self, core: usize, cycles: Cycles) {
+        let cycles = match self.cost.charge_compute {
+            true => cycles,
+            false => Cycles::ZERO,
+        };
+        self.busy(core, cycles, SpanKind::Compute);
+    }
+
     /// Charges `c` busy cycles to `core`.
     pub fn busy(&mut self, core: usize, c: Cycles, kind: SpanKind) {
         let start = self.cores[core].clock;

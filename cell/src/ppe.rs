@@ -41,13 +41,7 @@ impl Ppe {
     /// Charges `cycles` of PPE computation (none in the functional mode:
     /// [`CostModel::charge_compute`]).
     pub fn compute(&self, cycles: Cycles) {
-        let mut m = self.m.borrow_mut();
-        let cycles = if m.cost.charge_compute {
-            cycles
-        } else {
-            Cycles::ZERO
-        };
-        m.busy(PPE, cycles, SpanKind::Compute);
+        self.m.borrow_mut().compute(PPE, cycles);
     }
 
     async fn sync(&self) {

@@ -54,13 +54,7 @@ impl Spe {
     /// Charges `cycles` of computation on the local store (none in the
     /// functional mode: [`CostModel::charge_compute`]).
     pub fn compute(&self, cycles: Cycles) {
-        let mut m = self.m.borrow_mut();
-        let cycles = if m.cost.charge_compute {
-            cycles
-        } else {
-            Cycles::ZERO
-        };
-        m.busy(self.core(), cycles, SpanKind::Compute);
+        self.m.borrow_mut().compute(self.core(), cycles);
     }
 
     /// Charges `items` items of a kernel at `rate` cycles each (the

@@ -10,6 +10,18 @@ use cellbih_cell::{
 type Program = std::pin::Pin<Box<dyn std::future::Future<Output = Result<(), CellError>>>>;
 type Case = (&'static str, Box<dyn Fn(cellbih_cell::Spe, Ea) -> Program>);
 
+/// A case of a rule: the words its error must hold, and the program (one
+/// SPE's, given the SPE and a 64 KiB buffer in main memory) that breaks it.
+macro_rules! case {
+    ($says:literal, |$s:ident, $ea:ident| $body:block) => {
+        (
+            $says,
+            Box::new(|$s: cellbih_cell::Spe, $ea: Ea| -> Program { Box::pin(async move $body) })
+                as Box<dyn Fn(cellbih_cell::Spe, Ea) -> Program>,
+        )
+    };
+}
+
 /// A PS3 whose programs are resident: these tests time the programs
 /// alone (starting them is tested in `cell_contention.rs`).
 fn ps3() -> CellConfig {
@@ -34,114 +46,64 @@ fn dma_error(f: impl FnOnce(cellbih_cell::Spe, Ea) -> Program) -> String {
 #[test]
 fn every_dma_rule_violation_names_the_command() {
     let cases: Vec<Case> = vec![
-        (
-            "3 bytes is not 1, 2, 4, 8 or a multiple of 16",
-            Box::new(|s, ea| {
-                Box::pin(async move {
-                    let b = s.ls_alloc(128, 128)?;
-                    s.get(b, ea, 3, 0).await
-                })
-            }),
-        ),
-        (
-            "over the 16 KiB limit",
-            Box::new(|s, ea| {
-                Box::pin(async move {
-                    let b = s.ls_alloc(32768, 128)?;
-                    s.get(b, ea, 32768, 0).await
-                })
-            }),
-        ),
-        (
-            "must be 16-byte aligned on both sides",
-            Box::new(|s, ea| {
-                Box::pin(async move {
-                    let b = s.ls_alloc(256, 128)?;
-                    s.get(b, ea.offset(8), 64, 0).await
-                })
-            }),
-        ),
-        (
-            "agree in their low 4 bits",
-            Box::new(|s, ea| {
-                Box::pin(async move {
-                    let b = s.ls_alloc(256, 128)?;
-                    s.get(b.offset(4), ea.offset(8), 4, 0).await
-                })
-            }),
-        ),
-        (
-            "must be 8-byte aligned",
-            Box::new(|s, ea| {
-                Box::pin(async move {
-                    let b = s.ls_alloc(256, 128)?;
-                    s.put(b.offset(4), ea.offset(4), 8, 0).await
-                })
-            }),
-        ),
-        (
-            "tag 32 is not a tag group",
-            Box::new(|s, ea| {
-                Box::pin(async move {
-                    let b = s.ls_alloc(256, 128)?;
-                    s.get(b, ea, 16, 32).await
-                })
-            }),
-        ),
-        (
-            "a transfer of 0 bytes",
-            Box::new(|s, ea| {
-                Box::pin(async move {
-                    let b = s.ls_alloc(256, 128)?;
-                    s.get(b, ea, 0, 0).await
-                })
-            }),
-        ),
-        (
-            "outside what was allocated",
-            Box::new(|s, ea| {
-                Box::pin(async move {
-                    let b = s.ls_alloc(256, 128)?;
-                    s.get(b, ea.offset(64 * 1024), 16, 0).await
-                })
-            }),
-        ),
+        case!("3 bytes is not 1, 2, 4, 8 or a multiple of 16", |s, ea| {
+            let b = s.ls_alloc(128, 128)?;
+            s.get(b, ea, 3, 0).await
+        }),
+        case!("over the 16 KiB limit", |s, ea| {
+            let b = s.ls_alloc(32768, 128)?;
+            s.get(b, ea, 32768, 0).await
+        }),
+        case!("must be 16-byte aligned on both sides", |s, ea| {
+            let b = s.ls_alloc(256, 128)?;
+            s.get(b, ea.offset(8), 64, 0).await
+        }),
+        case!("agree in their low 4 bits", |s, ea| {
+            let b = s.ls_alloc(256, 128)?;
+            s.get(b.offset(4), ea.offset(8), 4, 0).await
+        }),
+        case!("must be 8-byte aligned", |s, ea| {
+            let b = s.ls_alloc(256, 128)?;
+            s.put(b.offset(4), ea.offset(4), 8, 0).await
+        }),
+        case!("tag 32 is not a tag group", |s, ea| {
+            let b = s.ls_alloc(256, 128)?;
+            s.get(b, ea, 16, 32).await
+        }),
+        case!("a transfer of 0 bytes", |s, ea| {
+            let b = s.ls_alloc(256, 128)?;
+            s.get(b, ea, 0, 0).await
+        }),
+        case!("outside what was allocated", |s, ea| {
+            let b = s.ls_alloc(256, 128)?;
+            s.get(b, ea.offset(64 * 1024), 16, 0).await
+        }),
         (
             "runs past the 262144-byte local store",
             Box::new(|s, ea| {
                 Box::pin(async move { s.get(LsAddr(256 * 1024 - 16), ea, 32, 0).await })
             }),
         ),
-        (
-            "a DMA list holds 1 to 2048 elements, not 2049",
-            Box::new(|s, ea| {
-                Box::pin(async move {
-                    let b = s.ls_alloc(1024, 128)?;
-                    s.getl(b, &vec![ListElement { ea, size: 16 }; 2049], 0)
-                        .await
-                })
-            }),
-        ),
-        (
-            "mfc_getl",
-            Box::new(|s, ea| {
-                Box::pin(async move {
-                    let b = s.ls_alloc(1024, 128)?;
-                    s.getl(
-                        b,
-                        &[
-                            ListElement { ea, size: 16 },
-                            ListElement {
-                                ea: ea.offset(4),
-                                size: 16,
-                            },
-                        ],
-                        0,
-                    )
-                    .await
-                })
-            }),
-        ),
+        case!("a DMA list holds 1 to 2048 elements, not 2049", |s, ea| {
+            let b = s.ls_alloc(1024, 128)?;
+            s.getl(b, &vec![ListElement { ea, size: 16 }; 2049], 0)
+                .await
+        }),
+        case!("mfc_getl", |s, ea| {
+            let b = s.ls_alloc(1024, 128)?;
+            s.getl(
+                b,
+                &[
+                    ListElement { ea, size: 16 },
+                    ListElement {
+                        ea: ea.offset(4),
+                        size: 16,
+                    },
+                ],
+                0,
+            )
+            .await
+        }),
     ];
     for (want, f) in cases {
         let e = dma_error(f);

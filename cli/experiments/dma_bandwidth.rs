@@ -19,7 +19,6 @@ use cellbih_cli::report::{OutputArgs, Series, count, line_plot, output};
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "DMA bandwidth of 1 to 8 SPEs streaming gets of 128 B to 16 KiB, single- and double-buffered (default run: about 14 s)"
 )]
 struct Args {
@@ -103,7 +102,7 @@ fn stream(spes: usize, size: u32, double: bool, bytes: u64) -> Run {
 }
 
 fn main() {
-    let args = Args::parse();
+    let args: Args = cellbih_cli::args::parse();
     cellbih_cli::report::experiment_main("dma_bandwidth", &args.output.out, || {
         run(&args).map_err(|e| e.to_string())
     });

@@ -25,7 +25,6 @@ use cellbih_cli::report::{OutputArgs, ThreadsArg, side_by_side};
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "Every builder at the numerical extremes (1e-15 to 1e15, flat, degenerate, stacks, far clusters), each tree checked against brute force (default run: about 5 s)"
 )]
 struct Args {
@@ -39,8 +38,7 @@ struct Args {
 }
 
 fn main() {
-    let args = Args::parse();
-    cellbih_cli::report::experiment_main("extremes", &args.output.out.clone(), || run(&args));
+    cellbih_cli::report::main("extremes", |a: &Args| &a.output, run);
 }
 
 fn run(args: &Args) -> Result<(), String> {

@@ -30,7 +30,6 @@ use cellbih_cli::report::OutputArgs;
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "Each emulated builder's main memory by purpose, and the largest rtperf:N it \
              builds in the emulated memory, predicted and verified (default run: about 30 s)",
     after_help = "What to expect: the default run (256 MiB) takes about 30 s and at most \
@@ -76,8 +75,7 @@ const TINY: usize = 200;
 const OVER: f64 = 1.1;
 
 fn main() {
-    let args = Args::parse();
-    cellbih_cli::report::experiment_main("footprint", &args.output.out.clone(), || run(&args));
+    cellbih_cli::report::main("footprint", |a: &Args| &a.output, run);
 }
 
 /// The footprints the prediction is made from, for every emulated builder:

@@ -19,8 +19,6 @@
 // the scene syntax there, not a link.
 #![allow(rustdoc::broken_intra_doc_links)]
 
-use std::path::PathBuf;
-
 use clap::Parser;
 use serde_json::{Value, json};
 
@@ -29,6 +27,7 @@ use cellbih::cell::CellConfig;
 use cellbih::frame::{FrameConfig, Policy, play};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::update::{Animation, Method};
+use cellbih_cli::args::DataArg;
 use cellbih_cli::args::ViewsArg;
 use cellbih_cli::report::{
     OutputArgs, Series, ThreadsArg, TreeArgs, line_plot, output, side_by_side,
@@ -36,7 +35,6 @@ use cellbih_cli::report::{
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "The whole frame on the Cell: each policy and arrangement on animated scenes, section 5's metric against the oracle (default run: about 6 min)"
 )]
 struct Args {
@@ -45,9 +43,6 @@ struct Args {
     /// `part`: 2 % of its triangles split off as a part that moves.
     #[arg(long, value_delimiter = ',', default_value = "car,cup,rtperf:100000")]
     scenes: Vec<String>,
-    /// Data directory of the real meshes (default: $CELLBIH_DATA).
-    #[arg(long)]
-    data: Option<PathBuf>,
     /// Image sizes, comma-separated, WIDTHxHEIGHT.
     #[arg(long, value_delimiter = ',', default_value = "320x240,640x480")]
     sizes: Vec<String>,
@@ -69,14 +64,15 @@ struct Args {
     #[command(flatten)]
     camera: ViewsArg,
     #[command(flatten)]
+    data: DataArg,
+    #[command(flatten)]
     threads: ThreadsArg,
     #[command(flatten)]
     output: OutputArgs,
 }
 
 fn main() {
-    let args = Args::parse();
-    cellbih_cli::report::experiment_main("frame_loop", &args.output.out, || run(&args));
+    cellbih_cli::report::main("frame_loop", |a: &Args| &a.output, run);
 }
 
 /// The animation a scene plays.
@@ -143,7 +139,7 @@ fn run(args: &Args) -> Result<(), String> {
     ];
     let arrangements = [("section 5", spes), ("paper", 1)];
     // Every scene loaded before any work; every one that does not, named.
-    let loaded = cellbih_cli::report::load_scenes(&args.scenes, args.data.as_deref())?;
+    let loaded = cellbih_cli::report::load_scenes(&args.scenes, args.data.dir().as_deref())?;
     let mut played = Vec::new();
     for ((spec, anim_name), s) in scenes.iter().zip(loaded) {
         let s = Animation::prepare(anim_name, s).map_err(|e| e.to_string())?;

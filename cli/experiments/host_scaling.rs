@@ -27,7 +27,6 @@
 //! same nodes). Writes host_scaling.{csv,json} and host_scaling.svg
 //! (speedup against threads on the largest scene).
 
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use clap::Parser;
@@ -35,18 +34,15 @@ use serde_json::{Value, json};
 
 use cellbih::bih::{BihConfig, BihNode};
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::scene::{self, Scene};
+use cellbih::scene::Scene;
+use cellbih_cli::args::DataArg;
 use cellbih_cli::report::{OutputArgs, Series, TreeArgs, line_plot, output};
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "Section 5's strategies on the host's own cores, 1 to N threads, the machine's ceiling and obvhs beside them (default run: about 7 min)"
 )]
 struct Args {
-    /// Directory of the real meshes (default: $CELLBIH_DATA).
-    #[arg(long)]
-    data: Option<PathBuf>,
     /// Scenes, comma-separated.
     #[arg(
         long,
@@ -73,14 +69,13 @@ struct Args {
     #[command(flatten)]
     tree: TreeArgs,
     #[command(flatten)]
+    data: DataArg,
+    #[command(flatten)]
     output: OutputArgs,
 }
 
 fn main() {
-    let mut args = Args::parse();
-    if args.data.is_none() {
-        args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
-    }
+    let mut args: Args = cellbih_cli::args::parse();
     if args.threads.is_empty() {
         let most = hardware_threads() as u64;
         args.threads = std::iter::successors(Some(1u64), |t| Some(t * 2))
@@ -153,7 +148,7 @@ fn builders(cfg: &BihConfig) -> Vec<BuilderKind> {
 
 fn run(args: &Args) -> Result<(), String> {
     let cfg = args.tree.config()?;
-    let scenes = cellbih_cli::report::load_scenes(&args.scenes, args.data.as_deref())?;
+    let scenes = cellbih_cli::report::load_scenes(&args.scenes, args.data.dir().as_deref())?;
     let machine = json!({
         "hardware_threads": hardware_threads(),
         "cpu": cpu_model(),

@@ -35,7 +35,6 @@ const MAX_TRIANGLES: u64 = 10_000_000;
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "Fig. 3: the local and the deep update against complete rebuilds over scene sizes (default run: about 14 s)"
 )]
 struct Args {
@@ -62,8 +61,7 @@ struct Args {
 }
 
 fn main() {
-    let args = Args::parse();
-    cellbih_cli::report::experiment_main("partial_rebuild", &args.output.out, || run(&args));
+    cellbih_cli::report::main("partial_rebuild", |a: &Args| &a.output, run);
 }
 
 /// Plays `anim` on a fresh updater; returns every frame's report and the

@@ -10,29 +10,24 @@
 //!
 //! `cargo run --release --bin sensitivity -- --data ../shared/data [--scenes bunny,dragon] [--spes 6,8] [--model measured|legacy] [--threads N] [--out results]`
 
-use std::path::PathBuf;
-
 use clap::{Parser, ValueEnum};
 use serde_json::json;
 
 use cellbih::cell::{CellConfig, CostModel, Cycles};
 use cellbih::kernels::rates::RateOverrides;
 use cellbih::registry::{Build, BuilderKind};
-use cellbih::scene::{self, Scene};
+use cellbih::scene::Scene;
+use cellbih_cli::args::DataArg;
 use cellbih_cli::report::{Format, OutputArgs, ThreadsArg, side_by_side};
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "How the headline speedups move when every unpinned rate crosses its documented band (default run: about 2 min)"
 )]
 struct Args {
     /// Scenes, comma-separated (names, OBJ files or procedural specs).
     #[arg(long, default_value = "bunny,dragon", value_delimiter = ',')]
     scenes: Vec<String>,
-    /// Data directory of the real meshes (default: $CELLBIH_DATA).
-    #[arg(long)]
-    data: Option<PathBuf>,
     /// SPE counts of the headline speedups, comma-separated (1 to 16;
     /// above 8 a what-if).
     #[arg(long, default_value = "6,8", value_delimiter = ',', value_parser = cellbih_cli::args::between::<u64, _>(1..=16))]
@@ -42,6 +37,8 @@ struct Args {
     model: Model,
     #[command(flatten)]
     output: OutputArgs,
+    #[command(flatten)]
+    data: DataArg,
     #[command(flatten)]
     threads: ThreadsArg,
 }
@@ -151,16 +148,13 @@ fn ms(b: BuilderKind, s: &Scene, spes: usize, v: &Variant) -> Result<f64, String
 }
 
 fn main() {
-    let mut args = Args::parse();
-    if args.data.is_none() {
-        args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
-    }
-    cellbih_cli::report::experiment_main("sensitivity", &args.output.out.clone(), || run(&args));
+    cellbih_cli::report::main("sensitivity", |a: &Args| &a.output, run);
 }
 
 fn run(args: &Args) -> Result<(), String> {
     args.threads.install()?;
-    let scenes: Vec<Scene> = cellbih_cli::report::load_scenes(&args.scenes, args.data.as_deref())?;
+    let scenes: Vec<Scene> =
+        cellbih_cli::report::load_scenes(&args.scenes, args.data.dir().as_deref())?;
     let base = match args.model {
         Model::Measured => CostModel::ps3(),
         Model::Legacy => CostModel::ps3_legacy(),

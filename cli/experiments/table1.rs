@@ -11,8 +11,6 @@
 //! time the emulation took is reported beside them. Writes table1.csv and
 //! table1.json to the output directory.
 
-use std::path::PathBuf;
-
 use clap::Parser;
 use serde_json::json;
 
@@ -20,17 +18,16 @@ use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{self, Scene};
+use cellbih_cli::args::DataArg;
 use cellbih_cli::report::{OutputArgs, ThreadsArg, side_by_side};
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "Table 1: the paper's four builders (and section 5's) on the paper's models, simulated PS3 ms (default run: a few seconds)"
 )]
 struct Args {
-    /// Directory of the real meshes (default: $CELLBIH_DATA).
-    #[arg(long)]
-    data: Option<PathBuf>,
+    #[command(flatten)]
+    data: DataArg,
     #[command(flatten)]
     threads: ThreadsArg,
     #[command(flatten)]
@@ -98,11 +95,7 @@ fn model(
 }
 
 fn main() {
-    let mut args = Args::parse();
-    if args.data.is_none() {
-        args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
-    }
-    cellbih_cli::report::experiment_main("table1", &args.output.out, || run(&args));
+    cellbih_cli::report::main("table1", |a: &Args| &a.output, run);
 }
 
 fn run(args: &Args) -> Result<(), String> {
@@ -110,7 +103,7 @@ fn run(args: &Args) -> Result<(), String> {
     let cfg = BihConfig::default();
     let mut models = Vec::new();
     for (name, count, file, paper) in PAPER {
-        let (scene, stand_in) = model(name, count, file, args.data.as_deref())?;
+        let (scene, stand_in) = model(name, count, file, args.data.dir().as_deref())?;
         if let Some(spec) = &stand_in {
             eprintln!(
                 "{name}: not in the data directory; stand-in `{spec}` ({})",

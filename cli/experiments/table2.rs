@@ -24,7 +24,6 @@ use cellbih_cli::report::OutputArgs;
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "Table 2: the paper's local update on the car and the cup, host and simulated PS3 times (default run: about 15 s)"
 )]
 struct Args {
@@ -58,8 +57,7 @@ const PAPER: [(&str, &str, [f64; 11]); 2] = [
 ];
 
 fn main() {
-    let args = Args::parse();
-    cellbih_cli::report::experiment_main("table2", &args.output.out, || run(&args));
+    cellbih_cli::report::main("table2", |a: &Args| &a.output, run);
 }
 
 /// The summary of `anim` played on a fresh updater.

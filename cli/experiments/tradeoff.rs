@@ -16,8 +16,6 @@
 //! tradeoff.{csv,json} and `tradeoff_<scene>.svg` (the scatter, the fronts
 //! drawn).
 
-use std::path::PathBuf;
-
 use clap::Parser;
 use serde_json::{Value, json};
 
@@ -32,18 +30,15 @@ use cellbih::quality::rays::RaySets;
 use cellbih::registry::{Build, BuilderKind, Quality};
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
+use cellbih_cli::args::DataArg;
 use cellbih_cli::args::ViewsArg;
 use cellbih_cli::report::{OutputArgs, Series, ThreadsArg, output, scatter_plot, side_by_side};
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "Build time against tree quality: every builder and quality setting on five scenes, the Pareto fronts (default run: 20–31 min and 13–15 GB of memory at its peak, on a 2-core machine)"
 )]
 struct Args {
-    /// Directory of the real meshes (default: $CELLBIH_DATA).
-    #[arg(long)]
-    data: Option<PathBuf>,
     /// Scenes, comma-separated.
     #[arg(
         long,
@@ -57,6 +52,8 @@ struct Args {
     spes: u64,
     #[command(flatten)]
     camera: ViewsArg,
+    #[command(flatten)]
+    data: DataArg,
     #[command(flatten)]
     threads: ThreadsArg,
     #[command(flatten)]
@@ -129,14 +126,13 @@ fn settings() -> Vec<Setting> {
 }
 
 fn main() {
-    let args = Args::parse();
-    cellbih_cli::report::experiment_main("tradeoff", &args.output.out.clone(), || run(&args));
+    cellbih_cli::report::main("tradeoff", |a: &Args| &a.output, run);
 }
 
 fn run(args: &Args) -> Result<(), String> {
     args.threads.install()?;
     let settings = settings();
-    let scenes = cellbih_cli::report::load_scenes(&args.scenes, args.data.as_deref())?;
+    let scenes = cellbih_cli::report::load_scenes(&args.scenes, args.data.dir().as_deref())?;
     let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
     cell.checked = false;
     let sets: Vec<_> = (scenes.iter())

@@ -15,7 +15,7 @@
 
 use glam::{DVec3, Vec3};
 
-use super::walk::{At, Read, Step};
+use super::walk::{At, InLeaf, Read, Step};
 use super::{CastRates, Job};
 use crate::bih::{
     BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
@@ -157,26 +157,18 @@ impl PacketWalk {
                         return Ok(Step::Done(None));
                     }
                 }
-                At::Leaf { k, end } => {
-                    if k == end {
-                        if !self.pop() {
-                            return Ok(Step::Done(None));
-                        }
-                        continue;
-                    }
-                    self.at = self.read.triangle_at(job, k, end);
-                }
-                At::IdRead { k, end } => {
-                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
-                        return Ok(stop);
-                    }
-                    self.at = self.read.record_of_id(job, k, end);
-                }
-                At::RecordRead { k, end } => {
-                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
-                        return Ok(stop);
-                    }
-                    let rec = self.read.record();
+                At::Leaf { .. } | At::IdRead { .. } | At::RecordRead { .. } => {
+                    let (rec, k, end) =
+                        match self.read.in_leaf(self.at, job, spe, cache, group).await? {
+                            InLeaf::Ended if !self.pop() => return Ok(Step::Done(None)),
+                            InLeaf::Ended => continue,
+                            InLeaf::Stopped(stop) => return Ok(stop),
+                            InLeaf::Goes(at) => {
+                                self.at = at;
+                                continue;
+                            }
+                            InLeaf::Record { rec, k, end } => (rec, k, end),
+                        };
                     spe.compute(r.packet_triangle);
                     spe.compute_items(r.packet_triangle_quad, self.quads_of(self.mask));
                     self.test(&rec);

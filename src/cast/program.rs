@@ -17,7 +17,7 @@ use std::rc::Rc;
 use glam::{DVec3, Vec3};
 
 use super::packet::{self, PacketWalk};
-use super::walk::{At, Read, Step};
+use super::walk::{At, InLeaf, Read, Step};
 use super::{CastRates, CellHit, CellRay, Job};
 use crate::bih::{
     Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
@@ -310,26 +310,18 @@ impl Walk {
                         return Ok(Step::Done(self.best));
                     }
                 }
-                At::Leaf { k, end } => {
-                    if k == end {
-                        if !self.pop() {
-                            return Ok(Step::Done(self.best));
-                        }
-                        continue;
-                    }
-                    self.at = self.read.triangle_at(job, k, end);
-                }
-                At::IdRead { k, end } => {
-                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
-                        return Ok(stop);
-                    }
-                    self.at = self.read.record_of_id(job, k, end);
-                }
-                At::RecordRead { k, end } => {
-                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
-                        return Ok(stop);
-                    }
-                    let rec = self.read.record();
+                At::Leaf { .. } | At::IdRead { .. } | At::RecordRead { .. } => {
+                    let (rec, k, end) =
+                        match self.read.in_leaf(self.at, job, spe, cache, group).await? {
+                            InLeaf::Ended if !self.pop() => return Ok(Step::Done(self.best)),
+                            InLeaf::Ended => continue,
+                            InLeaf::Stopped(stop) => return Ok(stop),
+                            InLeaf::Goes(at) => {
+                                self.at = at;
+                                continue;
+                            }
+                            InLeaf::Record { rec, k, end } => (rec, k, end),
+                        };
                     spe.compute(r.triangle_test);
                     self.stats.triangles_tested += 1;
                     let tri = Triangle {

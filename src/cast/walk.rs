@@ -42,6 +42,18 @@ impl At {
     }
 }
 
+/// Where a walk in a leaf goes next ([`Read::in_leaf`]).
+pub(super) enum InLeaf {
+    /// The leaf's triangles are done: pop the next node.
+    Ended,
+    /// A line is on its way, or its set is full.
+    Stopped(Step),
+    /// A read started: go on there.
+    Goes(At),
+    /// Triangle `k` of the leaf's `..end`: its record, read.
+    Record { rec: TriRecord, k: u32, end: u32 },
+}
+
 /// The bytes a walk reads: a node or a triangle record, line by line.
 pub(super) struct Read {
     ea: u64,
@@ -139,5 +151,38 @@ impl Read {
             rd.done += n;
         }
         Ok(None)
+    }
+}
+
+impl Read {
+    /// A walk at `at`, in a leaf (`At::Leaf`, `IdRead` or `RecordRead`):
+    /// starts the next read, goes on with the one under way, or hands over
+    /// the record read. The one-ray walk and the packet walk both step
+    /// through their leaves by it.
+    pub(super) async fn in_leaf(
+        &mut self,
+        at: At,
+        job: &Job,
+        spe: &Spe,
+        cache: &mut SoftwareCache,
+        group: u32,
+    ) -> Result<InLeaf, CellError> {
+        Ok(match at {
+            At::Leaf { k, end } if k == end => InLeaf::Ended,
+            At::Leaf { k, end } => InLeaf::Goes(self.triangle_at(job, k, end)),
+            At::IdRead { k, end } => match self.fetch(spe, cache, group).await? {
+                Some(stop) => InLeaf::Stopped(stop),
+                None => InLeaf::Goes(self.record_of_id(job, k, end)),
+            },
+            At::RecordRead { k, end } => match self.fetch(spe, cache, group).await? {
+                Some(stop) => InLeaf::Stopped(stop),
+                None => InLeaf::Record {
+                    rec: self.record(),
+                    k,
+                    end,
+                },
+            },
+            At::Setup | At::Node | At::NodeRead => unreachable!("a walk in a leaf"),
+        })
     }
 }

@@ -109,6 +109,20 @@ pub enum Band {
     },
 }
 
+/// A rate set's table ([`Rate`]s), each rate named by its field (after
+/// `prefix`), so that a name is written once:
+/// `rate_table!(KernelRates, "", { spe_job: estimate(200), … })`.
+#[macro_export]
+macro_rules! rate_table {
+    ($set:ty, $prefix:literal, { $($field:ident: $band:expr),* $(,)? }) => {
+        &[$($crate::kernels::rates::Rate::<$set> {
+            name: concat!($prefix, stringify!($field)),
+            at: |s| &mut s.$field,
+            band: $band,
+        }),*]
+    };
+}
+
 /// A rate of some set with its type left out: what the registry lists.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RateInfo {
@@ -225,53 +239,17 @@ impl KernelRates {
     /// Every shared kernel rate: an estimate from half to twice its value;
     /// a derived rate by [`derived`]'s band. The two fitted rates do not
     /// move.
-    pub const TABLE: &'static [Rate<KernelRates>] = &[
-        Rate {
-            name: "ppe_partition_item",
-            at: |k| &mut k.ppe_partition_item,
-            band: Band::Fitted,
-        },
-        Rate {
-            name: "ppe_node",
-            at: |k| &mut k.ppe_node,
-            band: estimate(1000),
-        },
-        Rate {
-            name: "spe_partition_item",
-            at: |k| &mut k.spe_partition_item,
-            band: Band::Fitted,
-        },
-        Rate {
-            name: "spe_bounds_item",
-            at: |k| &mut k.spe_bounds_item,
-            band: estimate(20),
-        },
-        Rate {
-            name: "spe_job",
-            at: |k| &mut k.spe_job,
-            band: estimate(200),
-        },
-        Rate {
-            name: "spe_bin_item",
-            at: |k| &mut k.spe_bin_item,
-            band: derived(160, 256),
-        },
-        Rate {
-            name: "spe_sah_bin",
-            at: |k| &mut k.spe_sah_bin,
-            band: derived(300, 480),
-        },
-        Rate {
-            name: "ppe_sah_bin",
-            at: |k| &mut k.ppe_sah_bin,
-            band: Band::Open("by analogy with spe_sah_bin"),
-        },
-        Rate {
-            name: "spe_level_scan",
-            at: |k| &mut k.spe_level_scan,
-            band: derived(8, 13),
-        },
-    ];
+    pub const TABLE: &'static [Rate<KernelRates>] = crate::rate_table!(KernelRates, "", {
+        ppe_partition_item: Band::Fitted,
+        ppe_node: estimate(1000),
+        spe_partition_item: Band::Fitted,
+        spe_bounds_item: estimate(20),
+        spe_job: estimate(200),
+        spe_bin_item: derived(160, 256),
+        spe_sah_bin: derived(300, 480),
+        ppe_sah_bin: Band::Open("by analogy with spe_sah_bin"),
+        spe_level_scan: derived(8, 13),
+    });
 }
 
 /// Checks a rate table against its set: every field is in the table once,

@@ -12,8 +12,6 @@
 //! spe_scaling.{csv,json}, one SVG per scene of speedup against SPEs (with the ideal line) and one of where the SPEs'
 //! time goes on the largest scene.
 
-use std::path::PathBuf;
-
 use clap::Parser;
 use serde_json::{Value, json};
 
@@ -21,7 +19,8 @@ use cellbih::bih::BihConfig;
 use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::View;
-use cellbih::scene::{self, Scene, zoo};
+use cellbih::scene::{Scene, zoo};
+use cellbih_cli::args::DataArg;
 use cellbih_cli::args::ViewsArg;
 use cellbih_cli::report::{OutputArgs, Series, ThreadsArg, line_plot, output, side_by_side};
 
@@ -30,13 +29,9 @@ use cellbih::strategy::Knobs;
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "Section 5's strategies on 1 to 8 SPEs beside the single-SPE baseline: simulated time, speedup, where the time goes (default run: about 11 min)"
 )]
 struct Args {
-    /// Directory of the real meshes (default: $CELLBIH_DATA).
-    #[arg(long)]
-    data: Option<PathBuf>,
     /// Scenes, comma-separated [default: default, bunny, dragon,
     /// sponza-dabrovic, sibenik, rtperf:1000000, teapot, iss-nasa, homer,
     /// rocker-arm, beast, nefertiti, ogre]
@@ -62,6 +57,8 @@ struct Args {
     defaults_only: bool,
     #[command(flatten)]
     camera: ViewsArg,
+    #[command(flatten)]
+    data: DataArg,
     #[command(flatten)]
     threads: ThreadsArg,
     #[command(flatten)]
@@ -99,11 +96,7 @@ fn variants(defaults_only: bool) -> Vec<Variant> {
 }
 
 fn main() {
-    let mut args = Args::parse();
-    if args.data.is_none() {
-        args.data = std::env::var_os(scene::DATA_ENV).map(PathBuf::from);
-    }
-    cellbih_cli::report::experiment_main("spe_scaling", &args.output.out, || run(&args));
+    cellbih_cli::report::main("spe_scaling", |a: &Args| &a.output, run);
 }
 
 /// One build's row.
@@ -178,7 +171,7 @@ fn run(args: &Args) -> Result<(), String> {
         true => zoo::SET.iter().map(|s| s.to_string()).collect(),
         false => args.scenes.clone(),
     };
-    let scenes = cellbih_cli::report::load_scenes(&names, args.data.as_deref())?;
+    let scenes = cellbih_cli::report::load_scenes(&names, args.data.dir().as_deref())?;
     let view = args.camera.view();
     // Each scene's baseline: simulated ms, SAH cost and ray cost.
     let bases = side_by_side("baselines", &scenes, |scene| {

@@ -20,7 +20,6 @@ use cellbih_cli::report::{Format, OutputArgs, ThreadsArg, side_by_side};
 
 #[derive(Parser)]
 #[command(
-    term_width = 80,
     about = "The machine model held against published PS3 measurements with several SPEs, and SPU kernels timed on a PS3 beside their instruction counts (default run: under a second)"
 )]
 struct Args {
@@ -502,8 +501,7 @@ fn row(text: bool, name: &str, values: [String; 5]) {
 }
 
 fn main() {
-    let args = Args::parse();
-    cellbih_cli::report::experiment_main("validate", &args.output.out.clone(), || run(&args));
+    cellbih_cli::report::main("validate", |a: &Args| &a.output, run);
 }
 
 fn run(args: &Args) -> Result<(), String> {

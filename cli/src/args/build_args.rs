@@ -24,11 +24,8 @@ pub struct BuildArgs {
     /// The emulated Cell.
     #[command(flatten)]
     pub cell: CellArgs,
-    /// Threads of a builder that builds on the host's cores (host_shared,
-    /// …), at least 1 [default: the machine's available parallelism]. The
-    /// others build on one thread (the emulator runs one) and refuse it
-    #[arg(long, value_parser = crate::args::between::<u64, _>(1..=1024))]
-    pub threads: Option<u64>,
+    #[command(flatten)]
+    pub host: HostThreadsArg,
     /// The strategies' knobs, as the registry's tables declare them.
     #[command(flatten)]
     pub knobs: KnobArgs,
@@ -109,6 +106,28 @@ impl CellArgs {
     }
 }
 
+/// `--threads N` of the commands that build: the threads of a builder
+/// that builds on the host's cores.
+#[derive(clap::Args)]
+pub struct HostThreadsArg {
+    /// Threads of a builder that builds on the host's cores (host_shared,
+    /// …), 1 to 1024 [default: the machine's available parallelism]. The
+    /// others build on one thread (the emulator runs one): `compare` builds
+    /// them so, the other commands refuse --threads for them
+    #[arg(long, value_parser = crate::args::between::<u64, _>(1..=1024))]
+    pub threads: Option<u64>,
+}
+
+impl HostThreadsArg {
+    /// The threads given, else the machine's available parallelism.
+    pub fn or_all(&self) -> usize {
+        self.threads.map_or_else(
+            || std::thread::available_parallelism().map_or(1, |n| n.get()),
+            |n| n as usize,
+        )
+    }
+}
+
 /// `--mode`: the emulator's own speed/accuracy trade.
 #[derive(Clone, Copy, ValueEnum)]
 pub enum Mode {
@@ -172,10 +191,8 @@ pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: boo
         .with_tree(args.tree.config()?)
         .on(&cell)
         .with_knobs(&knobs);
-    if let Some(n) = args.threads {
-        build = build.on_threads(n as usize);
-    } else if builder.host_threads() {
-        build = build.on_threads(std::thread::available_parallelism().map_or(1, |n| n.get()));
+    if args.host.threads.is_some() || builder.host_threads() {
+        build = build.on_threads(args.host.or_all());
     }
     build.check()?;
     Ok(build)

@@ -21,7 +21,8 @@ use cellbih::render::View;
 use cellbih::update::MAX_FRAMES;
 
 pub use build_args::{
-    BuildArgs, CellArgs, KnobArgs, MachineModel, Mailboxes, Mode, parse_build, parse_build_or,
+    BuildArgs, CellArgs, HostThreadsArg, KnobArgs, MachineModel, Mailboxes, Mode, parse_build,
+    parse_build_or,
 };
 pub use cast_args::{CacheArgs, CastArgs};
 pub use scene_arg::{CameraArg, SceneArg, check_built, check_memory};
@@ -100,10 +101,8 @@ pub struct CompareCommand {
     /// The emulated Cell the emulated builders run on.
     #[command(flatten)]
     pub cell: CellArgs,
-    /// Host threads of the builders that build on the host's cores
-    /// (host_shared, …) [default: the machine's available parallelism]
-    #[arg(long, value_parser = crate::args::between::<u64, _>(1..=1024))]
-    pub threads: Option<u64>,
+    #[command(flatten)]
+    pub host: HostThreadsArg,
     #[command(flatten)]
     pub camera: CameraArg,
     #[arg(long, value_enum, default_value = "text")]
@@ -177,11 +176,7 @@ pub struct RenderCommand {
 #[derive(clap::Args)]
 pub struct UpdateCommand {
     #[command(flatten)]
-    pub scene: SceneArg,
-    #[command(flatten)]
-    pub build: BuildArgs,
-    #[command(flatten)]
-    pub anim: AnimationArg,
+    pub play: PlayArgs,
     /// Frames to play, 0 to 100,000.
     #[arg(long, default_value_t = 20,
           value_parser = crate::args::between::<u64, _>(0..=MAX_FRAMES as u64))]
@@ -201,11 +196,7 @@ pub struct UpdateCommand {
 #[derive(clap::Args)]
 pub struct FrameCommand {
     #[command(flatten)]
-    pub scene: SceneArg,
-    #[command(flatten)]
-    pub build: BuildArgs,
-    #[command(flatten)]
-    pub anim: AnimationArg,
+    pub play: PlayArgs,
     /// Frames to play, 1 to 100,000.
     #[arg(long, default_value_t = 10,
           value_parser = crate::args::between::<u64, _>(1..=MAX_FRAMES as u64))]
@@ -239,6 +230,18 @@ pub struct FrameCommand {
     pub cache: CacheArgs,
     #[arg(long, value_enum, default_value = "text")]
     pub format: Format,
+}
+
+/// What `update` and `frame` play: a scene, the build that makes (and
+/// remakes) its tree, and the animation.
+#[derive(clap::Args)]
+pub struct PlayArgs {
+    #[command(flatten)]
+    pub scene: SceneArg,
+    #[command(flatten)]
+    pub build: BuildArgs,
+    #[command(flatten)]
+    pub anim: AnimationArg,
 }
 
 /// `--animation` and `--seed` of `update` and `frame`.
@@ -275,6 +278,29 @@ impl ViewsArg {
             _ => View::Default,
         }
     }
+}
+
+/// `--data DIR` of an experiment that loads real meshes by name.
+#[derive(clap::Args, Clone, Debug)]
+pub struct DataArg {
+    /// Directory of the real meshes (default: $CELLBIH_DATA).
+    #[arg(long = "data")]
+    pub given: Option<PathBuf>,
+}
+
+impl DataArg {
+    /// The data directory: the one given, else `$CELLBIH_DATA`'s.
+    pub fn dir(&self) -> Option<PathBuf> {
+        cellbih::scene::data_dir(self.given.as_deref())
+    }
+}
+
+/// An experiment's arguments, parsed as every program of the front end
+/// parses them: help wrapped at 80 columns, errors printed by clap.
+pub fn parse<A: clap::Parser>() -> A {
+    let mut cmd = A::command().term_width(80);
+    let matches = cmd.clone().get_matches();
+    A::from_arg_matches(&matches).unwrap_or_else(|e| e.format(&mut cmd).exit())
 }
 
 /// An experiment's `--threads N`.

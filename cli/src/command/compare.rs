@@ -27,7 +27,7 @@ pub fn run(args: CompareCommand) -> Res<()> {
         scene,
         tree,
         cell,
-        threads,
+        host,
         camera,
         format,
     } = args;
@@ -43,10 +43,7 @@ pub fn run(args: CompareCommand) -> Res<()> {
     check_memory(&s.name, (s.len(), 0), None, &emulated, Default::default())?;
     // A viewpoint of another scene is refused before any build.
     camera.view.camera(&s.name, &s.bounds(), 1, 1)?;
-    let threads = threads.map_or_else(
-        || std::thread::available_parallelism().map_or(1, |n| n.get()),
-        |n| n as usize,
-    );
+    let threads = host.or_all();
     // What every builder shares; each runs with its default knobs.
     let shared = Build::new(BuilderKind::HOST)
         .with_tree(tree.config()?)

@@ -11,14 +11,12 @@ use cellbih::update::Animation;
 use cellbih::registry::{Build, BuilderKind, Settings};
 
 use crate::Res;
-use crate::args::{CacheArgs, Format, FrameCommand, check_memory, parse_build_or};
+use crate::args::{CacheArgs, Format, FrameCommand, PlayArgs, check_memory, parse_build_or};
 
 /// Runs `cellbih frame`.
 pub fn run(args: FrameCommand) -> Res<()> {
     let FrameCommand {
-        scene,
-        build,
-        anim,
+        play: PlayArgs { scene, build, anim },
         frames,
         policy,
         oracle,

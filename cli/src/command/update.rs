@@ -8,14 +8,14 @@ use cellbih::scene::Scene;
 use cellbih::update::{Animation, Method, Summary, Updater};
 
 use crate::Res;
-use crate::args::{AnimationArg, Format, SceneArg, UpdateCommand, check_memory, parse_build};
+use crate::args::{
+    AnimationArg, Format, PlayArgs, SceneArg, UpdateCommand, check_memory, parse_build,
+};
 
 /// Runs `cellbih update`.
 pub fn run(args: UpdateCommand) -> Res<()> {
     let UpdateCommand {
-        scene,
-        build,
-        anim,
+        play: PlayArgs { scene, build, anim },
         frames,
         strategy,
         deep_stop_below,

@@ -96,6 +96,19 @@ pub fn wrap(text: &str, width: usize) -> String {
     lines.join("\n")
 }
 
+/// An experiment's whole `main`: its arguments parsed
+/// ([`crate::args::parse`]), then `run` on them as [`experiment_main`]
+/// runs it, into the `--out` directory `output` names.
+pub fn main<A: clap::Parser>(
+    name: &'static str,
+    output: impl Fn(&A) -> &crate::args::OutputArgs,
+    run: impl FnOnce(&A) -> Result<(), String>,
+) {
+    let args: A = crate::args::parse();
+    let out = output(&args).out.clone();
+    experiment_main(name, &out, || run(&args));
+}
+
 /// An experiment's `main`: a closed pipe ends it quietly, its `--out`
 /// directory is checked before `run` does any work, and an error is
 /// printed as `error: …` (as the `cellbih` command and the argument parser

@@ -5,7 +5,7 @@
 //! refusals of arguments in `cli/tests/cli/refusals.rs`; failed writes in
 //! `cli/tests/cli/errors.rs`.
 
-use crate::common::{assert_ok, cellbih, tmp};
+use crate::common::{assert_ok, cellbih, json, line, tmp};
 use cellbih::bih::brute_force_closest;
 use cellbih::rays_csv::write_rays;
 use cellbih::scene;
@@ -144,7 +144,7 @@ fn bad_rays_file_is_a_clear_error() {
 
 #[test]
 fn build_json_reports_the_tree() {
-    let out = cellbih(&["build", "--scene", "cup", "--format", "json"]);
+    let out = cellbih(&line("build --scene cup --format json"));
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["triangles"], 7040);
@@ -155,16 +155,16 @@ fn build_json_reports_the_tree() {
 
 #[test]
 fn info_and_errors() {
-    let out = cellbih(&["info", "--scene", "car", "--format", "json"]);
+    let out = cellbih(&line("info --scene car --format json"));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(
         v["geometry_ids"].as_u64(),
         Some(scene::load("car", None).unwrap().geometry_names.len() as u64)
     );
-    let out = cellbih(&["build", "--builder", "nope"]);
+    let out = cellbih(&line("build --builder nope"));
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("the builders are: host"));
-    let out = cellbih(&["info", "--scene", "/no/such/file.obj"]);
+    let out = cellbih(&line("info --scene /no/such/file.obj"));
     assert!(String::from_utf8_lossy(&out.stderr).contains("/no/such/file.obj: cannot read"));
 }
 
@@ -213,21 +213,7 @@ fn cargo_run_has_a_default_binary() {
 
 #[test]
 fn update_prints_frames_and_a_summary() {
-    let out = cellbih(&[
-        "update",
-        "--scene",
-        "car",
-        "--animation",
-        "car",
-        "--frames",
-        "8",
-        "--strategy",
-        "deep",
-        "--format",
-        "json",
-    ]);
-    assert_ok(&out);
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = json("update --scene car --animation car --frames 8 --strategy deep --format json");
     let frames = v["frames"].as_array().unwrap();
     assert_eq!(frames.len(), 8);
     assert_eq!(v["method"], "deep");
@@ -244,17 +230,9 @@ fn update_prints_frames_and_a_summary() {
     assert!(v["sah_after"].as_f64().unwrap() > 0.0);
 
     // Text, on an emulated builder: simulated time is shown.
-    let out = cellbih(&[
-        "update",
-        "--scene",
-        "cup",
-        "--animation",
-        "cup",
-        "--frames",
-        "3",
-        "--builder",
-        "spe_bfs",
-    ]);
+    let out = cellbih(&line(
+        "update --scene cup --animation cup --frames 3 --builder spe_bfs",
+    ));
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success() && text.contains("simulated ms per frame"),
@@ -265,7 +243,7 @@ fn update_prints_frames_and_a_summary() {
     for (args, msg) in [
         (&["--animation", "walk"][..], "unknown animation 'walk'"),
         (
-            &["--animation", "car", "--strategy", "fast"][..],
+            &line("--animation car --strategy fast")[..],
             "unknown --strategy 'fast'",
         ),
     ] {

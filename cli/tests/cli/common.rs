@@ -141,3 +141,30 @@ pub fn assert_fails_with(out: &Output, msg: &str) {
     );
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// A command line's words: `line("build --scene car")` is
+/// `["build", "--scene", "car"]` (no word holds a space).
+pub fn line(text: &str) -> Vec<&str> {
+    text.split_whitespace().collect()
+}
+
+/// Runs `cellbih` with the words of `text`, fails with its stderr unless
+/// it succeeded, and reads its standard output as JSON.
+pub fn json(text: &str) -> serde_json::Value {
+    json_of(&line(text))
+}
+
+/// Runs `cellbih` with `args`, fails with its stderr unless it succeeded,
+/// and reads its standard output as JSON.
+pub fn json_of(args: &[&str]) -> serde_json::Value {
+    let out = cellbih(args);
+    assert_ok(&out);
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+/// Fails unless the command's stderr says `text` (whether it succeeded or
+/// not), showing what it said.
+pub fn assert_says(out: &Output, text: &str) {
+    let err = stderr(out);
+    assert!(err.contains(text), "expected '{text}' on stderr: {err}");
+}

@@ -1,18 +1,14 @@
 //! `cellbih compare`: every builder side by side, with the paper's tree
 //! and with quality knobs.
 
-use crate::common::{assert_ok, cellbih};
+use crate::common::{assert_ok, assert_says, cellbih, json, line};
 use cellbih::registry::BuilderKind;
 
 /// `cellbih compare`: a row per builder, the baseline's speedup 1, the
 /// baseline's tree where the builder makes it, ray costs measured.
 #[test]
 fn compare_puts_every_builder_side_by_side() {
-    let out = cellbih(&[
-        "compare", "--scene", "car", "--spes", "2", "--format", "json",
-    ]);
-    assert_ok(&out);
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let doc = json("compare --scene car --spes 2 --format json");
     assert_eq!(doc["spes"], 2);
     let rows = doc["rows"].as_array().unwrap();
     assert_eq!(rows.len(), BuilderKind::ALL.len());
@@ -49,7 +45,7 @@ fn compare_puts_every_builder_side_by_side() {
         assert!(r["incoherent"]["nodes"].as_f64().unwrap() > 0.0, "{r}");
         assert!(r["tree_bytes"].as_u64().unwrap() > 0, "{r}");
     }
-    let text = cellbih(&["compare", "--scene", "car"]);
+    let text = cellbih(&line("compare --scene car"));
     assert_ok(&text);
     let text = String::from_utf8_lossy(&text.stdout);
     assert!(
@@ -62,19 +58,7 @@ fn compare_puts_every_builder_side_by_side() {
 /// over `spe_bfs` with the same knobs), and the others are named.
 #[test]
 fn compare_with_knobs_builds_them_where_they_are_built() {
-    let out = cellbih(&[
-        "compare",
-        "--scene",
-        "car",
-        "--empty-cut",
-        "30",
-        "--split",
-        "sah",
-        "--format",
-        "json",
-    ]);
-    assert_ok(&out);
-    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let doc = json("compare --scene car --empty-cut 30 --split sah --format json");
     let settings = &doc["settings"];
     assert_eq!(settings["tree"]["split"], "sah", "{settings}");
     assert_eq!(settings["tree"]["empty_cut"], 30, "{settings}");
@@ -163,7 +147,7 @@ fn the_demo_and_compare_fit_80_columns() {
         .unwrap();
     assert_ok(&demo);
     assert!(dir.join("cellbih-demo.png").exists());
-    let compare = cellbih(&["compare", "--scene", "car", "--spes", "2"]);
+    let compare = cellbih(&line("compare --scene car --spes 2"));
     assert_ok(&compare);
     for out in [&demo, &compare] {
         let text = String::from_utf8_lossy(&out.stdout);
@@ -207,9 +191,5 @@ fn compare_takes_the_cells_options() {
     assert_ne!(ms(&run(&["--model", "legacy"])), measured);
     let out = run(&["--mode", "functional"]);
     assert!(!out.status.success());
-    assert!(
-        crate::common::stderr(&out).contains("--mode functional"),
-        "{}",
-        crate::common::stderr(&out)
-    );
+    assert_says(&out, "--mode functional");
 }

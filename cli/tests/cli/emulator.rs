@@ -3,7 +3,7 @@
 //! timing, said so), `--model` and `--mailboxes`, and `--trace`'s Chrome
 //! JSON; `raycast --on-cell` and `render --on-cell` (casting on the SPEs).
 
-use crate::common::{assert_fails_with, assert_ok, cellbih, tmp};
+use crate::common::{assert_fails_with, assert_ok, cellbih, json, line, tmp};
 
 #[test]
 fn build_trace_writes_chrome_json() {
@@ -45,7 +45,7 @@ fn build_trace_writes_chrome_json() {
 /// SPE count (idle SPEs cost nothing); a multi-SPE builder is faster on 8.
 #[test]
 fn the_registry_and_spes_reach_every_command() {
-    let listed = String::from_utf8_lossy(&cellbih(&["builders"]).stdout).into_owned();
+    let listed = String::from_utf8_lossy(&cellbih(&line("builders")).stdout).into_owned();
     for b in cellbih::registry::BuilderKind::ALL {
         // Each builder's name on a line of its own, what it is indented
         // under it (wrapped to 80 columns), saying whether it builds the
@@ -143,22 +143,12 @@ fn the_registry_and_spes_reach_every_command() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(want), "{err}");
     }
-    let out = cellbih(&[
-        "update",
-        "--scene",
-        "cup",
-        "--animation",
-        "cup",
-        "--frames",
-        "1",
-        "--builder",
-        "spe_dfs",
-        "--spes",
-        "2",
-    ]);
+    let out = cellbih(&line(
+        "update --scene cup --animation cup --frames 1 --builder spe_dfs --spes 2",
+    ));
     assert_ok(&out);
     assert!(String::from_utf8_lossy(&out.stdout).contains("builder spe_dfs on 2 SPEs"));
-    let out = cellbih(&["build", "--spes", "0"]);
+    let out = cellbih(&line("build --spes 0"));
     assert!(String::from_utf8_lossy(&out.stderr).contains("0 is not between 1 and 16"));
 }
 
@@ -191,18 +181,12 @@ fn the_emulator_modes_agree_on_the_tree() {
     for m in [&timed, &functional] {
         assert_eq!(m["quality"], checked["quality"]);
     }
-    let out = cellbih(&[
-        "build",
-        "--scene",
-        "car",
-        "--builder",
-        "spe_bfs",
-        "--mode",
-        "functional",
-    ]);
+    let out = cellbih(&line(
+        "build --scene car --builder spe_bfs --mode functional",
+    ));
     assert_ok(&out);
     assert!(String::from_utf8_lossy(&out.stdout).contains("functional mode (no timing)"));
-    let out = cellbih(&["build", "--mode", "fast"]);
+    let out = cellbih(&line("build --mode fast"));
     assert!(!out.status.success());
 }
 
@@ -246,42 +230,18 @@ fn the_legacy_model_and_the_kernels_mailboxes_are_options_of_a_build() {
 /// "none", and a trace (a timeline) is refused.
 #[test]
 fn the_functional_mode_reports_no_timing() {
-    let out = cellbih(&[
-        "build",
-        "--builder",
-        "spe_bfs",
-        "--mode",
-        "functional",
-        "--format",
-        "json",
-    ]);
-    assert_ok(&out);
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = json("build --builder spe_bfs --mode functional --format json");
     assert!(
         v["simulated_ms"].is_null() && v["simulated_cycles"].is_null(),
         "{v}"
     );
     assert_eq!(v["timing"], "none: functional mode");
-    let timed = cellbih(&["build", "--builder", "spe_bfs", "--format", "json"]);
+    let timed = cellbih(&line("build --builder spe_bfs --format json"));
     let t: serde_json::Value = serde_json::from_slice(&timed.stdout).unwrap();
     assert!(t["simulated_ms"].as_f64().unwrap() > 0.0 && t["timing"] == "simulated");
-    let out = cellbih(&[
-        "update",
-        "--scene",
-        "car",
-        "--animation",
-        "car",
-        "--frames",
-        "2",
-        "--builder",
-        "spe_bfs",
-        "--mode",
-        "functional",
-        "--format",
-        "json",
-    ]);
-    assert_ok(&out);
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = json(
+        "update --scene car --animation car --frames 2 --builder spe_bfs --mode functional --format json",
+    );
     for f in v["frames"].as_array().unwrap() {
         assert!(f["simulated_ms"].is_null(), "{f}");
     }
@@ -305,20 +265,8 @@ fn the_functional_mode_reports_no_timing() {
 #[test]
 fn one_spe_is_singular() {
     for args in [
-        &["build", "--builder", "spe_bfs", "--spes", "1"][..],
-        &[
-            "update",
-            "--scene",
-            "car",
-            "--animation",
-            "car",
-            "--frames",
-            "1",
-            "--builder",
-            "spe_bfs",
-            "--spes",
-            "1",
-        ][..],
+        &line("build --builder spe_bfs --spes 1")[..],
+        &line("update --scene car --animation car --frames 1 --builder spe_bfs --spes 1")[..],
         &["compare", "--spes", "1"][..],
     ] {
         let out = cellbih(args);
@@ -348,10 +296,7 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
     write_rays(std::fs::File::create(&rays_path).unwrap(), &rays).unwrap();
     for builder in ["host", "spe_morton"] {
         let mut files = Vec::new();
-        for extra in [
-            &[][..],
-            &["--on-cell", "--spes", "3", "--cache-kib", "4"][..],
-        ] {
+        for extra in [&[][..], &line("--on-cell --spes 3 --cache-kib 4")[..]] {
             let hits = tmp(&format!("on_cell_{builder}_{}.csv", files.len()));
             let mut args = vec![
                 "raycast",

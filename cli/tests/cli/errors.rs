@@ -10,7 +10,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use crate::common::{assert_fails_with, assert_ok, cellbih, run_limited, stderr, stdout, tmp};
+use crate::common::{
+    assert_fails_with, assert_ok, cellbih, json, line, run_limited, stderr, stdout, tmp,
+};
 
 /// A link in a fresh directory that points at `/dev/full`.
 fn link_to_dev_full(dir: &Path, name: &str) -> PathBuf {
@@ -135,13 +137,7 @@ fn a_trace_nests_on_every_track_and_a_bad_trace_path_fails_first() {
         full.to_str().unwrap(),
     ]);
     assert_fails_with(&out, &format!("{}: cannot write", full.display()));
-    let out = cellbih(&[
-        "build",
-        "--builder",
-        "spe_bfs",
-        "--trace",
-        "/no/such/dir/t.json",
-    ]);
+    let out = cellbih(&line("build --builder spe_bfs --trace /no/such/dir/t.json"));
     assert_fails_with(&out, "/no/such/dir/t.json: cannot write");
     assert!(stdout(&out).is_empty(), "refused before the build ran");
 }
@@ -230,34 +226,13 @@ fn an_experiment_prints_its_table_then_names_the_file_it_could_not_write() {
 #[test]
 fn degenerate_updates_give_sensible_answers() {
     // No frames: an empty summary that says so.
-    let out = cellbih(&[
-        "update",
-        "--scene",
-        "car",
-        "--animation",
-        "car",
-        "--frames",
-        "0",
-    ]);
+    let out = cellbih(&line("update --scene car --animation car --frames 0"));
     assert_ok(&out);
     let text = stdout(&out);
     assert!(text.contains("no frames ran"), "{text}");
     assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
-    let out = cellbih(&[
-        "update",
-        "--scene",
-        "car",
-        "--animation",
-        "car",
-        "--frames",
-        "0",
-        "--builder",
-        "ppe_approx",
-        "--format",
-        "json",
-    ]);
-    assert_ok(&out);
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v =
+        json("update --scene car --animation car --frames 0 --builder ppe_approx --format json");
     assert!(v["summary"].is_null());
     // The fresh build it compares with is by the same builder.
     assert_eq!(v["sah_after"], v["sah_fresh_build"]);
@@ -273,17 +248,9 @@ fn degenerate_updates_give_sensible_answers() {
     }
 
     // No complete rebuild: said in words, not as a ratio of infinity.
-    let out = cellbih(&[
-        "update",
-        "--scene",
-        "rtperf:3000",
-        "--animation",
-        "rtperf",
-        "--frames",
-        "4",
-        "--seed",
-        "4",
-    ]);
+    let out = cellbih(&line(
+        "update --scene rtperf:3000 --animation rtperf --frames 4 --seed 4",
+    ));
     assert_ok(&out);
     let text = stdout(&out);
     assert!(

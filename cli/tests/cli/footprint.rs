@@ -4,19 +4,13 @@
 
 use cellbih::registry::BuilderKind;
 
-use crate::common::{assert_ok, cellbih, run_experiment};
+use crate::common::{assert_ok, cellbih, line, run_experiment};
 
 #[test]
 fn a_build_that_does_not_fit_names_the_buffer_and_the_sizes() {
-    let out = cellbih(&[
-        "build",
-        "--scene",
-        "rtperf:200000",
-        "--builder",
-        "spe_morton",
-        "--memory-mib",
-        "12",
-    ]);
+    let out = cellbih(&line(
+        "build --scene rtperf:200000 --builder spe_morton --memory-mib 12",
+    ));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{err}");
     assert!(
@@ -31,17 +25,9 @@ fn a_build_that_does_not_fit_names_the_buffer_and_the_sizes() {
     );
     assert!(!err.contains("panicked"), "{err}");
     // The same scene in 64 MiB fits and reports what it used.
-    let out = cellbih(&[
-        "build",
-        "--scene",
-        "rtperf:200000",
-        "--builder",
-        "spe_morton",
-        "--memory-mib",
-        "64",
-        "--mode",
-        "functional",
-    ]);
+    let out = cellbih(&line(
+        "build --scene rtperf:200000 --builder spe_morton --memory-mib 64 --mode functional",
+    ));
     assert_ok(&out);
     assert!(String::from_utf8_lossy(&out.stdout).contains("main memory "));
 }

@@ -1,7 +1,7 @@
 //! `cellbih frame`: every frame and the totals printed, the JSON's
 //! fields, and the refusals before any work.
 
-use crate::common::{assert_fails_with, assert_ok, cellbih};
+use crate::common::{assert_fails_with, assert_ok, cellbih, line};
 
 /// `cellbih frame` prints each frame and the totals; its JSON has a
 /// `frames` array (choice, update, render and frame ms) and the total; a
@@ -67,24 +67,9 @@ fn the_frame_command_reports_every_frame() {
     assert!((v["total_ms"].as_f64().unwrap() - total).abs() < 1e-9);
     assert!(v["second_copy_bytes"].as_u64().is_some_and(|b| b > 0));
     assert!(v["sharing_bound_ms"].as_f64().is_some_and(|b| b >= 0.0));
-    let out = cellbih(&[
-        "frame",
-        "--scene",
-        "car",
-        "--animation",
-        "car",
-        "--frames",
-        "2",
-        "--builder",
-        "spe_bfs",
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--policy",
-        "auto",
-        "--oracle",
-    ]);
+    let out = cellbih(&line(
+        "frame --scene car --animation car --frames 2 --builder spe_bfs --width 16 --height 12 --policy auto --oracle",
+    ));
     assert_ok(&out);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -96,10 +81,7 @@ fn the_frame_command_reports_every_frame() {
         (&["--builder", "host"][..], "needs an emulated builder"),
         (&["--mode", "functional"][..], "--mode functional has none"),
         (&["--policy", "fastest"][..], "unknown --policy 'fastest'"),
-        (
-            &["--cache-kib", "1", "--cache-ways", "16"][..],
-            "whole sets",
-        ),
+        (&line("--cache-kib 1 --cache-ways 16")[..], "whole sets"),
     ] {
         let mut args = vec!["frame", "--animation", "car", "--scene", "car"];
         args.extend(extra);

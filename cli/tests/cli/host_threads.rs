@@ -21,7 +21,8 @@ fn threads_on_the_command_line() {
         crate::common::assert_ok(&out);
         let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         assert_eq!(j["threads"], 3, "{b}");
-        let serial = crate::common::cellbih(&["build", "--builder", "host", "--format", "json"]);
+        let serial =
+            crate::common::cellbih(&crate::common::line("build --builder host --format json"));
         let s: serde_json::Value = serde_json::from_slice(&serial.stdout).unwrap();
         assert_eq!(j["quality"], s["quality"], "{b}: another tree than host's");
     }
@@ -36,6 +37,6 @@ fn threads_on_the_command_line() {
             );
         }
     }
-    let out = crate::common::cellbih(&["compare", "--threads", "2", "--format", "json"]);
+    let out = crate::common::cellbih(&crate::common::line("compare --threads 2 --format json"));
     crate::common::assert_ok(&out);
 }

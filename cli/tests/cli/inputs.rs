@@ -5,7 +5,7 @@
 
 use std::time::Duration;
 
-use crate::common::{assert_fails_with, cellbih, run_limited, stderr, tmp};
+use crate::common::{assert_fails_with, assert_says, cellbih, line, run_limited, stderr, tmp};
 
 const EXE: &str = env!("CARGO_BIN_EXE_cellbih");
 
@@ -183,11 +183,7 @@ fn a_file_size_limit_is_a_write_error_that_cleans_up() {
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
-    assert!(
-        stderr(&out).contains("a.png: cannot write: File too large"),
-        "{}",
-        stderr(&out)
-    );
+    assert_says(&out, "a.png: cannot write: File too large");
     let left: Vec<_> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().file_name())
@@ -329,11 +325,7 @@ fn a_relative_obj_path_is_read_without_a_wrong_note() {
         crate::common::stdout(&out)
     );
     let out = run("car");
-    assert!(
-        stderr(&out).contains("is the built-in scene car"),
-        "{}",
-        stderr(&out)
-    );
+    assert_says(&out, "is the built-in scene car");
 }
 
 /// Counts agree with their nouns ("1 ray, 1 hit", "1 SPE", "2 SPEs"), a
@@ -347,14 +339,14 @@ fn words_agree_with_their_counts() {
         "{}",
         stderr(&out)
     );
-    let out = cellbih(&["compare", "--spes", "1"]);
+    let out = cellbih(&line("compare --spes 1"));
     let text = crate::common::stdout(&out)
         .split_whitespace()
         .collect::<Vec<_>>()
         .join(" ");
     assert!(text.contains("multi-SPE builders on 1 SPE)"), "{text}");
     assert!(!text.contains("(s)"), "{text}");
-    let out = cellbih(&["build", "--spes", "0"]);
+    let out = cellbih(&line("build --spes 0"));
     assert_fails_with(&out, "0 is not between 1 and 16");
     let dir = tmp("words-dma");
     let out = crate::common::command(env!("CARGO_BIN_EXE_dma_bandwidth"))
@@ -406,7 +398,7 @@ fn a_long_run_shows_progress_off_a_terminal() {
 /// the build reads differ from it (as `git status` sees them).
 #[test]
 fn the_version_says_when_the_sources_were_modified() {
-    let version = crate::common::stdout(&cellbih(&["--version"]));
+    let version = crate::common::stdout(&cellbih(&line("--version")));
     let root = crate::common::ROOT;
     let status = std::process::Command::new("git")
         .args(["status", "--porcelain", "--untracked-files=no", "--"])

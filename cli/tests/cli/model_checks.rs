@@ -145,8 +145,31 @@ fn sensitivity_moves_every_uncertain_rate_across_its_band() {
         assert_eq!(r["speedups"].as_array().unwrap().len(), heads, "{r}");
     }
     assert_eq!(rows[0]["largest_move"], 0.0);
-    let moved = (rows.iter()).filter(|r| r["largest_move"].as_f64().unwrap().abs() > 0.001);
-    assert!(moved.count() > rows.len() / 4, "moving rates moved little");
+    // Every rate moves some headline at one end of its band at least (a
+    // rate whose override did not apply would move nothing), but for the
+    // rates no multi-SPE build charges with the paper's tree, which move
+    // nothing at all (so that the list cannot go stale).
+    const NOT_CHARGED: [&str; 4] = [
+        "ppe_atomic_cycles", // the PPE takes no lock line in these builds
+        "ppe_node",          // the PPE builders' per-node rate
+        "spe_bin_item",      // binned SAH only
+        "spe_sah_bin",       // binned SAH only
+    ];
+    let mut largest: std::collections::BTreeMap<String, f64> = Default::default();
+    for r in &rows[1..1 + 2 * uncertain] {
+        let rate = r["rate"].as_str().unwrap();
+        let name = rate.split(" (").next().unwrap().to_string();
+        let moved = r["largest_move"].as_f64().unwrap().abs();
+        let m = largest.entry(name).or_insert(0.0);
+        *m = m.max(moved);
+    }
+    assert_eq!(largest.len(), uncertain);
+    for (name, moved) in &largest {
+        match NOT_CHARGED.contains(&name.as_str()) {
+            true => assert_eq!(*moved, 0.0, "{name} moves a headline now"),
+            false => assert!(*moved > 0.0, "{name} moves no headline at either end"),
+        }
+    }
     // A band per headline: its speedup as calibrated inside it, its ends
     // the least and most over every variant.
     let bands = doc["bands"].as_array().unwrap();

@@ -4,7 +4,9 @@
 //! thing. The write and signal cases are in `cli/tests/cli/errors.rs`, the
 //! refusals before any work in `cli/tests/cli/refusals.rs`.
 
-use crate::common::{assert_fails_with, assert_ok, cellbih, stderr, stdout, tmp};
+use crate::common::{
+    assert_fails_with, assert_ok, assert_says, cellbih, json, line, stderr, stdout, tmp,
+};
 
 /// Every line of `text` fits 80 columns.
 fn fits_80(what: &str, text: &str) {
@@ -22,18 +24,7 @@ fn two_outputs_are_not_sent_to_one_stream() {
     std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
     let rays = rays.to_str().unwrap();
     for args in [
-        &[
-            "render",
-            "--on-cell",
-            "--width",
-            "8",
-            "--height",
-            "8",
-            "--out",
-            "-",
-            "--trace",
-            "-",
-        ][..],
+        &line("render --on-cell --width 8 --height 8 --out - --trace -")[..],
         &[
             "raycast",
             "--on-cell",
@@ -72,22 +63,16 @@ fn two_outputs_are_not_sent_to_one_stream() {
 /// SPEs a build used are still counted (by the data they moved).
 #[test]
 fn the_functional_mode_prints_no_timing_fields() {
-    let out = cellbih(&["build", "--builder", "spe_bfs", "--mode", "functional"]);
+    let out = cellbih(&line("build --builder spe_bfs --mode functional"));
     assert_ok(&out);
     let text = stdout(&out);
     assert!(text.contains("the functional mode times nothing"), "{text}");
     for timed in ["busy", "DMA wait", "idle", "SPEs used"] {
         assert!(!text.contains(timed), "'{timed}' in {text}");
     }
-    let out = cellbih(&[
-        "build",
-        "--builder",
-        "spe_bfs",
-        "--mode",
-        "functional",
-        "--format",
-        "json",
-    ]);
+    let out = cellbih(&line(
+        "build --builder spe_bfs --mode functional --format json",
+    ));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["simulated_ms"].is_null() && v["simulated_cycles"].is_null());
     assert_eq!(v["spes_used"], 1, "{v}");
@@ -106,7 +91,7 @@ fn the_functional_mode_prints_no_timing_fields() {
         assert!(c.contains_key("bytes_get"), "{core}");
     }
     // Timed, the same build has its cycles.
-    let out = cellbih(&["build", "--builder", "spe_bfs", "--format", "json"]);
+    let out = cellbih(&line("build --builder spe_bfs --format json"));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["cores"][1][1]["busy"].as_u64().unwrap() > 0);
 
@@ -135,9 +120,9 @@ fn the_functional_mode_prints_no_timing_fields() {
 /// use, naming its own knob; a builder of the paper uses one by design.
 #[test]
 fn spes_used_is_said_only_where_a_builder_decides_it() {
-    let one = stdout(&cellbih(&["build", "--builder", "spe_bfs"]));
+    let one = stdout(&cellbih(&line("build --builder spe_bfs")));
     assert!(!one.contains("SPEs used"), "{one}");
-    let many = stdout(&cellbih(&["build", "--builder", "spe_bfs_private"]));
+    let many = stdout(&cellbih(&line("build --builder spe_bfs_private")));
     assert!(
         many.contains("SPEs used   4 of 6") && many.contains("--tris-per-spe 1"),
         "{many}"
@@ -149,31 +134,17 @@ fn spes_used_is_said_only_where_a_builder_decides_it() {
 /// stderr even when stderr is not a terminal.
 #[test]
 fn a_shallow_tree_is_measured_on_a_sample_and_long_steps_are_shown() {
-    let out = cellbih(&[
-        "build",
-        "--scene",
-        "rtperf:100000",
-        "--leaf-size",
-        "100000",
-        "--format",
-        "json",
-    ]);
-    assert_ok(&out);
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = json("build --scene rtperf:100000 --leaf-size 100000 --format json");
     let sampled = v["rays"]["primary"]["sampled"].as_u64().unwrap();
     assert!((1000..10_000).contains(&sampled), "{v}");
     assert!(v["rays"]["incoherent"]["sampled"].as_u64().unwrap() < 16_384);
-    let text = stdout(&cellbih(&[
-        "build",
-        "--scene",
-        "rtperf:100000",
-        "--leaf-size",
-        "100000",
-    ]));
+    let text = stdout(&cellbih(&line(
+        "build --scene rtperf:100000 --leaf-size 100000",
+    )));
     assert!(text.contains("of the 307200 rays, evenly spread"), "{text}");
     // A usual tree: every ray.
     let v: serde_json::Value =
-        serde_json::from_slice(&cellbih(&["build", "--format", "json"]).stdout).unwrap();
+        serde_json::from_slice(&cellbih(&line("build --format json")).stdout).unwrap();
     assert!(v["rays"]["primary"].get("sampled").is_none(), "{v}");
 
     let png = tmp("slow.png");
@@ -193,28 +164,16 @@ fn a_shallow_tree_is_measured_on_a_sample_and_long_steps_are_shown() {
         png.to_str().unwrap(),
     ]);
     assert_ok(&out);
-    assert!(
-        stderr(&out).contains("casting the rays on the Cell …"),
-        "{}",
-        stderr(&out)
-    );
+    assert_says(&out, "casting the rays on the Cell …");
 }
 
 /// `compare` names, of the tree's options, only the one a left-out builder
 /// does not build.
 #[test]
 fn compare_names_only_what_leaves_a_builder_out() {
-    let out = cellbih(&[
-        "compare",
-        "--scene",
-        "cup",
-        "--spes",
-        "2",
-        "--leaf-size",
-        "4",
-        "--split",
-        "sah",
-    ]);
+    let out = cellbih(&line(
+        "compare --scene cup --spes 2 --leaf-size 4 --split sah",
+    ));
     assert_ok(&out);
     let text = stdout(&out);
     let line = text
@@ -255,17 +214,9 @@ fn one_is_singular_and_every_report_says_what_built() {
         text.contains("(1 triangle)") && text.contains("1 leaf)"),
         "{text}"
     );
-    let text = stdout(&cellbih(&[
-        "update",
-        "--builder",
-        "host_shared",
-        "--threads",
-        "2",
-        "--animation",
-        "rtperf",
-        "--frames",
-        "1",
-    ]));
+    let text = stdout(&cellbih(&line(
+        "update --builder host_shared --threads 2 --animation rtperf --frames 1",
+    )));
     assert!(
         text.contains("builder host_shared on 2 host threads"),
         "{text}"

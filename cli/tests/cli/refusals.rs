@@ -7,7 +7,9 @@
 
 use std::time::Duration;
 
-use crate::common::{assert_fails_with, assert_ok, cellbih, run_limited, stderr, stdout, tmp};
+use crate::common::{
+    assert_fails_with, assert_ok, assert_says, cellbih, line, run_limited, stderr, stdout, tmp,
+};
 
 #[test]
 fn sizes_past_their_limits_are_refused_at_once() {
@@ -23,27 +25,11 @@ fn sizes_past_their_limits_are_refused_at_once() {
             "rtperf takes at most 50000000 triangles",
         ),
         (
-            &[
-                "update",
-                "--scene",
-                "car",
-                "--animation",
-                "car",
-                "--frames",
-                "1000000000",
-            ][..],
+            &line("update --scene car --animation car --frames 1000000000")[..],
             "1000000000 is not between 0 and 100000",
         ),
         (
-            &[
-                "update",
-                "--scene",
-                "car",
-                "--animation",
-                "car",
-                "--frames",
-                "18446744073709551615",
-            ][..],
+            &line("update --scene car --animation car --frames 18446744073709551615")[..],
             "is not between 0 and 100000",
         ),
         (
@@ -57,29 +43,23 @@ fn sizes_past_their_limits_are_refused_at_once() {
         (&["build", "--spes", "17"][..], "17 is not between 1 and 16"),
         // A knob's range is its table's, checked once, when it is set.
         (
-            &[
-                "build",
-                "--builder",
-                "spe_bfs_private",
-                "--deal-per-spe",
-                "17",
-            ][..],
+            &line("build --builder spe_bfs_private --deal-per-spe 17")[..],
             "builder spe_bfs_private: --deal-per-spe 17: auto or 1 to 16",
         ),
         (
-            &["build", "--builder", "spe_morton", "--digit-bits", "3"][..],
+            &line("build --builder spe_morton --digit-bits 3")[..],
             "--digit-bits 3: 4 to 11",
         ),
         (
-            &["build", "--builder", "spe_morton", "--key-bits", "48"][..],
+            &line("build --builder spe_morton --key-bits 48")[..],
             "--key-bits is auto, 16, 24, 32 or 64, not '48'",
         ),
         (
-            &["build", "--builder", "ppe_approx", "--approx-cells", "0"][..],
+            &line("build --builder ppe_approx --approx-cells 0")[..],
             "--approx-cells 0: 1 to 1024",
         ),
         (
-            &["build", "--builder", "spe_bfs_shared", "--agglomerate", "0"][..],
+            &line("build --builder spe_bfs_shared --agglomerate 0")[..],
             "--agglomerate 0: 1 to 256",
         ),
     ] {
@@ -89,14 +69,14 @@ fn sizes_past_their_limits_are_refused_at_once() {
 
 #[test]
 fn help_says_what_every_option_does() {
-    let top = stdout(&cellbih(&["--help"]));
+    let top = stdout(&cellbih(&line("--help")));
     assert!(
         top.contains("With no command, runs the demo") && top.contains("cellbih-demo.png"),
         "{top}"
     );
     for (cmd, options) in [
         ("raycast", &["--rays", "--out", "--data"][..]),
-        ("render", &["--out", "--heatmap", "--width", "--height"][..]),
+        ("render", &line("--out --heatmap --width --height")[..]),
         ("update", &["--frames", "--seed"][..]),
         ("build", &["--trace", "--max-depth"][..]),
     ] {
@@ -116,9 +96,9 @@ fn help_says_what_every_option_does() {
             assert!(described, "{cmd} {opt} has no help text:\n{help}");
         }
     }
-    assert!(stdout(&cellbih(&["build", "--help"])).contains("at most 126"));
-    assert!(stdout(&cellbih(&["build", "--help"])).contains("bytes"));
-    let builders = stdout(&cellbih(&["builders", "--help"]));
+    assert!(stdout(&cellbih(&line("build --help"))).contains("at most 126"));
+    assert!(stdout(&cellbih(&line("build --help"))).contains("bytes"));
+    let builders = stdout(&cellbih(&line("builders --help")));
     assert!(!builders.contains("--data"), "{builders}");
 }
 
@@ -153,14 +133,14 @@ fn quality_knobs_a_builder_does_not_build_are_refused_by_name() {
     }
     // Those that build them are named, in the registry's order, the SPE
     // builders among them.
-    let out = cellbih(&["build", "--builder", "ppe_approx", "--split", "sah"]);
+    let out = cellbih(&line("build --builder ppe_approx --split sah"));
     let named: Vec<&str> = (cellbih::registry::BuilderKind::ALL.iter())
         .filter(|b| b.builds(&cellbih::bih::BihConfig::SAH_CUT))
         .map(|b| b.name())
         .collect();
     assert!(named.contains(&"spe_bfs"), "{named:?}");
     let named = format!("{} build", named.join(", "));
-    assert!(stderr(&out).contains(&named), "{}", stderr(&out));
+    assert_says(&out, &named);
     for bad in [
         &["--empty-cut", "100"][..],
         &["--empty-cut", "0"],
@@ -170,15 +150,9 @@ fn quality_knobs_a_builder_does_not_build_are_refused_by_name() {
         args.extend_from_slice(bad);
         assert!(!cellbih(&args).status.success(), "{bad:?} was accepted");
     }
-    let out = cellbih(&[
-        "build",
-        "--builder",
-        "ppe_naive",
-        "--split",
-        "sah",
-        "--empty-cut",
-        "10",
-    ]);
+    let out = cellbih(&line(
+        "build --builder ppe_naive --split sah --empty-cut 10",
+    ));
     assert_ok(&out);
     assert!(stdout(&out).contains("simulated"), "{}", stdout(&out));
 }
@@ -192,7 +166,7 @@ fn binned_sah_options_need_split_sah() {
         args.extend_from_slice(knob);
         assert_fails_with(&cellbih(&args), "apply to --split sah only");
     }
-    let out = cellbih(&["build", "--split", "sah", "--sah-above", "64"]);
+    let out = cellbih(&line("build --split sah --sah-above 64"));
     assert_ok(&out);
 }
 
@@ -269,7 +243,7 @@ fn a_knob_is_taken_by_the_builders_that_declare_it_and_refused_by_the_rest() {
 /// terminal; a file named like a built-in scene is not read silently.
 #[test]
 fn small_inputs_get_plain_answers() {
-    let out = cellbih(&["build", "--empty-cut", "2.5"]);
+    let out = cellbih(&line("build --empty-cut 2.5"));
     assert_fails_with(&out, "a whole percentage is wanted (1 to 99), not 2.5");
     let rays = tmp("control.rays.csv");
     std::fs::write(
@@ -300,11 +274,7 @@ fn small_inputs_get_plain_answers() {
         .output()
         .unwrap();
     assert!(out.status.success());
-    assert!(
-        stderr(&out).contains("the file car here is not read"),
-        "{}",
-        stderr(&out)
-    );
+    assert_says(&out, "the file car here is not read");
 }
 
 /// An `rtperf:N` scene whose triangle records alone do not fit the
@@ -332,15 +302,9 @@ fn a_procedural_scene_too_big_for_the_emulated_memory_is_refused_up_front() {
             "rtperf:5000000: its 5000000 triangle records alone take 229 MiB, more than the emulated Cell's 64 MiB (--memory-mib): nothing built",
         );
     }
-    let fits = cellbih(&[
-        "build",
-        "--scene",
-        "rtperf:1000",
-        "--builder",
-        "spe_bfs",
-        "--memory-mib",
-        "1",
-    ]);
+    let fits = cellbih(&line(
+        "build --scene rtperf:1000 --builder spe_bfs --memory-mib 1",
+    ));
     assert_ok(&fits);
 }
 
@@ -350,14 +314,9 @@ fn a_procedural_scene_too_big_for_the_emulated_memory_is_refused_up_front() {
 /// both name the cast and `--memory-mib`.
 #[test]
 fn a_cast_too_big_for_the_emulated_memory_is_refused_naming_it() {
-    let out = cellbih(&[
-        "render",
-        "--scene",
-        "rtperf:6000000",
-        "--on-cell",
-        "--out",
-        "never.png",
-    ]);
+    let out = cellbih(&line(
+        "render --scene rtperf:6000000 --on-cell --out never.png",
+    ));
     assert_fails_with(
         &out,
         "rtperf:6000000: the cast on the Cell (480000 rays) needs at least 319 MiB",
@@ -402,10 +361,9 @@ fn a_cast_too_big_for_the_emulated_memory_is_refused_naming_it() {
         &out,
         &format!("default: the cast on the Cell ({rays} rays) needs 2 MiB"),
     );
-    assert!(
-        stderr(&out).contains("(--memory-mib: from 2 up): the tree was built, nothing cast"),
-        "{}",
-        stderr(&out)
+    assert_says(
+        &out,
+        "(--memory-mib: from 2 up): the tree was built, nothing cast",
     );
     assert!(!hits.exists());
 }
@@ -435,7 +393,7 @@ fn options_that_do_not_apply_are_refused_by_name() {
             for cmd in [
                 &["build"][..],
                 &["raycast", "--rays", rays, "--out", hits][..],
-                &["update", "--animation", "rtperf", "--frames", "1"][..],
+                &line("update --animation rtperf --frames 1")[..],
             ] {
                 let mut args = cmd.to_vec();
                 args.extend(["--builder", b.name()]);
@@ -460,38 +418,20 @@ fn options_that_do_not_apply_are_refused_by_name() {
         ]);
         assert_ok(&out);
     }
-    let out = cellbih(&["update", "--animation", "rtperf", "--deep-stop-below", "10"]);
+    let out = cellbih(&line("update --animation rtperf --deep-stop-below 10"));
     assert_fails_with(&out, "--deep-stop-below applies to --strategy deep only");
-    let out = cellbih(&[
-        "update",
-        "--animation",
-        "rtperf",
-        "--frames",
-        "1",
-        "--strategy",
-        "deep",
-        "--deep-stop-below",
-        "10",
-    ]);
+    let out = cellbih(&line(
+        "update --animation rtperf --frames 1 --strategy deep --deep-stop-below 10",
+    ));
     assert_ok(&out);
 }
 
 /// `frame` runs with its defaults: the baseline builds on the Cell.
 #[test]
 fn frame_runs_with_its_defaults() {
-    let out = cellbih(&[
-        "frame",
-        "--scene",
-        "car",
-        "--animation",
-        "car",
-        "--frames",
-        "1",
-        "--width",
-        "16",
-        "--height",
-        "16",
-    ]);
+    let out = cellbih(&line(
+        "frame --scene car --animation car --frames 1 --width 16 --height 16",
+    ));
     assert_ok(&out);
     assert!(stdout(&out).contains("builder spe_bfs"), "{}", stdout(&out));
 }

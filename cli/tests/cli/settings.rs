@@ -4,12 +4,11 @@
 
 use crate::common::{assert_ok, cellbih, stderr, stdout, tmp};
 
-fn json(args: &[&str]) -> serde_json::Value {
+/// `cellbih` with `args` and `--format json`: its JSON.
+fn as_json(args: &[&str]) -> serde_json::Value {
     let mut args = args.to_vec();
     args.extend(["--format", "json"]);
-    let out = cellbih(&args);
-    assert_ok(&out);
-    serde_json::from_slice(&out.stdout).unwrap()
+    crate::common::json_of(&args)
 }
 
 /// Two builds that differ only in the machine model or the mailbox path
@@ -31,7 +30,7 @@ fn two_settings_two_headers() {
     assert_ne!(la, lb);
     assert!(la.contains("--model measured --mailboxes raw"), "{la}");
     assert!(lb.contains("--model legacy --mailboxes ps3-kernel"), "{lb}");
-    let (ja, jb) = (json(&a), json(&b));
+    let (ja, jb) = (as_json(&a), as_json(&b));
     assert_ne!(ja["settings"], jb["settings"]);
     assert_eq!(jb["settings"]["cell"]["model"], "legacy");
     assert!(
@@ -41,14 +40,14 @@ fn two_settings_two_headers() {
             .starts_with(env!("CARGO_PKG_VERSION"))
     );
 
-    let private = json(&["build", "--builder", "spe_bfs_private", "--steal"]);
+    let private = as_json(&["build", "--builder", "spe_bfs_private", "--steal"]);
     let knobs = private["settings"]["knobs"].as_object().unwrap();
     let builder = cellbih::registry::BuilderKind::from_name("spe_bfs_private").unwrap();
     assert_eq!(knobs.len(), builder.knobs().len());
     assert_eq!(knobs["steal"], "on");
     assert_eq!(knobs["deal-per-spe"], "auto");
     // A host build names no Cell.
-    let host = json(&["build"]);
+    let host = as_json(&["build"]);
     assert!(host["settings"]["cell"].is_null(), "{}", host["settings"]);
 }
 
@@ -96,7 +95,7 @@ fn compare_names_its_settings() {
         "{la}\n{lb}"
     );
     assert!(la.contains("tree --max-depth 4"), "{la}");
-    let (ja, jb) = (json(&a), json(&b));
+    let (ja, jb) = (as_json(&a), as_json(&b));
     assert_eq!(ja["settings"]["cell"]["spes"], 6);
     assert_eq!(jb["settings"]["cell"]["spes"], 3);
     assert_eq!(ja["settings"]["tree"]["max_depth"], 4);
@@ -118,7 +117,7 @@ fn update_and_frame_honour_every_family_of_settings() {
             args.extend(["--animation", "rtperf", "--frames", "1"]);
         }
         args.extend(extra);
-        let v = json(&args);
+        let v = as_json(&args);
         let ms = match cmd {
             "update" => v["frames"][0]["simulated_ms"].as_f64(),
             "frame" => v["frames"][0]["update_ms"].as_f64(),

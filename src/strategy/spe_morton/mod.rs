@@ -247,28 +247,12 @@ impl MortonRates {
 
     /// Its rates, each derived: from the value to 1.6 times it (the
     /// key-bit rate's 30 to 49 cycles; [`crate::kernels::rates::derived`]).
-    pub const TABLE: &'static [Rate<MortonRates>] = &[
-        Rate {
-            name: "spe_morton.key_setup",
-            at: |r| &mut r.key_setup,
-            band: derived(30, 49),
-        },
-        Rate {
-            name: "spe_morton.key_bit",
-            at: |r| &mut r.key_bit,
-            band: derived(30, 49),
-        },
-        Rate {
-            name: "spe_morton.radix_count",
-            at: |r| &mut r.radix_count,
-            band: derived(12, 19),
-        },
-        Rate {
-            name: "spe_morton.radix_scatter",
-            at: |r| &mut r.radix_scatter,
-            band: derived(22, 35),
-        },
-    ];
+    pub const TABLE: &'static [Rate<MortonRates>] = crate::rate_table!(MortonRates, "spe_morton.", {
+        key_setup: derived(30, 49),
+        key_bit: derived(30, 49),
+        radix_count: derived(12, 19),
+        radix_scatter: derived(22, 35),
+    });
 }
 
 /// Each SPE's WorkAPPE/WorkBPPE for regions too large for the local store
