@@ -339,14 +339,8 @@ impl BuilderKind {
         let (bih, simulated) = match self.0 {
             Family::Host(h) => ((h.build)(scene, region, &b.tree), None),
             Family::Cell(s) => {
-                let (bih, simulated) = strategy::run_in(
-                    s.spawn,
-                    scene,
-                    region,
-                    &b.tree,
-                    &b.cell,
-                    (&b.knobs, &b.rates),
-                )?;
+                let (bih, simulated) =
+                    strategy::run_in(s.spawn, scene, region, &b.tree, &b.cell, &b.knobs, &b.rates)?;
                 (bih, Some(simulated))
             }
         };

@@ -138,7 +138,8 @@ pub fn run_in(
     region: Aabb,
     cfg: &BihConfig,
     cell_cfg: &CellConfig,
-    (knobs, rates): (&Knobs, &RateOverrides),
+    knobs: &Knobs,
+    rates: &RateOverrides,
 ) -> Result<(Bih, Simulated), CellError> {
     assert!(
         region.contains_box(&scene.bounds()),

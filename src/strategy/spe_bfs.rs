@@ -8,6 +8,7 @@
 
 use super::machinery::arena::{BlockSource, pieces, serve_blocks};
 use super::machinery::breadth_first::{Job, QueueKnobs, SpeBuilder};
+use super::machinery::work_queue::WorkPpe;
 use super::{Output, Readback, Setup};
 use crate::bih::BihConfig;
 use crate::cell::CellError;
@@ -44,10 +45,14 @@ fn spawn(
         let mut b = SpeBuilder::new(
             &spe,
             tris,
-            (work_ppe, work_ppe_bytes),
+            WorkPpe {
+                areas: work_ppe,
+                bytes: work_ppe_bytes,
+            },
             cfg,
             BlockSource::Mailbox,
-            (QueueKnobs::PAPER, rates),
+            QueueKnobs::PAPER,
+            rates,
         )?;
         let all = b.bounds_of_all(n).await?;
         b.run(Job::new(0, n, 0, 0, region, &all)).await?;

@@ -36,7 +36,7 @@ use super::machinery::top::{
     COOP_PARTITION, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE,
     TopKnobs, build_top, help_top, largest_first,
 };
-use super::machinery::work_queue::{Level, WORK_BYTES};
+use super::machinery::work_queue::{Level, WORK_BYTES, WorkPpe};
 use super::{Knob, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, Spe};
@@ -204,10 +204,14 @@ impl Program {
         let mut b = SpeBuilder::new(
             &spe,
             self.start.tris,
-            ([self.work_ppe, self.work_ppe], 0),
+            WorkPpe {
+                areas: [self.work_ppe; 2],
+                bytes: 0,
+            },
             self.start.cfg,
             self.start.common.pool.blocks,
-            (self.knobs.queue, self.start.rates),
+            self.knobs.queue,
+            self.start.rates,
         )?;
         let record = spe.ls_alloc(RECORD_BYTES as u32, 128)?;
         let tag = spe.tag("deal")?;
@@ -272,7 +276,7 @@ impl Program {
         };
         if let Some((jobs, areas)) = own {
             b.arena.renew(self.start.common.pool.blocks);
-            b.queue.set_spill(areas, areas[1].0 - areas[0].0);
+            b.queue.set_spill(WorkPpe::between(areas[0], areas[1]));
             b.take_dealt();
             let level = b.queue.restart_local(&jobs)?;
             b.levels(level, None).await?;
@@ -312,7 +316,7 @@ impl Program {
             )
             .await?;
         } else if count > 0 {
-            b.queue.set_spill([Ea(a), Ea(bb)], bb - a);
+            b.queue.set_spill(WorkPpe::between(Ea(a), Ea(bb)));
             b.take_dealt();
             b.levels(Level::InMemory(count as usize), None).await?;
             let count = b.arena.allocated();
@@ -462,7 +466,10 @@ async fn take_and_steal(
         unreachable!("four words")
     };
     let (count, lists) = (count as usize, Ea(lists));
-    b.queue.set_spill([Ea(jobs_ea), Ea(jobs_ea)], 0);
+    b.queue.set_spill(WorkPpe {
+        areas: [Ea(jobs_ea); 2],
+        bytes: 0,
+    });
     let jobs = b.queue.load(Level::InMemory(count), 0).await?;
     let mut areas = Vec::with_capacity(count);
     let mut at = work;
@@ -480,7 +487,8 @@ async fn take_and_steal(
             break;
         };
         stolen += from_other as u64;
-        b.queue.set_spill(areas[k], areas[k][1].0 - areas[k][0].0);
+        b.queue
+            .set_spill(WorkPpe::between(areas[k][0], areas[k][1]));
         let level = b.queue.restart_local(&jobs[k..k + 1])?;
         b.levels(level, None).await?;
     }

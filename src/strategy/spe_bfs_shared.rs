@@ -49,7 +49,7 @@ use super::machinery::top::{
     COOP_PARTITION, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE,
     TopKnobs, build_top, help_top,
 };
-use super::machinery::work_queue::{Level, SharedSpill, WorkQueue, from_wire};
+use super::machinery::work_queue::{Level, SharedSpill, WorkPpe, WorkQueue, from_wire};
 use super::{Knob, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
@@ -235,10 +235,14 @@ impl Program {
         let mut b = SpeBuilder::new(
             &spe,
             self.start.tris,
-            (q.levels, q.level_bytes),
+            WorkPpe {
+                areas: q.levels,
+                bytes: q.level_bytes,
+            },
             self.start.cfg,
             blocks,
-            (knobs.queue, self.start.rates),
+            knobs.queue,
+            self.start.rates,
         )?;
         let mut helper = Coop::new(&spe, self.start.common.coop, knobs.queue.prefetch)?;
         let line = spe.ls_alloc(128, 128)?;

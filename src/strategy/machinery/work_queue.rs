@@ -67,6 +67,25 @@ pub fn from_wire<J: Pod>(bytes: &[u8], stride: usize) -> Vec<J> {
         .collect()
 }
 
+/// `WorkAPPE` and `WorkBPPE` (Fig. 2): the two areas of main memory a
+/// queue spills its levels to, and the bytes each holds (a level that
+/// would spill past them is an error, not a write over the next buffer).
+#[derive(Clone, Copy, Debug)]
+pub struct WorkPpe {
+    pub areas: [Ea; 2],
+    pub bytes: u64,
+}
+
+impl WorkPpe {
+    /// The two areas from `a` to `b` and from `b` on, `b - a` bytes each.
+    pub fn between(a: Ea, b: Ea) -> Self {
+        WorkPpe {
+            areas: [a, b],
+            bytes: b.0 - a.0,
+        }
+    }
+}
+
 /// One SPE's `WorkA`/`WorkB` with their spill areas `WorkAPPE`/`WorkBPPE`,
 /// for jobs of type `J`, each `stride` bytes in the local store and in main
 /// memory.
@@ -83,11 +102,8 @@ pub struct WorkQueue<'a, J> {
     a_next: usize,
     /// The block of the level read ahead into `work[a_next]`.
     prefetched: Option<usize>,
-    /// `WorkAPPE` is `work_ppe[a_ppe]`, `WorkBPPE` the other.
-    work_ppe: [Ea; 2],
-    /// Bytes each of `WorkAPPE` and `WorkBPPE` holds: a level that would
-    /// spill past it is an error, not a write over the next buffer.
-    work_ppe_bytes: u64,
+    /// `WorkAPPE` is `work_ppe.areas[a_ppe]`, `WorkBPPE` the other.
+    work_ppe: WorkPpe,
     a_ppe: usize,
     /// Jobs in `WorkB` now, and blocks of it written to `WorkBPPE` this level.
     b_len: usize,
@@ -121,12 +137,11 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
     }
 
     /// Allocates `WorkA` and `WorkB` in `spe`'s local store (and their
-    /// second buffers if `double`) for jobs of `stride` bytes; `work_ppe`
-    /// are `WorkAPPE` and `WorkBPPE` in main memory, `bytes` each.
+    /// second buffers if `double`) for jobs of `stride` bytes, spilling to
+    /// `work_ppe` in main memory.
     pub fn new(
         spe: &'a Spe,
-        work_ppe: [Ea; 2],
-        bytes: u64,
+        work_ppe: WorkPpe,
         double: bool,
         stride: usize,
     ) -> Result<Self, CellError> {
@@ -148,7 +163,6 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
             a_next: if double { 3 } else { 0 },
             prefetched: None,
             work_ppe,
-            work_ppe_bytes: bytes,
             a_ppe: 0,
             b_len: 0,
             b_spilled: 0,
@@ -195,11 +209,9 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         Ok(Level::Local(1))
     }
 
-    /// Points `WorkAPPE`/`WorkBPPE` at other areas of `bytes` each
-    /// (between levels).
-    pub fn set_spill(&mut self, work_ppe: [Ea; 2], bytes: u64) {
+    /// Points `WorkAPPE`/`WorkBPPE` at other areas (between levels).
+    pub fn set_spill(&mut self, work_ppe: WorkPpe) {
         self.work_ppe = work_ppe;
-        self.work_ppe_bytes = bytes;
         self.a_ppe = 0;
     }
 
@@ -277,7 +289,7 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
     /// `WorkAPPE` into buffer `buf`.
     async fn get_block(&mut self, total: usize, k: usize, buf: usize) -> Result<(), CellError> {
         let len = self.per().min(total - k * self.per());
-        let from = self.work_ppe[self.a_ppe].offset((k * WORK_BYTES as usize) as u64);
+        let from = self.work_ppe.areas[self.a_ppe].offset((k * WORK_BYTES as usize) as u64);
         let bytes = (len * self.stride) as u32;
         self.spe
             .get(self.work[buf], from, bytes, self.tag(buf))
@@ -373,16 +385,16 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
             }
             None => {
                 let at = (self.b_spilled * WORK_BYTES as usize) as u64;
-                if at + bytes as u64 > self.work_ppe_bytes {
+                if at + bytes as u64 > self.work_ppe.bytes {
                     return Err(CellError::Program {
                         core: format!("SPE {}", self.spe.id()),
                         msg: format!(
                             "WorkBPPE holds {} bytes; the level being built needs more",
-                            self.work_ppe_bytes
+                            self.work_ppe.bytes
                         ),
                     });
                 }
-                self.work_ppe[1 - self.a_ppe].offset(at)
+                self.work_ppe.areas[1 - self.a_ppe].offset(at)
             }
         };
         let (b, tag) = (self.work[self.b[0]], self.tag(self.b[0]));

@@ -295,7 +295,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     let exits = (0..spes)
         .map(|id| {
             cell.spawn_spe(id, move |spe| async move {
-                let mut p = Program::new(&spe, a, spec, (knobs, rates, kernels), cfg)?;
+                let mut p = Program::new(&spe, a, spec, knobs, rates, kernels, cfg)?;
                 p.run().await
             })
         })
@@ -387,7 +387,9 @@ impl<'a> Program<'a> {
         spe: &'a Spe,
         a: Areas,
         spec: KeySpec,
-        (knobs, rates, kernels): (MortonKnobs, MortonRates, KernelRates),
+        knobs: MortonKnobs,
+        rates: MortonRates,
+        kernels: KernelRates,
         cfg: BihConfig,
     ) -> Result<Self, CellError> {
         Ok(Program {

@@ -14,7 +14,7 @@ use crate::kernels::split::{Side, side_of};
 use crate::spe::fig1::stream_bounds;
 use crate::spe::layout::TriRecord;
 use crate::strategy::machinery::breadth_first::{Job, SpeBuilder};
-use crate::strategy::machinery::work_queue::from_wire;
+use crate::strategy::machinery::work_queue::{WorkPpe, from_wire};
 
 impl Program<'_> {
     /// Writes `items` to `ea` in puts of at most 16 KiB, and waits.
@@ -338,7 +338,7 @@ impl Program<'_> {
             .spill
             .offset(self.spe.id() as u64 * self.spill_per_spe);
         let half = self.spill_per_spe / 2;
-        let work_ppe = ([mine, mine.offset(half)], half);
+        let work_ppe = WorkPpe::between(mine, mine.offset(half));
         let mark = self.spe.ls_mark();
         // This SPE's own arena list and node writes go on in the loop.
         let arena = self.arena.take().expect("the arena is lent only here");
@@ -348,7 +348,8 @@ impl Program<'_> {
             work_ppe,
             self.cfg,
             arena,
-            (self.knobs.queue, self.kernels),
+            self.knobs.queue,
+            self.kernels,
         )?;
         let mut writes = self.writes.take().expect("node writes are here");
         writes.leaf_base = (first - place) as u32;

@@ -32,7 +32,7 @@ use crate::kernels::rates::KernelRates;
 
 use super::arena::{BlockSource, ObjectArena};
 use super::node_writes::NodeWrites;
-use super::work_queue::{Level, WorkQueue};
+use super::work_queue::{Level, WorkPpe, WorkQueue};
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, SplitChoice};
 use crate::cell::{CellError, Ea, LsAddr, Spe, WaitMode};
@@ -206,20 +206,14 @@ impl<'a> SpeBuilder<'a> {
     pub(in crate::strategy) fn new(
         spe: &'a Spe,
         tris: Ea,
-        (work_ppe, work_ppe_bytes): ([Ea; 2], u64),
+        work_ppe: WorkPpe,
         cfg: BihConfig,
         blocks: BlockSource,
-        (knobs, rates): (QueueKnobs, KernelRates),
+        knobs: QueueKnobs,
+        rates: KernelRates,
     ) -> Result<Self, CellError> {
         let arena = ObjectArena::new(spe, blocks)?;
-        Self::with_arena(
-            spe,
-            tris,
-            (work_ppe, work_ppe_bytes),
-            cfg,
-            arena,
-            (knobs, rates),
-        )
+        Self::with_arena(spe, tris, work_ppe, cfg, arena, knobs, rates)
     }
 
     /// [`Self::new`] with the ObjectArena of a program that builds around
@@ -228,10 +222,11 @@ impl<'a> SpeBuilder<'a> {
     pub(in crate::strategy) fn with_arena(
         spe: &'a Spe,
         tris: Ea,
-        (work_ppe, work_ppe_bytes): ([Ea; 2], u64),
+        work_ppe: WorkPpe,
         cfg: BihConfig,
         arena: ObjectArena<'a>,
-        (knobs, rates): (QueueKnobs, KernelRates),
+        knobs: QueueKnobs,
+        rates: KernelRates,
     ) -> Result<Self, CellError> {
         Ok(SpeBuilder {
             spe,
@@ -239,13 +234,7 @@ impl<'a> SpeBuilder<'a> {
             cfg,
             rates,
             fig1: Fig1Buffers::alloc(spe)?,
-            queue: WorkQueue::new(
-                spe,
-                work_ppe,
-                work_ppe_bytes,
-                knobs.double_buffer,
-                Job::bytes(&cfg),
-            )?,
+            queue: WorkQueue::new(spe, work_ppe, knobs.double_buffer, Job::bytes(&cfg))?,
             arena,
             dealt: false,
             dealt_level: false,
