@@ -20,15 +20,22 @@ pub struct BuildArgs {
     #[arg(long)]
     pub builder: Option<String>,
     #[command(flatten)]
+    pub request: RequestArgs,
+    /// The strategies' knobs, as the registry's tables declare them.
+    #[command(flatten)]
+    pub knobs: KnobArgs,
+}
+
+/// What every builder of a request shares (`compare` runs every builder
+/// with them): the tree, the emulated Cell, the host threads.
+#[derive(clap::Args)]
+pub struct RequestArgs {
+    #[command(flatten)]
     pub tree: TreeArgs,
-    /// The emulated Cell.
     #[command(flatten)]
     pub cell: CellArgs,
     #[command(flatten)]
     pub host: HostThreadsArg,
-    /// The strategies' knobs, as the registry's tables declare them.
-    #[command(flatten)]
-    pub knobs: KnobArgs,
 }
 
 /// The options of the emulated Cell that every command running on it
@@ -171,7 +178,7 @@ pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: boo
             )
         })?,
     };
-    let given = args.cell.given();
+    let given = args.request.cell.given();
     if !builder.emulated() && !casts_on_cell && !given.is_empty() {
         return Err(format!(
             "{}: builder {builder} builds on the host and nothing here runs on the emulated \
@@ -180,7 +187,7 @@ pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: boo
         )
         .into());
     }
-    let cell = args.cell.config()?;
+    let cell = args.request.cell.config()?;
     // A knob the builder does not take is an error, not ignored, and so
     // is a value out of the knob's range (its table says which).
     let mut knobs = Knobs::default();
@@ -188,11 +195,11 @@ pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: boo
         builder.set_knob(&mut knobs, name, value)?;
     }
     let mut build = Build::new(builder)
-        .with_tree(args.tree.config()?)
+        .with_tree(args.request.tree.config()?)
         .on(&cell)
         .with_knobs(&knobs);
-    if args.host.threads.is_some() || builder.host_threads() {
-        build = build.on_threads(args.host.or_all());
+    if args.request.host.threads.is_some() || builder.host_threads() {
+        build = build.on_threads(args.request.host.or_all());
     }
     build.check()?;
     Ok(build)

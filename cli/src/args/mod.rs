@@ -21,8 +21,8 @@ use cellbih::render::View;
 use cellbih::update::MAX_FRAMES;
 
 pub use build_args::{
-    BuildArgs, CellArgs, HostThreadsArg, KnobArgs, MachineModel, Mailboxes, Mode, parse_build,
-    parse_build_or,
+    BuildArgs, CellArgs, HostThreadsArg, KnobArgs, MachineModel, Mailboxes, Mode, RequestArgs,
+    parse_build, parse_build_or,
 };
 pub use cast_args::{CacheArgs, CastArgs};
 pub use scene_arg::{CameraArg, SceneArg, check_built, check_memory};
@@ -95,14 +95,10 @@ pub struct CompareCommand {
     #[command(flatten)]
     pub scene: SceneArg,
     /// The tree every builder makes (builders that do not build these
-    /// knobs are left out, and named).
+    /// knobs are left out, and named), the Cell the emulated ones run on,
+    /// the threads of those that build on the host's cores.
     #[command(flatten)]
-    pub tree: TreeArgs,
-    /// The emulated Cell the emulated builders run on.
-    #[command(flatten)]
-    pub cell: CellArgs,
-    #[command(flatten)]
-    pub host: HostThreadsArg,
+    pub request: RequestArgs,
     #[command(flatten)]
     pub camera: CameraArg,
     #[arg(long, value_enum, default_value = "text")]

@@ -30,7 +30,7 @@ pub fn run(args: BuildCommand) -> Res<()> {
             .into());
         }
         crate::output::check_distinct(&[("the report", Path::new("-")), ("--trace", path)])?;
-        if matches!(build.cell.mode, Some(crate::args::Mode::Functional)) {
+        if matches!(build.request.cell.mode, Some(crate::args::Mode::Functional)) {
             return Err("--trace: --mode functional has no timing, so no timeline; use --mode timed or checked".into());
         }
         check_writable(path)?;

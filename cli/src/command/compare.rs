@@ -19,15 +19,13 @@ use cellbih::render::View;
 use cellbih::scene::Scene;
 
 use crate::Res;
-use crate::args::{CompareCommand, Format, check_memory};
+use crate::args::{CompareCommand, Format, RequestArgs, check_memory};
 
 /// Runs `cellbih compare`.
 pub fn run(args: CompareCommand) -> Res<()> {
     let CompareCommand {
         scene,
-        tree,
-        cell,
-        host,
+        request: RequestArgs { tree, cell, host },
         camera,
         format,
     } = args;
