@@ -21,7 +21,8 @@ use cellbih::kernels::recursion::{PrimRef, build_items};
 use cellbih::quality::agree::{examine, rays_for};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{Scene, extremes};
-use cellbih_cli::report::{OutputArgs, ThreadsArg, side_by_side};
+use cellbih_cli::args::RunArgs;
+use cellbih_cli::report::side_by_side;
 
 #[derive(Parser)]
 #[command(
@@ -32,17 +33,15 @@ struct Args {
     #[arg(long, default_value_t = 1000, value_parser = cellbih_cli::args::between::<u64, _>(1..=1_000_000))]
     rays: u64,
     #[command(flatten)]
-    threads: ThreadsArg,
-    #[command(flatten)]
-    output: OutputArgs,
+    run: RunArgs,
 }
 
 fn main() {
-    cellbih_cli::report::main("extremes", |a: &Args| &a.output, run);
+    cellbih_cli::report::main("extremes", |a: &Args| &a.run.output, run);
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    args.threads.install()?;
+    args.run.threads.install()?;
     let mut cell = CellConfig::ps3();
     cell.checked = true;
     let mut cases = Vec::new();
@@ -84,7 +83,7 @@ fn run(args: &Args) -> Result<(), String> {
         "f32_stalls",
     ];
     let doc = json!({ "rows": rows, "note": "disagree: rays whose closest or any hit differs from brute force, of `rays`; f32_stalls: halvings of the global heuristic f32 could not make (host recursion)" });
-    args.output.report(
+    args.run.output.report(
         "extremes",
         (&keys, &rows),
         &doc,
@@ -97,7 +96,7 @@ fn run(args: &Args) -> Result<(), String> {
         .count();
     eprintln!(
         "written: {}/extremes.{{csv,json}}",
-        args.output.out.display()
+        args.run.output.out.display()
     );
     if bad > 0 {
         return Err(format!(

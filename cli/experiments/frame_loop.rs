@@ -28,10 +28,9 @@ use cellbih::frame::{FrameConfig, Policy, play};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::update::{Animation, Method};
 use cellbih_cli::args::DataArg;
+use cellbih_cli::args::RunArgs;
 use cellbih_cli::args::ViewsArg;
-use cellbih_cli::report::{
-    OutputArgs, Series, ThreadsArg, TreeArgs, line_plot, output, side_by_side,
-};
+use cellbih_cli::report::{Series, TreeArgs, line_plot, output, side_by_side};
 
 #[derive(Parser)]
 #[command(
@@ -66,13 +65,11 @@ struct Args {
     #[command(flatten)]
     data: DataArg,
     #[command(flatten)]
-    threads: ThreadsArg,
-    #[command(flatten)]
-    output: OutputArgs,
+    run: RunArgs,
 }
 
 fn main() {
-    cellbih_cli::report::main("frame_loop", |a: &Args| &a.output, run);
+    cellbih_cli::report::main("frame_loop", |a: &Args| &a.run.output, run);
 }
 
 /// The animation a scene plays.
@@ -94,7 +91,7 @@ fn size_of(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    args.threads.install()?;
+    args.run.threads.install()?;
     let emulated = || -> Vec<&str> {
         (BuilderKind::ALL.iter())
             .filter(|b| b.emulated())
@@ -262,7 +259,7 @@ fn run(args: &Args) -> Result<(), String> {
         })
         .collect();
     let note = "simulated PS3 ms on the default model; section 5: every SPE builds, then every SPE renders (frame = update + render); paper: one SPE builds the next frame while the others render (frame = the longer); near_best: auto's frames within 10 % of the oracle's best option; prediction_error: auto's mean |predicted − measured| / measured frame time";
-    args.output.report(
+    args.run.output.report(
         "frame_loop",
         (&KEYS, &flat),
         &json!({ "note": note, "builder": builder.name(), "spes": spes, "rows": rows }),
@@ -277,7 +274,7 @@ fn run(args: &Args) -> Result<(), String> {
             "frame_loop_{}_{w}x{h}.svg",
             cellbih_cli::report::file_part(spec)
         );
-        let path = output(&args.output.out, &file).map_err(|e| e.to_string())?;
+        let path = output(&args.run.output.out, &file).map_err(|e| e.to_string())?;
         line_plot(
             &path,
             &format!("{spec}, {w} × {h}: frame time on the PS3 model"),
@@ -291,7 +288,7 @@ fn run(args: &Args) -> Result<(), String> {
 
     eprintln!(
         "written: {}/frame_loop.{{csv,json}}, frame_loop_*.svg",
-        args.output.out.display()
+        args.run.output.out.display()
     );
     Ok(())
 }

@@ -18,7 +18,8 @@ use cellbih::kernels::rates::RateOverrides;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::Scene;
 use cellbih_cli::args::DataArg;
-use cellbih_cli::report::{Format, OutputArgs, ThreadsArg, side_by_side};
+use cellbih_cli::args::RunArgs;
+use cellbih_cli::report::{Format, side_by_side};
 
 #[derive(Parser)]
 #[command(
@@ -36,11 +37,9 @@ struct Args {
     #[arg(long, value_enum, default_value = "measured")]
     model: Model,
     #[command(flatten)]
-    output: OutputArgs,
+    run: RunArgs,
     #[command(flatten)]
     data: DataArg,
-    #[command(flatten)]
-    threads: ThreadsArg,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -148,11 +147,11 @@ fn ms(b: BuilderKind, s: &Scene, spes: usize, v: &Variant) -> Result<f64, String
 }
 
 fn main() {
-    cellbih_cli::report::main("sensitivity", |a: &Args| &a.output, run);
+    cellbih_cli::report::main("sensitivity", |a: &Args| &a.run.output, run);
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    args.threads.install()?;
+    args.run.threads.install()?;
     let scenes: Vec<Scene> =
         cellbih_cli::report::load_scenes(&args.scenes, args.data.dir().as_deref())?;
     let base = match args.model {
@@ -232,7 +231,7 @@ fn run(args: &Args) -> Result<(), String> {
             Model::Legacy => "legacy",
         }
     );
-    let text = args.output.format == Format::Text;
+    let text = args.run.output.format == Format::Text;
     if text {
         println!("{}\n", cellbih_cli::report::wrap(&title, 80));
     }
@@ -336,7 +335,7 @@ fn run(args: &Args) -> Result<(), String> {
         "rate,end,value,largest_move,flips,{}",
         heads.join(",").replace(' ', "_")
     );
-    args.output.report_printed(
+    args.run.output.report_printed(
         "sensitivity",
         (&header, &csv),
         &json!({ "rows": rows, "bands": band_rows }),

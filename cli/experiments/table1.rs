@@ -19,7 +19,8 @@ use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{self, Scene};
 use cellbih_cli::args::DataArg;
-use cellbih_cli::report::{OutputArgs, ThreadsArg, side_by_side};
+use cellbih_cli::args::RunArgs;
+use cellbih_cli::report::side_by_side;
 
 #[derive(Parser)]
 #[command(
@@ -29,9 +30,7 @@ struct Args {
     #[command(flatten)]
     data: DataArg,
     #[command(flatten)]
-    threads: ThreadsArg,
-    #[command(flatten)]
-    output: OutputArgs,
+    run: RunArgs,
 }
 
 /// The paper's Table 1: model, triangles, file name, milliseconds for
@@ -95,11 +94,11 @@ fn model(
 }
 
 fn main() {
-    cellbih_cli::report::main("table1", |a: &Args| &a.output, run);
+    cellbih_cli::report::main("table1", |a: &Args| &a.run.output, run);
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    args.threads.install()?;
+    args.run.threads.install()?;
     let cfg = BihConfig::default();
     let mut models = Vec::new();
     for (name, count, file, paper) in PAPER {
@@ -172,7 +171,7 @@ fn run(args: &Args) -> Result<(), String> {
     }
 
     let doc = json!({ "rows": rows, "note": "simulated_ms on the PS3 model; paper_ms null = out of memory in the paper" });
-    args.output.report(
+    args.run.output.report(
         "table1",
         (
             &[

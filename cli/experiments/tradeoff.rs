@@ -31,8 +31,9 @@ use cellbih::registry::{Build, BuilderKind, Quality};
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
 use cellbih_cli::args::DataArg;
+use cellbih_cli::args::RunArgs;
 use cellbih_cli::args::ViewsArg;
-use cellbih_cli::report::{OutputArgs, Series, ThreadsArg, output, scatter_plot, side_by_side};
+use cellbih_cli::report::{Series, output, scatter_plot, side_by_side};
 
 #[derive(Parser)]
 #[command(
@@ -55,9 +56,7 @@ struct Args {
     #[command(flatten)]
     data: DataArg,
     #[command(flatten)]
-    threads: ThreadsArg,
-    #[command(flatten)]
-    output: OutputArgs,
+    run: RunArgs,
 }
 
 /// A builder with one setting, named by its CLI options.
@@ -126,11 +125,11 @@ fn settings() -> Vec<Setting> {
 }
 
 fn main() {
-    cellbih_cli::report::main("tradeoff", |a: &Args| &a.output, run);
+    cellbih_cli::report::main("tradeoff", |a: &Args| &a.run.output, run);
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    args.threads.install()?;
+    args.run.threads.install()?;
     let settings = settings();
     let scenes = cellbih_cli::report::load_scenes(&args.scenes, args.data.dir().as_deref())?;
     let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
@@ -191,17 +190,17 @@ fn run(args: &Args) -> Result<(), String> {
         "spes": args.spes,
         "note": NOTE.replace("PACKET", &CastConfig::DEFAULT.packet.to_string()),
     });
-    args.output.report(
+    args.run.output.report(
         "tradeoff",
         (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).on(&cell)),
         print_tables,
     )?;
-    plots(&args.output.out, &rows).map_err(|e| e.to_string())?;
+    plots(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(
         "written: {}/tradeoff.{{csv,json}}, tradeoff_*.svg",
-        args.output.out.display()
+        args.run.output.out.display()
     );
     Ok(())
 }

@@ -33,8 +33,8 @@ use super::machinery::breadth_first::{
 };
 use super::machinery::coop::Coop;
 use super::machinery::top::{
-    COOP_PARTITION, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE,
-    TopKnobs, build_top, help_top, largest_first,
+    COOP_PARTITION, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE, TopKnobs,
+    build_top, help_top, largest_first,
 };
 use super::machinery::work_queue::{Level, WORK_BYTES, WorkPpe};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -97,12 +97,7 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
 /// 5.7 % faster in geometric mean than the balanced end at two jobs per
 /// SPE, the older default (sibenik and the ogre on 8 SPEs 35 %,
 /// the default scene 4 % slower; docs/many-spes.md, "Balance").
-const DEFAULT_TOP: TopKnobs = TopKnobs {
-    coop: true,
-    deal_per_spe: 1,
-    end: EndRule::Split,
-    in_place: true,
-};
+const DEFAULT_TOP: TopKnobs = TopKnobs::SPLIT_ONE_PER_SPE;
 
 /// `--steal`: the dealt jobs stay in per-SPE lists in main memory; each
 /// SPE takes its next one when it has built the last, and when its list is

@@ -46,8 +46,8 @@ use super::machinery::breadth_first::{
 use super::machinery::coop::Coop;
 use super::machinery::node_writes::NodeWrites;
 use super::machinery::top::{
-    COOP_PARTITION, DEAL_PER_SPE, EndRule, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE,
-    TopKnobs, build_top, help_top,
+    COOP_PARTITION, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE, TopKnobs,
+    build_top, help_top,
 };
 use super::machinery::work_queue::{Level, SharedSpill, WorkPpe, WorkQueue, from_wire};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -105,12 +105,7 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
 /// shared levels' barriers. Measured over 13 scenes on 2–8 SPEs: 3.4 %
 /// faster in geometric mean than the count end (sibenik on 8 SPEs 32 %,
 /// the worst 4 % slower; docs/many-spes.md, "Balance").
-const DEFAULT_TOP: TopKnobs = TopKnobs {
-    coop: true,
-    deal_per_spe: 1,
-    end: EndRule::Split,
-    in_place: true,
-};
+const DEFAULT_TOP: TopKnobs = TopKnobs::SPLIT_ONE_PER_SPE;
 
 /// `--tris-per-spe auto`: each SPE used gets at least 8,000 record steps
 /// of the partition (`machinery::top::partition_work`): the largest share

@@ -21,8 +21,9 @@ use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::View;
 use cellbih::scene::{Scene, zoo};
 use cellbih_cli::args::DataArg;
+use cellbih_cli::args::RunArgs;
 use cellbih_cli::args::ViewsArg;
-use cellbih_cli::report::{OutputArgs, Series, ThreadsArg, line_plot, output, side_by_side};
+use cellbih_cli::report::{Series, line_plot, output, side_by_side};
 
 mod zoo_summary;
 use cellbih::strategy::Knobs;
@@ -60,9 +61,7 @@ struct Args {
     #[command(flatten)]
     data: DataArg,
     #[command(flatten)]
-    threads: ThreadsArg,
-    #[command(flatten)]
-    output: OutputArgs,
+    run: RunArgs,
 }
 
 /// A builder with one setting of the knobs, as its rows name it.
@@ -96,7 +95,7 @@ fn variants(defaults_only: bool) -> Vec<Variant> {
 }
 
 fn main() {
-    cellbih_cli::report::main("spe_scaling", |a: &Args| &a.output, run);
+    cellbih_cli::report::main("spe_scaling", |a: &Args| &a.run.output, run);
 }
 
 /// One build's row.
@@ -166,7 +165,7 @@ fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih, view: &View) -> (f64, f64) {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    args.threads.install()?;
+    args.run.threads.install()?;
     let names: Vec<String> = match args.zoo {
         true => zoo::SET.iter().map(|s| s.to_string()).collect(),
         false => args.scenes.clone(),
@@ -245,7 +244,7 @@ fn run(args: &Args) -> Result<(), String> {
         "summary": summary.rows, "goals": summary.goals,
         "note": "simulated ms on the PS3 model; baseline: spe_bfs (one SPE); busy..idle: mean share of the run per SPE; memory_utilisation: bytes moved / (cycles x 25.6 GB/s)",
     });
-    args.output.report(
+    args.run.output.report(
         "spe_scaling",
         (&keys, &rows),
         &doc,
@@ -255,11 +254,11 @@ fn run(args: &Args) -> Result<(), String> {
             zoo_summary::print(&summary);
         },
     )?;
-    plots(&args.output.out, &rows).map_err(|e| e.to_string())?;
-    zoo_summary::plot(&args.output.out, &rows).map_err(|e| e.to_string())?;
+    plots(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
+    zoo_summary::plot(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(
         "written: {}/spe_scaling.{{csv,json}}, spe_scaling_*.svg",
-        args.output.out.display()
+        args.run.output.out.display()
     );
     Ok(())
 }

@@ -16,7 +16,8 @@ use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea, LsAddr, 
 
 mod compute;
 mod contention;
-use cellbih_cli::report::{Format, OutputArgs, ThreadsArg, side_by_side};
+use cellbih_cli::args::RunArgs;
+use cellbih_cli::report::{Format, side_by_side};
 
 #[derive(Parser)]
 #[command(
@@ -29,9 +30,7 @@ struct Args {
     #[arg(long, value_enum, default_value = "measured")]
     model: Model,
     #[command(flatten)]
-    output: OutputArgs,
-    #[command(flatten)]
-    threads: ThreadsArg,
+    run: RunArgs,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -501,12 +500,12 @@ fn row(text: bool, name: &str, values: [String; 5]) {
 }
 
 fn main() {
-    cellbih_cli::report::main("validate", |a: &Args| &a.output, run);
+    cellbih_cli::report::main("validate", |a: &Args| &a.run.output, run);
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    args.threads.install()?;
-    let text = args.output.format == Format::Text;
+    args.run.threads.install()?;
+    let text = args.run.output.format == Format::Text;
     let cost = args.model.cost();
     // Every figure's probe side by side (each its own emulated machine).
     let figures = figures();
@@ -588,7 +587,8 @@ fn run(args: &Args) -> Result<(), String> {
         })
         .collect();
     let header = "figure,source,unit,published,emulated,ratio,tolerance,pass,role,sets";
-    args.output
+    args.run
+        .output
         .report_printed("validate", (header, &csv), &json!({ "rows": rows }), None)?;
     match failed.len() {
         0 => Ok(()),

@@ -309,6 +309,16 @@ pub struct ThreadsArg {
     pub threads: Option<u64>,
 }
 
+/// What an experiment that runs emulations side by side takes: its
+/// threads and where its results go.
+#[derive(clap::Args, Clone, Debug)]
+pub struct RunArgs {
+    #[command(flatten)]
+    pub threads: ThreadsArg,
+    #[command(flatten)]
+    pub output: OutputArgs,
+}
+
 /// The options of every experiment that prints rows and writes files:
 /// how the rows are printed and where the files go.
 #[derive(clap::Args, Clone, Debug)]

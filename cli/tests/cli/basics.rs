@@ -5,7 +5,7 @@
 //! refusals of arguments in `cli/tests/cli/refusals.rs`; failed writes in
 //! `cli/tests/cli/errors.rs`.
 
-use crate::common::{assert_ok, cellbih, json, line, tmp};
+use crate::common::{assert_ok, cellbih, fill, json, line, tmp};
 use cellbih::bih::brute_force_closest;
 use cellbih::rays_csv::write_rays;
 use cellbih::scene;
@@ -18,15 +18,14 @@ fn raycast_writes_one_line_per_ray_equal_to_brute_force() {
         let rays_path = tmp(&format!("{}.rays.csv", spec.replace(':', "_")));
         let hits_path = tmp(&format!("{}.hits.csv", spec.replace(':', "_")));
         write_rays(std::fs::File::create(&rays_path).unwrap(), &rays).unwrap();
-        let out = cellbih(&[
-            "raycast",
-            "--scene",
-            spec,
-            "--rays",
-            rays_path.to_str().unwrap(),
-            "--out",
-            hits_path.to_str().unwrap(),
-        ]);
+        let out = cellbih(&fill(
+            "raycast --scene {} --rays {} --out {}",
+            &[
+                spec,
+                rays_path.to_str().unwrap(),
+                hits_path.to_str().unwrap(),
+            ],
+        ));
         assert_ok(&out);
         let text = std::fs::read_to_string(&hits_path).unwrap();
         let mut lines = text.lines();
@@ -69,15 +68,10 @@ fn every_builder_name_works_with_build_and_raycast() {
     write_rays(std::fs::File::create(&rays_path).unwrap(), &rays).unwrap();
     let mut outputs = Vec::new();
     for b in cellbih::registry::BuilderKind::ALL {
-        let out = cellbih(&[
-            "build",
-            "--scene",
-            "car",
-            "--builder",
-            b.name(),
-            "--format",
-            "json",
-        ]);
+        let out = cellbih(&fill(
+            "build --scene car --builder {} --format json",
+            &[b.name()],
+        ));
         assert!(
             out.status.success(),
             "{b}: {}",
@@ -117,13 +111,10 @@ fn bad_rays_file_is_a_clear_error() {
         "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,0,0,1,0,0,0,inf\n0,0,0,1,0,zero,0,inf\n",
     )
     .unwrap();
-    let out = cellbih(&[
-        "raycast",
-        "--rays",
-        p.to_str().unwrap(),
-        "--out",
-        tmp("x.csv").to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "raycast --rays {} --out {}",
+        &[p.to_str().unwrap(), tmp("x.csv").to_str().unwrap()],
+    ));
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -132,13 +123,10 @@ fn bad_rays_file_is_a_clear_error() {
     );
 
     std::fs::write(&p, "x,y\n").unwrap();
-    let out = cellbih(&[
-        "raycast",
-        "--rays",
-        p.to_str().unwrap(),
-        "--out",
-        tmp("x.csv").to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "raycast --rays {} --out {}",
+        &[p.to_str().unwrap(), tmp("x.csv").to_str().unwrap()],
+    ));
     assert!(String::from_utf8_lossy(&out.stderr).contains("the header must be"));
 }
 

@@ -30,7 +30,7 @@ pub fn data_dir() -> Option<std::path::PathBuf> {
 }
 
 /// Runs the `cellbih` binary with `args`.
-pub fn cellbih(args: &[&str]) -> Output {
+pub fn cellbih<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
     command(env!("CARGO_BIN_EXE_cellbih"))
         .args(args)
         .output()
@@ -167,4 +167,19 @@ pub fn json_of(args: &[&str]) -> serde_json::Value {
 pub fn assert_says(out: &Output, text: &str) {
     let err = stderr(out);
     assert!(err.contains(text), "expected '{text}' on stderr: {err}");
+}
+
+/// A command line's words with each `{}` a word of its own, filled in
+/// order from `fill` (a path may hold spaces: the text is split first):
+/// `fill("raycast --rays {}", &[p])`.
+pub fn fill(text: &str, fill: &[&str]) -> Vec<String> {
+    let mut rest = fill.iter();
+    let words: Vec<String> = (text.split_whitespace())
+        .map(|w| match w {
+            "{}" => rest.next().expect("a value for each {}").to_string(),
+            w => w.to_string(),
+        })
+        .collect();
+    assert!(rest.next().is_none(), "more values than {{}} in '{text}'");
+    words
 }

@@ -3,20 +3,15 @@
 //! timing, said so), `--model` and `--mailboxes`, and `--trace`'s Chrome
 //! JSON; `raycast --on-cell` and `render --on-cell` (casting on the SPEs).
 
-use crate::common::{assert_fails_with, assert_ok, cellbih, json, line, tmp};
+use crate::common::{assert_fails_with, assert_ok, cellbih, fill, json, line, tmp};
 
 #[test]
 fn build_trace_writes_chrome_json() {
     let p = tmp("trace.json");
-    let out = cellbih(&[
-        "build",
-        "--scene",
-        "cup",
-        "--builder",
-        "ppe_naive",
-        "--trace",
-        p.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "build --scene cup --builder ppe_naive --trace {}",
+        &[p.to_str().unwrap()],
+    ));
     assert_ok(&out);
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
     assert!(
@@ -26,15 +21,10 @@ fn build_trace_writes_chrome_json() {
             .iter()
             .any(|e| e["ph"] == "X" && e["tid"] == 0)
     );
-    let out = cellbih(&[
-        "build",
-        "--scene",
-        "cup",
-        "--builder",
-        "host",
-        "--trace",
-        p.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "build --scene cup --builder host --trace {}",
+        &[p.to_str().unwrap()],
+    ));
     assert!(String::from_utf8_lossy(&out.stderr).contains("does not run on the emulated Cell"));
 }
 
@@ -157,17 +147,10 @@ fn the_registry_and_spes_reach_every_command() {
 #[test]
 fn the_emulator_modes_agree_on_the_tree() {
     let run = |mode: &str| -> serde_json::Value {
-        let out = cellbih(&[
-            "build",
-            "--scene",
-            "car",
-            "--builder",
-            "spe_morton",
-            "--mode",
-            mode,
-            "--format",
-            "json",
-        ]);
+        let out = cellbih(&fill(
+            "build --scene car --builder spe_morton --mode {} --format json",
+            &[mode],
+        ));
         assert_ok(&out);
         serde_json::from_slice(&out.stdout).unwrap()
     };
@@ -247,15 +230,10 @@ fn the_functional_mode_reports_no_timing() {
     }
     let trace = tmp("functional.trace.json");
     let t = trace.to_str().unwrap();
-    let out = cellbih(&[
-        "build",
-        "--builder",
-        "spe_bfs",
-        "--mode",
-        "functional",
-        "--trace",
-        t,
-    ]);
+    let out = cellbih(&fill(
+        "build --builder spe_bfs --mode functional --trace {}",
+        &[t],
+    ));
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("no timing"));
     assert!(!trace.exists());
@@ -420,16 +398,10 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
         "--trace applies to --on-cell only",
     );
     assert_fails_with(
-        &cellbih(&[
-            "render",
-            "--out",
-            p,
-            "--on-cell",
-            "--trace",
-            t,
-            "--mode",
-            "functional",
-        ]),
+        &cellbih(&fill(
+            "render --out {} --on-cell --trace {} --mode functional",
+            &[p, t],
+        )),
         "keeps no timeline",
     );
     assert!(!png.exists(), "nothing rendered");

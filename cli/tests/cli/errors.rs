@@ -11,7 +11,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use crate::common::{
-    assert_fails_with, assert_ok, cellbih, json, line, run_limited, stderr, stdout, tmp,
+    assert_fails_with, assert_ok, cellbih, fill, json, line, run_limited, stderr, stdout, tmp,
 };
 
 /// A link in a fresh directory that points at `/dev/full`.
@@ -93,28 +93,20 @@ fn render_refuses_bad_sizes_and_names_up_front_and_leaves_no_file() {
     assert!(!jpg.exists());
 
     let full = link_to_dev_full(&dir, "full.png");
-    let out = cellbih(&[
-        "render",
-        "--width",
-        "32",
-        "--height",
-        "24",
-        "--out",
-        full.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "render --width 32 --height 24 --out {}",
+        &[full.to_str().unwrap()],
+    ));
     assert_fails_with(&out, &format!("{}: cannot write", full.display()));
 }
 
 #[test]
 fn a_trace_nests_on_every_track_and_a_bad_trace_path_fails_first() {
     let p = tmp("default.trace.json");
-    let out = cellbih(&[
-        "build",
-        "--builder",
-        "spe_bfs",
-        "--trace",
-        p.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "build --builder spe_bfs --trace {}",
+        &[p.to_str().unwrap()],
+    ));
     assert_ok(&out);
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&p).unwrap()).unwrap();
     crate::common::check_nesting(&v).unwrap();
@@ -129,13 +121,10 @@ fn a_trace_nests_on_every_track_and_a_bad_trace_path_fails_first() {
     assert!(names.contains(&"SPE 0 MFC (2)"), "{names:?}");
 
     let full = link_to_dev_full(&tmp("trace"), "t.json");
-    let out = cellbih(&[
-        "build",
-        "--builder",
-        "spe_bfs",
-        "--trace",
-        full.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "build --builder spe_bfs --trace {}",
+        &[full.to_str().unwrap()],
+    ));
     assert_fails_with(&out, &format!("{}: cannot write", full.display()));
     let out = cellbih(&line("build --builder spe_bfs --trace /no/such/dir/t.json"));
     assert_fails_with(&out, "/no/such/dir/t.json: cannot write");

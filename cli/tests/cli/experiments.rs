@@ -7,7 +7,7 @@
 
 use serde_json::json;
 
-use crate::common::{assert_ok, run_experiment, tmp};
+use crate::common::{assert_ok, fill, run_experiment, tmp};
 
 /// `tradeoff`: every builder setting on a scene, each row with its build
 /// cost and measured ray cost; the fronts are Pareto fronts of the rows
@@ -326,14 +326,10 @@ fn frame_loop_plays_every_policy_in_both_arrangements() {
     let csv = std::fs::read_to_string(dir.join("frame_loop.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + rows.len());
     let out = crate::common::command(env!("CARGO_BIN_EXE_frame_loop"))
-        .args([
-            "--scenes",
-            "no-such-mesh",
-            "--data",
-            "/nonexistent",
-            "--out",
-            dir.to_str().unwrap(),
-        ])
+        .args(fill(
+            "--scenes no-such-mesh --data /nonexistent --out {}",
+            &[dir.to_str().unwrap()],
+        ))
         .output()
         .unwrap();
     assert!(!out.status.success());

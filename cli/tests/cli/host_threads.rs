@@ -1,6 +1,7 @@
 //! `--threads` on the command line: a host-thread builder builds on the
 //! threads asked (the serial builder's tree), the others refuse it.
 
+use crate::common::fill;
 use cellbih::registry::BuilderKind;
 
 /// `--threads N` builds a host-thread builder on N threads (the report
@@ -9,15 +10,10 @@ use cellbih::registry::BuilderKind;
 #[test]
 fn threads_on_the_command_line() {
     for b in crate::common::host_threaded() {
-        let out = crate::common::cellbih(&[
-            "build",
-            "--builder",
-            b.name(),
-            "--threads",
-            "3",
-            "--format",
-            "json",
-        ]);
+        let out = crate::common::cellbih(&fill(
+            "build --builder {} --threads 3 --format json",
+            &[b.name()],
+        ));
         crate::common::assert_ok(&out);
         let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
         assert_eq!(j["threads"], 3, "{b}");

@@ -5,7 +5,9 @@
 
 use std::time::Duration;
 
-use crate::common::{assert_fails_with, assert_says, cellbih, line, run_limited, stderr, tmp};
+use crate::common::{
+    assert_fails_with, assert_says, cellbih, fill, line, run_limited, stderr, tmp,
+};
 
 const EXE: &str = env!("CARGO_BIN_EXE_cellbih");
 
@@ -136,16 +138,10 @@ fn two_outputs_that_name_one_file_are_refused() {
     assert_eq!(std::fs::read_to_string(png).unwrap(), "old");
     // Distinct files are fine.
     let other = dir.join("other.trace.json");
-    let out = cellbih(&[
-        "raycast",
-        "--rays",
-        rays,
-        "--on-cell",
-        "--out",
-        same,
-        "--trace",
-        other.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "raycast --rays {} --on-cell --out {} --trace {}",
+        &[rays, same, other.to_str().unwrap()],
+    ));
     crate::common::assert_ok(&out);
 }
 
@@ -350,14 +346,10 @@ fn words_agree_with_their_counts() {
     assert_fails_with(&out, "0 is not between 1 and 16");
     let dir = tmp("words-dma");
     let out = crate::common::command(env!("CARGO_BIN_EXE_dma_bandwidth"))
-        .args([
-            "--mib",
-            "1",
-            "--max-spes",
-            "2",
-            "--out",
-            dir.to_str().unwrap(),
-        ])
+        .args(fill(
+            "--mib 1 --max-spes 2 --out {}",
+            &[dir.to_str().unwrap()],
+        ))
         .output()
         .unwrap();
     let table = crate::common::stdout(&out);
@@ -537,12 +529,10 @@ fn what_a_person_reads_fits_80_columns() {
 fn every_bad_scene_is_named_and_a_reason_said_once() {
     let dir = tmp("bad-scenes");
     let out = crate::common::command(env!("CARGO_BIN_EXE_frame_loop"))
-        .args([
-            "--scenes",
-            "nope1,car,nope2",
-            "--out",
-            dir.to_str().unwrap(),
-        ])
+        .args(fill(
+            "--scenes nope1,car,nope2 --out {}",
+            &[dir.to_str().unwrap()],
+        ))
         .env_remove("CELLBIH_DATA")
         .output()
         .unwrap();

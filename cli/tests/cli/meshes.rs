@@ -6,7 +6,7 @@ use std::io::Write;
 use std::path::Path;
 use std::process::Command;
 
-use crate::common::{assert_ok, cellbih, stderr, tmp};
+use crate::common::{assert_ok, cellbih, fill, stderr, tmp};
 use cellbih::scene::manifest::{meshes, sha256};
 
 fn gzip(text: &[u8]) -> Vec<u8> {
@@ -125,13 +125,10 @@ fn get_meshes_converts_a_ply_in_a_tarball() {
     std::fs::write(src.join("package/models/b.ply.gz"), gzip(binary.as_bytes())).unwrap();
     let tgz = src.join("m.tgz");
     let tar = Command::new("tar")
-        .args([
-            "-czf",
-            tgz.to_str().unwrap(),
-            "-C",
-            src.to_str().unwrap(),
-            "package",
-        ])
+        .args(fill(
+            "-czf {} -C {} package",
+            &[tgz.to_str().unwrap(), src.to_str().unwrap()],
+        ))
         .status()
         .unwrap();
     assert!(tar.success());
@@ -293,13 +290,10 @@ fn the_loader_names_a_mesh_that_is_not_the_manifests() {
     let data = tmp("meshes-other");
     std::fs::create_dir_all(&data).unwrap();
     std::fs::write(data.join("teapot.obj"), CUBE_CORNER).unwrap();
-    let out = cellbih(&[
-        "info",
-        "--scene",
-        "teapot",
-        "--data",
-        data.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "info --scene teapot --data {}",
+        &[data.to_str().unwrap()],
+    ));
     assert_ok(&out);
     let err = stderr(&out);
     assert_eq!(err.matches("warning: mesh teapot").count(), 1, "{err}");
@@ -316,13 +310,10 @@ fn the_loader_names_a_mesh_that_is_not_the_manifests() {
             assert_eq!(sha256(&gunzip(&path)), m.obj_sha256, "{}", m.name);
         }
     }
-    let out = cellbih(&[
-        "info",
-        "--scene",
-        "teapot",
-        "--data",
-        real.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "info --scene teapot --data {}",
+        &[real.to_str().unwrap()],
+    ));
     assert_ok(&out);
     assert!(!stderr(&out).contains("warning"), "{}", stderr(&out));
 }

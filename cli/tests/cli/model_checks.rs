@@ -110,14 +110,10 @@ fn sensitivity_moves_every_uncertain_rate_across_its_band() {
     let exe = env!("CARGO_BIN_EXE_sensitivity");
     let dir = crate::common::tmp("sensitivity");
     let out = crate::common::command(exe)
-        .args([
-            "--scenes",
-            "default",
-            "--spes",
-            "2,6",
-            "--out",
-            dir.to_str().unwrap(),
-        ])
+        .args(crate::common::fill(
+            "--scenes default --spes 2,6 --out {}",
+            &[dir.to_str().unwrap()],
+        ))
         .output()
         .unwrap();
     assert!(

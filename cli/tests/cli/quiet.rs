@@ -5,7 +5,7 @@
 //! refusals before any work in `cli/tests/cli/refusals.rs`.
 
 use crate::common::{
-    assert_fails_with, assert_ok, assert_says, cellbih, json, line, stderr, stdout, tmp,
+    assert_fails_with, assert_ok, assert_says, cellbih, fill, json, line, stderr, stdout, tmp,
 };
 
 /// Every line of `text` fits 80 columns.
@@ -44,16 +44,10 @@ fn two_outputs_are_not_sent_to_one_stream() {
         assert!(out.stdout.is_empty(), "{args:?}");
     }
     let trace = tmp("two.trace.json");
-    let out = cellbih(&[
-        "raycast",
-        "--on-cell",
-        "--rays",
-        rays,
-        "--out",
-        "-",
-        "--trace",
-        trace.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "raycast --on-cell --rays {} --out - --trace {}",
+        &[rays, trace.to_str().unwrap()],
+    ));
     assert_ok(&out);
     assert!(stdout(&out).starts_with("ray,prim,t\n"));
 }
@@ -98,16 +92,10 @@ fn the_functional_mode_prints_no_timing_fields() {
     let rays = tmp("functional.rays.csv");
     std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
     let hits = tmp("functional.hits.csv");
-    let out = cellbih(&[
-        "raycast",
-        "--on-cell",
-        "--mode",
-        "functional",
-        "--rays",
-        rays.to_str().unwrap(),
-        "--out",
-        hits.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "raycast --on-cell --mode functional --rays {} --out {}",
+        &[rays.to_str().unwrap(), hits.to_str().unwrap()],
+    ));
     assert_ok(&out);
     let err = stderr(&out);
     assert!(

@@ -8,7 +8,8 @@
 use std::time::Duration;
 
 use crate::common::{
-    assert_fails_with, assert_ok, assert_says, cellbih, line, run_limited, stderr, stdout, tmp,
+    assert_fails_with, assert_ok, assert_says, cellbih, fill, line, run_limited, stderr, stdout,
+    tmp,
 };
 
 #[test]
@@ -252,13 +253,10 @@ fn small_inputs_get_plain_answers() {
     )
     .unwrap();
     let hits = tmp("control.hits.csv");
-    let out = cellbih(&[
-        "raycast",
-        "--rays",
-        rays.to_str().unwrap(),
-        "--out",
-        hits.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "raycast --rays {} --out {}",
+        &[rays.to_str().unwrap(), hits.to_str().unwrap()],
+    ));
     assert_fails_with(&out, "\\u{1b}[31m5");
     assert!(
         !stderr(&out).contains('\x1b'),
@@ -347,16 +345,10 @@ fn a_cast_too_big_for_the_emulated_memory_is_refused_naming_it() {
     let file = tmp("cast-memory.rays.csv");
     std::fs::write(&file, csv).unwrap();
     let hits = tmp("cast-memory.hits.csv");
-    let out = cellbih(&[
-        "raycast",
-        "--on-cell",
-        "--memory-mib",
-        "1",
-        "--rays",
-        file.to_str().unwrap(),
-        "--out",
-        hits.to_str().unwrap(),
-    ]);
+    let out = cellbih(&fill(
+        "raycast --on-cell --memory-mib 1 --rays {} --out {}",
+        &[file.to_str().unwrap(), hits.to_str().unwrap()],
+    ));
     assert_fails_with(
         &out,
         &format!("default: the cast on the Cell ({rays} rays) needs 2 MiB"),
@@ -404,18 +396,10 @@ fn options_that_do_not_apply_are_refused_by_name() {
             }
         }
         // Cast on the Cell, the Cell's options apply.
-        let out = cellbih(&[
-            "raycast",
-            "--on-cell",
-            "--rays",
-            rays,
-            "--out",
-            hits,
-            "--builder",
-            b.name(),
-            "--spes",
-            "2",
-        ]);
+        let out = cellbih(&fill(
+            "raycast --on-cell --rays {} --out {} --builder {} --spes 2",
+            &[rays, hits, b.name()],
+        ));
         assert_ok(&out);
     }
     let out = cellbih(&line("update --animation rtperf --deep-stop-below 10"));
@@ -463,9 +447,10 @@ fn cameras_are_checked_and_named() {
         }
     }
     let ray_line = |camera: &str| {
-        let out = cellbih(&[
-            "build", "--scene", "car", "--camera", camera, "--format", "json",
-        ]);
+        let out = cellbih(&fill(
+            "build --scene car --camera {} --format json",
+            &[camera],
+        ));
         assert_ok(&out);
         let doc: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
         assert_eq!(doc["settings"]["camera"], camera, "{doc}");

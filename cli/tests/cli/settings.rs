@@ -2,7 +2,7 @@
 //! build more than once (`update`, `frame`) build with every knob `build`
 //! takes.
 
-use crate::common::{assert_ok, cellbih, stderr, stdout, tmp};
+use crate::common::{assert_ok, cellbih, fill, stderr, stdout, tmp};
 
 /// `cellbih` with `args` and `--format json`: its JSON.
 fn as_json(args: &[&str]) -> serde_json::Value {
@@ -57,16 +57,10 @@ fn casts_name_their_settings() {
     let rays = tmp("settings.rays.csv");
     std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
     let hits = tmp("settings.hits.csv");
-    let out = cellbih(&[
-        "raycast",
-        "--rays",
-        rays.to_str().unwrap(),
-        "--out",
-        hits.to_str().unwrap(),
-        "--on-cell",
-        "--cache-kib",
-        "16",
-    ]);
+    let out = cellbih(&fill(
+        "raycast --rays {} --out {} --on-cell --cache-kib 16",
+        &[rays.to_str().unwrap(), hits.to_str().unwrap()],
+    ));
     assert_ok(&out);
     let err = stderr(&out);
     assert!(

@@ -130,6 +130,16 @@ pub(in crate::strategy) struct TopKnobs {
 }
 
 impl TopKnobs {
+    /// Both breadth-first strategies' measured best (their files say why):
+    /// the first level of one job per SPE, then its largest jobs split
+    /// (every SPE helping, in place) until a largest-first deal is even.
+    pub(in crate::strategy) const SPLIT_ONE_PER_SPE: TopKnobs = TopKnobs {
+        coop: true,
+        deal_per_spe: 1,
+        end: EndRule::Split,
+        in_place: true,
+    };
+
     /// Where the top ends on `spes` SPEs.
     pub fn end(&self, spes: usize) -> TopEnd {
         let jobs = self.deal_per_spe * spes;
