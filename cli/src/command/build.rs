@@ -4,11 +4,9 @@
 use std::path::Path;
 
 use crate::Res;
-use crate::args::check_memory;
 use crate::args::{BuildCommand, parse_build};
 use crate::command::print::print_build;
 use crate::output::{check_writable, write_file};
-use crate::report::step;
 use cellbih::registry::Settings;
 
 /// Runs `cellbih build`.
@@ -39,11 +37,8 @@ pub fn run(args: BuildCommand) -> Res<()> {
     let s = scene.load()?;
     // A viewpoint of another scene is refused before the build.
     camera.view.camera(&s.name, &s.bounds(), 1, 1)?;
-    check_memory(&s.name, (s.len(), 0), None, &c, Default::default())?;
     c.cell.trace = trace.is_some();
-    let mut report = step(&format!("building {} with {}", s.name, c.builder), || {
-        c.run(&s)
-    })?;
+    let mut report = super::build_checked(&s, &c, None)?;
     print_build(
         &s,
         &report,

@@ -15,11 +15,14 @@ pub mod update;
 use std::path::Path;
 
 use cellbih::cast::CastReport;
-use cellbih::registry::BuilderKind;
+use cellbih::cell::CellConfig;
+use cellbih::registry::{Build, BuildReport, BuilderKind, Settings};
+use cellbih::scene::Scene;
 
 use crate::Res;
-use crate::args::CastArgs;
+use crate::args::{CastArgs, check_built, check_memory};
 use crate::output::check_writable;
+use crate::report::{step, wrap};
 
 /// "1 SPE", "6 SPEs".
 pub fn spes(n: usize) -> String {
@@ -135,5 +138,49 @@ pub fn write_trace(args: &CastArgs, r: &CastReport) -> Res<()> {
         path.display(),
         timeline.spans.len()
     );
+    Ok(())
+}
+
+/// Builds `s` as `c` asks, once its memory is checked (for `cast_rays`
+/// rays to cast on the Cell after the build, if any), saying so where the
+/// build takes long.
+pub fn build_checked(s: &Scene, c: &Build, cast_rays: Option<usize>) -> Res<BuildReport> {
+    check_memory(&s.name, (s.len(), 0), cast_rays, c, Default::default())?;
+    Ok(step(
+        &format!("building {} with {}", s.name, c.builder),
+        || c.run(s),
+    )?)
+}
+
+/// The Cell a cast runs on, once the tree `report` built is checked to fit
+/// beside `cast_rays` rays: `c`'s, keeping a timeline if `--trace` asks.
+pub fn cast_cell(
+    s: &Scene,
+    report: &BuildReport,
+    cast_rays: Option<usize>,
+    c: &Build,
+    cast: &CastArgs,
+) -> Res<CellConfig> {
+    check_built(s, report, cast_rays, c)?;
+    let mut cell = c.cell.clone();
+    cell.trace = cast.trace.is_some();
+    Ok(cell)
+}
+
+/// Says on stderr what `said` says, the settings, and what a cast on the
+/// Cell cost (writing its timeline where `--trace` asks).
+pub fn say_cast(
+    said: &str,
+    settings: &Settings,
+    c: &Build,
+    cell_report: Option<&CastReport>,
+    cast: &CastArgs,
+) -> Res<()> {
+    eprintln!("{}", wrap(said, 80));
+    eprintln!("{}", wrap(&format!("settings: {}", settings.line()), 80));
+    if let Some(r) = cell_report {
+        eprintln!("{}", wrap(&describe(r, c.cell.spes), 80));
+        write_trace(cast, r)?;
+    }
     Ok(())
 }

@@ -13,9 +13,9 @@ use cellbih::registry::Settings;
 
 use super::shown;
 use crate::Res;
-use crate::args::{RaycastCommand, check_built, check_memory, parse_build};
+use crate::args::{RaycastCommand, parse_build};
 use crate::output::{check_writable, write_file};
-use crate::report::{step, wrap};
+use crate::report::step;
 
 /// Runs `cellbih raycast`.
 pub fn run(args: RaycastCommand) -> Res<()> {
@@ -41,15 +41,10 @@ pub fn run(args: RaycastCommand) -> Res<()> {
     let cast_rays = on_cell.is_some().then_some(rays.len());
     scene.check_fits(&c, cast_rays)?;
     let s = scene.load()?;
-    check_memory(&s.name, (s.len(), 0), cast_rays, &c, Default::default())?;
-    let report = step(&format!("building {} with {}", s.name, c.builder), || {
-        c.run(&s)
-    })?;
+    let report = super::build_checked(&s, &c, cast_rays)?;
     let (hits, cell_report) = match &on_cell {
         Some(cfg) => {
-            check_built(&s, &report, cast_rays, &c)?;
-            let mut cell = c.cell.clone();
-            cell.trace = cast.trace.is_some();
+            let cell = super::cast_cell(&s, &report, cast_rays, &c, &cast)?;
             let r = step("casting the rays on the Cell", || {
                 cast_on_cell(&report.bih, &s, &rays, cfg, &cell, report.record_order())
             })?;
@@ -73,12 +68,6 @@ pub fn run(args: RaycastCommand) -> Res<()> {
         c.describe(),
         shown(&out)
     );
-    eprintln!("{}", wrap(&said, 80));
     let settings = Settings::new(&c, on_cell).with("rays", rays_path.as_str());
-    eprintln!("{}", wrap(&format!("settings: {}", settings.line()), 80));
-    if let Some(r) = &cell_report {
-        eprintln!("{}", wrap(&super::describe(r, c.cell.spes), 80));
-        super::write_trace(&cast, r)?;
-    }
-    Ok(())
+    super::say_cast(&said, &settings, &c, cell_report.as_ref(), &cast)
 }

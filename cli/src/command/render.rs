@@ -8,8 +8,8 @@ use cellbih::render::{self, Frame, trace};
 
 use super::{check_png, shown, write_png};
 use crate::Res;
-use crate::args::{RenderCommand, check_built, check_memory, parse_build};
-use crate::report::{step, wrap};
+use crate::args::{RenderCommand, parse_build};
+use crate::report::step;
 
 /// Runs `cellbih render`.
 pub fn run(args: RenderCommand) -> Res<()> {
@@ -34,16 +34,11 @@ pub fn run(args: RenderCommand) -> Res<()> {
     let s = scene.load()?;
     // A viewpoint of another scene is refused before the build.
     camera.view.camera(&s.name, &s.bounds(), 1, 1)?;
-    check_memory(&s.name, (s.len(), 0), cast_rays, &c, Default::default())?;
-    let report = step(&format!("building {} with {}", s.name, c.builder), || {
-        c.run(&s)
-    })?;
+    let report = super::build_checked(&s, &c, cast_rays)?;
     let cam = camera.view.camera(&s.name, &s.bounds(), width, height)?;
     let (frame, cell_report) = match &on_cell {
         Some(cfg) => {
-            check_built(&s, &report, cast_rays, &c)?;
-            let mut cell = c.cell.clone();
-            cell.trace = cast.trace.is_some();
+            let cell = super::cast_cell(&s, &report, cast_rays, &c, &cast)?;
             let r = step("casting the rays on the Cell", || {
                 cast_camera(&report.bih, &s, &cam, cfg, &cell, report.record_order())
             })?;
@@ -74,16 +69,10 @@ pub fn run(args: RenderCommand) -> Res<()> {
             String::new()
         }
     );
-    eprintln!("{}", wrap(&said, 80));
     let settings = Settings::new(&c, on_cell)
         .with_view(&camera.view)
         .with("width", width)
         .with("height", height)
         .with("heatmap", heatmap);
-    eprintln!("{}", wrap(&format!("settings: {}", settings.line()), 80));
-    if let Some(r) = &cell_report {
-        eprintln!("{}", wrap(&super::describe(r, c.cell.spes), 80));
-        super::write_trace(&cast, r)?;
-    }
-    Ok(())
+    super::say_cast(&said, &settings, &c, cell_report.as_ref(), &cast)
 }

@@ -160,15 +160,10 @@ fn info_and_errors() {
 fn render_writes_png_images() {
     for (flag, name) in [(None, "s.png"), (Some("--heatmap"), "h.png")] {
         let p = tmp(name);
-        let mut args = vec![
-            "render",
-            "--width",
-            "64",
-            "--height",
-            "48",
-            "--out",
-            p.to_str().unwrap(),
-        ];
+        let mut args = fill(
+            "render --width 64 --height 48 --out {}",
+            &[p.to_str().unwrap()],
+        );
         args.extend(flag);
         let out = cellbih(&args);
         assert_ok(&out);

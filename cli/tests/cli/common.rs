@@ -172,12 +172,12 @@ pub fn assert_says(out: &Output, text: &str) {
 /// A command line's words with each `{}` a word of its own, filled in
 /// order from `fill` (a path may hold spaces: the text is split first):
 /// `fill("raycast --rays {}", &[p])`.
-pub fn fill(text: &str, fill: &[&str]) -> Vec<String> {
+pub fn fill<'a>(text: &'a str, fill: &[&'a str]) -> Vec<&'a str> {
     let mut rest = fill.iter();
-    let words: Vec<String> = (text.split_whitespace())
+    let words: Vec<&str> = (text.split_whitespace())
         .map(|w| match w {
-            "{}" => rest.next().expect("a value for each {}").to_string(),
-            w => w.to_string(),
+            "{}" => rest.next().expect("a value for each {}"),
+            w => w,
         })
         .collect();
     assert!(rest.next().is_none(), "more values than {{}} in '{text}'");

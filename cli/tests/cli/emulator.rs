@@ -104,25 +104,17 @@ fn the_registry_and_spes_reach_every_command() {
     let png = tmp("spes.png");
     for (args, want) in [
         (
-            vec![
-                "raycast",
-                "--rays",
-                rays.to_str().unwrap(),
-                "--out",
-                hits.to_str().unwrap(),
-            ],
+            fill(
+                "raycast --rays {} --out {}",
+                &[rays.to_str().unwrap(), hits.to_str().unwrap()],
+            ),
             "builder spe_bfs on 3 SPEs",
         ),
         (
-            vec![
-                "render",
-                "--width",
-                "16",
-                "--height",
-                "12",
-                "--out",
-                png.to_str().unwrap(),
-            ],
+            fill(
+                "render --width 16 --height 12 --out {}",
+                &[png.to_str().unwrap()],
+            ),
             "builder spe_bfs on 3 SPEs",
         ),
     ] {
@@ -276,15 +268,10 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
         let mut files = Vec::new();
         for extra in [&[][..], &line("--on-cell --spes 3 --cache-kib 4")[..]] {
             let hits = tmp(&format!("on_cell_{builder}_{}.csv", files.len()));
-            let mut args = vec![
-                "raycast",
-                "--builder",
-                builder,
-                "--rays",
-                rays_path.to_str().unwrap(),
-                "--out",
-                hits.to_str().unwrap(),
-            ];
+            let mut args = fill(
+                "raycast --builder {} --rays {} --out {}",
+                &[builder, rays_path.to_str().unwrap(), hits.to_str().unwrap()],
+            );
             args.extend(extra);
             let out = cellbih(&args);
             assert_ok(&out);
@@ -304,15 +291,10 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
         let mut pngs = Vec::new();
         for on_cell in [false, true] {
             let p = tmp(&format!("on_cell_{heatmap}_{on_cell}.png"));
-            let mut args = vec![
-                "render",
-                "--width",
-                "48",
-                "--height",
-                "32",
-                "--out",
-                p.to_str().unwrap(),
-            ];
+            let mut args = fill(
+                "render --width 48 --height 32 --out {}",
+                &[p.to_str().unwrap()],
+            );
             if heatmap {
                 args.push("--heatmap");
             }
@@ -416,13 +398,10 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
     ] {
         let hits = tmp("on_cell_refused.csv");
         let _ = std::fs::remove_file(&hits);
-        let mut args = vec![
-            "raycast",
-            "--rays",
-            rays_path.to_str().unwrap(),
-            "--out",
-            hits.to_str().unwrap(),
-        ];
+        let mut args = fill(
+            "raycast --rays {} --out {}",
+            &[rays_path.to_str().unwrap(), hits.to_str().unwrap()],
+        );
         args.extend(option);
         assert_fails_with(
             &cellbih(&args),

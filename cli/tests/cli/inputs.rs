@@ -474,16 +474,10 @@ fn what_a_person_reads_fits_80_columns() {
     for (exe, args) in [
         (
             env!("CARGO_BIN_EXE_frame_loop"),
-            vec![
-                "--scenes",
-                "rtperf:2000",
-                "--sizes",
-                "32x24",
-                "--frames",
-                "2",
-                "--out",
-                o,
-            ],
+            fill(
+                "--scenes rtperf:2000 --sizes 32x24 --frames 2 --out {}",
+                &[o],
+            ),
         ),
         (
             env!("CARGO_BIN_EXE_footprint"),
@@ -496,27 +490,14 @@ fn what_a_person_reads_fits_80_columns() {
         ),
         (
             EXE,
-            vec![
-                "raycast",
-                "--rays",
-                &rays,
-                "--out",
-                "/dev/null",
-                "--on-cell",
-            ],
+            fill("raycast --rays {} --out /dev/null --on-cell", &[&rays]),
         ),
         (
             EXE,
-            vec![
-                "render",
-                "--out",
-                png.to_str().unwrap(),
-                "--on-cell",
-                "--width",
-                "16",
-                "--height",
-                "16",
-            ],
+            fill(
+                "render --out {} --on-cell --width 16 --height 16",
+                &[png.to_str().unwrap()],
+            ),
         ),
     ] {
         wide(&format!("{exe} {args:?}"), &run(exe, &args));
