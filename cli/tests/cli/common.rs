@@ -183,3 +183,19 @@ pub fn fill<'a>(text: &'a str, fill: &[&'a str]) -> Vec<&'a str> {
     assert!(rest.next().is_none(), "more values than {{}} in '{text}'");
     words
 }
+
+/// A rays file of one ray that hits the default scene.
+pub const ONE_RAY: &str = "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n";
+
+/// A file `name` in this test process's temporary directory holding
+/// `text`; its path.
+pub fn text_file(name: &str, text: &str) -> String {
+    let path = tmp(name);
+    std::fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
+/// A rays file of [`ONE_RAY`] named `name`; its path.
+pub fn one_ray(name: &str) -> String {
+    text_file(name, ONE_RAY)
+}

@@ -11,7 +11,8 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use crate::common::{
-    assert_fails_with, assert_ok, cellbih, fill, json, line, run_limited, stderr, stdout, tmp,
+    ONE_RAY, assert_fails_with, assert_ok, cellbih, fill, json, line, run_limited, stderr, stdout,
+    text_file, tmp,
 };
 
 /// A link in a fresh directory that points at `/dev/full`.
@@ -23,17 +24,9 @@ fn link_to_dev_full(dir: &Path, name: &str) -> PathBuf {
     p
 }
 
-fn rays_file(name: &str, text: &str) -> String {
-    let p = tmp(name);
-    std::fs::write(&p, text).unwrap();
-    p.to_str().unwrap().to_string()
-}
-
-const ONE_RAY: &str = "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n";
-
 #[test]
 fn raycast_to_dev_full_or_a_bad_path_fails_naming_it() {
-    let rays = rays_file("one.rays.csv", ONE_RAY);
+    let rays = text_file("one.rays.csv", ONE_RAY);
     let full = link_to_dev_full(&tmp("full"), "hits.csv");
     let out = cellbih(&["raycast", "--rays", &rays, "--out", full.to_str().unwrap()]);
     assert_fails_with(&out, &format!("{}: cannot write", full.display()));
@@ -43,7 +36,7 @@ fn raycast_to_dev_full_or_a_bad_path_fails_naming_it() {
     let many: String = std::iter::once("ox,oy,oz,dx,dy,dz,tmin,tmax\n")
         .chain(std::iter::repeat_n("0,1,8,0,0,-1,0,inf\n", 20_000))
         .collect();
-    let rays = rays_file("many.rays.csv", &many);
+    let rays = text_file("many.rays.csv", &many);
     let out = cellbih(&["raycast", "--rays", &rays, "--out", full.to_str().unwrap()]);
     assert_fails_with(&out, &format!("{}: cannot write", full.display()));
 
@@ -253,7 +246,7 @@ fn degenerate_updates_give_sensible_answers() {
 fn rays_at_the_edges_of_f64() {
     let out_path = tmp("edge.hits.csv");
     let o = out_path.to_str().unwrap();
-    let rays = rays_file(
+    let rays = text_file(
         "short.rays.csv",
         "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n0.2,0.2,1,0,0,-1e-320,0,inf\n",
     );
@@ -261,7 +254,7 @@ fn rays_at_the_edges_of_f64() {
     assert_fails_with(&out, "short.rays.csv:3: the direction is too short");
     // Components near f64::MAX would overflow the triangle test (a hit at
     // finite t silently missed): refused by line. Up to 1e200 they hit.
-    let rays = rays_file(
+    let rays = text_file(
         "huge.rays.csv",
         "ox,oy,oz,dx,dy,dz,tmin,tmax
 0,1,8,0,0,-1,0,inf
@@ -270,7 +263,7 @@ fn rays_at_the_edges_of_f64() {
     );
     let out = cellbih(&["raycast", "--rays", &rays, "--out", o]);
     assert_fails_with(&out, "huge.rays.csv:3: 1e308 is beyond ±1e200");
-    let rays = rays_file(
+    let rays = text_file(
         "large.rays.csv",
         "ox,oy,oz,dx,dy,dz,tmin,tmax
 0,1,1e200,0,0,-1e200,0,inf
@@ -286,14 +279,14 @@ fn rays_at_the_edges_of_f64() {
         );
     }
     // With a byte-order mark before the header: read as without.
-    let rays = rays_file("bom.rays.csv", &format!("\u{feff}{ONE_RAY}"));
+    let rays = text_file("bom.rays.csv", &format!("\u{feff}{ONE_RAY}"));
     let out = cellbih(&["raycast", "--rays", &rays, "--out", o]);
     assert_ok(&out);
     let hits = std::fs::read_to_string(&out_path).unwrap();
     assert_eq!(hits.lines().count(), 2, "{hits}");
     // A direction whose largest component is normal but tiny: any hit has
     // a finite t in [tmin, tmax].
-    let rays = rays_file(
+    let rays = text_file(
         "tiny.rays.csv",
         "ox,oy,oz,dx,dy,dz,tmin,tmax\n0.5,1,8,0,0,-1e-300,0,inf\n",
     );
@@ -488,7 +481,7 @@ fn new_files_follow_the_umask() {
     use std::os::unix::fs::PermissionsExt;
     let dir = tmp("umask");
     std::fs::create_dir_all(&dir).unwrap();
-    let rays = rays_file("umask.rays.csv", ONE_RAY);
+    let rays = text_file("umask.rays.csv", ONE_RAY);
     let d = dir.display();
     let kept = dir.join("kept.csv");
     std::fs::write(&kept, "old").unwrap();

@@ -6,18 +6,10 @@
 use std::time::Duration;
 
 use crate::common::{
-    assert_fails_with, assert_says, cellbih, fill, line, run_limited, stderr, tmp,
+    assert_fails_with, assert_says, cellbih, fill, line, one_ray, run_limited, stderr, tmp,
 };
 
 const EXE: &str = env!("CARGO_BIN_EXE_cellbih");
-
-/// A rays file of one ray that hits the default scene, in this test
-/// process's temporary directory.
-fn one_ray(name: &str) -> String {
-    let path = tmp(name);
-    std::fs::write(&path, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
-    path.to_str().unwrap().to_string()
-}
 
 #[test]
 fn a_text_input_without_newlines_is_refused_by_its_line() {

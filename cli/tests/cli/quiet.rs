@@ -5,7 +5,8 @@
 //! refusals before any work in `cli/tests/cli/refusals.rs`.
 
 use crate::common::{
-    assert_fails_with, assert_ok, assert_says, cellbih, fill, json, line, stderr, stdout, tmp,
+    assert_fails_with, assert_ok, assert_says, cellbih, fill, json, line, one_ray, stderr, stdout,
+    tmp,
 };
 
 /// Every line of `text` fits 80 columns.
@@ -20,9 +21,8 @@ fn fits_80(what: &str, text: &str) {
 /// standard output; either alone can.
 #[test]
 fn two_outputs_are_not_sent_to_one_stream() {
-    let rays = tmp("two.rays.csv");
-    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
-    let rays = rays.to_str().unwrap();
+    let rays = one_ray("two.rays.csv");
+    let rays = rays.as_str();
     for args in [
         &line("render --on-cell --width 8 --height 8 --out - --trace -")[..],
         &[
@@ -89,12 +89,11 @@ fn the_functional_mode_prints_no_timing_fields() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["cores"][1][1]["busy"].as_u64().unwrap() > 0);
 
-    let rays = tmp("functional.rays.csv");
-    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
+    let rays = one_ray("functional.rays.csv");
     let hits = tmp("functional.hits.csv");
     let out = cellbih(&fill(
         "raycast --on-cell --mode functional --rays {} --out {}",
-        &[rays.to_str().unwrap(), hits.to_str().unwrap()],
+        &[&rays, hits.to_str().unwrap()],
     ));
     assert_ok(&out);
     let err = stderr(&out);

@@ -8,8 +8,8 @@
 use std::time::Duration;
 
 use crate::common::{
-    assert_fails_with, assert_ok, assert_says, cellbih, fill, line, run_limited, stderr, stdout,
-    tmp,
+    assert_fails_with, assert_ok, assert_says, cellbih, fill, line, one_ray, run_limited, stderr,
+    stdout, tmp,
 };
 
 #[test]
@@ -372,10 +372,9 @@ fn options_that_do_not_apply_are_refused_by_name() {
         &["--model", "legacy"],
         &["--mailboxes", "ps3-kernel"],
     ];
-    let rays = tmp("apply.rays.csv");
-    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
+    let rays = one_ray("apply.rays.csv");
     let hits = tmp("apply.hits.csv");
-    let (rays, hits) = (rays.to_str().unwrap(), hits.to_str().unwrap());
+    let (rays, hits) = (rays.as_str(), hits.to_str().unwrap());
     for b in cellbih::registry::BuilderKind::ALL
         .iter()
         .filter(|b| !b.emulated())

@@ -2,7 +2,7 @@
 //! build more than once (`update`, `frame`) build with every knob `build`
 //! takes.
 
-use crate::common::{assert_ok, cellbih, fill, stderr, stdout, tmp};
+use crate::common::{ONE_RAY, assert_ok, cellbih, fill, one_ray, stderr, stdout, text_file, tmp};
 
 /// `cellbih` with `args` and `--format json`: its JSON.
 fn as_json(args: &[&str]) -> serde_json::Value {
@@ -54,12 +54,11 @@ fn two_settings_two_headers() {
 /// `raycast` and `render` say their settings on stderr, the cast's too.
 #[test]
 fn casts_name_their_settings() {
-    let rays = tmp("settings.rays.csv");
-    std::fs::write(&rays, "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n").unwrap();
+    let rays = one_ray("settings.rays.csv");
     let hits = tmp("settings.hits.csv");
     let out = cellbih(&fill(
         "raycast --rays {} --out {} --on-cell --cache-kib 16",
-        &[rays.to_str().unwrap(), hits.to_str().unwrap()],
+        &[&rays, hits.to_str().unwrap()],
     ));
     assert_ok(&out);
     let err = stderr(&out);
@@ -288,13 +287,10 @@ fn variant(cmd: &str, option: &str) -> Option<(Vec<String>, Vec<String>)> {
 }
 
 fn rays_file(name: &str) -> String {
-    let p = tmp(name);
-    let rays = match name {
-        "other.rays.csv" => "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n0,1,8,0,0,-1,0,4\n",
-        _ => "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n",
-    };
-    std::fs::write(&p, rays).unwrap();
-    p.to_str().unwrap().to_string()
+    match name {
+        "other.rays.csv" => text_file(name, &format!("{ONE_RAY}0,1,8,0,0,-1,0,4\n")),
+        _ => one_ray(name),
+    }
 }
 
 /// The settings a run reports: the JSON `settings` where the command has
