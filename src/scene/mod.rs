@@ -341,3 +341,17 @@ pub fn load(spec: &str, data: Option<&Path>) -> Result<Scene, SceneError> {
         why: format!("no {spec}.obj.gz or {spec}.obj in {}", dir.display()),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    /// With no sink set (the library's own tests set none), a warning is
+    /// kept for `warnings`, once per mesh, and nothing is printed.
+    #[test]
+    fn a_warning_without_a_sink_is_kept_once() {
+        super::warn_once("test-mesh-a", "mesh test-mesh-a differs");
+        super::warn_once("test-mesh-a", "mesh test-mesh-a differs again");
+        let said = super::warnings();
+        assert_eq!(said.iter().filter(|w| w.contains("test-mesh-a")).count(), 1);
+        assert!(said.contains(&"mesh test-mesh-a differs".to_string()));
+    }
+}
