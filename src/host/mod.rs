@@ -163,15 +163,35 @@ pub struct HostBuilder {
     pub describe: &'static str,
     /// The quality knobs of [`BihConfig`] it builds.
     pub quality: Quality,
-    /// `build(scene, region, cfg)`: the tree of `scene` with `region` as
-    /// the scene box of the global heuristic.
-    pub build: fn(&Scene, Aabb, &BihConfig) -> Bih,
-    /// Set for a builder that builds on the threads of the current rayon
-    /// pool (the caller's, with `ThreadPool::install`), the serial
-    /// builder's tree on any number: its build over the items with the
-    /// grain as a parameter (tests make it small to run the parallel part
-    /// on small scenes).
-    pub grained: Option<Grained>,
+    /// How it builds.
+    pub how: HostBuild,
+}
+
+/// How a host builder builds.
+#[derive(Clone, Copy)]
+pub enum HostBuild {
+    /// On one thread: `build(scene, region, cfg)`, the tree of `scene`
+    /// with `region` as the scene box of the global heuristic.
+    Serial(fn(&Scene, Aabb, &BihConfig) -> Bih),
+    /// On the threads of the current rayon pool (the caller's, with
+    /// `ThreadPool::install`), the serial builder's tree on any number:
+    /// its build over the items, with the grain as a parameter (the
+    /// builders use [`SUBTREE`]; tests make it small to run the parallel
+    /// part on small scenes).
+    Parallel(Grained),
+}
+
+impl HostBuilder {
+    /// The tree of `scene` with `region` as the scene box of the global
+    /// heuristic.
+    pub fn build(&self, scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
+        match self.how {
+            HostBuild::Serial(build) => build(scene, region, cfg),
+            HostBuild::Parallel(grained) => {
+                grained(&mut par_prim_refs(scene), region, cfg, SUBTREE).0
+            }
+        }
+    }
 }
 
 /// A parallel builder's tree of `items` (sorted in place) with `region` as
@@ -184,8 +204,7 @@ pub const BUILDER: HostBuilder = HostBuilder {
     name: "host",
     describe: "recursive in-place build, global heuristic, on the host (one thread)",
     quality: Quality::ALL,
-    build: build_in,
-    grained: None,
+    how: HostBuild::Serial(build_in),
 };
 
 /// Builds the tree of `scene` in one host thread.

@@ -21,7 +21,7 @@
 //! 3. **The top of the tree from the sorted keys**: a node where a range's
 //!    keys first differ ([`split_of`]), its two sides made side by side
 //!    (`rayon::join`), down to ranges of at most the grain's items
-//!    ([`SUBTREE`]) or whose keys are all equal. Without the empty-space
+//!    ([`super::SUBTREE`]) or whose keys are all equal. Without the empty-space
 //!    cut-off it is made bottom up (`Top::gathered`): each such range
 //!    **gathers its own items** in key order from a copy of them, and a
 //!    node's planes come from its sides' bounds as they return. With the
@@ -59,7 +59,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 
-use super::{HostBuilder, Made, SUBTREE, coop};
+use super::{HostBuild, HostBuilder, Made, coop};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality};
 use crate::kernels::cutoff::child_regions;
@@ -69,15 +69,13 @@ use crate::kernels::morton::{KeyOrder, KeySpec, auto_key_bits, split_of};
 use crate::kernels::radix;
 use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node};
 use crate::kernels::split::{Side, clip_planes, side_of};
-use crate::scene::Scene;
 
 /// The builder.
 pub const BUILDER: HostBuilder = HostBuilder {
     name: "host_morton",
     describe: "the host builder's tree on the host's cores: Morton keys in the global heuristic's order, a parallel radix sort, the top from the keys, independent subtrees as rayon tasks (section 5's Morton route)",
     quality: Quality::ALL,
-    build: build_in,
-    grained: Some(build_items::<PrimRef>),
+    how: HostBuild::Parallel(build_items::<PrimRef>),
 };
 
 /// Pairs a block of the radix sort counts and scatters: 64 Ki pairs, 768
@@ -89,12 +87,6 @@ const KEY_CHUNK: usize = 4096;
 
 /// Bits a radix pass sorts by (256 counters a block).
 pub const DIGIT_BITS: u32 = 8;
-
-/// Builds the tree of `scene` with `region` as the scene box of the global
-/// heuristic, on the current rayon pool's threads.
-pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    build_items(&mut super::par_prim_refs(scene), region, cfg, SUBTREE).0
-}
 
 /// Builds a tree over `items`, sorting them in place, on the current rayon
 /// pool's threads by the Morton route: the serial recursion's tree

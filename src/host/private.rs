@@ -9,7 +9,7 @@
 //!
 //! A job owns its items (a disjoint slice of the item array, split at
 //! each partition), so no two threads touch an item. A job of more than
-//! [`SUBTREE`] items (the grain) makes one node — one step of the serial recursion
+//! [`super::SUBTREE`] items (the grain) makes one node — one step of the serial recursion
 //! ([`step`]) — and pushes its children; a smaller one is built to its
 //! leaves by its thread ([`build_node`]). Node ids are handed out by one
 //! atomic counter as threads make nodes, in whatever order they run; the
@@ -19,7 +19,7 @@
 //! schedule.
 //!
 //! The top levels are made cooperatively first ([`coop::top`]: a job of
-//! more than 4 × [`SUBTREE`] items by every thread together), breadth
+//! more than 4 × [`super::SUBTREE`] items by every thread together), breadth
 //! first; the jobs below them start in the `Injector`. The cooperative
 //! partition leaves the items of a side in another order than the serial
 //! one: a leaf holds the same triangles, perhaps in another order (the
@@ -29,26 +29,18 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crossbeam::deque::{Injector, Steal, Stealer, Worker};
 
-use super::{HostBuilder, Made, SUBTREE, coop};
+use super::{HostBuild, HostBuilder, Made, coop};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, Quality};
 use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
-use crate::scene::Scene;
 
 /// The builder.
 pub const BUILDER: HostBuilder = HostBuilder {
     name: "host_private",
     describe: "the host builder's tree on the host's cores: a deque per thread, work stealing (crossbeam; section 5's private queues)",
     quality: Quality::ALL,
-    build: build_in,
-    grained: Some(build_items::<PrimRef>),
+    how: HostBuild::Parallel(build_items::<PrimRef>),
 };
-
-/// Builds the tree of `scene` with `region` as the scene box of the global
-/// heuristic, on the current rayon pool's threads.
-pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    build_items(&mut super::par_prim_refs(scene), region, cfg, SUBTREE).0
-}
 
 /// A job: node `id` over its own items.
 struct Job<'a, T> {

@@ -14,10 +14,10 @@
 //! recursion's order ([`crate::bih::depth_first`], one pass): the tree is
 //! the serial host builder's, node for node, for any number of threads.
 //!
-//! A job of more than 4 × [`SUBTREE`] items — or of more than [`SUBTREE`]
+//! A job of more than 4 × [`super::SUBTREE`] items — or of more than [`super::SUBTREE`]
 //! on a level of fewer jobs than threads — is made by every thread
 //! together ([`coop::coop_step`]) before the level's queue opens. A job of
-//! at most [`SUBTREE`] items (the grain) is built to its leaves by the
+//! at most [`super::SUBTREE`] items (the grain) is built to its leaves by the
 //! thread that takes it (the serial recursion over its own items, just
 //! partitioned and still in that core's cache) and grafted into the tree.
 //! (Keeping them for one last round after the last level, so that a level
@@ -33,29 +33,21 @@
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use super::{HostBuilder, SUBTREE, coop, graft};
+use super::{HostBuild, HostBuilder, coop, graft};
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode, Quality};
 use crate::kernels::recursion::{BuildStats, Item, NodeJob, PrimRef, Step, build_node, step};
-use crate::scene::Scene;
 
 /// The builder.
 pub const BUILDER: HostBuilder = HostBuilder {
     name: "host_shared",
     describe: "the host builder's tree level by level on the host's cores: one shared job queue a level, batches taken atomically (rayon; section 5's shared queue)",
     quality: Quality::ALL,
-    build: build_in,
-    grained: Some(build_items::<PrimRef>),
+    how: HostBuild::Parallel(build_items::<PrimRef>),
 };
 
 /// Jobs one take hands out at most (as `spe_bfs_shared --agglomerate`).
 pub const AGGLOMERATE: usize = 16;
-
-/// Builds the tree of `scene` with `region` as the scene box of the global
-/// heuristic, on the current rayon pool's threads.
-pub fn build_in(scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
-    build_items(&mut super::par_prim_refs(scene), region, cfg, SUBTREE).0
-}
 
 /// A job of a level: a node to make over `items[first .. first + count]`.
 #[derive(Clone, Copy)]

@@ -9,7 +9,7 @@ use std::time::Instant;
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig};
 use crate::cell::CellError;
-use crate::host::HostBuilder;
+use crate::host::{HostBuild, HostBuilder};
 use crate::kernels::rates::{KernelRates, RateInfo, RateOverrides, Uncertain, infos};
 use crate::scene::Scene;
 use crate::strategy::{self, Strategy};
@@ -263,7 +263,7 @@ impl BuilderKind {
     /// the current rayon pool (`ThreadPool::install` gives it the caller's):
     /// the host counterparts of section 5's strategies.
     pub fn host_threads(self) -> bool {
-        matches!(self.0, Family::Host(b) if b.grained.is_some())
+        matches!(self.0, Family::Host(b) if matches!(b.how, HostBuild::Parallel(_)))
     }
 
     /// A host-thread builder's tree of `scene`, a job of at most `grain`
@@ -273,7 +273,8 @@ impl BuilderKind {
     pub fn build_grained(self, scene: &Scene, cfg: &BihConfig, grain: usize) -> Option<Bih> {
         match self.0 {
             Family::Host(HostBuilder {
-                grained: Some(g), ..
+                how: HostBuild::Parallel(g),
+                ..
             }) if self.builds(cfg) => Some(
                 g(
                     &mut crate::host::prim_refs(scene),
@@ -337,7 +338,7 @@ impl BuilderKind {
     fn run(self, scene: &Scene, region: Aabb, b: &Build) -> Result<BuildReport, CellError> {
         let start = Instant::now();
         let (bih, simulated) = match self.0 {
-            Family::Host(h) => ((h.build)(scene, region, &b.tree), None),
+            Family::Host(h) => (h.build(scene, region, &b.tree), None),
             Family::Cell(s) => {
                 let (bih, simulated) =
                     strategy::run_in(s.spawn, scene, region, &b.tree, &b.cell, &b.knobs, &b.rates)?;
