@@ -85,25 +85,16 @@ fn draw_lines(
             chart
                 .draw_series(DashedLineSeries::new(pts.clone(), 6, 4, style))?
                 .label(&s.name)
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 5, y)], color.stroke_width(2))
-                });
+                .legend(legend_line(color, 5));
         } else {
             chart
                 .draw_series(LineSeries::new(pts.clone(), style))?
                 .label(&s.name)
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                });
+                .legend(legend_line(color, 18));
         }
         chart.draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()?;
+    labels(&mut chart, SeriesLabelPosition::UpperLeft)?;
     root.present()?;
     Ok(())
 }
@@ -152,9 +143,7 @@ pub fn scatter_plot(
             chart
                 .draw_series(DashedLineSeries::new(steps, 6, 4, color.stroke_width(2)))?
                 .label(&s.name)
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
-                });
+                .legend(legend_line(color, 18));
         }
         for s in points {
             let color = Palette99::pick(s.color).to_rgba();
@@ -163,14 +152,28 @@ pub fn scatter_plot(
                 .label(&s.name)
                 .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()?;
+        labels(&mut chart, SeriesLabelPosition::UpperRight)?;
         root.present()?;
     }
     write_bytes(path, svg.as_bytes())?;
+    Ok(())
+}
+
+/// A legend entry's mark: a line `length` pixels long in `color`.
+fn legend_line(color: RGBAColor, length: i32) -> impl Fn((i32, i32)) -> PathElement<(i32, i32)> {
+    move |(x, y)| PathElement::new(vec![(x, y), (x + length, y)], color.stroke_width(2))
+}
+
+/// Draws the series' names at `position`, on a light box.
+fn labels<'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, SVGBackend<'a>, CT>,
+    position: SeriesLabelPosition,
+) -> Result<(), Box<dyn std::error::Error>> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(position)
+        .draw()?;
     Ok(())
 }

@@ -246,23 +246,24 @@ fn degenerate_updates_give_sensible_answers() {
 fn rays_at_the_edges_of_f64() {
     let out_path = tmp("edge.hits.csv");
     let o = out_path.to_str().unwrap();
-    let rays = text_file(
-        "short.rays.csv",
-        "ox,oy,oz,dx,dy,dz,tmin,tmax\n0,1,8,0,0,-1,0,inf\n0.2,0.2,1,0,0,-1e-320,0,inf\n",
-    );
-    let out = cellbih(&["raycast", "--rays", &rays, "--out", o]);
-    assert_fails_with(&out, "short.rays.csv:3: the direction is too short");
-    // Components near f64::MAX would overflow the triangle test (a hit at
-    // finite t silently missed): refused by line. Up to 1e200 they hit.
-    let rays = text_file(
-        "huge.rays.csv",
-        "ox,oy,oz,dx,dy,dz,tmin,tmax
-0,1,8,0,0,-1,0,inf
-0,1,1e308,0,0,-1e308,0,inf
-",
-    );
-    let out = cellbih(&["raycast", "--rays", &rays, "--out", o]);
-    assert_fails_with(&out, "huge.rays.csv:3: 1e308 is beyond ±1e200");
+    // A direction too short to trace, and components near f64::MAX that
+    // would overflow the triangle test (a hit at finite t silently
+    // missed): each refused by its line. Up to 1e200 they hit.
+    for (name, second_ray, says) in [
+        (
+            "short.rays.csv",
+            "0.2,0.2,1,0,0,-1e-320,0,inf",
+            "short.rays.csv:3: the direction is too short",
+        ),
+        (
+            "huge.rays.csv",
+            "0,1,1e308,0,0,-1e308,0,inf",
+            "huge.rays.csv:3: 1e308 is beyond ±1e200",
+        ),
+    ] {
+        let rays = text_file(name, &format!("{ONE_RAY}{second_ray}\n"));
+        assert_fails_with(&cellbih(&["raycast", "--rays", &rays, "--out", o]), says);
+    }
     let rays = text_file(
         "large.rays.csv",
         "ox,oy,oz,dx,dy,dz,tmin,tmax
