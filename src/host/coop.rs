@@ -34,7 +34,8 @@ pub fn threshold(grain: usize) -> usize {
 pub fn coop_step<T: Item + Send + Sync>(
     items: &mut [T],
     node: &NodeJob,
-    (cfg, block): (&BihConfig, usize),
+    cfg: &BihConfig,
+    block: usize,
     stats: &mut BuildStats,
 ) -> Step {
     let block = block.max(1);
@@ -138,7 +139,8 @@ pub type Below<'a, T> = (usize, &'a mut [T], NodeJob);
 pub fn top<'a, T: Item + Send + Sync>(
     items: &'a mut [T],
     root: NodeJob,
-    (cfg, grain): (&BihConfig, usize),
+    cfg: &BihConfig,
+    grain: usize,
     ids: &AtomicUsize,
     stats: &mut BuildStats,
 ) -> (Vec<TopNode>, Vec<Below<'a, T>>) {
@@ -149,7 +151,7 @@ pub fn top<'a, T: Item + Send + Sync>(
             below.push((id, items, node));
             continue;
         }
-        let step = coop_step(items, &node, (cfg, grain), stats);
+        let step = coop_step(items, &node, cfg, grain, stats);
         let children = super::children_of(&step, ids);
         match step {
             Step::Leaf => {}

@@ -146,7 +146,7 @@ impl Route<'_> {
             // candidate.
             return self.keyed(items, job, id);
         }
-        let step = coop::coop_step(items, &job, (self.cfg, self.grain), &mut stats);
+        let step = coop::coop_step(items, &job, self.cfg, self.grain, &mut stats);
         let children = super::children_of(&step, &self.ids);
         let mut made = match step {
             Step::Leaf => Vec::new(),

@@ -68,11 +68,11 @@ pub fn build_items<T: Item + Send + Sync>(
     let ids = AtomicUsize::new(1);
     let mut stats = BuildStats::default();
     // The top, every thread on each job; then the deques.
-    let (top, below) = coop::top(&mut *items, root, (cfg, grain), &ids, &mut stats);
+    let (top, below) = coop::top(&mut *items, root, cfg, grain, &ids, &mut stats);
     let top =
         (top.into_iter()).map(|(id, node, step, children)| (id, Made::Step(step, children, node)));
     let mut made = Vec::from_iter(top);
-    for (records, counted) in run(below, (cfg, grain), threads, &ids) {
+    for (records, counted) in run(below, cfg, grain, threads, &ids) {
         stats.add(&counted);
         made.extend(records);
     }
@@ -86,7 +86,8 @@ pub fn build_items<T: Item + Send + Sync>(
 #[allow(clippy::type_complexity)]
 fn run<'a, T: Item + Send>(
     below: Vec<coop::Below<'a, T>>,
-    (cfg, grain): (&BihConfig, usize),
+    cfg: &BihConfig,
+    grain: usize,
     threads: usize,
     ids: &AtomicUsize,
 ) -> Vec<(Vec<(usize, Made)>, BuildStats)> {
@@ -108,7 +109,7 @@ fn run<'a, T: Item + Send>(
                         std::thread::yield_now();
                         continue;
                     };
-                    make(job, (cfg, grain), (&worker, ids, pending), &mut own);
+                    make(job, cfg, grain, (&worker, ids, pending), &mut own);
                 }
                 made.lock().expect("a thread's records").push(own);
             });
@@ -143,7 +144,8 @@ fn find<'a, T>(
 /// onto this thread's deque. Records what it made in `own`.
 fn make<'a, T: Item>(
     job: Job<'a, T>,
-    (cfg, grain): (&BihConfig, usize),
+    cfg: &BihConfig,
+    grain: usize,
     (worker, ids, pending): (&Worker<Job<'a, T>>, &AtomicUsize, &AtomicUsize),
     own: &mut (Vec<(usize, Made)>, BuildStats),
 ) {

@@ -80,7 +80,7 @@ pub fn build_items<T: Item + Send + Sync>(
         node: root,
     }];
     while !level.is_empty() {
-        let steps = take_level(items, &level, (cfg, grain), &mut stats);
+        let steps = take_level(items, &level, cfg, grain, &mut stats);
         let mut next = Vec::with_capacity(2 * level.len());
         for (job, made) in level.iter().zip(steps) {
             let made = match made {
@@ -138,7 +138,8 @@ struct Slot<'a, T> {
 fn take_level<T: Item + Send + Sync>(
     items: &mut [T],
     level: &[Job],
-    (cfg, grain): (&BihConfig, usize),
+    cfg: &BihConfig,
+    grain: usize,
     stats: &mut BuildStats,
 ) -> Vec<Made> {
     // Each job's own items, carved in order.
@@ -168,7 +169,7 @@ fn take_level<T: Item + Send + Sync>(
         let job = &level[k];
         *made = Some(match job.count {
             n if n <= grain => Made::Subtree(build_node(items, &job.node, cfg, stats)),
-            n if n > coop => Made::Step(coop::coop_step(items, &job.node, (cfg, grain), stats)),
+            n if n > coop => Made::Step(coop::coop_step(items, &job.node, cfg, grain, stats)),
             _ => Made::Step(step(items, &job.node, cfg, stats)),
         });
     };

@@ -122,7 +122,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     let rates = setup.rates.kernels();
     let x = Exchange::alloc(cell, &cfg)?;
     cell.spawn_spe(0, move |spe| partitions(spe, x, tris, rates));
-    let ppe = cell.spawn_ppe(move |ppe| recursion(ppe, x, (n, region, cfg), rates));
+    let ppe = cell.spawn_ppe(move |ppe| recursion(ppe, x, n, region, cfg, rates));
     Ok(Box::new(move || ppe.take("PPE")))
 }
 
@@ -259,7 +259,9 @@ async fn partitions(spe: Spe, x: Exchange, tris: Ea, k: KernelRates) -> Result<(
 async fn recursion(
     ppe: Ppe,
     x: Exchange,
-    (n, region, cfg): (usize, Aabb, BihConfig),
+    n: usize,
+    region: Aabb,
+    cfg: BihConfig,
     k: KernelRates,
 ) -> Result<Output, CellError> {
     // One job on SPE 0, and its two sides.

@@ -98,13 +98,27 @@ fn main() {
     cellbih_cli::report::main("spe_scaling", |a: &Args| &a.run.output, run);
 }
 
+/// A scene's baseline build (`spe_bfs` on one SPE): what each row is
+/// held against.
+#[derive(Clone, Copy)]
+struct Baseline {
+    ms: f64,
+    sah: f64,
+    hash: u64,
+}
+
 /// One build's row.
 fn row(
     scene: &Scene,
     v: &Variant,
     spes: usize,
-    (base_ms, base_sah, base_hash): (f64, f64, u64),
+    base: Baseline,
 ) -> Result<(Value, cellbih::bih::Bih), String> {
+    let Baseline {
+        ms: base_ms,
+        sah: base_sah,
+        hash: base_hash,
+    } = base;
     let cfg = BihConfig::default();
     let cell = CellConfig::ps3().with_spes(spes);
     let r = (Build::new(v.builder)
@@ -180,7 +194,12 @@ fn run(args: &Args) -> Result<(), String> {
         let rays = ray_cost(scene, &base.bih, &view);
         let sim = base.simulated.expect("emulated").run.ms;
         let hash = base.bih.tree_hash();
-        Ok::<_, String>(((sim, base.bih.quality().sah_cost, hash), rays))
+        let baseline = Baseline {
+            ms: sim,
+            sah: base.bih.quality().sah_cost,
+            hash,
+        };
+        Ok::<_, String>((baseline, rays))
     });
     let bases = bases.into_iter().collect::<Result<Vec<_>, _>>()?;
     // Every (scene, variant, SPE count), side by side; the tree does not
