@@ -8,6 +8,11 @@ use std::rc::Rc;
 
 use cellbih_cell::{Cell, CellConfig, CostModel, Cycles, Ea};
 
+/// The work of one job in these tests: the emulator's tests stand without
+/// the library's kernel rates, so a job costs the PS3 value of the
+/// library's `spe_job` rate (200 cycles), named here once.
+const JOB_WORK: Cycles = Cycles(200);
+
 /// Eight SPEs, `streaming` of which stream double-buffered 16 KiB gets
 /// (`chunks` each) while SPE 7 does `probes` lone 128-byte gets, each
 /// waited for. Returns the cycles of each lone get.
@@ -103,8 +108,8 @@ fn shared_queue(cost: CostModel, jobs: u32) -> (Vec<u32>, Cycles) {
                     return Ok(());
                 }
                 taken.borrow_mut()[id] += 1;
-                // A job's work, at a kernel rate (free in functional mode).
-                spe.compute(Cycles(200));
+                // A job's work (free in functional mode).
+                spe.compute(JOB_WORK);
             }
         });
     }
