@@ -76,7 +76,7 @@ pub use clock::Cycles;
 pub use cost::{Bandwidth, CostModel, LockLines};
 pub use local_store::LsAddr;
 pub use memory::{Allocation, Ea, Label, MainMemory};
-pub use mfc::{ListElement, MAX_LIST_ELEMENTS, MAX_TRANSFER, Order, WaitMode};
+pub use mfc::{ListElement, MAX_LIST_ELEMENTS, MAX_TRANSFER, Order, Segment, WaitMode};
 pub use ppe::Ppe;
 pub use spe::{Reservation, Spe};
 pub use trace::{CoreCounters, Trace};

@@ -231,32 +231,16 @@ impl Spe {
     }
 
     /// `mfc_getf` / `mfc_getb` (with `Order::Fence` / `Order::Barrier`): a
-    /// get ordered after the earlier commands of its tag group (see
+    /// get of `s` ordered after the earlier commands of its tag group (see
     /// [`mfc`](super::mfc)).
-    pub async fn get_ordered(
-        &self,
-        order: Order,
-        ls: LsAddr,
-        ea: Ea,
-        size: u32,
-        tag: u32,
-    ) -> Result<(), CellError> {
-        self.single(Direction::Get, order, Segment { ls, ea, size }, tag)
-            .await
+    pub async fn get_ordered(&self, order: Order, s: Segment, tag: u32) -> Result<(), CellError> {
+        self.single(Direction::Get, order, s, tag).await
     }
 
-    /// `mfc_putf` / `mfc_putb`: a put ordered after the earlier commands of
-    /// its tag group.
-    pub async fn put_ordered(
-        &self,
-        order: Order,
-        ls: LsAddr,
-        ea: Ea,
-        size: u32,
-        tag: u32,
-    ) -> Result<(), CellError> {
-        self.single(Direction::Put, order, Segment { ls, ea, size }, tag)
-            .await
+    /// `mfc_putf` / `mfc_putb`: a put of `s` ordered after the earlier
+    /// commands of its tag group.
+    pub async fn put_ordered(&self, order: Order, s: Segment, tag: u32) -> Result<(), CellError> {
+        self.single(Direction::Put, order, s, tag).await
     }
 
     /// `mfc_get`: `size` bytes from main memory at `ea` into the local store

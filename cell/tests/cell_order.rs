@@ -8,7 +8,7 @@
 use std::cell::RefCell;
 use std::rc::Rc;
 
-use cellbih_cell::{Cell, CellConfig, CellError, Cycles, Ea, Order, Spe};
+use cellbih_cell::{Cell, CellConfig, CellError, Cycles, Ea, LsAddr, Order, Segment, Spe};
 
 /// Runs `program` on SPE 0 of a one-SPE machine (checked or not) with a
 /// 128-byte line of main memory; returns the run's cycles or its error.
@@ -47,8 +47,7 @@ fn a_get_behind_an_unfinished_put_of_the_same_bytes_needs_a_fence() {
     let e = run_one(true, |spe, ea| async move {
         let b = spe.ls_alloc(256, 128)?;
         spe.put(b, ea, 128, 2).await?;
-        spe.get_ordered(Order::Fence, b.offset(128), ea, 128, 3)
-            .await?;
+        spe.get_ordered(Order::Fence, line_after(b, ea), 3).await?;
         spe.wait_tags(0b1100, cellbih_cell::WaitMode::All)
             .await
             .map(|_| ())
@@ -92,8 +91,7 @@ fn a_fenced_get_waits_for_the_put_before_it_and_reads_its_bytes() {
         let b = spe.ls_alloc(256, 128)?;
         spe.ls_write(b, &[7u32; 32])?;
         spe.put(b, ea, 128, 2).await?;
-        spe.get_ordered(Order::Fence, b.offset(128), ea, 128, 2)
-            .await?;
+        spe.get_ordered(Order::Fence, line_after(b, ea), 2).await?;
         spe.wait_tag(2).await?;
         *s.borrow_mut() = spe.ls_read::<u32>(b.offset(128), 1)?[0];
         Ok(())
@@ -117,7 +115,16 @@ fn a_fenced_get_waits_for_the_put_before_it_and_reads_its_bytes() {
 fn a_barrier_orders_the_commands_after_it() {
     let cycles = run_one(true, |spe, ea| async move {
         let b = spe.ls_alloc(256, 128)?;
-        spe.put_ordered(Order::Barrier, b, ea, 128, 4).await?;
+        spe.put_ordered(
+            Order::Barrier,
+            Segment {
+                ls: b,
+                ea,
+                size: 128,
+            },
+            4,
+        )
+        .await?;
         spe.get(b.offset(128), ea, 128, 4).await?;
         spe.wait_tag(4).await
     })
@@ -243,4 +250,14 @@ fn dma_list_elements_land_at_rounded_local_addresses() {
     assert_eq!(v[16], 32);
     // Bytes the list skipped stay as they were.
     assert_eq!((v[0], v[4], v[5]), (0, 0, 0));
+}
+
+/// The 128 bytes after the line at `b` in the local store, to or from the
+/// line at `ea`.
+fn line_after(b: LsAddr, ea: Ea) -> Segment {
+    Segment {
+        ls: b.offset(128),
+        ea,
+        size: 128,
+    }
 }

@@ -27,9 +27,8 @@ use cellbih::cell::CellConfig;
 use cellbih::frame::{FrameConfig, Policy, play};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::update::{Animation, Method};
-use cellbih_cli::args::DataArg;
 use cellbih_cli::args::RunArgs;
-use cellbih_cli::args::ViewsArg;
+use cellbih_cli::args::SceneArgs;
 use cellbih_cli::report::{Series, TreeArgs, line_plot, output, side_by_side};
 
 #[derive(Parser)]
@@ -61,9 +60,7 @@ struct Args {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     #[command(flatten)]
-    camera: ViewsArg,
-    #[command(flatten)]
-    data: DataArg,
+    scene: SceneArgs,
     #[command(flatten)]
     run: RunArgs,
 }
@@ -136,7 +133,7 @@ fn run(args: &Args) -> Result<(), String> {
     ];
     let arrangements = [("section 5", spes), ("paper", 1)];
     // Every scene loaded before any work; every one that does not, named.
-    let loaded = cellbih_cli::report::load_scenes(&args.scenes, args.data.dir().as_deref())?;
+    let loaded = cellbih_cli::report::load_scenes(&args.scenes, args.scene.data.dir().as_deref())?;
     let mut played = Vec::new();
     for ((spec, anim_name), s) in scenes.iter().zip(loaded) {
         let s = Animation::prepare(anim_name, s).map_err(|e| e.to_string())?;
@@ -166,7 +163,7 @@ fn run(args: &Args) -> Result<(), String> {
                 build_spes,
                 width: w,
                 height: h,
-                view: args.camera.view(),
+                view: args.scene.camera.view(),
                 cast: CastConfig::DEFAULT,
             };
             let r = play(s, anim, &cfg, |_| {}).map_err(|e| format!("{spec}: {e}"))?;

@@ -30,9 +30,8 @@ use cellbih::quality::rays::RaySets;
 use cellbih::registry::{Build, BuilderKind, Quality};
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
-use cellbih_cli::args::DataArg;
 use cellbih_cli::args::RunArgs;
-use cellbih_cli::args::ViewsArg;
+use cellbih_cli::args::SceneArgs;
 use cellbih_cli::report::{Series, output, scatter_plot, side_by_side};
 
 #[derive(Parser)]
@@ -52,9 +51,7 @@ struct Args {
     #[arg(long, default_value_t = 6, value_parser = cellbih_cli::args::between::<u64, _>(1..=16))]
     spes: u64,
     #[command(flatten)]
-    camera: ViewsArg,
-    #[command(flatten)]
-    data: DataArg,
+    scene: SceneArgs,
     #[command(flatten)]
     run: RunArgs,
 }
@@ -131,12 +128,12 @@ fn main() {
 fn run(args: &Args) -> Result<(), String> {
     args.run.threads.install()?;
     let settings = settings();
-    let scenes = cellbih_cli::report::load_scenes(&args.scenes, args.data.dir().as_deref())?;
+    let scenes = cellbih_cli::report::load_scenes(&args.scenes, args.scene.data.dir().as_deref())?;
     let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
     cell.checked = false;
     let sets: Vec<_> = (scenes.iter())
         .map(|s| {
-            let view = args.camera.view();
+            let view = args.scene.camera.view();
             let rays = RaySets::for_scene(s, &view).expect("a scene's own view");
             let cam = (view.camera(&s.name, &s.bounds(), CAST_SIZE.0, CAST_SIZE.1))
                 .expect("a scene's own view");

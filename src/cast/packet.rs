@@ -15,15 +15,14 @@
 
 use glam::{DVec3, Vec3};
 
-use super::walk::{At, InLeaf, Read, Step};
-use super::{CastRates, Job};
+use super::CastRates;
+use super::walk::{At, InLeaf, InNode, Reach, Read, Step};
 use crate::bih::{
     BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
 };
-use crate::cell::{CellError, Spe};
+use crate::cell::CellError;
 use crate::scene::Triangle;
 use crate::spe::layout::TriRecord;
-use crate::spe::software_cache::SoftwareCache;
 
 /// Whether `rays` can share one traversal: every direction has the same
 /// sign on each axis, so every ray has the same near child at every node.
@@ -108,13 +107,8 @@ impl PacketWalk {
 
     /// Goes on until every ray is done (`Step::Done`, the hits in
     /// [`PacketWalk::best`]) or the packet waits for memory.
-    pub async fn run(
-        &mut self,
-        spe: &Spe,
-        cache: &mut SoftwareCache,
-        job: &Job,
-        group: u32,
-    ) -> Result<Step, CellError> {
+    pub async fn run(&mut self, on: &mut Reach<'_>) -> Result<Step, CellError> {
+        let (spe, job) = (on.spe, on.job);
         let r: &CastRates = &job.rates;
         loop {
             match self.at {
@@ -144,31 +138,26 @@ impl PacketWalk {
                     (self.nodes, self.quads) = (self.nodes + 1, self.quads + q);
                     self.at = self.read.node_at(job, self.node);
                 }
-                At::NodeRead => {
-                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
-                        return Ok(stop);
+                At::NodeRead => match self.read.in_node(on).await? {
+                    InNode::Stopped(stop) => return Ok(stop),
+                    InNode::Leaf(at) => self.at = at,
+                    InNode::Inner(nd) => {
+                        if !self.step(&nd) && !self.pop() {
+                            return Ok(Step::Done(None));
+                        }
                     }
-                    let nd = self.read.node();
-                    if nd.is_leaf() {
-                        self.at = At::leaf(&nd);
-                        continue;
-                    }
-                    if !self.step(&nd) && !self.pop() {
-                        return Ok(Step::Done(None));
-                    }
-                }
+                },
                 At::Leaf { .. } | At::IdRead { .. } | At::RecordRead { .. } => {
-                    let (rec, k, end) =
-                        match self.read.in_leaf(self.at, job, spe, cache, group).await? {
-                            InLeaf::Ended if !self.pop() => return Ok(Step::Done(None)),
-                            InLeaf::Ended => continue,
-                            InLeaf::Stopped(stop) => return Ok(stop),
-                            InLeaf::Goes(at) => {
-                                self.at = at;
-                                continue;
-                            }
-                            InLeaf::Record { rec, k, end } => (rec, k, end),
-                        };
+                    let (rec, k, end) = match self.read.in_leaf(self.at, on).await? {
+                        InLeaf::Ended if !self.pop() => return Ok(Step::Done(None)),
+                        InLeaf::Ended => continue,
+                        InLeaf::Stopped(stop) => return Ok(stop),
+                        InLeaf::Goes(at) => {
+                            self.at = at;
+                            continue;
+                        }
+                        InLeaf::Record { rec, k, end } => (rec, k, end),
+                    };
                     spe.compute(r.packet_triangle);
                     spe.compute_items(r.packet_triangle_quad, self.quads_of(self.mask));
                     self.test(&rec);

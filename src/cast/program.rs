@@ -17,10 +17,10 @@ use std::rc::Rc;
 use glam::{DVec3, Vec3};
 
 use super::packet::{self, PacketWalk};
-use super::walk::{At, InLeaf, Read, Step};
+use super::walk::{At, InLeaf, InNode, Reach, Read, Step};
 use super::{CastRates, CellHit, CellRay, Job};
 use crate::bih::{
-    Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
+    BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
 };
 use crate::cell::{CellError, Spe, WaitMode};
 use crate::scene::Triangle;
@@ -187,9 +187,15 @@ async fn cast_tile(
                 })
             }
         };
+        let on = &mut Reach {
+            spe,
+            cache: &mut *cache,
+            job,
+            group: c as u32,
+        };
         let step = match walker {
-            Walker::One(w) => w.run(spe, cache, job, c as u32).await?,
-            Walker::Pack(p) => p.run(spe, cache, job, c as u32).await?,
+            Walker::One(w) => w.run(on).await?,
+            Walker::Pack(p) => p.run(on).await?,
         };
         state[c] = match step {
             Step::Done(hit) => {
@@ -263,13 +269,8 @@ impl Walk {
 
     /// Goes on until the ray is done or waits for memory; a miss's get
     /// is started with the cache's tag group `group`.
-    async fn run(
-        &mut self,
-        spe: &Spe,
-        cache: &mut SoftwareCache,
-        job: &Job,
-        group: u32,
-    ) -> Result<Step, CellError> {
+    async fn run(&mut self, on: &mut Reach<'_>) -> Result<Step, CellError> {
+        let (spe, job) = (on.spe, on.job);
         let r: &CastRates = &job.rates;
         loop {
             match self.at {
@@ -287,41 +288,25 @@ impl Walk {
                     spe.compute(r.node_step);
                     self.at = self.read.node_at(job, self.node);
                 }
-                At::NodeRead => {
-                    if let Some(stop) = self.read.fetch(spe, cache, group).await? {
-                        return Ok(stop);
-                    }
-                    let nd = self.read.node();
-                    if nd.is_leaf() {
-                        self.at = At::leaf(&nd);
-                        continue;
-                    }
-                    let s = descend(&nd, &self.ray, self.inv, self.neg, self.tn, self.tf);
-                    if s.go_near {
-                        if s.go_far {
-                            self.stack.push((s.far, s.far_tn, self.tf));
-                        }
-                        (self.node, self.tf) = (s.near, s.near_tf);
-                        self.at = At::Node;
-                    } else if s.go_far {
-                        (self.node, self.tn) = (s.far, s.far_tn);
-                        self.at = At::Node;
-                    } else if !self.pop() {
+                At::NodeRead => match self.read.in_node(on).await? {
+                    InNode::Stopped(stop) => return Ok(stop),
+                    InNode::Leaf(at) => self.at = at,
+                    InNode::Inner(nd) if !self.step(&nd) && !self.pop() => {
                         return Ok(Step::Done(self.best));
                     }
-                }
+                    InNode::Inner(_) => {}
+                },
                 At::Leaf { .. } | At::IdRead { .. } | At::RecordRead { .. } => {
-                    let (rec, k, end) =
-                        match self.read.in_leaf(self.at, job, spe, cache, group).await? {
-                            InLeaf::Ended if !self.pop() => return Ok(Step::Done(self.best)),
-                            InLeaf::Ended => continue,
-                            InLeaf::Stopped(stop) => return Ok(stop),
-                            InLeaf::Goes(at) => {
-                                self.at = at;
-                                continue;
-                            }
-                            InLeaf::Record { rec, k, end } => (rec, k, end),
-                        };
+                    let (rec, k, end) = match self.read.in_leaf(self.at, on).await? {
+                        InLeaf::Ended if !self.pop() => return Ok(Step::Done(self.best)),
+                        InLeaf::Ended => continue,
+                        InLeaf::Stopped(stop) => return Ok(stop),
+                        InLeaf::Goes(at) => {
+                            self.at = at;
+                            continue;
+                        }
+                        InLeaf::Record { rec, k, end } => (rec, k, end),
+                    };
                     spe.compute(r.triangle_test);
                     self.stats.triangles_tested += 1;
                     let tri = Triangle {
@@ -343,6 +328,25 @@ impl Walk {
                 }
             }
         }
+    }
+
+    /// The ray's step at inner node `nd`: on to the near child (keeping
+    /// the far one where the ray enters it too) or to the far one; `false`
+    /// when it enters neither.
+    fn step(&mut self, nd: &BihNode) -> bool {
+        let s = descend(nd, &self.ray, self.inv, self.neg, self.tn, self.tf);
+        if s.go_near {
+            if s.go_far {
+                self.stack.push((s.far, s.far_tn, self.tf));
+            }
+            (self.node, self.tf) = (s.near, s.near_tf);
+        } else if s.go_far {
+            (self.node, self.tn) = (s.far, s.far_tn);
+        } else {
+            return false;
+        }
+        self.at = At::Node;
+        true
     }
 
     /// Pops the next node that may still hold a closer hit; `false` when

@@ -10,6 +10,15 @@ use crate::cell::{CellError, Ea, Spe};
 use crate::spe::layout::TriRecord;
 use crate::spe::software_cache::{LINE, Lookup, SoftwareCache};
 
+/// What a walk works with while it runs: its SPE, the SPE's software
+/// cache, the job, and the cache's tag group its misses are fetched by.
+pub(super) struct Reach<'a> {
+    pub spe: &'a Spe,
+    pub cache: &'a mut SoftwareCache,
+    pub job: &'a Job,
+    pub group: u32,
+}
+
 /// Where a ray's traversal stopped.
 pub(super) enum Step {
     /// Its closest hit.
@@ -54,6 +63,16 @@ pub(super) enum InLeaf {
     Record { rec: TriRecord, k: u32, end: u32 },
 }
 
+/// What a walk at `At::NodeRead` does next.
+pub(super) enum InNode {
+    /// A line is on its way, or its set is full.
+    Stopped(Step),
+    /// The node is a leaf: its first triangle.
+    Leaf(At),
+    /// The inner node, read.
+    Inner(BihNode),
+}
+
 /// The bytes a walk reads: a node or a triangle record, line by line.
 pub(super) struct Read {
     ea: u64,
@@ -72,9 +91,16 @@ impl Read {
         At::NodeRead
     }
 
-    /// The node just read.
-    pub(super) fn node(&self) -> BihNode {
-        bytemuck::pod_read_unaligned(&self.buf[..size_of::<BihNode>()])
+    /// The node under way: read on, and step into it if it is a leaf.
+    pub(super) async fn in_node(&mut self, on: &mut Reach<'_>) -> Result<InNode, CellError> {
+        if let Some(stop) = self.fetch(on).await? {
+            return Ok(InNode::Stopped(stop));
+        }
+        let nd: BihNode = bytemuck::pod_read_unaligned(&self.buf[..size_of::<BihNode>()]);
+        Ok(match nd.is_leaf() {
+            true => InNode::Leaf(At::leaf(&nd)),
+            false => InNode::Inner(nd),
+        })
     }
 
     /// Starts the read of triangle `k` of a leaf's `..end`: its id first
@@ -122,13 +148,9 @@ impl Read {
 
     /// Reads the bytes through the cache, line by line; a line on its way
     /// stops it (`Some`), to resume at that line.
-    pub(super) async fn fetch(
-        &mut self,
-        spe: &Spe,
-        cache: &mut SoftwareCache,
-        group: u32,
-    ) -> Result<Option<Step>, CellError> {
-        let rd = self;
+    pub(super) async fn fetch(&mut self, on: &mut Reach<'_>) -> Result<Option<Step>, CellError> {
+        let (rd, spe, group) = (self, on.spe, on.group);
+        let cache = &mut *on.cache;
         while rd.done < rd.len {
             let at = rd.ea + rd.done as u64;
             let n = ((LINE - at % LINE) as usize).min(rd.len - rd.done);
@@ -162,19 +184,17 @@ impl Read {
     pub(super) async fn in_leaf(
         &mut self,
         at: At,
-        job: &Job,
-        spe: &Spe,
-        cache: &mut SoftwareCache,
-        group: u32,
+        on: &mut Reach<'_>,
     ) -> Result<InLeaf, CellError> {
+        let job = on.job;
         Ok(match at {
             At::Leaf { k, end } if k == end => InLeaf::Ended,
             At::Leaf { k, end } => InLeaf::Goes(self.triangle_at(job, k, end)),
-            At::IdRead { k, end } => match self.fetch(spe, cache, group).await? {
+            At::IdRead { k, end } => match self.fetch(on).await? {
                 Some(stop) => InLeaf::Stopped(stop),
                 None => InLeaf::Goes(self.record_of_id(job, k, end)),
             },
-            At::RecordRead { k, end } => match self.fetch(spe, cache, group).await? {
+            At::RecordRead { k, end } => match self.fetch(on).await? {
                 Some(stop) => InLeaf::Stopped(stop),
                 None => InLeaf::Record {
                     rec: self.record(),

@@ -187,8 +187,8 @@ impl HostBuilder {
     pub fn build(&self, scene: &Scene, region: Aabb, cfg: &BihConfig) -> Bih {
         match self.how {
             HostBuild::Serial(build) => build(scene, region, cfg),
-            HostBuild::Parallel(grained) => {
-                grained(&mut par_prim_refs(scene), region, cfg, SUBTREE).0
+            HostBuild::Parallel(parallel) => {
+                on_threads(parallel, &mut par_prim_refs(scene), region, cfg, SUBTREE).0
             }
         }
     }
@@ -196,8 +196,28 @@ impl HostBuilder {
 
 /// A parallel builder's tree of `items` (sorted in place) with `region` as
 /// the scene box, a job of at most `grain` items built by one thread alone
-/// (the builders use [`SUBTREE`]).
+/// (the builders use [`SUBTREE`]). It is called through [`on_threads`]:
+/// on two threads or more, with more than `grain` (at least 1) items.
 pub type Grained = fn(&mut [PrimRef], Aabb, &BihConfig, usize) -> (Bih, BuildStats);
+
+/// A parallel builder's tree of `items`, sorted in place, on the current
+/// rayon pool's threads: the serial recursion's tree
+/// ([`build_items`]). On one thread, or where one job of `grain` items
+/// holds them all, it is the serial recursion itself: no task, no key.
+pub fn on_threads(
+    parallel: Grained,
+    items: &mut [PrimRef],
+    region: Aabb,
+    cfg: &BihConfig,
+    grain: usize,
+) -> (Bih, BuildStats) {
+    assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
+    let grain = grain.max(1);
+    match rayon::current_num_threads() == 1 || items.len() <= grain {
+        true => build_items(items, region, cfg),
+        false => parallel(items, region, cfg, grain),
+    }
+}
 
 /// The host builder, the serial reference.
 pub const BUILDER: HostBuilder = HostBuilder {

@@ -75,7 +75,7 @@ pub const BUILDER: HostBuilder = HostBuilder {
     name: "host_morton",
     describe: "the host builder's tree on the host's cores: Morton keys in the global heuristic's order, a parallel radix sort, the top from the keys, independent subtrees as rayon tasks (section 5's Morton route)",
     quality: Quality::ALL,
-    how: HostBuild::Parallel(build_items::<PrimRef>),
+    how: HostBuild::Parallel(build),
 };
 
 /// Pairs a block of the radix sort counts and scatters: 64 Ki pairs, 768
@@ -88,23 +88,10 @@ const KEY_CHUNK: usize = 4096;
 /// Bits a radix pass sorts by (256 counters a block).
 pub const DIGIT_BITS: u32 = 8;
 
-/// Builds a tree over `items`, sorting them in place, on the current rayon
-/// pool's threads by the Morton route: the serial recursion's tree
-/// ([`crate::kernels::recursion::build_items`]), leaf for leaf, ranges of
-/// at most `grain` items built by one thread.
-pub fn build_items<T: Item + Send + Sync>(
-    items: &mut [T],
-    region: Aabb,
-    cfg: &BihConfig,
-    grain: usize,
-) -> (Bih, BuildStats) {
-    assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
-    let grain = grain.max(1);
-    if rayon::current_num_threads() == 1 || items.len() <= grain {
-        // One thread, or one range: the serial recursion itself, no key,
-        // no sort (the halving table alone is 2^16 cells).
-        return crate::kernels::recursion::build_items(items, region, cfg);
-    }
+/// Builds by the Morton route on two threads or more (through
+/// [`super::on_threads`]): the serial recursion's tree, leaf for leaf,
+/// ranges of at most `grain` items built by one thread.
+fn build(items: &mut [PrimRef], region: Aabb, cfg: &BihConfig, grain: usize) -> (Bih, BuildStats) {
     let route = Route {
         cfg,
         grain,

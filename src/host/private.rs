@@ -39,7 +39,7 @@ pub const BUILDER: HostBuilder = HostBuilder {
     name: "host_private",
     describe: "the host builder's tree on the host's cores: a deque per thread, work stealing (crossbeam; section 5's private queues)",
     quality: Quality::ALL,
-    how: HostBuild::Parallel(build_items::<PrimRef>),
+    how: HostBuild::Parallel(build),
 };
 
 /// A job: node `id` over its own items.
@@ -49,21 +49,10 @@ struct Job<'a, T> {
     node: NodeJob,
 }
 
-/// Builds a tree over `items`, sorting them in place, on the current rayon
-/// pool's threads with per-thread deques: the serial recursion's tree
-/// ([`crate::kernels::recursion::build_items`]), node for node.
-pub fn build_items<T: Item + Send + Sync>(
-    items: &mut [T],
-    region: Aabb,
-    cfg: &BihConfig,
-    grain: usize,
-) -> (Bih, BuildStats) {
-    assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
+/// Builds on two threads or more with per-thread deques (through
+/// [`super::on_threads`]): the serial recursion's tree, node for node.
+fn build(items: &mut [PrimRef], region: Aabb, cfg: &BihConfig, grain: usize) -> (Bih, BuildStats) {
     let threads = rayon::current_num_threads();
-    if threads == 1 {
-        // One thread: the serial recursion itself, no deque, no task.
-        return crate::kernels::recursion::build_items(items, region, cfg);
-    }
     let root = super::root_job(items, region);
     let ids = AtomicUsize::new(1);
     let mut stats = BuildStats::default();

@@ -43,7 +43,7 @@ pub const BUILDER: HostBuilder = HostBuilder {
     name: "host_shared",
     describe: "the host builder's tree level by level on the host's cores: one shared job queue a level, batches taken atomically (rayon; section 5's shared queue)",
     quality: Quality::ALL,
-    how: HostBuild::Parallel(build_items::<PrimRef>),
+    how: HostBuild::Parallel(build),
 };
 
 /// Jobs one take hands out at most (as `spe_bfs_shared --agglomerate`).
@@ -57,20 +57,9 @@ struct Job {
     node: NodeJob,
 }
 
-/// Builds a tree over `items`, sorting them in place, level by level on
-/// the current rayon pool's threads: the serial recursion's tree
-/// ([`crate::kernels::recursion::build_items`]), node for node.
-pub fn build_items<T: Item + Send + Sync>(
-    items: &mut [T],
-    region: Aabb,
-    cfg: &BihConfig,
-    grain: usize,
-) -> (Bih, BuildStats) {
-    assert!(cfg.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
-    if rayon::current_num_threads() == 1 {
-        // One thread: the serial recursion itself, no level, no task.
-        return crate::kernels::recursion::build_items(items, region, cfg);
-    }
+/// Builds level by level on two threads or more (through
+/// [`super::on_threads`]): the serial recursion's tree, node for node.
+fn build(items: &mut [PrimRef], region: Aabb, cfg: &BihConfig, grain: usize) -> (Bih, BuildStats) {
     let root = super::root_job(items, region);
     let mut nodes = vec![BihNode::default()];
     let mut stats = BuildStats::default();

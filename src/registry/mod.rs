@@ -275,15 +275,10 @@ impl BuilderKind {
             Family::Host(HostBuilder {
                 how: HostBuild::Parallel(g),
                 ..
-            }) if self.builds(cfg) => Some(
-                g(
-                    &mut crate::host::prim_refs(scene),
-                    scene.bounds(),
-                    cfg,
-                    grain,
-                )
-                .0,
-            ),
+            }) if self.builds(cfg) => {
+                let items = &mut crate::host::prim_refs(scene);
+                Some(crate::host::on_threads(*g, items, scene.bounds(), cfg, grain).0)
+            }
             _ => None,
         }
     }

@@ -20,9 +20,8 @@ use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::View;
 use cellbih::scene::{Scene, zoo};
-use cellbih_cli::args::DataArg;
 use cellbih_cli::args::RunArgs;
-use cellbih_cli::args::ViewsArg;
+use cellbih_cli::args::SceneArgs;
 use cellbih_cli::report::{Series, line_plot, output, side_by_side};
 
 mod zoo_summary;
@@ -57,9 +56,7 @@ struct Args {
     #[arg(long)]
     defaults_only: bool,
     #[command(flatten)]
-    camera: ViewsArg,
-    #[command(flatten)]
-    data: DataArg,
+    scene: SceneArgs,
     #[command(flatten)]
     run: RunArgs,
 }
@@ -184,8 +181,8 @@ fn run(args: &Args) -> Result<(), String> {
         true => zoo::SET.iter().map(|s| s.to_string()).collect(),
         false => args.scenes.clone(),
     };
-    let scenes = cellbih_cli::report::load_scenes(&names, args.data.dir().as_deref())?;
-    let view = args.camera.view();
+    let scenes = cellbih_cli::report::load_scenes(&names, args.scene.data.dir().as_deref())?;
+    let view = args.scene.camera.view();
     // Each scene's baseline: simulated ms, SAH cost and ray cost.
     let bases = side_by_side("baselines", &scenes, |scene| {
         let base = Build::new(BuilderKind::SPE_BFS)

@@ -291,6 +291,16 @@ impl DataArg {
     }
 }
 
+/// Where an experiment over several scenes finds its meshes and where each
+/// scene's camera stands: `--data DIR` and `--camera`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct SceneArgs {
+    #[command(flatten)]
+    pub data: DataArg,
+    #[command(flatten)]
+    pub camera: ViewsArg,
+}
+
 /// An experiment's arguments, parsed as every program of the front end
 /// parses them: help wrapped at 80 columns, errors printed by clap.
 pub fn parse<A: clap::Parser>() -> A {

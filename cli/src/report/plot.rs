@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::output::write_bytes;
@@ -27,19 +28,6 @@ pub fn line_plot(
     log2_x: bool,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let mut svg = String::new();
-    draw_lines(&mut svg, title, x_label, y_label, series, log2_x)?;
-    write_bytes(path, svg.as_bytes())?;
-    Ok(())
-}
-
-fn draw_lines(
-    svg: &mut String,
-    title: &str,
-    x_label: &str,
-    y_label: &str,
-    series: &[Series],
-    log2_x: bool,
-) -> Result<(), Box<dyn std::error::Error>> {
     let tx = |x: f64| if log2_x { x.log2() } else { x };
     let xs = series.iter().flat_map(|s| s.points.iter().map(|p| tx(p.0)));
     let (x0, x1) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
@@ -50,14 +38,9 @@ fn draw_lines(
         .flat_map(|s| s.points.iter().map(|p| p.1))
         .fold(0.0f64, f64::max)
         * 1.08;
-    let root = SVGBackend::with_string(svg, (900, 560)).into_drawing_area();
+    let root = SVGBackend::with_string(&mut svg, (900, 560)).into_drawing_area();
     root.fill(&WHITE)?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 22))
-        .margin(16)
-        .x_label_area_size(48)
-        .y_label_area_size(64)
-        .build_cartesian_2d(x0..x1, 0.0..y1.max(1e-9))?;
+    let mut chart = frame(&root, title, 22).build_cartesian_2d(x0..x1, 0.0..y1.max(1e-9))?;
     let fmt_x = |v: &f64| {
         if log2_x {
             let b = 2f64.powf(*v).round();
@@ -96,6 +79,9 @@ fn draw_lines(
     }
     labels(&mut chart, SeriesLabelPosition::UpperLeft)?;
     root.present()?;
+    drop(chart);
+    drop(root);
+    write_bytes(path, svg.as_bytes())?;
     Ok(())
 }
 
@@ -122,11 +108,7 @@ pub fn scatter_plot(
         }
         let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
         root.fill(&WHITE)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 20))
-            .margin(16)
-            .x_label_area_size(48)
-            .y_label_area_size(64)
+        let mut chart = frame(&root, title, 20)
             .build_cartesian_2d((x0 / 1.5..x1 * 1.5).log_scale(), 0.0..(y1 * 1.08).max(1e-9))?;
         chart
             .configure_mesh()
@@ -176,4 +158,19 @@ fn labels<'a, CT: CoordTranslate>(
         .position(position)
         .draw()?;
     Ok(())
+}
+
+/// A chart's frame on `root`: its title (in `size` points), its margin and
+/// the room for its axes' labels.
+fn frame<'a, 'b, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    size: u32,
+) -> ChartBuilder<'a, 'b, DB> {
+    let mut b = ChartBuilder::on(root);
+    b.caption(title, ("sans-serif", size))
+        .margin(16)
+        .x_label_area_size(48)
+        .y_label_area_size(64);
+    b
 }

@@ -93,6 +93,44 @@ const _: () = assert!(size_of::<Entry>() == 128);
 /// plane (as bits). One line.
 const DESCRIPTOR_WORDS: usize = 32;
 
+/// What the coordinator hands every helper: partition records
+/// `first..first + count` around `split`.
+#[derive(Clone, Copy, Debug)]
+pub struct Descriptor {
+    pub first: u32,
+    pub count: u32,
+    pub split: Split,
+}
+
+impl Descriptor {
+    /// Its line in the local store.
+    fn words(&self) -> [u32; DESCRIPTOR_WORDS] {
+        let mut words = [0u32; DESCRIPTOR_WORDS];
+        let (first, count, split) = (self.first, self.count, self.split);
+        words[..4].copy_from_slice(&[first, count, split.axis as u32, split.plane.to_bits()]);
+        words
+    }
+
+    /// The descriptor its first four words hold.
+    fn of_words(w: &[u32]) -> Self {
+        let split = Split {
+            axis: w[2] as usize,
+            plane: f32::from_bits(w[3]),
+        };
+        Descriptor {
+            first: w[0],
+            count: w[1],
+            split,
+        }
+    }
+
+    /// SPE `j`'s chunk of the interval shared by `n`: records `lo..hi`.
+    fn chunk(&self, j: u64, n: u64) -> (u64, u64) {
+        let (first, count) = (self.first as u64, self.count as u64);
+        (first + count * j / n, first + count * (j + 1) / n)
+    }
+}
+
 /// What the SPEs share in main memory, set up by the host.
 #[derive(Clone, Copy, Debug)]
 pub struct CoopArea {
@@ -132,28 +170,23 @@ impl Coop {
         })
     }
 
-    /// The coordinator: hands `first..first + count` and `split` to every
-    /// other SPE and does its own share.
-    #[allow(clippy::too_many_arguments)]
+    /// The coordinator: hands `d` to every other SPE and does its own
+    /// share.
     pub async fn lead(
         &mut self,
         spe: &Spe,
         bufs: &Fig1Buffers,
-        first: u32,
-        count: u32,
-        split: Split,
+        d: Descriptor,
         rate: Cycles,
     ) -> Result<(Side, Side), CellError> {
-        let mut words = [0u32; DESCRIPTOR_WORDS];
-        words[..4].copy_from_slice(&[first, count, split.axis as u32, split.plane.to_bits()]);
-        spe.ls_write(self.line, &words)?;
+        spe.ls_write(self.line, &d.words())?;
         spe.put(self.line, self.area.descriptor, 128, self.tag)
             .await?;
         spe.wait_tag(self.tag).await?;
         for to in 1..self.area.spes {
             spe.send_signal(to, 1, GO).await?;
         }
-        self.share(spe, bufs, first, count, split, rate).await
+        self.share(spe, bufs, d, rate).await
     }
 
     /// A helper, signalled `GO`: reads the descriptor and does its share.
@@ -166,35 +199,27 @@ impl Coop {
         spe.get(self.line, self.area.descriptor, 128, self.tag)
             .await?;
         spe.wait_tag(self.tag).await?;
-        let w: Vec<u32> = spe.ls_read(self.line, 4)?;
-        let split = Split {
-            axis: w[2] as usize,
-            plane: f32::from_bits(w[3]),
-        };
-        self.share(spe, bufs, w[0], w[1], split, rate).await?;
+        let d = Descriptor::of_words(&spe.ls_read::<u32>(self.line, 4)?);
+        self.share(spe, bufs, d, rate).await?;
         Ok(())
     }
 
-    /// This SPE's share of partitioning `first..first + count` around
-    /// `split`; returns both whole sides.
+    /// This SPE's share of partitioning `d`'s interval around its split;
+    /// returns both whole sides.
     async fn share(
         &mut self,
         spe: &Spe,
         bufs: &Fig1Buffers,
-        first: u32,
-        count: u32,
-        split: Split,
+        d: Descriptor,
         rate: Cycles,
     ) -> Result<(Side, Side), CellError> {
         let (n, k) = (self.area.spes as u64, spe.id() as u64);
-        let lo = first as u64 + count as u64 * k / n;
-        let hi = first as u64 + count as u64 * (k + 1) / n;
+        let (lo, hi) = d.chunk(k, n);
+        let (first, split) = (d.first, d.split);
         let size = size_of::<TriRecord>() as u64;
         let per_block = BLOCK_BYTES as u64 / size;
         let Some(scratch) = self.area.scratch else {
-            return self
-                .share_in_place(spe, bufs, (first, count), split, rate)
-                .await;
+            return self.share_in_place(spe, bufs, d, rate).await;
         };
         let rec = |base: Ea, i: u64| base.offset(i * size);
         // 1. Partition the chunk block by block into the scratch array
@@ -322,15 +347,12 @@ impl Coop {
         &mut self,
         spe: &Spe,
         bufs: &Fig1Buffers,
-        (first, count): (u32, u32),
-        split: Split,
+        d: Descriptor,
         rate: Cycles,
     ) -> Result<(Side, Side), CellError> {
         let (n, k) = (self.area.spes as u64, spe.id() as u64);
-        let chunk = |j: u64| {
-            let lo = first as u64 + count as u64 * j / n;
-            (lo, first as u64 + count as u64 * (j + 1) / n)
-        };
+        let chunk = |j: u64| d.chunk(j, n);
+        let (first, split) = (d.first, d.split);
         let size = size_of::<TriRecord>() as u64;
         let (lo, hi) = chunk(k);
         // 1. Fig. 1 in place: the chunk becomes its left part, then its right.

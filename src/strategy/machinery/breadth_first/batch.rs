@@ -14,6 +14,7 @@ use crate::kernels::sah::Bins;
 use crate::kernels::split::{Split, partition};
 use crate::spe::fig1::{partition_in_place, stream_fold};
 use crate::spe::layout::TriRecord;
+use crate::strategy::machinery::coop::Descriptor;
 
 /// What a job makes: a leaf, a clip node (the empty-space cut-off: no
 /// triangle moves), or an inner node that splits its interval (with the
@@ -232,15 +233,13 @@ impl SpeBuilder<'_> {
             && job.count >= *min
         {
             // Every SPE partitions a share of it.
+            let d = Descriptor {
+                first: job.first,
+                count: job.count,
+                split: s,
+            };
             let (l, r) = coop
-                .lead(
-                    self.spe,
-                    &self.fig1,
-                    job.first,
-                    job.count,
-                    s,
-                    k.spe_partition_item,
-                )
+                .lead(self.spe, &self.fig1, d, k.spe_partition_item)
                 .await?;
             return self.split_node(job, s, cand, &l, &r).await;
         }
