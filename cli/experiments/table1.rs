@@ -202,7 +202,8 @@ const MIB: f64 = 1024.0 * 1024.0;
 
 fn print_table(rows: &[serde_json::Value]) {
     // Two tables of 80 columns: the times beside the paper's, then the
-    // ratio, the host's time and the memory. Each row is led by its model
+    // ratio, the host's time, the memory and the triangles. Each row is
+    // led by its model
     // (on its first row) and method.
     let mut last = "";
     let leads: Vec<String> = (rows.iter())
@@ -211,11 +212,11 @@ fn print_table(rows: &[serde_json::Value]) {
             let label = if model != last {
                 last = model;
                 let star = if r["stand_in"].is_null() { "" } else { "*" };
-                format!("{model}{star} ({})", r["triangles"])
+                format!("{model}{star}")
             } else {
                 String::new()
             };
-            format!("{label:<21} {:<15}", r["method"].as_str().unwrap_or(""))
+            format!("{label:<13} {:<24}", r["method"].as_str().unwrap_or(""))
         })
         .collect();
     // No paper figure: out of memory for the paper's methods; the
@@ -229,7 +230,7 @@ fn print_table(rows: &[serde_json::Value]) {
         }
     };
     println!(
-        "{:<21} {:<15} {:>10} {:>10} {:>7} {:>7}",
+        "{:<13} {:<24} {:>10} {:>10} {:>7} {:>7}",
         "model", "method", "ours (ms)", "paper (ms)", "speedup", "paper"
     );
     for (r, lead) in rows.iter().zip(&leads) {
@@ -242,15 +243,16 @@ fn print_table(rows: &[serde_json::Value]) {
         );
     }
     println!(
-        "\n{:<21} {:<15} {:>10} {:>9} {:>8}",
-        "model", "method", "ours/paper", "host (ms)", "MiB"
+        "\n{:<13} {:<24} {:>10} {:>9} {:>8} {:>9}",
+        "model", "method", "ours/paper", "host (ms)", "MiB", "triangles"
     );
     for (r, lead) in rows.iter().zip(&leads) {
         println!(
-            "{lead} {} {:>9.0} {:>8.1}",
+            "{lead} {} {:>9.0} {:>8.1} {:>9}",
             opt(r, "ratio", 10, 2),
             r["host_ms"].as_f64().unwrap_or(0.0),
             r["memory_mib"].as_f64().unwrap_or(0.0),
+            r["triangles"].as_u64().unwrap_or(0),
         );
     }
     let wrap = |text: &str| println!("{}", cellbih_cli::report::wrap(text, 80));

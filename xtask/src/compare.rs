@@ -1,0 +1,170 @@
+//! How a regenerated block is held against the page's: simulated figures
+//! exactly, host times for presence only.
+//!
+//! Simulated Cell time is deterministic, so every simulated figure must
+//! come back to the letter. A host time differs from run to run and from
+//! machine to machine: in a table, a column whose header names `host`
+//! (`host ms`, `host (ms)`) is masked on both sides before the compare; a
+//! block marked `host` is compared only for being there.
+
+/// The first differences between the page's body and the regenerated
+/// one, at most `most` of them, each as the line number in the body and
+/// the two lines; empty when they agree.
+pub fn differences(page: &str, made: &str, host: bool, most: usize) -> Vec<Difference> {
+    if host {
+        let empty = |s: &str| {
+            s.lines()
+                .all(|l| l.trim().is_empty() || l.starts_with("```"))
+        };
+        return match (empty(page), empty(made)) {
+            (true, false) => vec![Difference::new(1, "(nothing)", "(a host-time block)")],
+            _ => Vec::new(),
+        };
+    }
+    let (a, b) = (mask(page), mask(made));
+    let (a, b): (Vec<&str>, Vec<&str>) = (a.lines().collect(), b.lines().collect());
+    let mut out = Vec::new();
+    for i in 0..a.len().max(b.len()) {
+        let (x, y) = (a.get(i).copied(), b.get(i).copied());
+        if x != y {
+            out.push(Difference::new(
+                i + 1,
+                x.unwrap_or("(no line)"),
+                y.unwrap_or("(no line)"),
+            ));
+            if out.len() == most {
+                break;
+            }
+        }
+    }
+    out
+}
+
+/// A line that differs.
+#[derive(Debug, PartialEq, Eq)]
+pub struct Difference {
+    pub line: usize,
+    pub page: String,
+    pub made: String,
+}
+
+impl Difference {
+    fn new(line: usize, page: &str, made: &str) -> Self {
+        Difference {
+            line,
+            page: page.to_string(),
+            made: made.to_string(),
+        }
+    }
+}
+
+/// `text` with every host-time cell replaced by `#`: in each table (a
+/// header line and the lines under it, up to a blank line), the words of
+/// a row that overlap a header cell naming `host` (the word and the words
+/// a single space joins to it: `host ms`), the row's words then one space
+/// apart.
+pub fn mask(text: &str) -> String {
+    let mut spans: Vec<(usize, usize)> = Vec::new();
+    let mut out = String::new();
+    for line in text.lines() {
+        if line.trim().is_empty() {
+            spans.clear();
+            out.push_str(line);
+        } else if let Some(found) = host_cells(line) {
+            spans = found;
+            out.push_str(line);
+        } else if spans.is_empty() {
+            out.push_str(line);
+        } else {
+            out.push_str(&masked(line, &spans));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// The spans of the header cells of `line` that name `host`, if any.
+fn host_cells(line: &str) -> Option<Vec<(usize, usize)>> {
+    let chars: Vec<char> = line.chars().collect();
+    let mut cells = Vec::new();
+    let mut i = 0;
+    while i < chars.len() {
+        if chars[i] == ' ' {
+            i += 1;
+            continue;
+        }
+        // A cell: words joined by single spaces.
+        let start = i;
+        while i < chars.len() && !(chars[i] == ' ' && chars.get(i + 1).is_none_or(|&c| c == ' ')) {
+            i += 1;
+        }
+        let cell: String = chars[start..i].iter().collect();
+        if cell.to_lowercase().contains("host") {
+            cells.push((start, i));
+        }
+    }
+    (!cells.is_empty()).then_some(cells)
+}
+
+/// `line`'s words, one space apart, each that overlaps one of `spans`
+/// replaced by `#` (so a host time of another width aligns the same).
+fn masked(line: &str, spans: &[(usize, usize)]) -> String {
+    let chars: Vec<char> = line.chars().collect();
+    let mut words: Vec<String> = Vec::new();
+    let mut i = 0;
+    while i < chars.len() {
+        if chars[i] == ' ' {
+            i += 1;
+            continue;
+        }
+        let start = i;
+        while i < chars.len() && chars[i] != ' ' {
+            i += 1;
+        }
+        words.push(match spans.iter().any(|&(a, b)| start < b && a < i) {
+            true => "#".to_string(),
+            false => chars[start..i].iter().collect(),
+        });
+    }
+    words.join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TABLE: &str = "model   method     sim ms  host ms\n\
+                         bunny   spe_bfs      54.0       35\n\
+                         dragon  spe_bfs     896.8      850\n\
+                         \n\
+                         after the table 35\n";
+
+    #[test]
+    fn a_host_column_is_masked_and_nothing_else() {
+        let m = mask(TABLE);
+        assert!(m.contains("\nbunny spe_bfs 54.0 #\n"), "{m}");
+        assert!(m.contains("\ndragon spe_bfs 896.8 #\n"), "{m}");
+        assert!(m.contains("after the table 35"), "{m}");
+        let other_host = TABLE.replace("  35\n", "  99\n").replace(" 850", "1234");
+        assert!(differences(TABLE, &other_host, false, 5).is_empty());
+    }
+
+    #[test]
+    fn a_simulated_figure_that_moves_is_a_difference() {
+        let moved = TABLE.replace("896.8", "896.7");
+        let d = differences(TABLE, &moved, false, 5);
+        assert_eq!(d.len(), 1);
+        assert_eq!(d[0].line, 3);
+        assert!(d[0].page.contains("896.8") && d[0].made.contains("896.7"));
+        let longer = format!("{TABLE}one more\n");
+        assert_eq!(differences(TABLE, &longer, false, 5)[0].made, "one more");
+        let prose = TABLE.replace("table 35", "table 36");
+        assert_eq!(differences(TABLE, &prose, false, 5).len(), 1);
+    }
+
+    #[test]
+    fn a_host_block_is_compared_for_presence_only() {
+        assert!(differences(TABLE, "anything\n", true, 5).is_empty());
+        assert_eq!(differences("```text\n```\n", TABLE, true, 5).len(), 1);
+    }
+}
