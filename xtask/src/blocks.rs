@@ -13,7 +13,8 @@
 //! arguments) and, each after a `|`, the block's options: `quick` (in the
 //! quick check), `host` (every figure of it is host time: compared only
 //! for presence), `svg: FILE…` (plots the run writes into its `--out`
-//! directory, copied beside the page), `from: TEXT` (the output from its
+//! directory, copied beside the page; `host-svg: FILE…` for plots of host
+//! time, compared only for being there), `from: TEXT` (the output from its
 //! first line that starts with TEXT: a long run's summary).
 
 use std::fmt;
@@ -33,6 +34,8 @@ pub struct Block {
     pub host: bool,
     /// The plots it copies beside the page.
     pub svgs: Vec<String>,
+    /// Those of them that plot host time.
+    pub host_svgs: Vec<String>,
     /// The output from the first line that starts with this.
     pub from: Option<String>,
     /// The lines between its markers, as the page has them.
@@ -152,6 +155,7 @@ fn marker(text: &str, line: usize) -> Result<Block, MarkerError> {
         quick: false,
         host: false,
         svgs: Vec::new(),
+        host_svgs: Vec::new(),
         from: None,
         body: String::new(),
     };
@@ -162,10 +166,16 @@ fn marker(text: &str, line: usize) -> Result<Block, MarkerError> {
             Some(("svg", files)) => block
                 .svgs
                 .extend(files.split_whitespace().map(String::from)),
+            Some(("host-svg", files)) => {
+                let files: Vec<String> = files.split_whitespace().map(String::from).collect();
+                block.svgs.extend(files.iter().cloned());
+                block.host_svgs.extend(files);
+            }
             Some(("from", text)) => block.from = Some(text.trim().to_string()),
             _ => {
-                let what =
-                    format!("unknown option `{option}` (quick, host, svg: FILE…, from: TEXT)");
+                let what = format!(
+                    "unknown option `{option}` (quick, host, svg: FILE…, host-svg: FILE…, from: TEXT)"
+                );
                 return Err(error(line, &what));
             }
         }
@@ -217,6 +227,16 @@ mod tests {
         assert_eq!(b.command(), "table1 --scenes bunny");
         assert!(b.quick && !b.host);
         assert_eq!(b.svgs, ["a.svg", "b.svg"]);
+        assert!(b.host_svgs.is_empty());
+        let split = PAGE.replace("| svg: a.svg b.svg", "| svg: a.svg | host-svg: b.svg");
+        let b2 = &parse(&split).unwrap().blocks[0];
+        assert_eq!(
+            (b2.svgs.clone(), b2.host_svgs.clone()),
+            (
+                vec!["a.svg".to_string(), "b.svg".to_string()],
+                vec!["b.svg".to_string()]
+            )
+        );
         assert_eq!(b.line, 5);
         assert_eq!(b.body, "```text\nold\n```\n");
         assert_eq!(page.with_bodies(|b| b.body.clone()), PAGE);

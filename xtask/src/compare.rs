@@ -62,16 +62,25 @@ impl Difference {
 /// header line and the lines under it, up to a blank line), the words of
 /// a row that overlap a header cell naming `host` (the word and the words
 /// a single space joins to it: `host ms`), the row's words then one space
-/// apart.
+/// apart; under a title that names host (`host ms (one thread)` over a
+/// header), every word of the rows.
 pub fn mask(text: &str) -> String {
+    let lines: Vec<&str> = text.lines().collect();
     let mut spans: Vec<(usize, usize)> = Vec::new();
     let mut out = String::new();
-    for line in text.lines() {
+    for (i, line) in lines.iter().enumerate() {
+        let next = lines.get(i + 1).copied().unwrap_or("");
         if line.trim().is_empty() {
             spans.clear();
             out.push_str(line);
         } else if let Some(found) = host_cells(line) {
-            spans = found;
+            // A title naming host over a header: the whole table is host
+            // time.
+            let title = found.len() == 1 && cells(line).len() == 1 && cells(next).len() > 1;
+            spans = match title {
+                true => vec![(0, usize::MAX)],
+                false => found,
+            };
             out.push_str(line);
         } else if spans.is_empty() {
             out.push_str(line);
@@ -85,25 +94,31 @@ pub fn mask(text: &str) -> String {
 
 /// The spans of the header cells of `line` that name `host`, if any.
 fn host_cells(line: &str) -> Option<Vec<(usize, usize)>> {
+    let host: Vec<(usize, usize)> = (cells(line).into_iter())
+        .filter(|(_, text)| text.to_lowercase().contains("host"))
+        .map(|(span, _)| span)
+        .collect();
+    (!host.is_empty()).then_some(host)
+}
+
+/// The cells of `line`: words joined by single spaces, with their spans
+/// (in characters).
+fn cells(line: &str) -> Vec<((usize, usize), String)> {
     let chars: Vec<char> = line.chars().collect();
-    let mut cells = Vec::new();
+    let mut out = Vec::new();
     let mut i = 0;
     while i < chars.len() {
         if chars[i] == ' ' {
             i += 1;
             continue;
         }
-        // A cell: words joined by single spaces.
         let start = i;
         while i < chars.len() && !(chars[i] == ' ' && chars.get(i + 1).is_none_or(|&c| c == ' ')) {
             i += 1;
         }
-        let cell: String = chars[start..i].iter().collect();
-        if cell.to_lowercase().contains("host") {
-            cells.push((start, i));
-        }
+        out.push(((start, i), chars[start..i].iter().collect()));
     }
-    (!cells.is_empty()).then_some(cells)
+    out
 }
 
 /// `line`'s words, one space apart, each that overlaps one of `spans`
@@ -160,6 +175,15 @@ mod tests {
         assert_eq!(differences(TABLE, &longer, false, 5)[0].made, "one more");
         let prose = TABLE.replace("table 35", "table 36");
         assert_eq!(differences(TABLE, &prose, false, 5).len(), 1);
+    }
+
+    #[test]
+    fn a_table_titled_host_is_masked_whole() {
+        let t = "host ms (one thread)\nupdate  min ms  mean ms\nlocal    0.008    0.080\n\nsimulated\nupdate  ms\nlocal  6.24\n";
+        let other = t.replace("0.080", "0.5");
+        assert!(differences(t, &other, false, 5).is_empty());
+        let moved = t.replace("6.24", "6.25");
+        assert_eq!(differences(t, &moved, false, 5).len(), 1);
     }
 
     #[test]

@@ -216,7 +216,7 @@ fn check_block(name: &str, b: &Block, run: &Run, dir: &Path) -> bool {
         let new = std::fs::read(run.out.join(svg));
         let old = std::fs::read(dir.join(svg));
         let same = match (&new, &old) {
-            (Ok(_), Ok(_)) if b.host => true,
+            (Ok(_), Ok(_)) if b.host || b.host_svgs.contains(svg) => true,
             (Ok(n), Ok(o)) => n == o,
             _ => false,
         };
