@@ -182,6 +182,26 @@ fn every_path_and_link_the_words_name_is_there() {
 }
 
 #[test]
+fn every_plot_in_docs_is_shown_by_a_page() {
+    let root = Path::new(ROOT);
+    let text: String = (pages().iter())
+        .map(|p| std::fs::read_to_string(p).expect("a page reads"))
+        .collect();
+    let mut plots = Vec::new();
+    files(&root.join("docs"), ".svg", &mut plots);
+    let unused: Vec<String> = (plots.iter())
+        .map(|p| {
+            p.file_name()
+                .expect("a file")
+                .to_string_lossy()
+                .into_owned()
+        })
+        .filter(|name| !text.contains(&format!("{name})")))
+        .collect();
+    assert!(unused.is_empty(), "plots no page shows: {unused:?}");
+}
+
+#[test]
 fn the_checks_find_what_is_not_there() {
     let root = Path::new(ROOT);
     let page = root.join("docs/some-page.md");

@@ -13,7 +13,8 @@
 //! arguments) and, each after a `|`, the block's options: `quick` (in the
 //! quick check), `host` (every figure of it is host time: compared only
 //! for presence), `svg: FILE…` (plots the run writes into its `--out`
-//! directory, copied beside the page; `host-svg: FILE…` for plots of host
+//! directory, copied to that path from the page: `docs/<name>.svg` from the
+//! README; `host-svg: FILE…` for plots of host
 //! time, compared only for being there), `from: TEXT` (the output from its
 //! first line that starts with TEXT: a long run's summary).
 

@@ -156,7 +156,7 @@ fn figures(o: &Options) -> Result<bool, String> {
                 agree &= check_block(&name, b, run, dir);
             } else {
                 for svg in &b.svgs {
-                    std::fs::copy(run.out.join(svg), dir.join(svg))
+                    std::fs::copy(made_plot(run, svg), dir.join(svg))
                         .map_err(|e| format!("{name}:{}: {svg}: {e}", b.line))?;
                 }
             }
@@ -213,7 +213,7 @@ fn check_block(name: &str, b: &Block, run: &Run, dir: &Path) -> bool {
         }
     }
     for svg in &b.svgs {
-        let new = std::fs::read(run.out.join(svg));
+        let new = std::fs::read(made_plot(run, svg));
         let old = std::fs::read(dir.join(svg));
         let same = match (&new, &old) {
             (Ok(_), Ok(_)) if b.host || b.host_svgs.contains(svg) => true,
@@ -226,6 +226,12 @@ fn check_block(name: &str, b: &Block, run: &Run, dir: &Path) -> bool {
         }
     }
     agree
+}
+
+/// Where the run wrote the plot a block names (by the page's path to it,
+/// `docs/x.svg` from the README): its `--out` directory, by file name.
+fn made_plot(run: &Run, svg: &str) -> PathBuf {
+    run.out.join(Path::new(svg).file_name().unwrap_or_default())
 }
 
 /// One command's run.

@@ -1,5 +1,5 @@
 //! `spe_scaling`'s summary: per scene and builder the speedup on 4, 6 and 8
-//! SPEs, whether 8 are slower than 4 and whether the tree is the
+//! SPEs (and 12 and 16 in the what-if beyond 8), whether 8 are slower than 4 and whether the tree is the
 //! baseline's; with `--zoo` the goals checked (on every scene of at least
 //! 100,000 triangles the best breadth-first builder at least 6.5x on 8
 //! SPEs and `spe_morton` at least 10x; on every scene 8 SPEs never slower
@@ -59,6 +59,7 @@ pub fn summary(rows: &[Value], zoo: bool) -> Summary {
         out.push(json!({
             "scene": scene, "triangles": n, "baseline_ms": base, "builder": builder,
             "speedup_4": at(4), "speedup_6": at(6), "speedup_8": at(8),
+            "speedup_12": at(12), "speedup_16": at(16),
             "eight_slower_than_four": matches!((at(8), at(4)), (Some(e), Some(f)) if e < f),
             "baseline_tree": same,
         }));
@@ -116,10 +117,20 @@ pub fn print(s: &Summary) {
             80
         )
     );
-    println!(
-        "{:<22} {:>9} {:<16} {:>6} {:>6} {:>6}  notes",
-        "scene", "triangles", "builder", "4", "6", "8"
+    // The what-if's 12 and 16 SPEs where the run went that far.
+    let beyond = s.rows.iter().any(|r| !r["speedup_12"].is_null());
+    let (spes, scene_width): (&[u64], usize) = match beyond {
+        true => (&[4, 6, 8, 12, 16], 18),
+        false => (&[4, 6, 8], 22),
+    };
+    let mut head = format!(
+        "{:<scene_width$} {:>9} {:<16}",
+        "scene", "triangles", "builder"
     );
+    for n in spes {
+        head += &format!(" {n:>6}");
+    }
+    println!("{head}  notes");
     let f = |v: &Value| v.as_f64().map_or("-".into(), |x| format!("{x:.2}"));
     for r in &s.rows {
         let mut notes = Vec::new();
@@ -129,16 +140,16 @@ pub fn print(s: &Summary) {
         if r["baseline_tree"] != true {
             notes.push("tree!");
         }
-        println!(
-            "{:<22} {:>9} {:<16} {:>6} {:>6} {:>6}  {}",
+        let mut line = format!(
+            "{:<scene_width$} {:>9} {:<16}",
             r["scene"].as_str().unwrap_or_default(),
             r["triangles"].as_u64().unwrap_or(0),
             r["builder"].as_str().unwrap_or_default(),
-            f(&r["speedup_4"]),
-            f(&r["speedup_6"]),
-            f(&r["speedup_8"]),
-            notes.join("; ")
         );
+        for n in spes {
+            line += &format!(" {:>6}", f(&r[format!("speedup_{n}")]));
+        }
+        println!("{line}  {}", notes.join("; "));
     }
     if s.goals.is_empty() {
         return;
