@@ -218,7 +218,8 @@ impl<'a> Settings<'a> {
 
     /// The settings as one line of text: the knobs given (the JSON has every
     /// knob's value), the tree, the Cell and the cast as the command line
-    /// spells them, and the version.
+    /// spells them, and the version (without the commit, which the JSON
+    /// names).
     pub fn line(&self) -> String {
         let b = self.build;
         let mut parts = vec![match self.several {
@@ -280,7 +281,9 @@ impl<'a> Settings<'a> {
                 .collect();
             parts.push(given.join(" "));
         }
-        parts.push(format!("cellbih {}", version()));
+        // The version without its commit: a report's text stays the same
+        // from commit to commit (the JSON's `version` names the commit).
+        parts.push(format!("cellbih {}", env!("CARGO_PKG_VERSION")));
         parts.join("; ")
     }
 }
