@@ -32,11 +32,11 @@ use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
 use cellbih_cli::args::RunArgs;
 use cellbih_cli::args::SceneArgs;
-use cellbih_cli::report::{Series, output, scatter_plot, side_by_side};
+use cellbih_cli::report::{Series, one_thread_each, output, scatter_plot};
 
 #[derive(Parser)]
 #[command(
-    about = "Build time against tree quality: every builder and quality setting on five scenes, the Pareto fronts (default run: 20–31 min and 13–15 GB of memory at its peak, on a 2-core machine)"
+    about = "Build time against tree quality: every builder and quality setting on five scenes, the Pareto fronts"
 )]
 struct Args {
     /// Scenes, comma-separated.
@@ -146,14 +146,16 @@ fn run(args: &Args) -> Result<(), String> {
     let jobs: Vec<(usize, usize)> = (0..scenes.len())
         .flat_map(|si| (0..settings.len()).map(move |k| (si, k)))
         .collect();
-    let done = side_by_side("settings", &jobs, |&(si, k)| {
+    // Each setting's host figures are one thread's, and at most one job a
+    // thread runs at once: memory stays that of a few builds.
+    let done = one_thread_each("settings", &jobs, |&(si, k)| {
         let (s, st) = (&scenes[si], &settings[k]);
         let (rays, cam) = &sets[si];
         measure(s, st, &cell, (rays, cam)).map_err(|e| {
             let label = format!("{} {}", st.builder, st.flags);
             format!("{}, {}: {e}", s.name, label.trim())
         })
-    });
+    })?;
     let mut rows: Vec<Value> = done.into_iter().collect::<Result<_, _>>()?;
     for scene_rows in rows.chunks_mut(settings.len()) {
         mark_fronts(scene_rows);
@@ -219,21 +221,12 @@ fn measure(
     (rays, cam): (&RaySets, &[cellbih::bih::Ray]),
 ) -> Result<Value, String> {
     // The host's figures are one thread's: a builder that builds on the
-    // host's threads builds in a pool of one.
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .stack_size(cellbih_cli::report::JOB_STACK_BYTES)
-        .build()
-        .map_err(|e| e.to_string())?;
+    // host's threads builds in the job's pool of one ([`one_thread_each`]).
     let build = || {
-        one.install(|| {
-            Build::new(st.builder)
-                .with_tree(st.cfg)
-                .on(cell)
-                .with_knobs(&st.knobs)
-                .run(s)
-        })
-        .map_err(|e| e.to_string())
+        (Build::new(st.builder).with_tree(st.cfg).on(cell))
+            .with_knobs(&st.knobs)
+            .run(s)
+            .map_err(|e| e.to_string())
     };
     let mut r = build()?;
     let mut host_ms = r.host_time.as_secs_f64() * 1e3;

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 
 pub use crate::args::{Format, OutputArgs, ThreadsArg, TreeArgs, ViewsArg};
 pub use cellbih::registry::{CellSettings, Settings};
-pub use parallel::{JOB_STACK_BYTES, Progress, side_by_side};
+pub use parallel::{JOB_STACK_BYTES, Progress, one_thread_each, side_by_side};
 pub use plot::{Series, line_plot, scatter_plot};
 pub use step::step;
 

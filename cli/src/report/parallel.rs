@@ -15,11 +15,9 @@ use std::time::{Duration, Instant};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
-/// The stack of each thread that runs jobs side by side. A thread that
-/// waits for a job it handed to another pool (a build in a pool of one)
-/// runs other jobs of its own pool meanwhile, on the same stack, so one
-/// stack may hold several emulations at once: the default 2 MiB
-/// overflowed in a full `tradeoff` run. Reserved, not used, memory.
+/// The stack of each thread that runs jobs side by side: an emulation's
+/// deep recursions overflowed the default 2 MiB. Reserved, not used,
+/// memory.
 pub const JOB_STACK_BYTES: usize = 64 << 20;
 
 impl crate::args::ThreadsArg {
@@ -57,6 +55,53 @@ pub fn side_by_side<J: Sync, R: Send>(
         .collect();
     progress.finish();
     out
+}
+
+/// [`side_by_side`] for jobs whose own work must run on one thread (a
+/// host figure measured alone, a host-thread builder in a pool of one):
+/// as many jobs at once as the current pool has threads, each on a thread
+/// of its own with a rayon pool of one thread for whatever it runs inside.
+/// (A pool of one made inside a [`side_by_side`] job would not bound
+/// them: the waiting worker runs the next jobs of its own pool meanwhile,
+/// so every job starts at once and their memory adds up.) The results in
+/// the jobs' order.
+pub fn one_thread_each<J: Sync, R: Send>(
+    what: &str,
+    jobs: &[J],
+    f: impl Fn(&J) -> R + Sync,
+) -> Result<Vec<R>, String> {
+    let progress = Progress::new(what, jobs.len() as u64);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let workers = rayon::current_num_threads().clamp(1, jobs.len().max(1));
+    let done: Vec<Vec<(usize, R)>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                scope.spawn(|| -> Result<Vec<(usize, R)>, String> {
+                    let one = rayon::ThreadPoolBuilder::new()
+                        .num_threads(1)
+                        .stack_size(JOB_STACK_BYTES)
+                        .build()
+                        .map_err(|e| e.to_string())?;
+                    let mut out = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, Ordering::Relaxed);
+                        let Some(job) = jobs.get(i) else {
+                            return Ok(out);
+                        };
+                        out.push((i, one.install(|| f(job))));
+                        progress.inc();
+                    }
+                })
+            })
+            .collect();
+        (handles.into_iter())
+            .map(|h| h.join().map_err(|_| format!("{what}: a job panicked"))?)
+            .collect::<Result<_, String>>()
+    })?;
+    progress.finish();
+    let mut all: Vec<(usize, R)> = done.into_iter().flatten().collect();
+    all.sort_by_key(|(i, _)| *i);
+    Ok(all.into_iter().map(|(_, r)| r).collect())
 }
 
 /// How often a long run's progress line is repeated on a stderr that is
