@@ -241,12 +241,19 @@ struct Run {
     seconds: f64,
 }
 
-/// Builds the front end's binaries once.
+/// Builds the front end's binaries and examples once.
 fn build(root: &Path) -> Result<(), String> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let status = Command::new(cargo)
         .current_dir(root)
-        .args(["build", "--release", "--package", "cellbih-cli", "--bins"])
+        .args([
+            "build",
+            "--release",
+            "--package",
+            "cellbih-cli",
+            "--bins",
+            "--examples",
+        ])
         .status()
         .map_err(|e| format!("cargo build: {e}"))?;
     match status.success() {
@@ -269,10 +276,15 @@ fn data_dir(o: &Options, root: &Path) -> Option<PathBuf> {
 fn run(root: &Path, command: &str, out: &Path, data: Option<&Path>) -> Result<Run, String> {
     let mut words = command.split_whitespace();
     let bin = words.next().expect("a command has a binary");
-    let exe = root.join("target/release").join(bin);
-    if !exe.is_file() {
-        return Err(format!("`{command}`: no binary {bin} in the front end"));
-    }
+    let release = root.join("target/release");
+    let Some(exe) = [release.join(bin), release.join("examples").join(bin)]
+        .into_iter()
+        .find(|p| p.is_file())
+    else {
+        return Err(format!(
+            "`{command}`: no binary or example {bin} in the front end"
+        ));
+    };
     let mut cmd = Command::new(&exe);
     cmd.current_dir(root).args(words);
     if bin != "cellbih" {
