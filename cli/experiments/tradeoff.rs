@@ -50,6 +50,10 @@ struct Args {
     /// 8 a what-if).
     #[arg(long, default_value_t = 6, value_parser = cellbih_cli::args::between::<u64, _>(1..=16))]
     spes: u64,
+    /// Print only each scene's settings on the Pareto front of PS3 builds
+    /// and the PS3 frames (every setting still goes to the CSV and JSON).
+    #[arg(long)]
+    ps3_summary: bool,
     #[command(flatten)]
     scene: SceneArgs,
     #[command(flatten)]
@@ -194,7 +198,7 @@ fn run(args: &Args) -> Result<(), String> {
         (&keys, &rows),
         &doc,
         Some(&Build::new(BuilderKind::HOST).on(&cell)),
-        print_tables,
+        |rows| print_tables(rows, args.ps3_summary),
     )?;
     plots(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(
@@ -356,28 +360,45 @@ fn scene_names(rows: &[Value]) -> Vec<String> {
     names
 }
 
-fn print_tables(rows: &[Value]) {
+/// Every setting of every scene, its figures and front, then the frames;
+/// with `ps3_summary` only the settings on the front of PS3 builds and the
+/// PS3 frames (the part of the result that is simulated time alone).
+fn print_tables(rows: &[Value], ps3_summary: bool) {
     for scene in scene_names(rows) {
-        let of: Vec<&Value> = rows
-            .iter()
+        let of: Vec<&Value> = (rows.iter())
             .filter(|r| r["scene"] == scene.as_str())
+            .filter(|r| !ps3_summary || r["front_ps3"] == true)
             .collect();
-        println!("\n{scene} ({} triangles)", of[0]["triangles"]);
+        let Some(first) = of.first() else {
+            continue;
+        };
+        let which = if ps3_summary {
+            ": the front of PS3 builds"
+        } else {
+            ""
+        };
+        println!("\n{scene} ({} triangles){which}", first["triangles"]);
         // 80 columns: each setting on a line of its own, its figures
-        // indented on the next.
+        // indented on the next (in the summary, the simulated ones alone).
         println!("builder setting");
-        println!(
-            "  {:>8} {:>8} {:>7} {:>7} {:>11} {:>6} {:>11} {:>6} {:>5}",
-            "Cell ms",
-            "host ms",
-            "SAH",
-            "nodes",
-            "primary",
-            "Mray/s",
-            "incoherent",
-            "Mray/s",
-            "front"
-        );
+        match ps3_summary {
+            true => println!(
+                "  {:>8} {:>7} {:>7} {:>11} {:>11}",
+                "Cell ms", "SAH", "nodes", "primary", "incoherent"
+            ),
+            false => println!(
+                "  {:>8} {:>8} {:>7} {:>7} {:>11} {:>6} {:>11} {:>6} {:>5}",
+                "Cell ms",
+                "host ms",
+                "SAH",
+                "nodes",
+                "primary",
+                "Mray/s",
+                "incoherent",
+                "Mray/s",
+                "front"
+            ),
+        }
         for r in &of {
             let front = match (r["front_ps3"] == true, r["front_host"] == true) {
                 (true, _) => "PS3",
@@ -387,24 +408,34 @@ fn print_tables(rows: &[Value]) {
             let sim = r["simulated_ms"]
                 .as_f64()
                 .map_or("-".into(), |v| format!("{v:.2}"));
+            let cost = |set: &str| {
+                let (n, t) = (
+                    num(&r[format!("{set}_nodes")]),
+                    num(&r[format!("{set}_triangles")]),
+                );
+                format!("{n:.1}+{t:.1}")
+            };
             println!("{}", cellbih_cli::report::wrap(&label(r), 80));
+            if ps3_summary {
+                println!(
+                    "  {:>8} {:>7.1} {:>7} {:>11} {:>11}",
+                    sim,
+                    num(&r["sah"]),
+                    r["nodes"].as_u64().unwrap_or(0),
+                    cost("primary"),
+                    cost("incoherent"),
+                );
+                continue;
+            }
             println!(
                 "  {:>8} {:>8.2} {:>7.1} {:>7} {:>11} {:>6.2} {:>11} {:>6.2} {:>5}",
                 sim,
                 num(&r["host_ms"]),
                 num(&r["sah"]),
                 r["nodes"].as_u64().unwrap_or(0),
-                format!(
-                    "{:.1}+{:.1}",
-                    num(&r["primary_nodes"]),
-                    num(&r["primary_triangles"])
-                ),
+                cost("primary"),
                 num(&r["primary_mrays_per_s"]),
-                format!(
-                    "{:.1}+{:.1}",
-                    num(&r["incoherent_nodes"]),
-                    num(&r["incoherent_triangles"])
-                ),
+                cost("incoherent"),
                 num(&r["incoherent_mrays_per_s"]),
                 front
             );
@@ -413,8 +444,15 @@ fn print_tables(rows: &[Value]) {
             let body = cellbih_cli::report::wrap(text, 76);
             println!("  {}", body.replace('\n', "\n    "));
         };
-        println!("frame of R rays, host (one thread): the setting with the least build + trace ms");
-        for f in frames(rows).iter().filter(|f| f["scene"] == scene.as_str()) {
+        let host_frames = (frames(rows).into_iter())
+            .filter(|f| !ps3_summary && f["scene"] == scene.as_str())
+            .collect::<Vec<_>>();
+        if !host_frames.is_empty() {
+            println!(
+                "frame of R rays, host (one thread): the setting with the least build + trace ms"
+            );
+        }
+        for f in &host_frames {
             let cell = |set: &str| {
                 let b = &f[set];
                 format!(
@@ -446,10 +484,19 @@ fn print_tables(rows: &[Value]) {
             ));
         }
     }
-    let note = "Cell ms: simulated PS3 time (multi-SPE builders on --spes SPEs); host ms: this machine, one \
-         thread (host builder: median of 3; emulated builders: the emulation); primary, incoherent: \
-         nodes visited + triangles tested per ray; front: on the Pareto front of PS3 builds (Cell ms) \
-         or host builds (host ms) against the primary cost";
+    let note = match ps3_summary {
+        true => {
+            "Cell ms: simulated PS3 time (multi-SPE builders on --spes SPEs); primary, incoherent: \
+             nodes visited + triangles tested per ray; the front: no other PS3 build is both faster \
+             and cheaper a primary ray"
+        }
+        false => {
+            "Cell ms: simulated PS3 time (multi-SPE builders on --spes SPEs); host ms: this \
+             machine, one thread (host builder: median of 3; emulated builders: the emulation); \
+             primary, incoherent: nodes visited + triangles tested per ray; front: on the Pareto \
+             front of PS3 builds (Cell ms) or host builds (host ms) against the primary cost"
+        }
+    };
     println!("\n{}", cellbih_cli::report::wrap(note, 80));
 }
 
