@@ -225,7 +225,8 @@ fn run(args: &Args) -> Result<(), String> {
     }
     let title = format!(
         "Headline speedups over spe_bfs on one SPE (simulated, {} model) with each \
-         uncertain rate at the ends of its band, then every rate at once (the corners)",
+         uncertain rate at the ends of its band, then every rate at once (the corners): \
+         the largest move of a headline, and any flip",
         match args.model {
             Model::Measured => "measured",
             Model::Legacy => "legacy",
@@ -258,7 +259,8 @@ fn run(args: &Args) -> Result<(), String> {
         let worst = (flat.iter().zip(&base_flat))
             .map(|(a, b)| a / b - 1.0)
             .fold(0.0f64, |m, d| if d.abs() > m.abs() { d } else { m });
-        // A line for the variant, and one for what it moved: 80 columns.
+        // A line a variant: the rate, its end and value, the largest move
+        // and the flips (wrapped, the rest indented, in 80 columns).
         let value = match v.end {
             "" | "all" => String::new(),
             _ => format!(" {}", v.value),
@@ -267,13 +269,10 @@ fn run(args: &Args) -> Result<(), String> {
             true => "no flip".to_string(),
             false => format!("FLIPS: {}", flips.join("; ")),
         };
-        let line = format!("{} {}{value}", v.rate, v.end);
-        let line2 = format!("largest move {:+.1} %; {moved}", worst * 100.0);
+        let line = format!("{} {}{value}: {:+.1} %, {moved}", v.rate, v.end, worst * 100.0);
         if text {
-            println!("{}", cellbih_cli::report::wrap(&line, 80));
-            for l in cellbih_cli::report::wrap(&line2, 76).lines() {
-                println!("    {l}");
-            }
+            let wrapped = cellbih_cli::report::wrap(&line, 76);
+            println!("{}", wrapped.replace('\n', "\n    "));
         }
         let speeds: Vec<String> = flat.iter().map(|x| format!("{x:.3}")).collect();
         csv.push(format!(
