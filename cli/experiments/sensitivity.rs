@@ -269,7 +269,12 @@ fn run(args: &Args) -> Result<(), String> {
             true => "no flip".to_string(),
             false => format!("FLIPS: {}", flips.join("; ")),
         };
-        let line = format!("{} {}{value}: {:+.1} %, {moved}", v.rate, v.end, worst * 100.0);
+        let line = format!(
+            "{} {}{value}: {:+.1} %, {moved}",
+            v.rate,
+            v.end,
+            worst * 100.0
+        );
         if text {
             let wrapped = cellbih_cli::report::wrap(&line, 76);
             println!("{}", wrapped.replace('\n', "\n    "));

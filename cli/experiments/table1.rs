@@ -229,32 +229,37 @@ fn print_table(rows: &[serde_json::Value]) {
             None => format!("{:>w$}", "—"),
         }
     };
-    println!(
-        "{:<13} {:<24} {:>10} {:>10} {:>7} {:>7}",
-        "model", "method", "ours (ms)", "paper (ms)", "speedup", "paper"
+    // A table: its header, then each row's lead and cells.
+    let table = |head: String, cells: &dyn Fn(&serde_json::Value) -> String| {
+        println!("{head}");
+        for (r, lead) in rows.iter().zip(&leads) {
+            println!("{lead} {}", cells(r));
+        }
+    };
+    let f = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap_or(0.0);
+    table(
+        format!(
+            "{:<13} {:<24} {:>10} {:>10} {:>7} {:>7}",
+            "model", "method", "ours (ms)", "paper (ms)", "speedup", "paper"
+        ),
+        &|r| {
+            let (ms, paper) = (f(r, "simulated_ms"), opt(r, "paper_ms", 10, 0));
+            let (speedup, paper_speedup) = (f(r, "speedup"), opt(r, "paper_speedup", 7, 2));
+            format!("{ms:>10.1} {paper} {speedup:>7.2} {paper_speedup}")
+        },
     );
-    for (r, lead) in rows.iter().zip(&leads) {
-        println!(
-            "{lead} {:>10.1} {} {:>7.2} {}",
-            r["simulated_ms"].as_f64().unwrap_or(0.0),
-            opt(r, "paper_ms", 10, 0),
-            r["speedup"].as_f64().unwrap_or(0.0),
-            opt(r, "paper_speedup", 7, 2),
-        );
-    }
-    println!(
-        "\n{:<13} {:<24} {:>10} {:>9} {:>8} {:>9}",
-        "model", "method", "ours/paper", "host (ms)", "MiB", "triangles"
+    println!();
+    table(
+        format!(
+            "{:<13} {:<24} {:>10} {:>9} {:>8} {:>9}",
+            "model", "method", "ours/paper", "host (ms)", "MiB", "triangles"
+        ),
+        &|r| {
+            let (ratio, host, mib) = (opt(r, "ratio", 10, 2), f(r, "host_ms"), f(r, "memory_mib"));
+            let n = r["triangles"].as_u64().unwrap_or(0);
+            format!("{ratio} {host:>9.0} {mib:>8.1} {n:>9}")
+        },
     );
-    for (r, lead) in rows.iter().zip(&leads) {
-        println!(
-            "{lead} {} {:>9.0} {:>8.1} {:>9}",
-            opt(r, "ratio", 10, 2),
-            r["host_ms"].as_f64().unwrap_or(0.0),
-            r["memory_mib"].as_f64().unwrap_or(0.0),
-            r["triangles"].as_u64().unwrap_or(0),
-        );
-    }
     let wrap = |text: &str| println!("{}", cellbih_cli::report::wrap(text, 80));
     let mut models: Vec<&str> = rows.iter().filter_map(|r| r["model"].as_str()).collect();
     models.dedup();

@@ -193,13 +193,9 @@ fn run(args: &Args) -> Result<(), String> {
         "spes": args.spes,
         "note": NOTE.replace("PACKET", &CastConfig::DEFAULT.packet.to_string()),
     });
-    args.run.output.report(
-        "tradeoff",
-        (&keys, &rows),
-        &doc,
-        Some(&Build::new(BuilderKind::HOST).on(&cell)),
-        |rows| print_tables(rows, args.ps3_summary),
-    )?;
+    let (shared, ps3_summary) = (Build::new(BuilderKind::HOST).on(&cell), args.ps3_summary);
+    let print = |rows: &[Value]| print_tables(rows, ps3_summary);
+    (args.run.output).report("tradeoff", (&keys, &rows), &doc, Some(&shared), print)?;
     plots(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(
         "written: {}/tradeoff.{{csv,json}}, tradeoff_*.svg",

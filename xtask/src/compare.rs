@@ -110,6 +110,12 @@ fn host_cells(line: &str) -> Option<Vec<(usize, usize)>> {
 /// The cells of `line`: words joined by single spaces, with their spans
 /// (in characters).
 fn cells(line: &str) -> Vec<((usize, usize), String)> {
+    runs(line, |chars, i| chars.get(i + 1).is_none_or(|&c| c == ' '))
+}
+
+/// The runs of `line` that no space ends, with their spans (in
+/// characters): a space at `i` ends a run where `ends(chars, i)`.
+fn runs(line: &str, ends: impl Fn(&[char], usize) -> bool) -> Vec<((usize, usize), String)> {
     let chars: Vec<char> = line.chars().collect();
     let mut out = Vec::new();
     let mut i = 0;
@@ -119,7 +125,7 @@ fn cells(line: &str) -> Vec<((usize, usize), String)> {
             continue;
         }
         let start = i;
-        while i < chars.len() && !(chars[i] == ' ' && chars.get(i + 1).is_none_or(|&c| c == ' ')) {
+        while i < chars.len() && !(chars[i] == ' ' && ends(&chars, i)) {
             i += 1;
         }
         out.push(((start, i), chars[start..i].iter().collect()));
@@ -142,24 +148,11 @@ fn numbers_masked(line: &str) -> String {
 /// `line`'s words, one space apart, each that overlaps one of `spans`
 /// replaced by `#` (so a host time of another width aligns the same).
 fn masked(line: &str, spans: &[(usize, usize)]) -> String {
-    let chars: Vec<char> = line.chars().collect();
-    let mut words: Vec<String> = Vec::new();
-    let mut i = 0;
-    while i < chars.len() {
-        if chars[i] == ' ' {
-            i += 1;
-            continue;
-        }
-        let start = i;
-        while i < chars.len() && chars[i] != ' ' {
-            i += 1;
-        }
-        words.push(match spans.iter().any(|&(a, b)| start < b && a < i) {
-            true => "#".to_string(),
-            false => chars[start..i].iter().collect(),
-        });
-    }
-    words.join(" ")
+    let hidden = |(a, b): (usize, usize)| spans.iter().any(|&(x, y)| a < y && x < b);
+    (runs(line, |_, _| true).into_iter())
+        .map(|(span, word)| if hidden(span) { "#".to_string() } else { word })
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 #[cfg(test)]
