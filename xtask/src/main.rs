@@ -125,7 +125,8 @@ fn figures(o: &Options) -> Result<bool, String> {
         return Err("no block is wanted: check --quick and --only".into());
     }
     build(&root)?;
-    let scratch = root.join("target/figures");
+    // This run's own scratch: two runs at once do not share one.
+    let scratch = root.join(format!("target/figures/{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&scratch);
     let data = data_dir(o, &root);
     let started = Instant::now();
