@@ -269,12 +269,8 @@ fn run(args: &Args) -> Result<(), String> {
             true => "no flip".to_string(),
             false => format!("FLIPS: {}", flips.join("; ")),
         };
-        let line = format!(
-            "{} {}{value}: {:+.1} %, {moved}",
-            v.rate,
-            v.end,
-            worst * 100.0
-        );
+        let named = format!("{} {}{value}", v.rate, v.end);
+        let line = format!("{}: {:+.1} %, {moved}", named.trim_end(), worst * 100.0);
         if text {
             let wrapped = cellbih_cli::report::wrap(&line, 76);
             println!("{}", wrapped.replace('\n', "\n    "));
