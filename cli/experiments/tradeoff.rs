@@ -36,7 +36,7 @@ use cellbih_cli::report::{Series, one_thread_each, output, scatter_plot};
 
 #[derive(Parser)]
 #[command(
-    about = "Build time against tree quality: every builder and quality setting on five scenes, the Pareto fronts"
+    about = "Build time against tree quality: every builder and quality setting on five scenes, the Pareto fronts (default run: 13 min and 0.8 GB of memory at its peak, on a 2-core machine)"
 )]
 struct Args {
     /// Scenes, comma-separated.
