@@ -208,7 +208,7 @@ fn run(args: &Args) -> Result<(), String> {
                     "{:<16} {:<14} {:>7} {:>10.2} {:>10.2} {:>7.2}x {:>8.2}x {:>5} {:>7}",
                     r["scene"].as_str().unwrap_or(""),
                     r["builder"].as_str().unwrap_or(""),
-                    r["threads"],
+                    r["threads"].as_u64().unwrap_or(0),
                     r["wall_ms"].as_f64().unwrap_or(0.0),
                     r["cpu_ms"].as_f64().unwrap_or(0.0),
                     r["speedup"].as_f64().unwrap_or(0.0),
@@ -224,6 +224,13 @@ fn run(args: &Args) -> Result<(), String> {
                     }
                 );
             }
+            println!(
+                "host time on {}, {} hardware threads; medians of {} runs x {} rounds",
+                machine["cpu"].as_str().unwrap_or("an unnamed CPU"),
+                machine["hardware_threads"],
+                args.runs,
+                args.rounds
+            );
         },
     )?;
     plot(&rows, &args.output.out)?;

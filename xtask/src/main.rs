@@ -26,6 +26,7 @@ const USAGE: &str = "usage: cargo xtask figures [--check] [--quick] [--only TEXT
   --data DIR   the real meshes (default: $CELLBIH_DATA, else ../shared/data)";
 
 /// What was asked.
+#[derive(Debug)]
 struct Options {
     check: bool,
     quick: bool,
@@ -124,7 +125,7 @@ fn figures(o: &Options) -> Result<bool, String> {
     if commands.is_empty() {
         return Err("no block is wanted: check --quick and --only".into());
     }
-    build(&root)?;
+    build(&root, &commands)?;
     // This run's own scratch: two runs at once do not share one.
     let scratch = root.join(format!("target/figures/{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&scratch);
@@ -242,25 +243,46 @@ struct Run {
     seconds: f64,
 }
 
-/// Builds the front end's binaries and examples once.
-fn build(root: &Path) -> Result<(), String> {
+/// Builds the front end's binaries once, and its examples where a wanted
+/// command runs one.
+fn build(root: &Path, commands: &[String]) -> Result<(), String> {
+    let examples = examples(root)?;
+    let wants_example = (commands.iter()).any(|c| {
+        examples
+            .iter()
+            .any(|e| c.split_whitespace().next() == Some(e))
+    });
+    let mut args = vec!["build", "--release", "--package", "cellbih-cli", "--bins"];
+    if wants_example {
+        args.push("--examples");
+    }
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let status = Command::new(cargo)
-        .current_dir(root)
-        .args([
-            "build",
-            "--release",
-            "--package",
-            "cellbih-cli",
-            "--bins",
-            "--examples",
-        ])
-        .status()
+    let status = (Command::new(cargo).current_dir(root).args(args).status())
         .map_err(|e| format!("cargo build: {e}"))?;
     match status.success() {
         true => Ok(()),
         false => Err("the front end did not build".into()),
     }
+}
+
+/// The front end's examples: the names of `cli/Cargo.toml`'s `[[example]]`s.
+fn examples(root: &Path) -> Result<Vec<String>, String> {
+    let manifest = std::fs::read_to_string(root.join("cli/Cargo.toml"))
+        .map_err(|e| format!("cli/Cargo.toml: {e}"))?;
+    let mut out = Vec::new();
+    let mut in_example = false;
+    for line in manifest.lines().map(str::trim) {
+        if line.starts_with('[') {
+            in_example = line == "[[example]]";
+        } else if let Some(v) = line.strip_prefix("name").filter(|_| in_example) {
+            out.push(
+                v.trim_start_matches([' ', '='])
+                    .trim_matches('"')
+                    .to_string(),
+            );
+        }
+    }
+    Ok(out)
 }
 
 /// The data directory for the runs: `--data`, else `$CELLBIH_DATA`, else
@@ -307,4 +329,32 @@ fn run(root: &Path, command: &str, out: &Path, data: Option<&Path>) -> Result<Ru
         out: out.to_path_buf(),
         seconds: started.elapsed().as_secs_f64(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_front_ends_examples_are_read_from_its_manifest() {
+        assert_eq!(examples(&root()).unwrap(), ["host_scaling"]);
+    }
+
+    #[test]
+    fn a_task_and_its_options_parse_and_others_are_refused() {
+        let args = |a: &[&str]| a.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        let o = parse(&args(&["figures", "--check", "--quick", "--only", "zoo"])).unwrap();
+        assert!(o.check && o.quick && o.only.as_deref() == Some("zoo"));
+        assert!(parse(&args(&["figure"])).unwrap_err().contains("figure"));
+        assert!(
+            parse(&args(&["figures", "--quik"]))
+                .unwrap_err()
+                .contains("--quik")
+        );
+        assert!(
+            parse(&args(&["figures", "--only"]))
+                .unwrap_err()
+                .contains("needs a value")
+        );
+    }
 }
