@@ -218,3 +218,23 @@ fn the_checks_find_what_is_not_there() {
         "what-it-measures-18-spes"
     );
 }
+
+/// The reference stays a reference: docs/ (generated tables included) in
+/// under 30,000 words, as `wc -w` counts them.
+#[test]
+fn the_docs_stay_under_thirty_thousand_words() {
+    let mut pages = Vec::new();
+    files(&Path::new(ROOT).join("docs"), ".md", &mut pages);
+    let words: usize = (pages.iter())
+        .map(|p| {
+            std::fs::read_to_string(p)
+                .unwrap()
+                .split_whitespace()
+                .count()
+        })
+        .sum();
+    assert!(
+        words < 30_000,
+        "docs/ holds {words} words: cut prose, or point at a generated table"
+    );
+}

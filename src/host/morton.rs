@@ -15,9 +15,8 @@
 //!    the output is carved, digit by digit and block by block, into one
 //!    run per (block, digit); every block scatters its pairs into its own
 //!    runs (stable, and no two threads write one place). (Moving the
-//!    32-byte items with their keys in every pass instead cost more:
-//!    dragon, 2 threads, warm pool, 18.5 ms against 5 + 10.5 ms for the
-//!    sort and a gather.)
+//!    32-byte items with their keys in every pass instead cost more than
+//!    the sort and a gather, measured on the dragon.)
 //! 3. **The top of the tree from the sorted keys**: a node where a range's
 //!    keys first differ ([`split_of`]), its two sides made side by side
 //!    (`rayon::join`), down to ranges of at most the grain's items

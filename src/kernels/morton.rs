@@ -381,12 +381,10 @@ pub fn auto_key_bits(n: usize, region_size: usize, digit_bits: u32) -> u32 {
 /// `--region-size auto`: the smallest region, a power of two from 64 to
 /// 1,024 triangles, that still gives the narrowest keys ([`auto_key_bits`]:
 /// 16 bits while n / region is at most 2^12): n / 4,096 rounded up to a
-/// power of two. Measured (docs/morton.md, "Defaults"), with the top of
-/// the tree on every SPE and each region gathering its own records:
-/// smaller regions were faster on every scene as long as the keys stayed
-/// 16 bits (bunny on 8 SPEs: 3.91 ms with regions of 64, 4.45 with 256),
-/// and wider keys cost more than smaller regions saved (dragon: 56.67 ms
-/// with 256 and 16 bits, 59.76 with 64 and 24 bits). At most 1,024: well
+/// power of two. Measured (docs/morton.md, "Defaults"; `spe_scaling`
+/// without `--defaults-only` times every setting): smaller regions were
+/// faster on every scene as long as the keys stayed 16 bits, and wider
+/// keys cost more than smaller regions saved. At most 1,024: well
 /// inside a local store (about 2,000 records), so that no region needs the
 /// breadth-first loop; scenes above about 4 M triangles take wider keys.
 pub fn auto_region_size(n: usize) -> usize {

@@ -32,14 +32,24 @@ pub struct KernelRates {
     /// SPE cycles per job of a build run on the SPE (read the job, choose
     /// the split, write the node, push the children's jobs). Estimate.
     pub spe_job: Cycles,
-    /// SPE cycles per item binned by the binned SAH split choice (the
-    /// record's box and center, a bin index per axis, three bins' counts
-    /// and boxes updated). Derived from an instruction count and scaled by
-    /// the partition's fitted/derived ratio (`docs/cost-model.md`).
+    /// SPE cycles per item binned by the binned SAH split choice: one
+    /// 48-byte record as the partition handles it (3 quadword loads; its
+    /// box, 8, and center, 2); the bin on all three axes at once ((center −
+    /// lo) × scale, to integer, clamped, × 32 bytes: 5); per axis the index
+    /// moved to the preferred slot (3 odd), the bin's count and box loaded
+    /// (6 odd), grown (3 × 5 even) and stored (6 odd): about 30 even and 19
+    /// odd, dual-issued 30, and the store-to-load chain when consecutive
+    /// triangles fall in one bin. Counted 40, scaled by
+    /// [`FITTED_OVER_DERIVED`].
     pub spe_bin_item: Cycles,
-    /// SPE cycles per bin and axis of the binned SAH sweep (the two
-    /// running unions, both sides' areas and the cost in double precision,
-    /// the best kept). Derived and scaled the same way.
+    /// SPE cycles per bin and axis of the binned SAH sweep
+    /// (`kernels::sah::Bins::choose`): the right-to-left running union
+    /// stored (single precision, about 6), then left to right the running
+    /// union and, in double precision as the kernel computes them, both
+    /// sides' extents, surface areas, `area · count`, the sum and the
+    /// compare: about 10 double-precision instructions, which the PS3's SPU
+    /// issues one every 7 cycles (CBE programming handbook, "Floating-point
+    /// operations"): about 70. Counted 75, scaled the same way.
     pub spe_sah_bin: Cycles,
     /// PPE cycles per bin and axis of the binned SAH sweep
     /// (`ppe_naive`, `spe_dfs`): by analogy with `spe_sah_bin`, the same
@@ -53,14 +63,21 @@ pub struct KernelRates {
     pub spe_level_scan: Cycles,
 }
 
-/// The partition's fitted SPE rate over its derived one (161 fitted, 40
-/// SPU cycles counted): the factor a new SPE kernel's derived rate is
-/// scaled by, so that no strategy is faster only because its bookkeeping
-/// is modelled as cheaper (`docs/cost-model.md`). Every derived rate is in
-/// this one class, *written like the paper's partition*, supported by the
-/// partition's Table 1 fit; SPU kernels timed on a PS3 run within 9 % of
-/// their count (tuned code: about x1.1), so 4 is the paper's code, not
-/// the pipeline (`docs/validation.md`, "Compute").
+/// The partition's fitted SPE rate over its derived one: the factor a new
+/// SPE kernel's derived rate is scaled by, so that no strategy is faster
+/// only because its bookkeeping is modelled as cheaper. The partition
+/// counted like every derived kernel (one 48-byte record at a time, as the
+/// paper's code): odd pipe — 3 quadword loads, 3 shuffles to gather the
+/// split axis' coordinates, 3 quadword stores, a branch: about 10; even
+/// pipe — the record's box (8), its center (2), the compare (1), the
+/// chosen side's box and center bounds (8, and 8 selects of that side's
+/// accumulators), two pointer updates (2): about 29; dual-issued 29, with
+/// the dependent min/max chain (6-cycle latency) not fully hidden: about
+/// 40. Fitted 161 (Table 1, Dragon): 161 / 40 ≈ 4. Every derived rate is
+/// in this one class, *written like the paper's partition*; SPU kernels
+/// timed on a PS3 run within 9 % of their count (tuned code: about x1.1),
+/// so 4 is the paper's code, not the pipeline (`docs/validation.md`,
+/// "Compute").
 pub const FITTED_OVER_DERIVED: u64 = 4;
 
 impl KernelRates {

@@ -214,11 +214,11 @@ const BLOCK: usize = 64;
 /// whose branches are predictable. The tail (fewer than two blocks) runs the
 /// plain two-pointer loop. Then one pass over each side gathers its bounds.
 ///
-/// PERF: on the dragon (871,414 triangles) the whole host build went from
-/// 138 ms to 68 ms (criterion medians, one run each, same machine) against
-/// the two-pointer loop that grew the bounds as it went. Growing both
-/// sides' bounds inside the block loop, by selecting which side each item
-/// grows, was slower than either (252 ms): the separate passes are
+/// PERF: on the dragon the whole host build took about half the time of
+/// the two-pointer loop that grew the bounds as it went (criterion,
+/// `benches/host_build.rs`). Growing both sides' bounds inside the block
+/// loop, by selecting which side each item grows, was slower than either:
+/// the separate passes are
 /// sequential and branch-free, and keep the classifying loop tiny.
 pub fn partition<T: Boxed>(items: &mut [T], split: Split) -> (Side, Side) {
     // items[..l] are left and items[r..] right; a *loaded* block is

@@ -15,8 +15,7 @@
 //!   cost of one build of its size. That cost is measured, not assumed to
 //!   follow `n log n`: a build has fixed costs, and a builder runs a small
 //!   build on fewer SPEs (`--tris-per-spe`), so a small update can cost
-//!   four times a large build's per triangle (rtPerf 20k: 1,840 triangles
-//!   in 0.98 ms, all 20,000 in 2.7). Before the first
+//!   several times a large build's per triangle. Before the first
 //!   frame, small builds of 48, 96, 192, … triangles are timed
 //!   ([`Updater::probe_piece`](crate::update::Updater::probe_piece)); with
 //!   the first tree's build they make a curve of build time against size,

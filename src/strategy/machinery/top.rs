@@ -113,8 +113,8 @@ pub(in crate::strategy) fn spes_used(
 pub(in crate::strategy) struct TopKnobs {
     /// Before the deal, every SPE helps partition each large interval of
     /// the top levels (the cooperative partition, `coop.rs`). Buys: the
-    /// other SPEs work instead of waiting for the deal (dragon on 6 SPEs:
-    /// 342 → 186 ms). Costs: every record of those levels travels twice
+    /// other SPEs work instead of waiting for the deal (docs/many-spes.md,
+    /// "Which of the paper's worries are real"). Costs: every record of those levels travels twice
     /// (through a scratch array; in place, only the misplaced ones) and two
     /// barriers per interval.
     pub coop: bool,

@@ -213,21 +213,38 @@ impl MortonKnobs {
 /// ([`crate::kernels::rates::FITTED_OVER_DERIVED`]), `docs/cost-model.md`.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct MortonRates {
-    /// Per triangle, once per key: its record loaded and its center made
-    /// (four triangles a vector), the key's cell started, the key pair
-    /// stored.
+    /// Per triangle, once per key, four triangles a vector: the four
+    /// records' 12 quadwords loaded and transposed (12 loads, 12 shuffles,
+    /// odd pipe), their boxes' min and max (24 compares and selects) and
+    /// centers (3 adds, 3 multiplies), the cell started at the scene box,
+    /// the index vector bumped, the four key pairs assembled and stored (4
+    /// shuffles, 4 stores): about 30 even and 30 odd, dual-issued 30 per
+    /// four triangles. Counted 7.5 a triangle.
     pub key_setup: Cycles,
-    /// Per triangle per key bit of a Morton key: one halving of the
-    /// candidate cell, four triangles a vector.
+    /// Per triangle per key bit, four triangles a vector: the cell's three
+    /// extents (3 subtracts), the longest axis (2 compares, 3 selects), that
+    /// axis' bounds (4 selects), the midpoint (2), the center's coordinate
+    /// (2 selects), the compare (1), the key's shift and or (2; 4 for
+    /// 64-bit keys), the cell's update (6 selects, 3 ands): 28–30 even-pipe
+    /// instructions per four triangles. Counted 7.5 a triangle.
     pub key_bit: Cycles,
-    /// Per key of a radix-sort histogram step (digit, count update), and
-    /// per entry of the prefix sum over the counts; the scatter pays it
-    /// again per key and per digit of each block, for the block's own
+    /// Per key of a radix-sort histogram step — the key loaded, the digit
+    /// shifted and masked (2), its count loaded, bumped and stored, four
+    /// count tables interleaved so that keys of one digit do not wait on
+    /// each other's store: 3 even and 3 odd, dual-issued — and per entry of
+    /// the prefix sum over the counts; the scatter pays it again per key
+    /// and per digit of each block (about 1,024 keys), for the block's own
     /// histogram and prefix (its pairs staged in order of their places).
+    /// Counted 3.
     pub radix_count: Cycles,
-    /// Per key of a radix-sort scatter step (digit, offset update, the
-    /// pair copied to its place in the staging buffer, a DMA-list element
-    /// where a run ends), and per record of the permutation's gather list.
+    /// Per key of a radix-sort scatter step: the digit (2), its offset
+    /// loaded and bumped (1 even, 2 odd), the pair copied into the staging
+    /// buffer in order of place (2 odd, 1 even), a DMA-list element where
+    /// a run of places ends (about 1 even and 1 odd a key): 5 even, 5 odd,
+    /// with a dependent load. Also per record of a gather list (address =
+    /// base + 48 × index, an 8-byte element stored, the record's id stored
+    /// over its pair's index: fewer instructions, charged the same).
+    /// Counted 5.5.
     pub radix_scatter: Cycles,
 }
 
