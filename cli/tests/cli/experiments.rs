@@ -115,58 +115,6 @@ fn extremes_checks_every_case_and_builder() {
         "some case stalls f32"
     );
     assert!(dir.join("extremes.csv").exists());
-    extremes_tables_in_the_docs_match(&rows, runs);
-}
-
-/// The table of `extremes` that docs/extremes.md prints is what the
-/// experiment measures now: runs a case, zero-area triangles, depth
-/// range, largest leaf (none of which depends on the number of rays); a
-/// page without the table fails.
-fn extremes_tables_in_the_docs_match(rows: &[serde_json::Value], runs: usize) {
-    let root = std::path::Path::new(crate::common::ROOT);
-    for doc in ["docs/extremes.md"] {
-        let text = std::fs::read_to_string(root.join(doc)).unwrap();
-        let lines: Vec<&str> = text.lines().collect();
-        let head = (lines.iter().position(|l| l.starts_with("| case |")))
-            .unwrap_or_else(|| panic!("{doc}: no table of the extremes (a line '| case |')"));
-        let cells = |l: &str| -> Vec<String> {
-            let t = l.trim().trim_matches('|');
-            t.split('|').map(|c| c.trim().to_string()).collect()
-        };
-        let header = cells(lines[head]);
-        let col = |prefix: &str| header.iter().position(|h| h.starts_with(prefix)).unwrap();
-        assert!(
-            text.contains(&format!("{runs} runs a case")),
-            "{doc}: says another number of runs a case than {runs}"
-        );
-        for &case in cellbih::scene::extremes::CASES {
-            let of: Vec<&serde_json::Value> = rows.iter().filter(|r| r["case"] == case).collect();
-            let num = |r: &&serde_json::Value, k: &str| r[k].as_u64().unwrap();
-            let (lo, hi) = (
-                of.iter().map(|r| num(r, "depth")).min().unwrap(),
-                of.iter().map(|r| num(r, "depth")).max().unwrap(),
-            );
-            let depth = if lo == hi {
-                lo.to_string()
-            } else {
-                format!("{lo}-{hi}")
-            };
-            let leaf = of.iter().map(|r| num(r, "largest_leaf")).max().unwrap();
-            let line = lines[head..]
-                .iter()
-                .find(|l| l.starts_with(&format!("| {case} |")))
-                .unwrap_or_else(|| panic!("{doc}: no row for {case}"));
-            let c = cells(line);
-            assert_eq!(c[col("valid")], format!("{runs}/{runs}"), "{doc}: {case}");
-            assert_eq!(
-                c[col("zero-area")],
-                num(&of[0], "degenerate").to_string(),
-                "{doc}: {case}"
-            );
-            assert_eq!(c[col("depth")], depth, "{doc}: {case}");
-            assert_eq!(c[col("largest leaf")], leaf.to_string(), "{doc}: {case}");
-        }
-    }
 }
 
 /// The scaling experiment: every multi-SPE builder and knob setting on
