@@ -12,6 +12,7 @@ use cellbih::cast::{
     CacheConfig, CastConfig, CastReport, Packet, Precision, RecordOrder, cast_camera, cast_on_cell,
 };
 use cellbih::cell::{CellConfig, CostModel};
+use cellbih::kernels::rates::Code;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::Camera;
 use cellbih::scene::{self, Scene};
@@ -376,7 +377,10 @@ fn the_precision_charged_changes_the_time_not_the_hits() {
             .all(|(a, b)| same(a, b))
     );
     assert_eq!(single.stats(), double.stats());
-    let (sr, dr) = (Precision::Single.rates(), Precision::Double.rates());
+    let (sr, dr) = (
+        Precision::Single.rates(Code::Paper),
+        Precision::Double.rates(Code::Paper),
+    );
     let worst = (dr.ray_setup.0 / sr.ray_setup.0)
         .max(dr.node_step.0 / sr.node_step.0)
         .max(dr.triangle_test.0 / sr.triangle_test.0);

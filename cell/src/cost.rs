@@ -210,8 +210,8 @@ pub enum LockLines {
 
 impl CostModel {
     /// The PlayStation 3, with the sources above: the model held against
-    /// measurements of real PS3s with several SPEs (`docs/validation.md`,
-    /// 21 of 21 figures within tolerance). The default of every command.
+    /// measurements of real PS3s with several SPEs (`docs/validation.md`:
+    /// `validate` holds it to every figure). The default of every command.
     pub fn ps3() -> Self {
         let hz = 3.2e9;
         CostModel {
@@ -235,8 +235,8 @@ impl CostModel {
     /// The PS3 model before the validated one (`--model legacy`): the
     /// memory interface at its peak for any number of SPEs, transfers
     /// between local stores unlimited by ports or the EIB, exclusive lock
-    /// lines, puts without a write acknowledgement (`--model legacy`,
-    /// `docs/validation.md`: 6 of its 21 figures pass).
+    /// lines, puts without a write acknowledgement (`--model legacy`;
+    /// `docs/validation.md` says which figures it fails).
     pub fn ps3_legacy() -> Self {
         let hz = 3.2e9;
         CostModel {
@@ -358,6 +358,118 @@ impl CostModel {
             // The legacy rules: nothing to charge.
             ..CostModel::ps3_legacy()
         }
+    }
+}
+
+/// Where a machine rate lives in the model, and its unit.
+#[derive(Clone, Copy)]
+pub enum Slot {
+    /// Cycles.
+    Cycles(fn(&mut CostModel) -> &mut Cycles),
+    /// A bandwidth, set and shown in GB/s.
+    Bandwidth(fn(&mut CostModel) -> &mut Bandwidth),
+    /// A ceiling that may be absent (unlimited), set and shown in GB/s.
+    Ceiling(fn(&mut CostModel) -> &mut Option<Bandwidth>),
+}
+
+/// One of the machine's rates a user may set by name (`--rate`).
+#[derive(Clone, Copy)]
+pub struct MachineRate {
+    pub name: &'static str,
+    pub slot: Slot,
+}
+
+macro_rules! machine_rates {
+    ($($kind:ident $field:ident),* $(,)?) => {
+        &[$(MachineRate {
+            name: stringify!($field),
+            slot: Slot::$kind(|c| &mut c.$field),
+        }),*]
+    };
+}
+
+impl CostModel {
+    /// Every machine rate by name: cycles, or GB/s for a bandwidth.
+    pub const RATES: &'static [MachineRate] = machine_rates!(
+        Cycles dma_issue_cycles,
+        Cycles mfc_command_cycles,
+        Cycles mfc_list_element_cycles,
+        Cycles dma_latency_cycles,
+        Bandwidth spe_bandwidth,
+        Bandwidth eib_bandwidth,
+        Bandwidth memory_bandwidth,
+        Cycles channel_cycles,
+        Cycles mailbox_latency_cycles,
+        Cycles ppe_mmio_cycles,
+        Cycles signal_latency_cycles,
+        Cycles getllar_cycles,
+        Cycles putllc_cycles,
+        Cycles atomic_hit_cycles,
+        Cycles ppe_event_cycles,
+        Cycles ppe_alloc_cycles,
+        Cycles ppe_atomic_cycles,
+        Bandwidth ppe_memory_bandwidth,
+        Bandwidth memory_shared_bandwidth,
+        Ceiling eib_total_bandwidth,
+        Ceiling ls_port_bandwidth,
+        Cycles put_ack_cycles,
+        Ceiling eib_total_bandwidth_blade,
+        Cycles spe_start_cycles,
+        Cycles mailbox_os_cycles,
+    );
+
+    /// The machine rate `name` at `value` (cycles, or GB/s for a
+    /// bandwidth); an error naming what is wrong where `value` is not one.
+    /// `None` where no machine rate has that name.
+    pub fn set_rate(&mut self, name: &str, value: &str) -> Option<Result<(), String>> {
+        let rate = Self::RATES.iter().find(|r| r.name == name)?;
+        let hz = self.clock_hz;
+        let gb = |v: &str| match v.trim().parse::<f64>() {
+            Ok(g) if g.is_finite() && g > 0.0 && g <= 10_000.0 => {
+                Ok(Bandwidth::from_gb_per_s(g, hz))
+            }
+            _ => Err(format!(
+                "{name}={v}: a bandwidth in GB/s, more than 0 and at most 10000"
+            )),
+        };
+        Some(match rate.slot {
+            Slot::Cycles(at) => match value.trim().parse::<u64>() {
+                Ok(c) if c <= 1 << 40 => {
+                    *at(self) = Cycles(c);
+                    Ok(())
+                }
+                _ => Err(format!("{name}={value}: a whole number of cycles")),
+            },
+            Slot::Bandwidth(at) => gb(value).map(|b| *at(self) = b),
+            Slot::Ceiling(at) => gb(value).map(|b| *at(self) = Some(b)),
+        })
+    }
+
+    /// The machine rate `name` as `--rate` spells it (cycles, or GB/s;
+    /// `unlimited` for an absent ceiling).
+    pub fn rate_text(&self, name: &str) -> Option<String> {
+        let rate = Self::RATES.iter().find(|r| r.name == name)?;
+        let mut c = self.clone();
+        let gb = |b: Bandwidth| format!("{}", (b.gb_per_s(c.clock_hz) * 1e4).round() / 1e4);
+        Some(match rate.slot {
+            Slot::Cycles(at) => at(&mut c).0.to_string(),
+            Slot::Bandwidth(at) => gb(*at(&mut c.clone())),
+            Slot::Ceiling(at) => match *at(&mut c.clone()) {
+                Some(b) => gb(b),
+                None => "unlimited".into(),
+            },
+        })
+    }
+
+    /// The machine rates that differ between this model and `base`, by
+    /// name, as `--rate` spells them.
+    pub fn moved_from(&self, base: &CostModel) -> Vec<(&'static str, String)> {
+        (Self::RATES.iter())
+            .filter_map(|r| {
+                let (mine, theirs) = (self.rate_text(r.name)?, base.rate_text(r.name)?);
+                (mine != theirs).then_some((r.name, mine))
+            })
+            .collect()
     }
 }
 

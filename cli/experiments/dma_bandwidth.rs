@@ -14,7 +14,7 @@ use std::time::Instant;
 use clap::Parser;
 use serde_json::json;
 
-use cellbih::cell::{Cell, CellConfig, Ea};
+use cellbih::cell::{Cell, CellConfig, CostModel, Ea};
 use cellbih_cli::report::{OutputArgs, Series, count, line_plot, output};
 
 #[derive(Parser)]
@@ -34,6 +34,8 @@ struct Args {
     /// use 1, 2, 3, 4, 6, 8, 12 and 16 SPEs up to this many.
     #[arg(long, default_value_t = 8, value_parser = cellbih_cli::args::between::<u64, _>(1..=16))]
     max_spes: u64,
+    #[command(flatten)]
+    rates: cellbih_cli::args::RateSetArgs,
 }
 
 struct Run {
@@ -46,8 +48,9 @@ struct Run {
 }
 
 /// Streams `bytes` split evenly over `spes` SPEs in `size`-byte gets.
-fn stream(spes: usize, size: u32, double: bool, bytes: u64) -> Run {
+fn stream(cost: &CostModel, spes: usize, size: u32, double: bool, bytes: u64) -> Run {
     let mut cfg = CellConfig::ps3().with_spes(spes);
+    cfg.cost = cost.clone();
     cfg.main_memory_bytes = bytes + (1 << 20);
     let hz = cfg.cost.clock_hz;
     let mut cell = Cell::new(cfg).expect("config");
@@ -119,6 +122,8 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
         .into_iter()
         .filter(|&n| n as u64 <= args.max_spes)
         .collect();
+    let mut cost = CostModel::ps3();
+    args.rates.machine_only(&mut cost, "dma_bandwidth")?;
     let mut runs = Vec::new();
     for &double in &[false, true] {
         for &n in &spe_counts {
@@ -133,7 +138,7 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
             );
             for &size in &sizes {
                 let bytes = (args.mib << 20).min(size as u64 * 65536 * n as u64);
-                runs.push(stream(n, size, double, bytes));
+                runs.push(stream(&cost, n, size, double, bytes));
             }
         }
     }

@@ -23,12 +23,11 @@ use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::cast::CastConfig;
-use cellbih::cell::CellConfig;
 use cellbih::frame::{FrameConfig, Policy, play};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::update::{Animation, Method};
-use cellbih_cli::args::RunArgs;
 use cellbih_cli::args::SceneArgs;
+use cellbih_cli::args::{RateArgs, RunArgs};
 use cellbih_cli::report::{Series, TreeArgs, line_plot, output, side_by_side};
 
 #[derive(Parser)]
@@ -63,6 +62,8 @@ struct Args {
     scene: SceneArgs,
     #[command(flatten)]
     run: RunArgs,
+    #[command(flatten)]
+    rates: RateArgs,
 }
 
 fn main() {
@@ -112,9 +113,11 @@ fn run(args: &Args) -> Result<(), String> {
             ));
         }
     };
+    let (cell, rates) = args.rates.ps3(args.spes as usize)?;
     let build = Build::new(builder)
         .with_tree(args.tree.config()?)
-        .on(&CellConfig::ps3().with_spes(args.spes as usize));
+        .on(&cell)
+        .with_rates(&rates);
     build.check().map_err(|e| e.to_string())?;
     let sizes: Vec<(u32, u32)> = args
         .sizes

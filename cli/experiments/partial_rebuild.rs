@@ -27,6 +27,7 @@ use cellbih::scene::procedural::rtperf;
 use cellbih::update::{
     Animation, MAX_FRAMES, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play,
 };
+use cellbih_cli::args::RateArgs;
 use cellbih_cli::report::{OutputArgs, Series, line_plot, output};
 
 /// The largest scene the experiment takes (it plays every frame on every
@@ -58,6 +59,8 @@ struct Args {
     no_sim: bool,
     #[command(flatten)]
     output: OutputArgs,
+    #[command(flatten)]
+    rates: RateArgs,
 }
 
 fn main() {
@@ -69,11 +72,10 @@ fn main() {
 fn frames(
     scene: &cellbih::scene::Scene,
     anim: &Animation,
-    builder: BuilderKind,
+    build: &Build,
     method: Method,
 ) -> Result<(Vec<UpdateReport>, f64), String> {
-    let (u, reports) =
-        play(scene, anim, &Build::new(builder), method).map_err(|e| e.to_string())?;
+    let (u, reports) = play(scene, anim, build, method).map_err(|e| e.to_string())?;
     let fresh = host::build(&u.scene, &u.bih.config).quality().sah_cost;
     Ok((reports, u.bih.quality().sah_cost / fresh))
 }
@@ -100,6 +102,14 @@ fn median_partial_ms(reports: &[UpdateReport]) -> Option<f64> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
+    if args.no_sim && !args.rates.given().is_empty() {
+        return Err(format!(
+            "{}: --no-sim runs nothing on the emulated Cell",
+            args.rates.given().join(", ")
+        ));
+    }
+    let (cell, rates) = args.rates.ps3(6)?;
+    let base = Build::new(BuilderKind::HOST).on(&cell).with_rates(&rates);
     if args.from > args.to {
         return Err(format!(
             "--from {} is larger than --to {}",
@@ -128,7 +138,8 @@ fn run(args: &Args) -> Result<(), String> {
             if progress {
                 eprint!("{n:>7} triangles, {:<5}\r", method.name());
             }
-            let (host, sah_ratio) = frames(&scene, &anim, BuilderKind::HOST, method)?;
+            let (host, sah_ratio) =
+                frames(&scene, &anim, &base.for_builder(BuilderKind::HOST), method)?;
             let sum = Summary::of(&host).ok_or("no frame moved anything")?;
             let median = median_partial_ms(&host);
             let mut row = json!({
@@ -153,11 +164,11 @@ fn run(args: &Args) -> Result<(), String> {
                 "partial_over_full": median.map(|m| m / full_host),
             });
             for (p, builder) in SIMULATED_BUILDERS.iter().filter(|_| !args.no_sim) {
-                let full = Build::new(*builder)
+                let full = (base.for_builder(*builder))
                     .with_tree(cfg)
                     .run(&scene)
                     .map_err(|e| e.to_string())?;
-                let s = Summary::of(&frames(&scene, &anim, *builder, method)?.0)
+                let s = Summary::of(&frames(&scene, &anim, &base.for_builder(*builder), method)?.0)
                     .and_then(|s| s.simulated_ms);
                 row[format!("{p}_min_ms")] = json!(s.map(|s| s[0]));
                 row[format!("{p}_max_ms")] = json!(s.map(|s| s[1]));
@@ -205,13 +216,13 @@ fn run(args: &Args) -> Result<(), String> {
         "animation": "rtperf: one sphere (200 triangles) per frame, every fifth move marked only",
         "frames": args.frames, "seed": args.seed,
         "host": "host builder, one thread; full rebuild = median of 5",
-        "simulated": "ppe_*: rebuilds on ppe_naive (the paper's update ran on the PPE), bfs_*: on spe_bfs; PS3 model; PPE traversal and scan not charged",
+        "simulated": "ppe_*: rebuilds on ppe_naive (the paper's update ran on the PPE), bfs_*: on spe_bfs; PS3 model, the PPE's share of each update included",
     });
     args.output.report(
         "partial_rebuild",
         (&keys, &rows),
         &doc,
-        Some(&Build::new(BuilderKind::HOST).with_tree(cfg)),
+        Some(&base.clone().with_tree(cfg)),
         print_table,
     )?;
     for method in ["local", "deep"] {

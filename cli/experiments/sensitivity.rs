@@ -14,7 +14,7 @@ use clap::{Parser, ValueEnum};
 use serde_json::json;
 
 use cellbih::cell::{CellConfig, CostModel, Cycles};
-use cellbih::kernels::rates::RateOverrides;
+use cellbih::kernels::rates::{Code, RateOverrides};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::Scene;
 use cellbih_cli::args::DataArg;
@@ -36,6 +36,9 @@ struct Args {
     /// The cost model the rates are moved on.
     #[arg(long, value_enum, default_value = "measured")]
     model: Model,
+    /// The class of code whose rates are moved (docs/cost-model.md).
+    #[arg(long, value_enum, default_value = "paper")]
+    code: cellbih_cli::args::CodeArg,
     #[command(flatten)]
     run: RunArgs,
     #[command(flatten)]
@@ -59,13 +62,14 @@ struct Variant {
 
 /// The variants: the rates as they are, then each uncertain rate at the
 /// low and the high end of its band.
-fn variants(base: &CostModel) -> Vec<Variant> {
+fn variants(base: &CostModel, code: Code) -> Vec<Variant> {
+    let class = RateOverrides::default().with_code(code);
     let mut v = vec![Variant {
         rate: "(as calibrated)".into(),
         end: "",
         value: 0,
         cost: base.clone(),
-        rates: RateOverrides::default(),
+        rates: class,
     }];
     for name in CostModel::ESTIMATES.iter().map(|e| e.name) {
         let at = base.estimate(name).expect("a named estimate").0;
@@ -76,18 +80,18 @@ fn variants(base: &CostModel) -> Vec<Variant> {
                 end,
                 value,
                 cost,
-                rates: RateOverrides::default(),
+                rates: class,
             });
         }
     }
-    for u in BuilderKind::uncertain_rates() {
+    for u in BuilderKind::uncertain_rates(code) {
         for (end, value) in [("low", u.low), ("high", u.high)] {
             v.push(Variant {
                 rate: format!("{} ({})", u.name, u.why),
                 end,
                 value: value.0,
                 cost: base.clone(),
-                rates: RateOverrides::default().with(u.name, value),
+                rates: class.with(u.name, value),
             });
         }
     }
@@ -103,8 +107,8 @@ fn variants(base: &CostModel) -> Vec<Variant> {
                     .with_estimate(name, Cycles(value))
                     .expect("a named estimate");
             }
-            let mut rates = RateOverrides::default();
-            for u in BuilderKind::uncertain_rates() {
+            let mut rates = class;
+            for u in BuilderKind::uncertain_rates(code) {
                 rates = rates.with(u.name, if kernels == "low" { u.low } else { u.high });
             }
             v.push(Variant {
@@ -161,7 +165,11 @@ fn run(args: &Args) -> Result<(), String> {
     let builders: Vec<BuilderKind> = (BuilderKind::ALL.iter().copied())
         .filter(|b| b.multi_spe())
         .collect();
-    let variants = variants(&base);
+    let code = match args.code {
+        cellbih_cli::args::CodeArg::Paper => Code::Paper,
+        cellbih_cli::args::CodeArg::Tuned => Code::Tuned,
+    };
+    let variants = variants(&base, code);
     // Every emulation side by side: each variant's baseline on each scene
     // (no SPE count) and each builder on each SPE count.
     let mut jobs = Vec::new();

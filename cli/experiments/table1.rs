@@ -15,11 +15,10 @@ use clap::Parser;
 use serde_json::json;
 
 use cellbih::bih::BihConfig;
-use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{self, Scene};
 use cellbih_cli::args::DataArg;
-use cellbih_cli::args::RunArgs;
+use cellbih_cli::args::{RateArgs, RunArgs};
 use cellbih_cli::report::side_by_side;
 
 #[derive(Parser)]
@@ -31,6 +30,8 @@ struct Args {
     data: DataArg,
     #[command(flatten)]
     run: RunArgs,
+    #[command(flatten)]
+    rates: RateArgs,
 }
 
 /// The paper's Table 1: model, triangles, file name, milliseconds for
@@ -114,7 +115,7 @@ fn run(args: &Args) -> Result<(), String> {
     // The paper's four methods on the PS3 (6 SPEs: the multi-SPE builders
     // use them all), and section 5's strategies beside them (the paper has
     // no figure for them): every build side by side.
-    let six = CellConfig::ps3().with_spes(6);
+    let (six, rates) = args.rates.ps3(6)?;
     let builders: Vec<BuilderKind> = (METHODS.iter().copied())
         .chain(BuilderKind::ALL.iter().copied().filter(|b| b.multi_spe()))
         .collect();
@@ -127,6 +128,7 @@ fn run(args: &Args) -> Result<(), String> {
         let r = Build::new(b)
             .with_tree(cfg)
             .on(&six)
+            .with_rates(&rates)
             .run(scene)
             .map_err(|e| format!("{name}, {b}: {e}"))?;
         let sim = r
@@ -190,7 +192,12 @@ fn run(args: &Args) -> Result<(), String> {
             &rows,
         ),
         &doc,
-        Some(&Build::new(BuilderKind::HOST).with_tree(cfg).on(&six)),
+        Some(
+            &Build::new(BuilderKind::HOST)
+                .with_tree(cfg)
+                .on(&six)
+                .with_rates(&rates),
+        ),
         print_table,
     )?;
     Ok(())

@@ -20,6 +20,7 @@ use serde_json::{Value, json};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene;
 use cellbih::update::{Animation, Method, SIMULATED_BUILDERS, Summary, UpdateReport, play};
+use cellbih_cli::args::RateArgs;
 use cellbih_cli::report::OutputArgs;
 
 #[derive(Parser)]
@@ -35,6 +36,8 @@ struct Args {
     seed: u64,
     #[command(flatten)]
     output: OutputArgs,
+    #[command(flatten)]
+    rates: RateArgs,
 }
 
 /// The paper's Table 2: scene, our stand-in and animation, then tris,
@@ -64,16 +67,22 @@ fn main() {
 fn summary(
     s: &scene::Scene,
     anim: &Animation,
-    builder: BuilderKind,
+    build: &Build,
     method: Method,
 ) -> Result<Summary, String> {
-    let reports: Vec<UpdateReport> = play(s, anim, &Build::new(builder), method)
-        .map_err(|e| e.to_string())?
-        .1;
+    let reports: Vec<UpdateReport> = play(s, anim, build, method).map_err(|e| e.to_string())?.1;
     Summary::of(&reports).ok_or_else(|| format!("{}: no frame moved anything", anim.name))
 }
 
 fn run(args: &Args) -> Result<(), String> {
+    if args.no_sim && !args.rates.given().is_empty() {
+        return Err(format!(
+            "{}: --no-sim runs nothing on the emulated Cell",
+            args.rates.given().join(", ")
+        ));
+    }
+    let (cell, rates) = args.rates.ps3(6)?;
+    let base = Build::new(BuilderKind::HOST).on(&cell).with_rates(&rates);
     let progress = std::io::stderr().is_terminal();
     let mut rows = Vec::new();
     for (paper_name, spec, p) in PAPER {
@@ -89,7 +98,7 @@ fn run(args: &Args) -> Result<(), String> {
             if progress {
                 eprint!("{spec:>4} {:<5}\r", method.name());
             }
-            let host = summary(&s, &anim, BuilderKind::HOST, method)?;
+            let host = summary(&s, &anim, &base.for_builder(BuilderKind::HOST), method)?;
             let mut row = json!({
                 "scene": paper_name, "source": format!("ours ({spec})"), "method": method.name(),
                 "triangles": s.len(), "updates": host.updates, "rebuilds": host.rebuilds,
@@ -99,7 +108,7 @@ fn run(args: &Args) -> Result<(), String> {
                 "trav": host.depth, "kept": host.kept,
             });
             for (p, builder) in SIMULATED_BUILDERS.iter().filter(|_| !args.no_sim) {
-                let t = summary(&s, &anim, *builder, method)?.simulated_ms;
+                let t = summary(&s, &anim, &base.for_builder(*builder), method)?.simulated_ms;
                 row[format!("{p}_tmin_ms")] = json!(t.map(|t| t[0]));
                 row[format!("{p}_tmax_ms")] = json!(t.map(|t| t[1]));
                 row[format!("{p}_t_ms")] = json!(t.map(|t| t[2]));
@@ -138,13 +147,8 @@ fn run(args: &Args) -> Result<(), String> {
         "rows": rows,
         "note": "ours: t*_ms host (host builder, one thread); ppe_t*_ms / bfs_t*_ms simulated PS3 ms with the rebuilds on ppe_naive / spe_bfs; paper: PS3 ms (its update ran on the PPE)",
     });
-    args.output.report(
-        "table2",
-        (&keys, &rows),
-        &doc,
-        Some(&Build::new(BuilderKind::HOST)),
-        print_table,
-    )?;
+    args.output
+        .report("table2", (&keys, &rows), &doc, Some(&base), print_table)?;
     Ok(())
 }
 

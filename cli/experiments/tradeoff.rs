@@ -24,14 +24,13 @@ use cellbih::bih::{BihConfig, SplitChoice, Tracer};
 /// The `--sah-above` setting the grid tries beside binning every node.
 const SAH_ABOVE: u32 = 4096;
 use cellbih::cast::{CastConfig, cast_on_cell};
-use cellbih::cell::CellConfig;
 use cellbih::quality::pareto_front;
 use cellbih::quality::rays::RaySets;
 use cellbih::registry::{Build, BuilderKind, Quality};
 use cellbih::scene::Scene;
 use cellbih::strategy::Knobs;
-use cellbih_cli::args::RunArgs;
 use cellbih_cli::args::SceneArgs;
+use cellbih_cli::args::{RateArgs, RunArgs};
 use cellbih_cli::report::{Series, one_thread_each, output, scatter_plot};
 
 #[derive(Parser)]
@@ -58,6 +57,8 @@ struct Args {
     scene: SceneArgs,
     #[command(flatten)]
     run: RunArgs,
+    #[command(flatten)]
+    rates: RateArgs,
 }
 
 /// A builder with one setting, named by its CLI options.
@@ -133,8 +134,9 @@ fn run(args: &Args) -> Result<(), String> {
     args.run.threads.install()?;
     let settings = settings();
     let scenes = cellbih_cli::report::load_scenes(&args.scenes, args.scene.data.dir().as_deref())?;
-    let mut cell = CellConfig::ps3().with_spes(args.spes as usize);
+    let (mut cell, rates) = args.rates.ps3(args.spes as usize)?;
     cell.checked = false;
+    let model = Build::new(BuilderKind::HOST).on(&cell).with_rates(&rates);
     let sets: Vec<_> = (scenes.iter())
         .map(|s| {
             let view = args.scene.camera.view();
@@ -155,7 +157,7 @@ fn run(args: &Args) -> Result<(), String> {
     let done = one_thread_each("settings", &jobs, |&(si, k)| {
         let (s, st) = (&scenes[si], &settings[k]);
         let (rays, cam) = &sets[si];
-        measure(s, st, &cell, (rays, cam)).map_err(|e| {
+        measure(s, st, &model, (rays, cam)).map_err(|e| {
             let label = format!("{} {}", st.builder, st.flags);
             format!("{}, {}: {e}", s.name, label.trim())
         })
@@ -193,7 +195,7 @@ fn run(args: &Args) -> Result<(), String> {
         "spes": args.spes,
         "note": NOTE.replace("PACKET", &CastConfig::DEFAULT.packet.to_string()),
     });
-    let (shared, ps3_summary) = (Build::new(BuilderKind::HOST).on(&cell), args.ps3_summary);
+    let (shared, ps3_summary) = (model.clone(), args.ps3_summary);
     let print = |rows: &[Value]| print_tables(rows, ps3_summary);
     (args.run.output).report("tradeoff", (&keys, &rows), &doc, Some(&shared), print)?;
     plots(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
@@ -217,13 +219,14 @@ const CAST_SIZE: (u32, u32) = (320, 240);
 fn measure(
     s: &Scene,
     st: &Setting,
-    cell: &CellConfig,
+    model: &Build,
     (rays, cam): (&RaySets, &[cellbih::bih::Ray]),
 ) -> Result<Value, String> {
+    let cell = &model.cell;
     // The host's figures are one thread's: a builder that builds on the
     // host's threads builds in the job's pool of one ([`one_thread_each`]).
     let build = || {
-        (Build::new(st.builder).with_tree(st.cfg).on(cell))
+        (model.for_builder(st.builder).with_tree(st.cfg))
             .with_knobs(&st.knobs)
             .run(s)
             .map_err(|e| e.to_string())
@@ -250,8 +253,15 @@ fn measure(
     runs.sort_by(|a, b| a.1.mrays_per_s.total_cmp(&b.1.mrays_per_s));
     let i = runs[1].1;
     let cell_render_ms = if st.builder.emulated() {
-        let c = cast_on_cell(&r.bih, s, cam, &CastConfig::DEFAULT, cell, r.record_order())
-            .map_err(|e| e.to_string())?;
+        let c = cast_on_cell(
+            &r.bih,
+            s,
+            cam,
+            &CastConfig::DEFAULT.with_rates(&model.rates),
+            cell,
+            r.record_order(),
+        )
+        .map_err(|e| e.to_string())?;
         Some(c.run.ms)
     } else {
         None

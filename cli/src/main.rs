@@ -16,6 +16,7 @@ fn main() -> ExitCode {
     let result = match Cli::parse().command {
         None => command::compare::demo(),
         Some(Command::Builders) => command::builders::run(),
+        Some(Command::Rates(args)) => command::rates::run(args),
         Some(Command::Info(args)) => command::info::run(args),
         Some(Command::Compare(args)) => command::compare::run(args),
         Some(Command::Build(args)) => command::build::run(args),

@@ -25,7 +25,7 @@ use glam::DVec3;
 use crate::aabb::Aabb;
 use crate::bih::{Bih, Hit, Ray, RayStats};
 use crate::cell::{Cell, CellConfig, CellError, Cycles, Ea, Label, RunReport, Trace};
-use crate::kernels::rates::FITTED_OVER_DERIVED;
+use crate::kernels::rates::{Band, Code, Count, Rate, RateOverrides, overridden};
 use crate::render::Camera;
 use crate::scene::Scene;
 pub use crate::spe::layout::RecordOrder;
@@ -185,44 +185,92 @@ pub enum Precision {
     Double,
 }
 
+/// The caster's kernels' counts (SPU cycles, [`CastRates`]' fields give
+/// each) in one precision: ray setup, node step, triangle test, packet
+/// setup a quad, packet node, packet node a quad, packet triangle, packet
+/// triangle a quad.
+struct Counts([u64; 8]);
+
 impl Precision {
-    /// The caster's rates when charged for this arithmetic.
-    pub fn rates(self) -> CastRates {
-        let cache = CacheRates::MEASURED;
-        let x = FITTED_OVER_DERIVED;
-        // Derived: 4 quadword stores and 4 loads (odd pipe), the loads'
-        // 6-cycle latency, the SPU's 18-cycle branch-miss penalty: 32.
-        let ray_switch = Cycles(32 * x);
+    /// Counted in single precision; in double, a double-precision
+    /// instruction issues once every 7 cycles and a packet's quad is two
+    /// double vectors.
+    const fn counts(self) -> Counts {
         match self {
-            // Derived: 20, 16 and 14 SPU cycles; packets 44 a quad to set
-            // up, 8 a node and 12 a quad there, 9 a triangle and 48 a quad.
-            Precision::Single => CastRates {
-                ray_setup: Cycles(20 * x),
-                node_step: Cycles(16 * x),
-                triangle_test: Cycles(14 * x),
-                cache,
-                ray_switch,
-                packet_setup_quad: Cycles(44 * x),
-                packet_node: Cycles(8 * x),
-                packet_node_quad: Cycles(12 * x),
-                packet_triangle: Cycles(9 * x),
-                packet_triangle_quad: Cycles(48 * x),
-            },
-            // Derived: 300, 100 and 230 SPU cycles; a packet's quad is two
-            // double-precision vectors, each the single ray's arithmetic.
-            Precision::Double => CastRates {
-                ray_setup: Cycles(300 * x),
-                node_step: Cycles(100 * x),
-                triangle_test: Cycles(230 * x),
-                cache,
-                ray_switch,
-                packet_setup_quad: Cycles(600 * x),
-                packet_node: Cycles(8 * x),
-                packet_node_quad: Cycles(200 * x),
-                packet_triangle: Cycles(9 * x),
-                packet_triangle_quad: Cycles(460 * x),
-            },
+            Precision::Single => Counts([20, 16, 14, 44, 8, 12, 9, 48]),
+            Precision::Double => Counts([300, 100, 230, 600, 8, 200, 9, 460]),
         }
+    }
+
+    /// The caster's rates when charged for this arithmetic in the class
+    /// `code` (the software cache's lookup and miss are measured: the same
+    /// in both).
+    pub fn rates(self, code: Code) -> CastRates {
+        let c = self.counts().0;
+        let at = |i: usize| code.charge(Count::of(c[i]));
+        CastRates {
+            ray_setup: at(0),
+            node_step: at(1),
+            triangle_test: at(2),
+            cache: CacheRates::of(code),
+            ray_switch: code.charge(Count::of(RAY_SWITCH)),
+            packet_setup_quad: at(3),
+            packet_node: at(4),
+            packet_node_quad: at(5),
+            packet_triangle: at(6),
+            packet_triangle_quad: at(7),
+        }
+    }
+}
+
+/// A switch to another ray on a miss: 4 quadword stores and 4 loads (odd
+/// pipe), the loads' 6-cycle latency, the SPU's 18-cycle branch-miss
+/// penalty: 32, in either precision.
+const RAY_SWITCH: u64 = 32;
+
+impl CastRates {
+    /// The caster's rates in `precision` and the class `code`, each named
+    /// (`cast.…`) and banded; the software cache's measured ones fixed.
+    pub fn table(precision: Precision, code: Code) -> Vec<Rate<CastRates>> {
+        let c = precision.counts().0;
+        let band = |i: usize| code.band(Count::of(c[i]));
+        let mut v = crate::rate_table!(CastRates, "cast.", {
+            ray_setup: band(0),
+            node_step: band(1),
+            triangle_test: band(2),
+            ray_switch: code.band(Count::of(RAY_SWITCH)),
+            packet_setup_quad: band(3),
+            packet_node: band(4),
+            packet_node_quad: band(5),
+            packet_triangle: band(6),
+            packet_triangle_quad: band(7),
+        })
+        .to_vec();
+        v.extend_from_slice(&[
+            Rate {
+                name: "cast.cache.lookup",
+                at: |s| &mut s.cache.lookup,
+                band: Band::Fitted,
+            },
+            Rate {
+                name: "cast.cache.miss",
+                at: |s| &mut s.cache.miss,
+                band: Band::Fitted,
+            },
+            Rate {
+                name: "cast.cache.invalidate_line",
+                at: |s| &mut s.cache.invalidate_line,
+                band: code.band(crate::spe::software_cache::INVALIDATE_COUNT),
+            },
+        ]);
+        v
+    }
+
+    /// The rates of a cast: `precision`'s in the class of `rates`, with
+    /// its overrides.
+    pub fn of(precision: Precision, rates: &RateOverrides) -> CastRates {
+        let code = rates.code();
+        overridden(precision.rates(code), &Self::table(precision, code), rates)
     }
 }
 
@@ -244,6 +292,9 @@ pub struct CastConfig {
     /// of a tile ([`cast_camera`] orders a camera's rays so that they are
     /// a block of the image); 1 × 1: every ray alone.
     pub packet: Packet,
+    /// The code class and the rates moved by name (`--code`, `--rate`).
+    #[serde(skip)]
+    pub rates: RateOverrides,
 }
 
 /// A packet's shape, in rays: `w × h`, 1 to 8 each.
@@ -287,7 +338,16 @@ impl CastConfig {
         precision: Precision::Single,
         rays_in_flight: 1,
         packet: Packet { w: 4, h: 4 },
+        rates: RateOverrides::PAPER,
     };
+
+    /// This cast with the code class and rates of `rates` (a build's).
+    pub fn with_rates(self, rates: &RateOverrides) -> Self {
+        CastConfig {
+            rates: *rates,
+            ..self
+        }
+    }
 
     /// The most rays a tile holds: 256 rays are one 16 KiB get.
     pub const MAX_TILE_RAYS: u32 = 256;
@@ -514,7 +574,7 @@ pub fn cast_on_cell(
             rays_in_flight: cfg.rays_in_flight,
             packet_rays: cfg.packet.rays(),
             cache: cfg.cache,
-            rates: cfg.precision.rates(),
+            rates: CastRates::of(cfg.precision, &cfg.rates),
         }
     };
     let (hits_ea, count) = (job.hits, rays.len());

@@ -229,6 +229,11 @@ pub fn play(
     cfg: &FrameConfig,
     mut done: impl FnMut(&FrameReport),
 ) -> Result<FrameRun, FrameError> {
+    // The cast is charged in the build's code class, with its rates.
+    let cfg = &FrameConfig {
+        cast: cfg.cast.with_rates(&cfg.build.rates),
+        ..cfg.clone()
+    };
     if !cfg.build.builder.emulated() {
         return Err(FrameError::Config(format!(
             "builder {} runs on the host: a frame on the Cell needs an emulated builder ({})",
@@ -305,9 +310,8 @@ pub fn play(
                 let combine = |a, b| cfg.frame_ms(a, b);
                 let options = |plan: &Plan| {
                     let r = routing.per_moved(plan, u.deep_stop_below);
-                    let known = |m| {
-                        plan_find_ms(plan, m, &cell.cost, r) + bill.update_ms(m, plan.full_rebuild)
-                    };
+                    let known =
+                        |m| plan_find_ms(plan, m, cfg, r) + bill.update_ms(m, plan.full_rebuild);
                     predictor.predict(plan, u.scene.len(), known)
                 };
                 let first = options(&plan);
@@ -333,7 +337,7 @@ pub fn play(
         let find_ms = |m: Method| {
             (plan.as_ref())
                 .filter(|p| p.deep_planned || p.full_rebuild || m != Method::Deep)
-                .map(|p| plan_find_ms(p, m, &cell.cost, 0.0))
+                .map(|p| plan_find_ms(p, m, cfg, 0.0))
         };
         let mut tried: Vec<(Method, Attempt)> = Vec::new();
         if cfg.oracle {
@@ -371,7 +375,7 @@ pub fn play(
         let render_ms = cast.run.ms + charged.switch_ms;
         if let Some(plan) = &plan {
             let known =
-                plan_find_ms(plan, taken, &cell.cost, 0.0) + bill.update_ms(taken, up.full_rebuild);
+                plan_find_ms(plan, taken, cfg, 0.0) + bill.update_ms(taken, up.full_rebuild);
             routing.learn(plan);
             predictor.observe(
                 taken,
@@ -433,7 +437,7 @@ pub fn play(
 /// still needs if the plan did not make it.
 /// The deep update's descent, where the plan did not make it, is
 /// estimated at `routed` routings per moved triangle ([`Routing`]).
-fn plan_find_ms(plan: &Plan, m: Method, cost: &crate::cell::CostModel, routed: f64) -> f64 {
+fn plan_find_ms(plan: &Plan, m: Method, cfg: &FrameConfig, routed: f64) -> f64 {
     let mut find = plan.find;
     if !plan.deep_planned && !plan.full_rebuild && m != Method::Rebuild {
         find.scanned += plan.interval as u64;
@@ -441,7 +445,7 @@ fn plan_find_ms(plan: &Plan, m: Method, cost: &crate::cell::CostModel, routed: f
             find.routed += (routed * plan.transformed as f64).round() as u64;
         }
     }
-    find.ms(cost)
+    find.ms(&cfg.build.cell.cost, &cfg.build.rates)
 }
 
 /// How many times the deep update's descent routes each moved triangle:

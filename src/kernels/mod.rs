@@ -5,7 +5,7 @@
 //! items ([`recursion`]), the bucket presort of approximate sorting
 //! ([`approx`]), Morton keys ([`morton`]) and their halving tables
 //! ([`halving`]), the radix-sort passes ([`radix`]), and their compute
-//! rates ([`rates`]).
+//! rates ([`rates`]; the PPE's update steps' in [`ppe_rates`]).
 //! A host builder calls them on whole arrays, an SPE program on
 //! local-store blocks.
 
@@ -14,6 +14,7 @@ pub mod cutoff;
 pub mod decide;
 pub mod halving;
 pub mod morton;
+pub mod ppe_rates;
 pub mod radix;
 pub mod rates;
 pub mod recursion;

@@ -75,7 +75,7 @@ impl Build {
     /// This request with kernel rates moved from their PS3 values.
     pub fn with_rates(self, rates: &RateOverrides) -> Self {
         Build {
-            rates: rates.clone(),
+            rates: *rates,
             ..self
         }
     }
@@ -238,31 +238,34 @@ mod tests {
     #[test]
     fn a_rate_that_names_no_rate_is_refused() {
         use crate::cell::Cycles;
-        use crate::kernels::rates::RateOverrides;
+        use crate::kernels::rates::{Code, RateOverrides};
         let s = crate::scene::load("rtperf:500:1", None).unwrap();
         let typo = RateOverrides::default().with("spe_jbo", Cycles(100));
         let b = Build::new(BuilderKind::SPE_BFS).with_rates(&typo);
         let e = b.check().unwrap_err().to_string();
         assert!(
-            e.contains("no rate named spe_jbo") && e.contains("spe_job"),
+            e.contains("no rate named spe_jbo (did you mean spe_job?)"),
             "{e}"
         );
         assert!(b.run(&s).is_err());
-        for r in BuilderKind::rates() {
-            let o = RateOverrides::default().with(r.name, Cycles(100));
-            assert!(
-                Build::new(BuilderKind::SPE_BFS)
-                    .with_rates(&o)
-                    .check()
-                    .is_ok(),
-                "{}",
-                r.name
-            );
+        for code in Code::ALL {
+            let every = BuilderKind::every_rate(code);
+            for r in &every {
+                let o = RateOverrides::default()
+                    .with_code(code)
+                    .with(r.name, Cycles(100));
+                assert!(
+                    Build::new(BuilderKind::SPE_BFS)
+                        .with_rates(&o)
+                        .check()
+                        .is_ok(),
+                    "{}",
+                    r.name
+                );
+            }
+            for name in ["spe_morton.key_bit", "cast.node_step", "update.scan_slot"] {
+                assert!(every.iter().any(|r| r.name == name), "{name}");
+            }
         }
-        assert!(
-            BuilderKind::rates()
-                .iter()
-                .any(|r| r.name == "spe_morton.key_bit")
-        );
     }
 }

@@ -8,9 +8,11 @@ use std::time::Instant;
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig};
+use crate::cast::{CastRates, Precision};
 use crate::cell::CellError;
 use crate::host::{HostBuild, HostBuilder};
-use crate::kernels::rates::{KernelRates, RateInfo, RateOverrides, Uncertain, infos};
+use crate::kernels::ppe_rates::PpeRates;
+use crate::kernels::rates::{Code, KernelRates, RateInfo, RateOverrides, Uncertain, infos};
 use crate::scene::Scene;
 use crate::strategy::{self, Strategy};
 
@@ -172,13 +174,13 @@ impl BuilderKind {
         k
     }
 
-    /// Every kernel rate the builders may charge: the shared kernels' and
-    /// each strategy's own, each once, with its band.
-    pub fn rates() -> Vec<RateInfo> {
-        let mut v = infos(KernelRates::TABLE);
+    /// Every kernel rate the builders may charge in the class `code`: the
+    /// shared kernels' and each strategy's own, each once, with its band.
+    pub fn rates(code: Code) -> Vec<RateInfo> {
+        let mut v = infos(KernelRates::of(code), &KernelRates::table(code));
         for b in Self::ALL {
             if let Family::Cell(s) = b.0 {
-                for r in (s.rates)() {
+                for r in (s.rates)(code) {
                     if !v.iter().any(|h| h.name == r.name) {
                         v.push(r);
                     }
@@ -188,32 +190,53 @@ impl BuilderKind {
         v
     }
 
-    /// Every kernel rate the builders may charge that no measurement pins,
-    /// with its plausible band (the sensitivity report moves each in turn).
-    pub fn uncertain_rates() -> Vec<Uncertain> {
-        Self::rates()
+    /// Every kernel rate the builders may charge in the class `code` that
+    /// no measurement pins, with its band (the sensitivity report moves
+    /// each in turn).
+    pub fn uncertain_rates(code: Code) -> Vec<Uncertain> {
+        Self::rates(code)
             .iter()
             .filter_map(RateInfo::uncertain)
             .collect()
     }
 
-    /// Refuses rate overrides that name no rate of [`Self::rates`], naming
-    /// them and the rates there are (a misspelt name would otherwise move
-    /// nothing, silently).
-    pub fn check_rates(overrides: &RateOverrides) -> Result<(), CellError> {
-        let rates = Self::rates();
-        let unknown: Vec<&str> = (overrides.names())
-            .filter(|n| !rates.iter().any(|r| r.name == *n))
-            .collect();
-        if unknown.is_empty() {
-            return Ok(());
+    /// Every rate of the library a run may move by name in the class
+    /// `code`: the builders' ([`Self::rates`]), the SPE caster's (in the
+    /// default precision) and the PPE's share of an update.
+    pub fn every_rate(code: Code) -> Vec<RateInfo> {
+        let mut v = Self::rates(code);
+        let single = Precision::Single;
+        v.extend(infos(single.rates(code), &CastRates::table(single, code)));
+        v.extend(infos(PpeRates::PS3, &PpeRates::table()));
+        v
+    }
+
+    /// The rate of [`Self::every_rate`] named `name`; one that is no
+    /// rate is refused by name, with the names a slip away.
+    pub fn rate_named(name: &str, code: Code) -> Result<&'static str, CellError> {
+        let rates = Self::every_rate(code);
+        if let Some(r) = rates.iter().find(|r| r.name == name) {
+            return Ok(r.name);
         }
-        let names: Vec<&str> = rates.iter().map(|r| r.name).collect();
+        let near: Vec<&str> = (rates.iter().map(|r| r.name))
+            .filter(|n| close(name, n))
+            .collect();
         Err(CellError::Config(format!(
-            "no rate named {}; the rates are: {}",
-            unknown.join(", "),
-            names.join(", ")
+            "no rate named {name}{}; `cellbih rates` lists them all",
+            match near.is_empty() {
+                true => String::new(),
+                false => format!(" (did you mean {}?)", near.join(", ")),
+            }
         )))
+    }
+
+    /// Refuses rate overrides that name no rate of [`Self::every_rate`]
+    /// (a misspelt name would otherwise move nothing, silently).
+    pub fn check_rates(overrides: &RateOverrides) -> Result<(), CellError> {
+        for name in overrides.names() {
+            Self::rate_named(name, overrides.code())?;
+        }
+        Ok(())
     }
 
     /// Refuses a strategy knob (`--NAME`) the builder does not take,
@@ -354,6 +377,12 @@ impl std::fmt::Display for BuilderKind {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
+}
+
+/// Whether two names are a slip apart: one letter changed, added, dropped
+/// or two swapped.
+fn close(a: &str, b: &str) -> bool {
+    strsim::damerau_levenshtein(a, b) <= 1
 }
 
 #[cfg(test)]

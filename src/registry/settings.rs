@@ -29,7 +29,7 @@ pub struct Settings<'a> {
 }
 
 /// The emulated Cell's settings, as the command line names them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct CellSettings {
     pub spes: usize,
     pub memory_mib: u64,
@@ -40,6 +40,9 @@ pub struct CellSettings {
     pub model: Option<&'static str>,
     /// raw or ps3-kernel (none in the functional mode; "custom" as above).
     pub mailboxes: Option<&'static str>,
+    /// The machine rates moved from the named model (`--rate`), as
+    /// `--rate` spells them.
+    pub moved: Vec<(&'static str, String)>,
 }
 
 impl CellSettings {
@@ -61,10 +64,22 @@ impl CellSettings {
             ),
         ];
         let functional = cell.cost == CostModel::functional();
-        let (model, mailboxes) = match named.iter().find(|(.., c)| *c == cell.cost) {
-            _ if functional => (None, None),
-            Some(&(model, mailboxes, _)) => (Some(model), Some(mailboxes)),
-            None => (Some("custom"), Some("custom")),
+        // The named model this one is, or differs from by named rates
+        // only (the fewest): a model a caller made otherwise is "custom".
+        let nearest = (named.iter())
+            .filter_map(|(model, mailboxes, base)| {
+                let moved = cell.cost.moved_from(base);
+                let mut back = cell.cost.clone();
+                for (name, _) in &moved {
+                    back.set_rate(name, &base.rate_text(name)?);
+                }
+                (back == *base).then_some((model, mailboxes, moved))
+            })
+            .min_by_key(|(.., moved)| moved.len());
+        let (model, mailboxes, moved) = match nearest {
+            _ if functional => (None, None, Vec::new()),
+            Some((&model, &mailboxes, moved)) => (Some(model), Some(mailboxes), moved),
+            None => (Some("custom"), Some("custom"), Vec::new()),
         };
         CellSettings {
             spes: cell.spes,
@@ -76,6 +91,7 @@ impl CellSettings {
             },
             model,
             mailboxes,
+            moved,
         }
     }
 }
@@ -191,6 +207,11 @@ impl<'a> Settings<'a> {
             "cell": self.cell().map(|c| json!({
                 "spes": c.spes, "memory_mib": c.memory_mib, "mode": c.mode,
                 "model": c.model, "mailboxes": c.mailboxes,
+                "code": self.build.rates.code().name(),
+                "machine_rates": (!c.moved.is_empty()).then(|| {
+                    c.moved.iter().map(|(n, v)| (n.to_string(), json!(v)))
+                        .collect::<serde_json::Map<String, Value>>()
+                }),
             })),
             "threads": self.threads(),
             "rates": self.build.rates.names().next().is_some().then(|| {
@@ -243,13 +264,18 @@ impl<'a> Settings<'a> {
             ];
             cell.extend(c.model.map(|m| format!("--model {m}")));
             cell.extend(c.mailboxes.map(|m| format!("--mailboxes {m}")));
+            cell.push(format!("--code {}", b.rates.code()));
+            cell.extend(c.moved.iter().map(|(n, v)| format!("--rate {n}={v}")));
             parts.push(cell.join(" "));
         }
         if let Some(n) = self.threads() {
             parts.push(format!("--threads {n}"));
         }
-        for (name, cycles) in self.rates() {
-            parts.push(format!("rate {name} {cycles} cycles"));
+        let rates: Vec<String> = (self.rates().into_iter())
+            .map(|(name, cycles)| format!("--rate {name}={cycles}"))
+            .collect();
+        if !rates.is_empty() {
+            parts.push(rates.join(" "));
         }
         if let Some(c) = self.cast {
             parts.push(format!(

@@ -152,7 +152,7 @@ pub fn run_in(
         count: scene.len(),
         region,
         knobs: knobs.clone(),
-        rates: rates.clone(),
+        rates: *rates,
     };
     let readback = spawn(&mut cell, &setup, cfg)?;
     let run = cell.run()?;

@@ -8,7 +8,7 @@
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, Quality};
 use crate::cell::{Cell, CellError, Ea, Ppe};
-use crate::kernels::rates::{RateInfo, RateOverrides};
+use crate::kernels::rates::{Code, RateInfo, RateOverrides};
 use crate::kernels::recursion::BuildStats;
 use crate::spe::footprint::Purpose;
 
@@ -41,7 +41,7 @@ pub struct Strategy {
     pub combos: &'static [&'static [(&'static Knob, &'static str)]],
     /// Its own kernels' rates (each with its band: the sensitivity report
     /// moves those not pinned by a measurement).
-    pub rates: fn() -> Vec<RateInfo>,
+    pub rates: fn(Code) -> Vec<RateInfo>,
     /// Sets up its programs on the Cell.
     pub spawn: Spawn,
 }
@@ -57,7 +57,7 @@ impl Strategy {
             quality: Quality::PAPER,
             knobs: &[],
             combos: &[],
-            rates: Vec::new,
+            rates: |_| Vec::new(),
             spawn,
         }
     }
@@ -81,7 +81,7 @@ impl Strategy {
     }
 
     /// Its own kernels' rates, from its rate table.
-    pub const fn with_rates(self, rates: fn() -> Vec<RateInfo>) -> Self {
+    pub const fn with_rates(self, rates: fn(Code) -> Vec<RateInfo>) -> Self {
         Strategy { rates, ..self }
     }
 
@@ -101,8 +101,9 @@ pub struct Setup {
     pub count: usize,
     pub region: Aabb,
     pub knobs: Knobs,
-    /// Kernel rates moved from their PS3 values (the sensitivity report);
-    /// a strategy charges `rates.kernels()` and its own rates with these.
+    /// The code class and the kernel rates moved from its values (`--code`,
+    /// `--rate`, the sensitivity report); a strategy charges
+    /// `rates.kernels()` and its own rates with these.
     pub rates: RateOverrides,
 }
 

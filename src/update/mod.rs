@@ -36,7 +36,7 @@ use thiserror::Error;
 pub use animation::{Animation, MAX_FRAMES, Move, apply};
 pub use local::{Enclosing, Stop, enclosing_node, interval};
 pub use plan::Plan;
-pub use ppe::PpeWork;
+pub use ppe::{PpeRates, PpeWork};
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
@@ -354,8 +354,9 @@ impl Updater {
         }
         if self.build.builder.emulated() && self.build.cell.cost.charge_compute {
             let cost = &self.build.cell.cost;
-            r.ppe_find_ms = r.ppe_find.ms(cost);
-            r.ppe_apply_ms = r.ppe_apply.ms(cost);
+            let rates = &self.build.rates;
+            r.ppe_find_ms = r.ppe_find.ms(cost, rates);
+            r.ppe_apply_ms = r.ppe_apply.ms(cost, rates);
             r.simulated_ms = Some(r.build_ms.unwrap_or(0.0) + r.ppe_find_ms + r.ppe_apply_ms);
         }
         r.host_ms = ms(start);

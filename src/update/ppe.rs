@@ -5,21 +5,19 @@
 //!
 //! The rebuilds run on the SPEs; the PPE finds what to rebuild before them
 //! ([`PpeWork`] "find") and puts the rebuilt subtrees in place after them
-//! ("apply"), so its time adds to the update's. The rates:
-//!
-//! - **pointer-chasing steps** (a node read, a moved triangle routed, an
-//!   interval slot scanned, a node written) are counted in cycles of the
-//!   in-order PPE — a dependent load 5 cycles, a dependent floating-point
-//!   operation 10, a mispredicted branch 23 (its 23-stage pipeline; IBM,
-//!   "Cell Broadband Engine Architecture and its first implementation"),
-//!   one load or store a cycle otherwise — and scaled like the PPE's
-//!   partition: the fitted `ppe_partition_item` (1,065 cycles, Table 1's
-//!   naive build of the Bunny) over the same count of the naive
-//!   partition's step ([`PARTITION_COUNT`], 70), as the SPE's new kernels
-//!   are scaled by the SPE partition's fitted/derived ratio;
-//! - **copies of triangle ids** (the interval's order saved, kept ranges
-//!   moved, a rebuilt piece's ids written) at the PPE's memory bandwidth
-//!   (`CostModel::ppe_memory_bandwidth`), bytes read and written.
+//! ("apply"), so its time adds to the update's. Each step is priced from
+//! the bytes it touches, how it touches them (streaming, a dependent load,
+//! a branch) and the PPE's measured latencies and bandwidths — cellmark's
+//! PPE page (`cellmark:docs/ppe_tuning.md`, a retail PS3): a chained L1
+//! load 6.4 cycles, an L2 hit 36, L2 reads streaming at 2.75 GB/s plain
+//! (1.16 cycles a byte) and 8.4 GB/s with `dcbt`; and IBM's "Cell
+//! Broadband Engine Architecture and its first implementation": a
+//! dependent floating-point operation about 10 cycles, a mispredicted
+//! branch 23 (half of them: 11.5). They are the PPE's own, in either code
+//! class: the naive build's fitted `ppe_partition_item` (48-byte records
+//! far beyond the L2, an allocation a node) is that build's figure, not
+//! these steps'. Copies of triangle ids go at the PPE's memory bandwidth
+//! (`CostModel::ppe_memory_bandwidth`), bytes read and written.
 //!
 //! Not charged here: the moved objects' boxes before and after (the EBB),
 //! made while the application transforms their triangles (its work, as the
@@ -28,49 +26,11 @@
 use serde::Serialize;
 
 use crate::cell::{CostModel, Cycles};
-use crate::kernels::rates::KernelRates;
-
-/// The naive PPE partition's step counted the same way: two dependent
-/// loads of the box on the axis (5), its center (an add and a multiply,
-/// 10 each), the compare with the split (10), the branch mispredicted half
-/// the time (11.5), the swap of two 48-byte records (12 loads and 12
-/// stores, 24): 70.
-pub const PARTITION_COUNT: u64 = 70;
-
-/// A node read on the way down (Algorithm 1, the deep descent): the node
-/// (5), its axis and planes decoded (2), the region clipped to both
-/// children (two dependent min/max, 20), the EBB's overlap with each (two
-/// compares, 10), whether a plane must be widened (10), the branch
-/// mispredicted half the time (11.5): 60.
-pub const NODE_VISIT_COUNT: u64 = 60;
-
-/// A moved triangle routed to a child by the deep descent: its box's two
-/// bounds on the node's axis loaded (5; the box is made once, when the
-/// EBB is), compared with the two planes (10: the node's region already
-/// holds the box on the other axes), the branch mispredicted half the
-/// time (11.5), its center against the middle where both children could
-/// hold it (rare, 2), its id pushed (1), rounded: 30.
-pub const ROUTE_COUNT: u64 = 30;
-
-/// A slot of the interval scanned by geometry id: the triangle id (5), its
-/// geometry id (a dependent load, 5), the moved flag of that geometry (5),
-/// the compare and branch (moved triangles come in runs: 2), the slot
-/// noted if moved (1): 18.
-pub const SCAN_COUNT: u64 = 18;
-
-/// A node written by the graft (or a kept subtree's node whose leaves are
-/// shifted): the piece's node read (5), the leaf test's branch mispredicted
-/// half the time (11.5), a free pair taken (a load and a store, 6), the
-/// node's three words stored (3), its children pushed (2), rounded: 30.
-pub const NODE_WRITE_COUNT: u64 = 30;
+pub use crate::kernels::ppe_rates::PpeRates;
+use crate::kernels::rates::RateOverrides;
 
 /// Bytes a triangle id copy moves: its 4 bytes read and written.
 pub const ID_COPY_BYTES: u64 = 8;
-
-/// A count of PPE cycles scaled like the PPE's partition.
-fn scaled(count: u64) -> Cycles {
-    Cycles(count * KernelRates::PS3.ppe_partition_item.0 / PARTITION_COUNT)
-}
 
 /// What the PPE did (or would do) for one update, counted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
@@ -89,16 +49,17 @@ pub struct PpeWork {
 }
 
 impl PpeWork {
-    /// The PPE cycles of this work on `cost`'s machine (none where the
-    /// machine charges no compute: the functional mode).
-    pub fn cycles(&self, cost: &CostModel) -> Cycles {
+    /// The PPE cycles of this work on `cost`'s machine at the run's rates
+    /// (none where the machine charges no compute: the functional mode).
+    pub fn cycles(&self, cost: &CostModel, rates: &RateOverrides) -> Cycles {
         if !cost.charge_compute {
             return Cycles::ZERO;
         }
-        let steps = scaled(NODE_VISIT_COUNT).0 * self.nodes_visited
-            + scaled(ROUTE_COUNT).0 * self.routed
-            + scaled(SCAN_COUNT).0 * self.scanned
-            + scaled(NODE_WRITE_COUNT).0 * self.nodes_written;
+        let r = PpeRates::of(rates);
+        let steps = r.node_visit.0 * self.nodes_visited
+            + r.route.0 * self.routed
+            + r.scan_slot.0 * self.scanned
+            + r.node_write.0 * self.nodes_written;
         let copies = cost
             .ppe_memory_bandwidth
             .cycles(ID_COPY_BYTES * self.ids_copied);
@@ -106,8 +67,8 @@ impl PpeWork {
     }
 
     /// The same in simulated ms.
-    pub fn ms(&self, cost: &CostModel) -> f64 {
-        self.cycles(cost).0 as f64 / cost.clock_hz * 1e3
+    pub fn ms(&self, cost: &CostModel, rates: &RateOverrides) -> f64 {
+        self.cycles(cost, rates).0 as f64 / cost.clock_hz * 1e3
     }
 }
 
@@ -124,19 +85,20 @@ impl std::ops::AddAssign for PpeWork {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kernels::rates::KernelRates;
 
     #[test]
-    fn the_rates_scale_like_the_partition_and_copies_go_at_the_ppe_bandwidth() {
+    fn the_steps_are_charged_at_their_rates_and_copies_at_the_ppe_bandwidth() {
         let cost = CostModel::ps3();
-        let one = |w: PpeWork| w.cycles(&cost).0;
-        // A scan slot is 18 of the partition's 70 counted cycles: 273 of
-        // its fitted 1,065.
+        let rates = RateOverrides::default();
+        let one = |w: PpeWork| w.cycles(&cost, &rates).0;
         let scan = one(PpeWork {
             scanned: 1,
             ..PpeWork::default()
         });
-        assert_eq!(scan, 18 * 1065 / 70);
-        assert!(scan < KernelRates::PS3.ppe_partition_item.0);
+        assert_eq!(scan, PpeRates::PS3.scan_slot.0);
+        // Far below the naive build's fitted record step.
+        assert!(scan * 10 < KernelRates::PS3.ppe_partition_item.0);
         // 1,000 ids copied: 8,000 bytes at 6.4 GB/s, 4,000 cycles.
         let ids = one(PpeWork {
             ids_copied: 1000,
@@ -144,17 +106,23 @@ mod tests {
         });
         assert_eq!(ids, cost.ppe_memory_bandwidth.cycles(8000).0);
         assert!((3900..=4100).contains(&ids), "{ids}");
+        // A rate moved by name moves that step only.
+        let moved = rates.with("update.scan_slot", Cycles(111));
+        let w = PpeWork {
+            scanned: 2,
+            nodes_visited: 1,
+            ..PpeWork::default()
+        };
+        assert_eq!(
+            w.cycles(&cost, &moved).0 - w.cycles(&cost, &rates).0,
+            2 * (111 - PpeRates::PS3.scan_slot.0)
+        );
         // The functional mode charges nothing.
         let free = CostModel {
             charge_compute: false,
             ..cost.clone()
         };
-        let w = PpeWork {
-            nodes_visited: 5,
-            scanned: 100,
-            ..PpeWork::default()
-        };
-        assert_eq!(w.cycles(&free), Cycles::ZERO);
-        assert!(w.ms(&cost) > 0.0);
+        assert_eq!(w.cycles(&free, &rates), Cycles::ZERO);
+        assert!(w.ms(&cost, &rates) > 0.0);
     }
 }

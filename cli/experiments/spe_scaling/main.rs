@@ -16,12 +16,11 @@ use clap::Parser;
 use serde_json::{Value, json};
 
 use cellbih::bih::BihConfig;
-use cellbih::cell::CellConfig;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::View;
 use cellbih::scene::{Scene, zoo};
-use cellbih_cli::args::RunArgs;
 use cellbih_cli::args::SceneArgs;
+use cellbih_cli::args::{RateArgs, RunArgs};
 use cellbih_cli::report::{Series, line_plot, output, side_by_side};
 
 mod zoo_summary;
@@ -59,6 +58,8 @@ struct Args {
     scene: SceneArgs,
     #[command(flatten)]
     run: RunArgs,
+    #[command(flatten)]
+    rates: RateArgs,
 }
 
 /// A builder with one setting of the knobs, as its rows name it.
@@ -106,6 +107,7 @@ struct Baseline {
 
 /// One build's row.
 fn row(
+    model: &Build,
     scene: &Scene,
     v: &Variant,
     spes: usize,
@@ -117,8 +119,9 @@ fn row(
         hash: base_hash,
     } = base;
     let cfg = BihConfig::default();
-    let cell = CellConfig::ps3().with_spes(spes);
-    let r = (Build::new(v.builder)
+    let cell = model.cell.clone().with_spes(spes);
+    let r = (model
+        .for_builder(v.builder)
         .with_tree(cfg)
         .on(&cell)
         .with_knobs(&v.knobs))
@@ -177,6 +180,8 @@ fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih, view: &View) -> (f64, f64) {
 
 fn run(args: &Args) -> Result<(), String> {
     args.run.threads.install()?;
+    let (cell, rates) = args.rates.ps3(6)?;
+    let model = Build::new(BuilderKind::HOST).on(&cell).with_rates(&rates);
     let names: Vec<String> = match args.zoo {
         true => zoo::SET.iter().map(|s| s.to_string()).collect(),
         false => args.scenes.clone(),
@@ -185,7 +190,7 @@ fn run(args: &Args) -> Result<(), String> {
     let view = args.scene.camera.view();
     // Each scene's baseline: simulated ms, SAH cost and ray cost.
     let bases = side_by_side("baselines", &scenes, |scene| {
-        let base = Build::new(BuilderKind::SPE_BFS)
+        let base = (model.for_builder(BuilderKind::SPE_BFS))
             .run(scene)
             .map_err(|e| format!("{} / spe_bfs: {e}", scene.name))?;
         let rays = ray_cost(scene, &base.bih, &view);
@@ -210,7 +215,7 @@ fn run(args: &Args) -> Result<(), String> {
     }
     let done = side_by_side("builds", &jobs, |&(si, vi, spes)| {
         let (scene, v) = (&scenes[si], &variants[vi]);
-        let (r, bih) = row(scene, v, spes, bases[si].0)?;
+        let (r, bih) = row(&model, scene, v, spes, bases[si].0)?;
         Ok::<_, String>((r, (spes == 1).then(|| ray_cost(scene, &bih, &view))))
     });
     let mut rows = Vec::new();
@@ -260,16 +265,12 @@ fn run(args: &Args) -> Result<(), String> {
         "summary": summary.rows, "goals": summary.goals,
         "note": "simulated ms on the PS3 model; baseline: spe_bfs (one SPE); busy..idle: mean share of the run per SPE; memory_utilisation: bytes moved / (cycles x 25.6 GB/s)",
     });
-    args.run.output.report(
-        "spe_scaling",
-        (&keys, &rows),
-        &doc,
-        Some(&Build::new(BuilderKind::HOST)),
-        |rows| {
+    args.run
+        .output
+        .report("spe_scaling", (&keys, &rows), &doc, Some(&model), |rows| {
             print_table(rows);
             zoo_summary::print(&summary);
-        },
-    )?;
+        })?;
     plots(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
     zoo_summary::plot(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
     eprintln!(

@@ -31,6 +31,8 @@ struct Args {
     model: Model,
     #[command(flatten)]
     run: RunArgs,
+    #[command(flatten)]
+    rates: cellbih_cli::args::RateSetArgs,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -506,7 +508,8 @@ fn main() {
 fn run(args: &Args) -> Result<(), String> {
     args.run.threads.install()?;
     let text = args.run.output.format == Format::Text;
-    let cost = args.model.cost();
+    let mut cost = args.model.cost();
+    args.rates.machine_only(&mut cost, "validate")?;
     // Every figure's probe side by side (each its own emulated machine).
     let figures = figures();
     let probed = side_by_side("figures", &figures, |f| (f.probe)(&cost));

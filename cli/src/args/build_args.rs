@@ -6,6 +6,7 @@
 use clap::ValueEnum;
 
 use cellbih::cell::CellConfig;
+use cellbih::kernels::rates::{Code, RateOverrides};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::strategy::{Knob, Knobs};
 
@@ -69,6 +70,152 @@ pub struct CellArgs {
     /// 11.6 µs a round trip: docs/validation.md) [default: raw]
     #[arg(long, value_enum)]
     pub mailboxes: Option<Mailboxes>,
+    #[command(flatten)]
+    pub rates: RateArgs,
+}
+
+/// The rates of the model: the code class and rates set by name.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct RateArgs {
+    /// The class of code the SPU kernels' rates price: paper (the paper's
+    /// scalar code: each derived kernel at 4 times its instruction count,
+    /// the partition at its Table 1 fit) or tuned (SIMD: every SPU kernel,
+    /// the partition included, at 1.1 times its count) [default: paper]
+    #[arg(long, value_enum)]
+    pub code: Option<CodeArg>,
+    #[command(flatten)]
+    pub set: RateSetArgs,
+}
+
+/// Rates set by name.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct RateSetArgs {
+    /// Sets one rate, NAME=VALUE: cycles, or GB/s for a bandwidth
+    /// (repeatable; `cellbih rates` lists every name, value and band)
+    #[arg(long = "rate", value_name = "NAME=VALUE")]
+    pub rate: Vec<String>,
+    /// Rates from a file: one `NAME = VALUE` a line, `#` starts a comment;
+    /// a --rate given beside it wins
+    #[arg(long = "rates", value_name = "FILE")]
+    pub rates_file: Option<std::path::PathBuf>,
+}
+
+/// `--code`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum CodeArg {
+    Paper,
+    Tuned,
+}
+
+impl RateArgs {
+    /// The options given, by name.
+    pub fn given(&self) -> Vec<&'static str> {
+        let code = self.code.map(|_| "--code");
+        code.into_iter().chain(self.set.given()).collect()
+    }
+
+    /// The code class given.
+    pub fn code(&self) -> Code {
+        match self.code {
+            None | Some(CodeArg::Paper) => Code::Paper,
+            Some(CodeArg::Tuned) => Code::Tuned,
+        }
+    }
+
+    /// A PS3 of `spes` SPEs with the machine rates given, and the
+    /// library's rates given (an experiment's model).
+    pub fn ps3(&self, spes: usize) -> Result<(CellConfig, RateOverrides), String> {
+        let mut cell = CellConfig::ps3().with_spes(spes);
+        let rates = self.apply(&mut cell.cost).map_err(|e| e.to_string())?;
+        Ok((cell, rates))
+    }
+
+    /// Sets the machine rates given in `cost`; returns the library's
+    /// rates given (the code class, and each other name at its value), a
+    /// name that is no rate refused by name.
+    pub fn apply(&self, cost: &mut cellbih::cell::CostModel) -> Res<RateOverrides> {
+        self.set.apply(cost, self.code())
+    }
+}
+
+impl RateSetArgs {
+    /// The options given, by name.
+    pub fn given(&self) -> Vec<&'static str> {
+        [
+            ("--rate", !self.rate.is_empty()),
+            ("--rates", self.rates_file.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(name, given)| given.then_some(name))
+        .collect()
+    }
+
+    /// Every NAME=VALUE given, the file's first, in order.
+    fn entries(&self) -> Res<Vec<(String, String)>> {
+        let mut out = Vec::new();
+        if let Some(path) = &self.rates_file {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| format!("--rates {}: {e}", path.display()))?;
+            for (i, line) in text.lines().enumerate() {
+                let line = line.split('#').next().unwrap_or("").trim();
+                if line.is_empty() {
+                    continue;
+                }
+                let (n, v) = line.split_once('=').ok_or_else(|| {
+                    format!(
+                        "{}:{}: '{line}': a line is NAME = VALUE",
+                        path.display(),
+                        i + 1
+                    )
+                })?;
+                out.push((n.trim().to_string(), v.trim().to_string()));
+            }
+        }
+        for r in &self.rate {
+            let (n, v) = (r.split_once('='))
+                .ok_or_else(|| format!("--rate {r}: NAME=VALUE (cycles, or GB/s)"))?;
+            out.push((n.trim().to_string(), v.trim().to_string()));
+        }
+        Ok(out)
+    }
+
+    /// Sets the machine rates given in `cost`, for a command that charges
+    /// no kernel (`command`): a kernel's rate is refused.
+    pub fn machine_only(
+        &self,
+        cost: &mut cellbih::cell::CostModel,
+        command: &str,
+    ) -> Result<(), String> {
+        let rates = (self.apply(cost, Code::Paper)).map_err(|e| e.to_string())?;
+        let unused: Vec<String> = rates.names().map(|n| format!("--rate {n}")).collect();
+        match unused.is_empty() {
+            true => Ok(()),
+            false => Err(format!(
+                "{}: {command} charges the machine's rates only, no kernel's",
+                unused.join(", ")
+            )),
+        }
+    }
+
+    /// Sets the machine rates given in `cost`; returns the library's
+    /// rates given in the class `code`, a name that is no rate refused by
+    /// name.
+    pub fn apply(&self, cost: &mut cellbih::cell::CostModel, code: Code) -> Res<RateOverrides> {
+        let mut rates = RateOverrides::default().with_code(code);
+        for (name, value) in self.entries()? {
+            match cost.set_rate(&name, &value) {
+                Some(done) => done?,
+                None => {
+                    let name = BuilderKind::rate_named(&name, code)?;
+                    let cycles: u64 = value
+                        .parse()
+                        .map_err(|_| format!("--rate {name}={value}: a whole number of cycles"))?;
+                    rates = rates.with(name, cellbih::cell::Cycles(cycles));
+                }
+            }
+        }
+        Ok(rates)
+    }
 }
 
 impl CellArgs {
@@ -83,6 +230,7 @@ impl CellArgs {
         ]
         .into_iter()
         .filter_map(|(name, given)| given.then_some(name))
+        .chain(self.rates.given())
         .collect()
     }
 
@@ -90,6 +238,13 @@ impl CellArgs {
     /// none is given); `--model` and `--mailboxes` with `--mode
     /// functional` are refused (it has no timing).
     pub fn config(&self) -> Res<CellConfig> {
+        Ok(self.config_and_rates()?.0)
+    }
+
+    /// The Cell the options ask for, its machine rates set, and the
+    /// library's rates given (`--code`, `--rate`, `--rates`); rates with
+    /// `--mode functional` are refused (it has no timing).
+    pub fn config_and_rates(&self) -> Res<(CellConfig, RateOverrides)> {
         let mode = self.mode.unwrap_or(Mode::Checked);
         let mut cell = CellConfig::ps3().with_spes(self.spes.unwrap_or(6) as usize);
         cell.main_memory_bytes = self.memory_mib.unwrap_or(256) * 1024 * 1024;
@@ -102,14 +257,22 @@ impl CellArgs {
             cell.cost = cell.cost.with_ps3_kernel_mailboxes();
         }
         if let Mode::Functional = mode {
-            if self.model.is_some() || self.mailboxes.is_some() {
-                return Err(
-                    "--mode functional has no timing: --model and --mailboxes do not apply".into(),
-                );
+            let mut timing = vec![];
+            timing.extend(self.model.map(|_| "--model"));
+            timing.extend(self.mailboxes.map(|_| "--mailboxes"));
+            timing.extend(self.rates.given());
+            if !timing.is_empty() {
+                return Err(format!(
+                    "--mode functional has no timing: {} do not apply",
+                    timing.join(", ")
+                )
+                .into());
             }
             cell.cost = cellbih::cell::CostModel::functional();
+            return Ok((cell, RateOverrides::default()));
         }
-        Ok(cell)
+        let rates = self.rates.apply(&mut cell.cost)?;
+        Ok((cell, rates))
     }
 }
 
@@ -187,7 +350,7 @@ pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: boo
         )
         .into());
     }
-    let cell = args.request.cell.config()?;
+    let (cell, rates) = args.request.cell.config_and_rates()?;
     // A knob the builder does not take is an error, not ignored, and so
     // is a value out of the knob's range (its table says which).
     let mut knobs = Knobs::default();
@@ -197,7 +360,8 @@ pub fn parse_build_or(args: &BuildArgs, default: BuilderKind, casts_on_cell: boo
     let mut build = Build::new(builder)
         .with_tree(args.request.tree.config()?)
         .on(&cell)
-        .with_knobs(&knobs);
+        .with_knobs(&knobs)
+        .with_rates(&rates);
     if args.request.host.threads.is_some() || builder.host_threads() {
         build = build.on_threads(args.request.host.or_all());
     }

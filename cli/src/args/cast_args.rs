@@ -134,6 +134,7 @@ impl CacheArgs {
             },
             rays_in_flight: self.rays_in_flight.unwrap_or(d.rays_in_flight),
             packet: self.packet.unwrap_or(d.packet),
+            rates: d.rates,
         };
         cfg.cache.sets()?;
         if !cfg.tile_rays.is_multiple_of(cfg.packet.rays()) {

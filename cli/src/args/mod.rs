@@ -21,8 +21,8 @@ use cellbih::render::View;
 use cellbih::update::MAX_FRAMES;
 
 pub use build_args::{
-    BuildArgs, CellArgs, HostThreadsArg, KnobArgs, MachineModel, Mailboxes, Mode, RequestArgs,
-    parse_build, parse_build_or,
+    BuildArgs, CellArgs, CodeArg, HostThreadsArg, KnobArgs, MachineModel, Mailboxes, Mode,
+    RateArgs, RateSetArgs, RequestArgs, parse_build, parse_build_or,
 };
 pub use cast_args::{CacheArgs, CastArgs};
 pub use scene_arg::{CameraArg, SceneArg, check_built, check_memory};
@@ -78,6 +78,21 @@ pub enum Command {
     Frame(FrameCommand),
     /// The names --builder accepts.
     Builders,
+    /// Every rate the model charges, by the name --rate takes, at its value
+    /// (cycles, or GB/s), with its band.
+    Rates(RatesCommand),
+}
+
+/// `cellbih rates`.
+#[derive(clap::Args)]
+pub struct RatesCommand {
+    /// The PS3 model whose machine rates are listed [default: measured]
+    #[arg(long, value_enum)]
+    pub model: Option<MachineModel>,
+    #[command(flatten)]
+    pub rates: RateArgs,
+    #[arg(long, value_enum, default_value = "text")]
+    pub format: Format,
 }
 
 /// `cellbih info`.

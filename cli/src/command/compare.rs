@@ -183,7 +183,7 @@ pub fn rows(
                         &r.bih,
                         s,
                         &sample,
-                        &CastConfig::DEFAULT,
+                        &CastConfig::DEFAULT.with_rates(&shared.rates),
                         cell,
                         r.record_order(),
                     ))

@@ -8,6 +8,7 @@ pub mod compare;
 pub mod frame;
 pub mod info;
 pub mod print;
+pub mod rates;
 pub mod raycast;
 pub mod render;
 pub mod update;

@@ -46,7 +46,14 @@ pub fn run(args: RaycastCommand) -> Res<()> {
         Some(cfg) => {
             let cell = super::cast_cell(&s, &report, cast_rays, &c, &cast)?;
             let r = step("casting the rays on the Cell", || {
-                cast_on_cell(&report.bih, &s, &rays, cfg, &cell, report.record_order())
+                cast_on_cell(
+                    &report.bih,
+                    &s,
+                    &rays,
+                    &cfg.with_rates(&c.rates),
+                    &cell,
+                    report.record_order(),
+                )
             })?;
             (r.hits.clone(), Some(r))
         }

@@ -40,7 +40,14 @@ pub fn run(args: RenderCommand) -> Res<()> {
         Some(cfg) => {
             let cell = super::cast_cell(&s, &report, cast_rays, &c, &cast)?;
             let r = step("casting the rays on the Cell", || {
-                cast_camera(&report.bih, &s, &cam, cfg, &cell, report.record_order())
+                cast_camera(
+                    &report.bih,
+                    &s,
+                    &cam,
+                    &cfg.with_rates(&c.rates),
+                    &cell,
+                    report.record_order(),
+                )
             })?;
             let f = Frame::of_hits(&cam, &s.triangles, &r.hits, &r.costs, r.stats());
             (f, Some(r))

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use crate::common::{
     assert_fails_with, assert_ok, assert_says, cellbih, fill, line, one_ray, run_limited, stderr,
-    stdout, tmp,
+    stdout, text_file, tmp,
 };
 
 #[test]
@@ -172,7 +172,8 @@ fn binned_sah_options_need_split_sah() {
 }
 
 /// The functional mode has no timing: the options that choose a timing
-/// model are refused with it, by name, even when they give the default.
+/// model or its rates are refused with it, by name, even when they give
+/// the default.
 #[test]
 fn timing_models_are_refused_in_the_functional_mode() {
     let given = [
@@ -180,6 +181,8 @@ fn timing_models_are_refused_in_the_functional_mode() {
         ["--model", "measured"],
         ["--mailboxes", "ps3-kernel"],
         ["--mailboxes", "raw"],
+        ["--code", "paper"],
+        ["--rate", "spe_job=100"],
     ];
     for extra in given {
         let mut args = vec!["build", "--builder", "spe_bfs", "--mode", "functional"];
@@ -187,9 +190,63 @@ fn timing_models_are_refused_in_the_functional_mode() {
         let out = cellbih(&args);
         assert_fails_with(
             &out,
-            "--mode functional has no timing: --model and --mailboxes",
+            &format!("--mode functional has no timing: {} do not apply", extra[0]),
         );
     }
+}
+
+/// A rate is set by the name `cellbih rates` lists, from the command line
+/// or a file, and moves the figure; a name that is no rate, a value that
+/// is not one, or a file line without `=` is refused by name before any
+/// build; a command that charges no kernel refuses a kernel's rate.
+#[test]
+fn rates_are_set_by_name_and_refused_when_they_name_nothing() {
+    let ms = |extra: &[&str]| -> f64 {
+        let mut args = vec!["build", "--builder", "spe_bfs", "--format", "json"];
+        args.extend(extra);
+        let out = cellbih(&args);
+        assert_ok(&out);
+        let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        doc["simulated_ms"].as_f64().unwrap()
+    };
+    let base = ms(&[]);
+    assert!(ms(&["--rate", "spe_partition_item=200"]) > base);
+    assert!(ms(&["--code", "tuned"]) < base / 2.0);
+    assert!(ms(&["--rate", "memory_shared_bandwidth=5"]) >= base);
+    let file = text_file(
+        "slow.rates",
+        "# slower partitions\nspe_partition_item = 200\n",
+    );
+    assert_eq!(
+        ms(&["--rates", &file]),
+        ms(&["--rate", "spe_partition_item=200"])
+    );
+    // --rate after the file wins.
+    assert_eq!(
+        ms(&["--rates", &file, "--rate", "spe_partition_item=161"]),
+        base
+    );
+    for (extra, says) in [
+        (
+            vec!["--rate", "spe_jbo=1"],
+            "no rate named spe_jbo (did you mean spe_job?)",
+        ),
+        (vec!["--rate", "spe_job"], "--rate spe_job: NAME=VALUE"),
+        (
+            vec!["--rate", "spe_job=fast"],
+            "spe_job=fast: a whole number of cycles",
+        ),
+        (vec!["--rate", "memory_bandwidth=0"], "a bandwidth in GB/s"),
+    ] {
+        let mut args = vec!["build", "--builder", "spe_bfs"];
+        args.extend(extra);
+        assert_fails_with(&cellbih(&args), says);
+    }
+    let bad = text_file("bad.rates", "spe_job 100\n");
+    assert_fails_with(
+        &cellbih(&["build", "--builder", "spe_bfs", "--rates", &bad]),
+        "bad.rates:1: 'spe_job 100': a line is NAME = VALUE",
+    );
 }
 
 /// Every strategy knob of the registry, given to every builder: built by

@@ -256,6 +256,15 @@ fn variant(cmd: &str, option: &str) -> Option<(Vec<String>, Vec<String>)> {
         "--mode" => (emulated, s(&["--mode", "timed"])),
         "--model" => (emulated, s(&["--model", "legacy"])),
         "--mailboxes" => (emulated, s(&["--mailboxes", "ps3-kernel"])),
+        "--code" => (emulated, s(&["--code", "tuned"])),
+        "--rate" => (emulated, s(&["--rate", "spe_job=150"])),
+        "--rates" => (
+            emulated,
+            s(&[
+                "--rates",
+                &text_file("two.rates", "dma_latency_cycles = 300 # a comment\n"),
+            ]),
+        ),
         // A frame builds on the Cell, where --threads is refused.
         "--threads" if cmd == "frame" => return None,
         "--threads" => (s(&["--builder", threads]), s(&["--threads", "3"])),

@@ -36,7 +36,8 @@
 //!   last after a complete rebuild; an average of the last ones after the
 //!   local update, which rebuilds the moved objects' whole interval fresh;
 //!   for the deep update, which keeps the tree it is given, the render
-//!   before it times an average of what a deep update changed it by.
+//!   before it times an average of what a deep update changed a fresh
+//!   tree's render by (a tree a deep update left keeps its render).
 //!   Before the local update was first taken its render is taken to be a
 //!   fresh tree's; an option not yet taken whose predicted frame is within
 //!   [`EXPLORE`] of the best is taken once, to learn what its tree
@@ -45,8 +46,10 @@
 //! A frame's predicted time combines the two as the arrangement does (sum,
 //! or the longer). An option is chosen by that frame plus the tree it
 //! leaves priced for a few frames after it ([`HORIZON`]), kept by the
-//! cheapest update (a tree a slower update left stays slow until something
-//! rebuilds it: one frame's choice costs the frames after it); the least
+//! cheapest update at the render that update would leave of it (a tree a
+//! slower update left stays slow until something rebuilds it, and a fresh
+//! tree kept by deep updates loses a step: one frame's choice costs the
+//! frames after it); the least
 //! wins, ties going to the lower sum, then to the deep update over the
 //! local one (it never rebuilds more).
 
@@ -73,11 +76,17 @@ pub struct Predictor {
     correction: BTreeMap<(usize, u32), f64>,
     render_fresh: Option<f64>,
     render_now: Option<f64>,
-    /// The render after the local update, once taken; the render after
-    /// the deep update over the render before it (the deep update keeps
-    /// the tree it is given, so its render follows the tree's), once taken.
+    /// The render after the local update, once taken.
     render_local: Option<f64>,
+    /// The render after the deep update over the render before it (the
+    /// deep update keeps the tree it is given, so its render follows the
+    /// tree's), once taken on a fresh tree (the one a rebuild or a local
+    /// update left): a deep update spoils a fresh tree once; on a tree a
+    /// deep update left it keeps the render (what a run of deep updates
+    /// shows: the render steps up after the first, then holds).
     render_deep: Option<f64>,
+    /// Whether the tree now is one a deep update left.
+    deep_tree: bool,
     /// The deep update's builds as last priced from a whole plan, and the
     /// interval they were planned in: its price in a frame whose plan
     /// stops at Algorithm 1, scaled by the interval.
@@ -126,6 +135,7 @@ impl Predictor {
             render_now: None,
             render_local: None,
             render_deep: None,
+            deep_tree: false,
             deep_last: None,
         };
         if let Some(ms) = first_build_ms {
@@ -229,6 +239,15 @@ impl Predictor {
             .map_or(1.0, |(_, &c)| c)
     }
 
+    /// What a deep update multiplies the render of the tree it is given
+    /// by: a fresh tree's as learned (else 1), one a deep update left 1.
+    fn deep_ratio(&self, deep_tree: bool) -> f64 {
+        match deep_tree {
+            true => 1.0,
+            false => self.render_deep.unwrap_or(1.0),
+        }
+    }
+
     /// Each option's predicted times for a frame whose updates would do
     /// what `plan` counts, in a scene of `triangles`; `known` is what an
     /// option's update costs beyond its builds and what follows them, known
@@ -268,12 +287,12 @@ impl Predictor {
                     true => update(
                         Method::Deep,
                         &plan.deep_pieces,
-                        render_now * self.render_deep.unwrap_or(1.0),
+                        render_now * self.deep_ratio(self.deep_tree),
                     ),
                     // Not planned: its builds as estimated, and its search.
                     false => Prediction {
                         update_ms: self.deep_estimate(plan) + known(Method::Deep),
-                        render_ms: render_now * self.render_deep.unwrap_or(1.0),
+                        render_ms: render_now * self.deep_ratio(self.deep_tree),
                     },
                 },
             ),
@@ -290,9 +309,9 @@ impl Predictor {
 
     /// The option to take: the least predicted frame counting the tree it
     /// leaves for [`HORIZON`] frames after it (each kept by the cheapest
-    /// update, the deep one, at the render of that tree), unless an update
-    /// not taken yet is predicted within [`EXPLORE`] of it (the least such,
-    /// then).
+    /// update, the deep one, at the render that update would leave of that
+    /// tree), unless an update not taken yet is predicted within
+    /// [`EXPLORE`] of it (the least such, then).
     pub fn choose(
         &self,
         predictions: &[(Method, Prediction); 3],
@@ -301,12 +320,21 @@ impl Predictor {
         let keep = (predictions.iter())
             .find(|(m, _)| *m == Method::Deep)
             .map_or(0.0, |(_, p)| p.update_ms);
-        let ahead = |u: f64, r: f64| combine(u, r) + HORIZON * combine(keep, r);
-        let best = choose(predictions, ahead);
+        let kept = |m: Method, r: f64| r * self.deep_ratio(m == Method::Deep);
+        let best = *predictions
+            .iter()
+            .min_by(|(a, pa), (b, pb)| {
+                let ahead = |m: Method, p: &Prediction| {
+                    let now = combine(p.update_ms, p.render_ms);
+                    (now + HORIZON * combine(keep, kept(m, p.render_ms)), now)
+                };
+                (ahead(*a, pa).partial_cmp(&ahead(*b, pb))).expect("finite predictions")
+            })
+            .expect("three options");
         let frame = |p: &Prediction| combine(p.update_ms, p.render_ms);
         let unseen = |m: Method| match m {
             Method::Local => self.render_local.is_none(),
-            Method::Deep => self.render_deep.is_none(),
+            Method::Deep => self.render_deep.is_none() && !self.deep_tree,
             Method::Rebuild => false,
         };
         (predictions.iter())
@@ -352,11 +380,14 @@ impl Predictor {
         match (full_rebuild, taken) {
             (false, Method::Local) => learn(&mut self.render_local, render_ms),
             (false, Method::Deep) => match self.render_now {
-                Some(before) if before > 0.0 => learn(&mut self.render_deep, render_ms / before),
+                Some(before) if before > 0.0 && !self.deep_tree => {
+                    learn(&mut self.render_deep, render_ms / before)
+                }
                 _ => {}
             },
             _ => self.render_fresh = Some(render_ms),
         }
+        self.deep_tree = !full_rebuild && taken == Method::Deep;
         self.render_now = Some(render_ms);
     }
 }

@@ -59,9 +59,7 @@ use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, LsAddr, Spe};
 use crate::kernels::morton::{KeyOrder, KeySpec, auto_key_bits, auto_region_size};
 use crate::kernels::radix;
-use crate::kernels::rates::{
-    FITTED_OVER_DERIVED, KernelRates, Rate, RateOverrides, derived, infos, overridden,
-};
+use crate::kernels::rates::{Code, Count, KernelRates, Rate, RateOverrides, infos, overridden};
 use crate::spe::barrier::Barrier;
 use crate::spe::layout::TriRecord;
 
@@ -72,7 +70,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     spawn,
 )
 .on_every_spe()
-.with_rates(|| infos(MortonRates::TABLE))
+.with_rates(|code| infos(MortonRates::of(code), &MortonRates::table(code)))
 .with_knobs(&[
     &KEY_ORDER,
     &KEY_BITS,
@@ -208,9 +206,8 @@ impl MortonKnobs {
 }
 
 /// The rates of this strategy's own kernels, SPE cycles: each derived
-/// from an instruction count on the SPU's two pipelines (7.5, 7.5, 3 and
-/// 5.5 cycles) and scaled by the partition's fitted/derived ratio
-/// ([`crate::kernels::rates::FITTED_OVER_DERIVED`]), `docs/cost-model.md`.
+/// from an instruction count on the SPU's two pipelines ([`COUNTS`]) and
+/// charged in the run's code class ([`Code`]), `docs/cost-model.md`.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
 pub struct MortonRates {
     /// Per triangle, once per key, four triangles a vector: the four
@@ -248,28 +245,42 @@ pub struct MortonRates {
     pub radix_scatter: Cycles,
 }
 
-/// The PS3's [`MortonRates`].
-pub const RATES: MortonRates = MortonRates {
-    key_setup: Cycles(15 * FITTED_OVER_DERIVED / 2),
-    key_bit: Cycles(15 * FITTED_OVER_DERIVED / 2),
-    radix_count: Cycles(3 * FITTED_OVER_DERIVED),
-    radix_scatter: Cycles(11 * FITTED_OVER_DERIVED / 2),
-};
+/// The instruction counts of [`MortonRates`]' kernels, in its fields'
+/// order: key setup, key bit, radix count, radix scatter.
+pub const COUNTS: [Count; 4] = [
+    Count::tenths(75),
+    Count::tenths(75),
+    Count::of(3),
+    Count::tenths(55),
+];
 
 impl MortonRates {
-    /// The PS3's rates with `overrides`.
-    fn with(overrides: &RateOverrides) -> Self {
-        overridden(RATES, Self::TABLE, overrides)
+    /// The PS3's in the class `code`.
+    pub const fn of(code: Code) -> MortonRates {
+        MortonRates {
+            key_setup: code.charge(COUNTS[0]),
+            key_bit: code.charge(COUNTS[1]),
+            radix_count: code.charge(COUNTS[2]),
+            radix_scatter: code.charge(COUNTS[3]),
+        }
     }
 
-    /// Its rates, each derived: from the value to 1.6 times it (the
-    /// key-bit rate's 30 to 49 cycles; [`crate::kernels::rates::derived`]).
-    pub const TABLE: &'static [Rate<MortonRates>] = crate::rate_table!(MortonRates, "spe_morton.", {
-        key_setup: derived(30, 49),
-        key_bit: derived(30, 49),
-        radix_count: derived(12, 19),
-        radix_scatter: derived(22, 35),
-    });
+    /// The rates of a run: its class, with its overrides.
+    fn with(overrides: &RateOverrides) -> Self {
+        let code = overrides.code();
+        overridden(Self::of(code), &Self::table(code), overrides)
+    }
+
+    /// Its rates, each derived, banded by [`Code::band`].
+    pub fn table(code: Code) -> Vec<Rate<MortonRates>> {
+        crate::rate_table!(MortonRates, "spe_morton.", {
+            key_setup: code.band(COUNTS[0]),
+            key_bit: code.band(COUNTS[1]),
+            radix_count: code.band(COUNTS[2]),
+            radix_scatter: code.band(COUNTS[3]),
+        })
+        .to_vec()
+    }
 }
 
 /// Each SPE's WorkAPPE/WorkBPPE for regions too large for the local store
@@ -479,6 +490,11 @@ impl<'a> Program<'a> {
     async fn run(&mut self) -> Result<SpeExit, CellError> {
         let mark = self.spe.ls_mark();
         let bufs = self.stream_buffers()?;
+        let scene = self.scene_box(bufs).await?;
+        // The same box the host would have handed over (tested), now paid for.
+        debug_assert_eq!(scene, self.specs[0].scene);
+        self.specs[0].scene = scene;
+        self.end_phase("scene box").await?;
         self.keys(bufs).await?;
         self.end_phase("Morton keys").await?;
         let passes = radix::passes(self.knobs.key_bits, self.knobs.digit_bits);
@@ -537,10 +553,16 @@ impl<'a> Program<'a> {
 
 #[cfg(test)]
 mod tests {
-    use super::{MortonRates, RATES};
+    use super::{Code, MortonRates};
 
     #[test]
     fn the_rate_table_names_every_rate_once() {
-        crate::kernels::rates::check_table(RATES, MortonRates::TABLE, "spe_morton.");
+        for code in Code::ALL {
+            crate::kernels::rates::check_table(
+                MortonRates::of(code),
+                &MortonRates::table(code),
+                "spe_morton.",
+            );
+        }
     }
 }

@@ -1,15 +1,18 @@
-//! `spe_morton`, phases 1 to 3 (section 5: "the Morton code construction
+//! `spe_morton`, phases 0 to 3 (section 5: "the Morton code construction
 //! [...] can be done totally independent from the others. After the
 //! Morton code construction a radix sort needs to be performed"): the
-//! keys, the radix passes and the permutation of the records, every SPE
-//! on its slice, streamed through the local store.
+//! scene's box the keys start from, the keys, the radix passes and the
+//! permutation of the records, every SPE on its slice, streamed through
+//! the local store.
 
 use super::pairs::{KeyRec, PAIRS_PER_BLOCK, ls_for, span, stage_list};
 use super::{Program, RECORD, RECORDS_PER_BLOCK};
+use crate::aabb::Aabb;
 use crate::cell::{CellError, Cycles, Ea, ListElement, LsAddr, WaitMode};
 use crate::kernels::radix;
-use crate::kernels::split::Boxed;
+use crate::kernels::split::{Boxed, Side, side_of};
 use crate::spe::layout::TriRecord;
+use glam::Vec3;
 
 /// `count` elements of `size` bytes at `ea`, read `per_block` a block.
 #[derive(Clone, Copy)]
@@ -86,6 +89,53 @@ impl Program<'_> {
     async fn drain(&self) -> Result<(), CellError> {
         let all = 0b1111 << self.tags;
         self.spe.wait_tags(all, WaitMode::All).await.map(|_| ())
+    }
+
+    /// Phase 0: the scene's box, which the keys start from, made on the
+    /// SPEs as the baseline makes its own (a bounds pass over every record
+    /// at `spe_bounds_item`), not handed over by the host: each SPE streams
+    /// its slice, puts its slice's box in its row of the count table, and
+    /// after a barrier reads every row.
+    pub(super) async fn scene_box(&mut self, bufs: [LsAddr; 4]) -> Result<Aabb, CellError> {
+        let (lo, hi) = self.slice_of(0, self.a.n);
+        let src = self.a.tris.offset((lo * RECORD) as u64);
+        let count = hi - lo;
+        let mut side = Side::EMPTY;
+        for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
+            let (_, len, buf) = self
+                .next_block(Stream::new(src, RECORD, count, RECORDS_PER_BLOCK), b, bufs)
+                .await?;
+            let block = self
+                .spe
+                .with_ls(buf, len, |recs: &[TriRecord]| side_of(recs))?;
+            side = side.merge(block);
+            self.spe
+                .compute_items(self.kernels.spe_bounds_item, len as u64);
+        }
+        self.drain().await?;
+        // Each SPE's box, 32 bytes a row.
+        let (row, tag, spes) = (bufs[2], self.tags + 2, self.a.spes);
+        let mine: [f32; 8] = [
+            side.lo.x, side.lo.y, side.lo.z, side.hi.x, side.hi.y, side.hi.z, 0.0, 0.0,
+        ];
+        self.spe.ls_write(row, &mine)?;
+        let at = self.a.counts.offset(self.spe.id() as u64 * 32);
+        self.spe.put(row, at, 32, tag).await?;
+        self.spe.wait_tag(tag).await?;
+        self.barrier().await?;
+        self.spe
+            .get(row, self.a.counts, 32 * spes as u32, tag)
+            .await?;
+        self.spe.wait_tag(tag).await?;
+        let rows: Vec<[f32; 8]> = self.spe.ls_read(row, spes)?;
+        self.spe
+            .compute_items(self.kernels.spe_bounds_item, spes as u64);
+        let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for r in rows {
+            min = min.min(Vec3::new(r[0], r[1], r[2]));
+            max = max.max(Vec3::new(r[3], r[4], r[5]));
+        }
+        Ok(Aabb { min, max })
     }
 
     /// Phase 1: a key for every record of this SPE's slice, into keys A.

@@ -1,0 +1,81 @@
+//! `cellbih rates`: every rate the model charges, by the name `--rate`
+//! takes — the machine's (cycles, or GB/s for a bandwidth) and the
+//! library's kernels' in the code class chosen (cycles, with the band
+//! `sensitivity` moves each through) — at its value with the options
+//! given (docs/cost-model.md says where each comes from).
+
+use serde_json::json;
+
+use cellbih::cell::CostModel;
+use cellbih::kernels::rates::Band;
+use cellbih::registry::BuilderKind;
+
+use crate::Res;
+use crate::args::{Format, MachineModel, RatesCommand};
+
+/// Runs `cellbih rates`.
+pub fn run(args: RatesCommand) -> Res<()> {
+    let mut cost = match args.model.unwrap_or(MachineModel::Measured) {
+        MachineModel::Measured => CostModel::ps3(),
+        MachineModel::Legacy => CostModel::ps3_legacy(),
+    };
+    let base = cost.clone();
+    let rates = args.rates.apply(&mut cost)?;
+    let code = rates.code();
+    let machine: Vec<_> = (CostModel::RATES.iter())
+        .map(|r| {
+            let value = cost.rate_text(r.name).expect("a machine rate");
+            let moved = base.rate_text(r.name).as_ref() != Some(&value);
+            (r.name, value, moved)
+        })
+        .collect();
+    let kernels: Vec<_> = (BuilderKind::every_rate(code).into_iter())
+        .map(|r| {
+            let value = rates.get(r.name).unwrap_or(r.value);
+            (r.name, value.0, r.band, rates.get(r.name).is_some())
+        })
+        .collect();
+    let band_text = |b: Band| match b {
+        Band::Fitted => "fixed".to_string(),
+        Band::Open(why) => format!("open ({why})"),
+        Band::Between { low, high, why } => format!("{}-{} ({why})", low.0, high.0),
+    };
+    if args.format == Format::Json {
+        let doc = json!({
+            "model": match args.model { Some(MachineModel::Legacy) => "legacy", _ => "measured" },
+            "code": code.name(),
+            "machine": machine.iter().map(|(n, v, moved)| json!({
+                "name": n, "value": v, "moved": moved,
+            })).collect::<Vec<_>>(),
+            "kernels": kernels.iter().map(|(n, v, b, moved)| json!({
+                "name": n, "cycles": v, "band": band_text(*b), "moved": moved,
+            })).collect::<Vec<_>>(),
+        });
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+        return Ok(());
+    }
+    let mark = |moved: bool| if moved { " *" } else { "" };
+    println!(
+        "The model's rates, by the name --rate NAME=VALUE takes (--model {}, --code {code})",
+        match args.model {
+            Some(MachineModel::Legacy) => "legacy",
+            _ => "measured",
+        }
+    );
+    println!("\nthe machine's (cell/src/cost.rs): cycles, or GB/s for a bandwidth");
+    for (name, value, moved) in &machine {
+        println!("  {name:<28} {value:>12}{}", mark(*moved));
+    }
+    println!("\nthe kernels' (cycles; band: what sensitivity moves it through)");
+    for (name, value, band, moved) in &kernels {
+        println!(
+            "  {name:<34} {value:>6}{:<2} {}",
+            mark(*moved),
+            band_text(*band)
+        );
+    }
+    if machine.iter().any(|m| m.2) || kernels.iter().any(|k| k.3) {
+        println!("\n*: moved by --rate or --rates");
+    }
+    Ok(())
+}
