@@ -32,7 +32,7 @@ pub fn run(args: CompareCommand) -> Res<()> {
     if matches!(cell.mode, Some(crate::args::Mode::Functional)) {
         return Err("--mode functional: compare reports simulated time, and the functional mode times nothing; use --mode timed or checked".into());
     }
-    let cell = cell.config()?;
+    let (cell, rates) = cell.config_and_rates()?;
     // A scene whose triangle records alone overflow the emulated
     // Cell fails every emulated builder: refused before any build.
     let emulated = Build::new(BuilderKind::SPE_BFS).on(&cell);
@@ -46,6 +46,7 @@ pub fn run(args: CompareCommand) -> Res<()> {
     let shared = Build::new(BuilderKind::HOST)
         .with_tree(tree.config()?)
         .on(&cell)
+        .with_rates(&rates)
         .on_threads(threads);
     let c = shared.install(|| rows(&s, &shared, &camera.view).map_err(|e| e.to_string()))??;
     print(&s, &shared, &c, format, &camera.view);
