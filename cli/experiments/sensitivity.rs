@@ -347,7 +347,7 @@ fn run(args: &Args) -> Result<(), String> {
         "sensitivity",
         (&header, &csv),
         &json!({ "rows": rows, "bands": band_rows }),
-        Some(&Build::new(BuilderKind::HOST)),
+        Some(&Build::new(BuilderKind::HOST).with_rates(&RateOverrides::default().with_code(code))),
     )?;
     Ok(())
 }
