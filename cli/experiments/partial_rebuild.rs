@@ -102,14 +102,7 @@ fn median_partial_ms(reports: &[UpdateReport]) -> Option<f64> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    if args.no_sim && !args.rates.given().is_empty() {
-        return Err(format!(
-            "{}: --no-sim runs nothing on the emulated Cell",
-            args.rates.given().join(", ")
-        ));
-    }
-    let (cell, rates) = args.rates.ps3(6)?;
-    let base = Build::new(BuilderKind::HOST).on(&cell).with_rates(&rates);
+    let base = args.rates.model(6, !args.no_sim)?;
     if args.from > args.to {
         return Err(format!(
             "--from {} is larger than --to {}",

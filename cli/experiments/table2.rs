@@ -75,14 +75,7 @@ fn summary(
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    if args.no_sim && !args.rates.given().is_empty() {
-        return Err(format!(
-            "{}: --no-sim runs nothing on the emulated Cell",
-            args.rates.given().join(", ")
-        ));
-    }
-    let (cell, rates) = args.rates.ps3(6)?;
-    let base = Build::new(BuilderKind::HOST).on(&cell).with_rates(&rates);
+    let base = args.rates.model(6, !args.no_sim)?;
     let progress = std::io::stderr().is_terminal();
     let mut rows = Vec::new();
     for (paper_name, spec, p) in PAPER {

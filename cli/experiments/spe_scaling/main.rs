@@ -180,8 +180,7 @@ fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih, view: &View) -> (f64, f64) {
 
 fn run(args: &Args) -> Result<(), String> {
     args.run.threads.install()?;
-    let (cell, rates) = args.rates.ps3(6)?;
-    let model = Build::new(BuilderKind::HOST).on(&cell).with_rates(&rates);
+    let model = args.rates.model(6, true)?;
     let names: Vec<String> = match args.zoo {
         true => zoo::SET.iter().map(|s| s.to_string()).collect(),
         false => args.scenes.clone(),

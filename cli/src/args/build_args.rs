@@ -136,6 +136,21 @@ impl RateArgs {
     pub fn apply(&self, cost: &mut cellbih::cell::CostModel) -> Res<RateOverrides> {
         self.set.apply(cost, self.code())
     }
+
+    /// An experiment's model as a build request every builder of it
+    /// shares (the host builder's, on a PS3 of `spes` SPEs with the rates
+    /// given); where it simulates nothing (`simulates` false: `--no-sim`)
+    /// a rate given is refused, naming it.
+    pub fn model(&self, spes: usize, simulates: bool) -> Result<Build, String> {
+        if !simulates && !self.given().is_empty() {
+            return Err(format!(
+                "{}: --no-sim runs nothing on the emulated Cell",
+                self.given().join(", ")
+            ));
+        }
+        let (cell, rates) = self.ps3(spes)?;
+        Ok(Build::new(BuilderKind::HOST).on(&cell).with_rates(&rates))
+    }
 }
 
 impl RateSetArgs {
