@@ -75,7 +75,7 @@ impl KeySpec {
                 let mut key = 0u64;
                 for i in 0..self.bits {
                     let Some((axis, plane)) = halving(&cell) else {
-                        return key << (self.bits - i);
+                        return key.unbounded_shl(self.bits - i);
                     };
                     let right = c[axis] >= plane;
                     key = key << 1 | right as u64;
