@@ -461,6 +461,19 @@ impl CostModel {
         })
     }
 
+    /// The band a machine rate no measurement pins may lie in, as
+    /// `--rate` spells its values, and why: an estimate from half to twice
+    /// its value; the PPE's bandwidth for its own bytes between the L2
+    /// reads cellmark's PPE page measured plain and with `dcbt` (2.75 and
+    /// 8.4 GB/s). `None` for a measured or calibrated rate.
+    pub fn band_text(&self, name: &str) -> Option<String> {
+        if name == "ppe_memory_bandwidth" {
+            return Some("2.75-8.4 (cellmark PPE)".into());
+        }
+        let v = self.estimate(name)?.0;
+        Some(format!("{}-{} (estimate)", v / 2, v * 2))
+    }
+
     /// The machine rates that differ between this model and `base`, by
     /// name, as `--rate` spells them.
     pub fn moved_from(&self, base: &CostModel) -> Vec<(&'static str, String)> {

@@ -26,7 +26,8 @@ pub fn run(args: RatesCommand) -> Res<()> {
         .map(|r| {
             let value = cost.rate_text(r.name).expect("a machine rate");
             let moved = base.rate_text(r.name).as_ref() != Some(&value);
-            (r.name, value, moved)
+            let band = base.band_text(r.name).unwrap_or_default();
+            (r.name, value, moved, band)
         })
         .collect();
     let kernels: Vec<_> = (BuilderKind::every_rate(code).into_iter())
@@ -44,8 +45,9 @@ pub fn run(args: RatesCommand) -> Res<()> {
         let doc = json!({
             "model": match args.model { Some(MachineModel::Legacy) => "legacy", _ => "measured" },
             "code": code.name(),
-            "machine": machine.iter().map(|(n, v, moved)| json!({
+            "machine": machine.iter().map(|(n, v, moved, band)| json!({
                 "name": n, "value": v, "moved": moved,
+                "band": (!band.is_empty()).then_some(band),
             })).collect::<Vec<_>>(),
             "kernels": kernels.iter().map(|(n, v, b, moved)| json!({
                 "name": n, "cycles": v, "band": band_text(*b), "moved": moved,
@@ -56,15 +58,17 @@ pub fn run(args: RatesCommand) -> Res<()> {
     }
     let mark = |moved: bool| if moved { " *" } else { "" };
     println!(
-        "The model's rates, by the name --rate NAME=VALUE takes (--model {}, --code {code})",
+        "Rates by the name --rate NAME=VALUE takes (--model {} --code {code})",
         match args.model {
             Some(MachineModel::Legacy) => "legacy",
             _ => "measured",
         }
     );
-    println!("\nthe machine's (cell/src/cost.rs): cycles, or GB/s for a bandwidth");
-    for (name, value, moved) in &machine {
-        println!("  {name:<28} {value:>12}{}", mark(*moved));
+    println!("\nthe machine's (cell/src/cost.rs): cycles, or GB/s for a bandwidth;");
+    println!("band: where a rate no measurement pins may lie");
+    for (name, value, moved, band) in &machine {
+        let line = format!("  {name:<26} {value:>9}{:<2} {band}", mark(*moved));
+        println!("{}", line.trim_end());
     }
     println!("\nthe kernels' (cycles; band: what sensitivity moves it through)");
     for (name, value, band, moved) in &kernels {

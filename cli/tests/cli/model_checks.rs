@@ -1,7 +1,12 @@
 //! The machine model's checks, run as a user runs them: `validate`
 //! (published PS3 figures, fitted apart from held out, and SPU kernels
 //! timed on hardware beside their instruction counts) and `sensitivity`
-//! (how the headline speedups move across every unpinned rate's band).
+//! (how the headline speedups move across every unpinned rate's band),
+//! and `cellbih rates` (every rate a run may set).
+
+use cellbih::registry::BuilderKind;
+
+use crate::common::{assert_fails_with, assert_ok, cellbih};
 
 /// `validate`: on the measured model every published PS3 figure is
 /// reproduced within its tolerance (exit 0, each row's ratio inside it,
@@ -195,5 +200,69 @@ fn sensitivity_moves_every_uncertain_rate_across_its_band() {
     assert!(
         bands.iter().any(|b| b["low"] != b["high"]),
         "no band is wider than a point"
+    );
+}
+
+/// `cellbih rates` lists every rate a run may set — each machine rate of
+/// the cost model and each rate of the library's tables — at its value in
+/// the class asked for, marks the ones moved, and fits 80 columns.
+#[test]
+fn rates_lists_every_rate_at_its_value_in_the_class() {
+    use cellbih::kernels::rates::Code;
+    let json = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec!["rates", "--format", "json"];
+        args.extend(extra);
+        let out = cellbih(&args);
+        assert_ok(&out);
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let names = |doc: &serde_json::Value, key: &str| -> Vec<String> {
+        (doc[key].as_array().unwrap().iter())
+            .map(|r| r["name"].as_str().unwrap().to_string())
+            .collect()
+    };
+    let paper = json(&[]);
+    let machine: Vec<&str> = cellbih::cell::CostModel::RATES
+        .iter()
+        .map(|r| r.name)
+        .collect();
+    assert_eq!(names(&paper, "machine"), machine);
+    let every: Vec<&str> = (BuilderKind::every_rate(Code::Paper).iter())
+        .map(|r| r.name)
+        .collect();
+    assert_eq!(names(&paper, "kernels"), every);
+    let cycles = |doc: &serde_json::Value, name: &str| {
+        (doc["kernels"].as_array().unwrap().iter())
+            .find(|r| r["name"] == name)
+            .map(|r| r["cycles"].as_u64().unwrap())
+            .unwrap()
+    };
+    assert_eq!(cycles(&paper, "spe_partition_item"), 161);
+    let tuned = json(&["--code", "tuned"]);
+    assert_eq!(cycles(&tuned, "spe_partition_item"), 44);
+    assert!(cycles(&tuned, "spe_morton.key_bit") < cycles(&paper, "spe_morton.key_bit"));
+    let moved = json(&[
+        "--rate",
+        "spe_job=7",
+        "--rate",
+        "memory_shared_bandwidth=20",
+    ]);
+    assert_eq!(cycles(&moved, "spe_job"), 7);
+    let is_moved = |key: &str, name: &str| {
+        (moved[key].as_array().unwrap().iter())
+            .find(|r| r["name"] == name)
+            .map(|r| r["moved"] == true)
+            .unwrap()
+    };
+    assert!(is_moved("kernels", "spe_job") && is_moved("machine", "memory_shared_bandwidth"));
+    assert!(!is_moved("kernels", "spe_bin_item") && !is_moved("machine", "memory_bandwidth"));
+    let text = cellbih(&["rates", "--rate", "spe_job=7"]);
+    assert_ok(&text);
+    let text = String::from_utf8_lossy(&text.stdout).to_string();
+    assert!(text.lines().all(|l| l.chars().count() <= 80), "{text}");
+    assert!(text.contains("2.75-8.4 (cellmark PPE)") && text.contains("*: moved"));
+    assert_fails_with(
+        &cellbih(&["rates", "--rate", "nope=1"]),
+        "no rate named nope",
     );
 }
