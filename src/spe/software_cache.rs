@@ -56,10 +56,6 @@ pub struct CacheRates {
 pub const INVALIDATE_COUNT: Count = Count::tenths(5);
 
 impl CacheRates {
-    /// Codeplay's measured software cache, its emptying counted in the
-    /// paper's class.
-    pub const MEASURED: CacheRates = CacheRates::of(Code::Paper);
-
     /// Codeplay's measured lookup and miss; the emptying in the class
     /// `code`.
     pub const fn of(code: Code) -> CacheRates {

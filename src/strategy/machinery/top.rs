@@ -190,6 +190,8 @@ pub(in crate::strategy) struct Start {
     pub region: Aabb,
     pub cfg: BihConfig,
     pub rates: crate::kernels::rates::KernelRates,
+    /// The code class the run's kernels are charged in.
+    pub code: crate::kernels::rates::Code,
     pub spes: usize,
     pub common: Common,
 }
@@ -218,6 +220,7 @@ impl Start {
             region: setup.region,
             cfg: *cfg,
             rates: setup.rates.kernels(),
+            code: setup.rates.code(),
             spes,
             common: Common::alloc(cell, setup.triangles, n, (cfg, top), spes)?,
         })
