@@ -159,3 +159,40 @@ fn compare_with(path: &str, cost: &CostModel) {
         eprintln!("unchanged: CELLBIH_DATA is not set: the bunny runs did NOT run");
     }
 }
+
+/// The baseline's figures docs/calibration.md states in words are the
+/// recording's (the bunny's cycles at 3.2 GHz) and Table 1's generated
+/// cell (the dragon's): a move of the baseline must restate them.
+#[test]
+fn the_baselines_stated_figures_are_the_recorded_ones() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let read = |p: &str| std::fs::read_to_string(format!("{root}/{p}")).unwrap();
+    // The page's words with its line breaks as spaces.
+    let calibration = read("docs/calibration.md")
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    let golden = read("tests/golden/runs.txt");
+    let cycles: u64 = (golden.lines())
+        .find_map(|l| l.strip_prefix("bunny spe_bfs: "))
+        .and_then(|v| v.split_whitespace().next())
+        .and_then(|c| c.parse().ok())
+        .expect("the bunny's baseline is recorded");
+    let bunny = format!("{:.2} simulated ms on the bunny", cycles as f64 / 3.2e6);
+    assert!(
+        calibration.contains(&bunny),
+        "calibration.md does not say '{bunny}'"
+    );
+    // Table 1's generated block: the dragon's spe_bfs row, simulated ms.
+    let table1 = read("docs/table1.md");
+    let dragon = (table1.lines())
+        .skip_while(|l| !l.starts_with("Dragon"))
+        .find(|l| l.split_whitespace().next() == Some("spe_bfs"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .expect("Table 1 has the dragon's spe_bfs row");
+    let said = format!("and {dragon} on the dragon");
+    assert!(
+        calibration.contains(&said),
+        "calibration.md does not give the dragon's {dragon} ms"
+    );
+}
