@@ -244,6 +244,7 @@ fn run(args: &Args) -> Result<(), String> {
     if text {
         println!("{}\n", cellbih_cli::report::wrap(&title, 80));
     }
+    let mut lines: Vec<(String, Vec<String>, Vec<String>)> = Vec::new();
     for (k, v) in variants.iter().enumerate() {
         let mut flips = Vec::new();
         for (si, s) in scenes.iter().enumerate() {
@@ -267,21 +268,21 @@ fn run(args: &Args) -> Result<(), String> {
         let worst = (flat.iter().zip(&base_flat))
             .map(|(a, b)| a / b - 1.0)
             .fold(0.0f64, |m, d| if d.abs() > m.abs() { d } else { m });
-        // A line a variant: the rate, its end and value, the largest move
-        // and the flips (wrapped, the rest indented, in 80 columns).
+        // A line a rate: each end with its value and the largest move,
+        // then the flips (wrapped, the rest indented, in 80 columns).
         let value = match v.end {
             "" | "all" => String::new(),
             _ => format!(" {}", v.value),
         };
-        let moved = match flips.is_empty() {
-            true => "no flip".to_string(),
-            false => format!("FLIPS: {}", flips.join("; ")),
-        };
-        let named = format!("{} {}{value}", v.rate, v.end);
-        let line = format!("{}: {:+.1} %, {moved}", named.trim_end(), worst * 100.0);
-        if text {
-            let wrapped = cellbih_cli::report::wrap(&line, 76);
-            println!("{}", wrapped.replace('\n', "\n    "));
+        let piece = format!("{}{value} {:+.1} %", v.end, worst * 100.0)
+            .trim_start()
+            .to_string();
+        match lines.last_mut() {
+            Some((rate, pieces, f)) if *rate == v.rate => {
+                pieces.push(piece);
+                f.extend(flips.iter().cloned());
+            }
+            _ => lines.push((v.rate.clone(), vec![piece], flips.clone())),
         }
         let speeds: Vec<String> = flat.iter().map(|x| format!("{x:.3}")).collect();
         csv.push(format!(
@@ -298,6 +299,17 @@ fn run(args: &Args) -> Result<(), String> {
             "largest_move": worst, "flips": flips,
             "speedups": heads.iter().zip(&flat).map(|(h, x)| json!({"headline": h, "speedup": x})).collect::<Vec<_>>(),
         }));
+    }
+    for (rate, pieces, flips) in &lines {
+        let moved = match flips.is_empty() {
+            true => "no flip".to_string(),
+            false => format!("FLIPS: {}", flips.join("; ")),
+        };
+        let line = format!("{rate}: {}; {moved}", pieces.join(", "));
+        if text {
+            let wrapped = cellbih_cli::report::wrap(line.trim_start(), 76);
+            println!("{}", wrapped.replace('\n', "\n    "));
+        }
     }
     let line = format!("headlines: {}", heads.join(", "));
     if text {

@@ -7,6 +7,28 @@
 use crate::cell::Cycles;
 use crate::kernels::rates::{Band, Rate, RateOverrides, overridden};
 
+/// The PPE's measured latencies and bandwidths its rates are built from,
+/// in cycles at 3.2 GHz: cellmark's PPE page (`docs/ppe_tuning.md` §6, a
+/// retail PS3) and IBM's "Cell Broadband Engine Architecture and its
+/// first implementation" (2005). `validate`'s PPE section lists them and
+/// writes a sort timed on a PS3's PPE with them.
+pub mod latency {
+    /// A load chained on the one before, hitting the L1 (2.0 ns).
+    pub const L1_LOAD: f64 = 6.4;
+    /// A load chained on the one before, hitting the L2 (11.3 ns).
+    pub const L2_HIT: f64 = 36.0;
+    /// A byte read streaming from the L2, plain loads (2.75 GB/s).
+    pub const STREAM_BYTE: f64 = 3.2 / 2.75;
+    /// A byte read streaming from the L2 with `dcbt` 512 bytes ahead
+    /// (8.4 GB/s).
+    pub const STREAM_BYTE_DCBT: f64 = 3.2 / 8.4;
+    /// A floating-point operation whose result the next one waits for
+    /// (IBM: about 10 cycles).
+    pub const DEPENDENT_FP: f64 = 10.0;
+    /// A mispredicted branch (IBM: 23 cycles).
+    pub const MISPREDICT: f64 = 23.0;
+}
+
 /// The PPE's rates of an update's steps, cycles each.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct PpeRates {
@@ -89,6 +111,36 @@ mod tests {
                 panic!("{}: unbanded", r.name)
             };
             assert!(low < at && at < high, "{}", r.name);
+        }
+    }
+
+    /// Each derived rate is the sum its doc comment names, of the PPE's
+    /// measured latencies, rounded to a cycle.
+    #[test]
+    fn the_derived_rates_are_the_sums_of_their_latencies() {
+        use latency::*;
+        let sums = [
+            // The id streamed, its geometry id from the L2, the moved flag
+            // from the L1, the compare and predictable branch, the note.
+            (
+                PpeRates::PS3.scan_slot,
+                4.0 * STREAM_BYTE + L2_HIT + L1_LOAD + 2.0 + 1.0,
+            ),
+            // The bounds from L1, two dependent compares, half a
+            // mispredict, the push.
+            (
+                PpeRates::PS3.route,
+                L1_LOAD + 2.0 * DEPENDENT_FP + MISPREDICT / 2.0 + 2.0,
+            ),
+            // The node from L1, the leaf test's branch, a free pair (a load
+            // and a store), three words and the pushes, the line from L2.
+            (
+                PpeRates::PS3.node_write,
+                L1_LOAD + MISPREDICT / 2.0 + (L1_LOAD + 1.0) + 5.0 + L2_HIT,
+            ),
+        ];
+        for (rate, sum) in sums {
+            assert_eq!(rate.0, sum.round() as u64, "{sum}");
         }
     }
 }

@@ -3,11 +3,14 @@
 //! the job queue): as the IBM SDK's
 //! `cache-api.h` and Codeplay's Offload cache do it, 128-byte lines in a
 //! set-associative array in the local store, least recently used within a
-//! set. Read-only: nothing is written through it, so there is nothing to
-//! write back; what it reads must not change while it may hold it (the
-//! tree and the triangles while a frame is cast; a level's job array
-//! within the level, the cache emptied at the level's barrier:
-//! [`SoftwareCache::invalidate`]). Nothing keeps it coherent between SPEs,
+//! set. The builders and the caster only read through it: what it reads
+//! must not change while it may hold it (the tree and the triangles while
+//! a frame is cast; a level's job array within the level, the cache
+//! emptied at the level's barrier: [`SoftwareCache::invalidate`]). A
+//! program may also write through it ([`SoftwareCache::write`], as
+//! Codeplay's Offload code writes an outer array): the line is fetched,
+//! changed in the local store and put back whole when it leaves the cache
+//! or at [`SoftwareCache::flush`]. Nothing keeps it coherent between SPEs,
 //! as nothing does the SDK's.
 //!
 //! Layout in the local store: way `w` of set `s` is the line at
@@ -178,6 +181,9 @@ pub struct SoftwareCache {
     inflight: Vec<Vec<u32>>,
     /// Rays waiting to read each slot: such a slot is not evicted.
     pins: Vec<u32>,
+    /// Slots written since they were fetched: put back before they are
+    /// reused, and at [`SoftwareCache::flush`].
+    dirty: Vec<bool>,
     clock: u64,
     /// The first of the cache's tag groups (one per ray in flight).
     first_tag: u32,
@@ -209,6 +215,7 @@ impl SoftwareCache {
             pending: vec![0; slots as usize],
             inflight: vec![Vec::new(); groups as usize],
             pins: vec![0; slots as usize],
+            dirty: vec![false; slots as usize],
             clock: 0,
             first_tag: spe.tags("software cache", groups)?,
             rates,
@@ -225,19 +232,63 @@ impl SoftwareCache {
         while done < out.len() {
             let at = ea.0 + done as u64;
             let n = ((LINE - at % LINE) as usize).min(out.len() - done);
-            let slot = match self.lookup(spe, at / LINE, 0).await? {
-                Lookup::Ready(slot) => slot,
-                Lookup::Fetching { slot, tag } => {
-                    spe.wait_tag(tag).await?;
-                    self.arrived(1 << tag);
-                    slot
-                }
-                Lookup::Full => unreachable!("a lone reader leaves no slot pending"),
-            };
+            let slot = self.ready(spe, at / LINE).await?;
             self.copy(spe, slot, at, &mut out[done..done + n])?;
             done += n;
         }
         Ok(())
+    }
+
+    /// Writes `bytes` at `ea` through the cache: every line they touch is
+    /// looked up (fetched whole on a miss, waiting for it) and changed in
+    /// the local store; it goes back to memory when it leaves the cache or
+    /// at [`SoftwareCache::flush`]. The cache must fetch one line a miss.
+    pub async fn write(&mut self, spe: &Spe, ea: Ea, bytes: &[u8]) -> Result<(), CellError> {
+        assert_eq!(
+            self.fetch, 1,
+            "a software cache written through fetches one line a miss"
+        );
+        let mut done = 0usize;
+        while done < bytes.len() {
+            let at = ea.0 + done as u64;
+            let n = ((LINE - at % LINE) as usize).min(bytes.len() - done);
+            let slot = self.ready(spe, at / LINE).await?;
+            let ls = self.data.offset(slot * LINE as u32 + (at % LINE) as u32);
+            spe.with_ls_mut(ls, n, |b: &mut [u8]| {
+                b.copy_from_slice(&bytes[done..done + n])
+            })?;
+            self.dirty[slot as usize] = true;
+            done += n;
+        }
+        Ok(())
+    }
+
+    /// Puts every line written since it was fetched back to memory and
+    /// waits for the puts (the cache keeps the lines).
+    pub async fn flush(&mut self, spe: &Spe) -> Result<(), CellError> {
+        let tag = self.first_tag;
+        for slot in 0..self.tags.len() {
+            if std::mem::take(&mut self.dirty[slot]) {
+                let ls = self.data.offset(slot as u32 * LINE as u32);
+                spe.put(ls, Ea((self.tags[slot] - 1) * LINE), LINE as u32, tag)
+                    .await?;
+            }
+        }
+        spe.wait_tag(tag).await
+    }
+
+    /// Memory line `line`'s slot, once the line is in (a lone reader or
+    /// writer: it waits for its own miss).
+    async fn ready(&mut self, spe: &Spe, line: u64) -> Result<u32, CellError> {
+        Ok(match self.lookup(spe, line, 0).await? {
+            Lookup::Ready(slot) => slot,
+            Lookup::Fetching { slot, tag } => {
+                spe.wait_tag(tag).await?;
+                self.arrived(1 << tag);
+                slot
+            }
+            Lookup::Full => unreachable!("a lone reader leaves no slot pending"),
+        })
     }
 
     /// Copies `out.len()` bytes at `ea` (within one line) out of `slot`.
@@ -295,6 +346,7 @@ impl SoftwareCache {
             for o in copies {
                 self.tags[o] = 0;
             }
+            self.write_back(spe, k as usize, tag).await?;
             self.tags[k as usize] = want;
             self.used[k as usize] = self.clock;
             self.pending[k as usize] = tag + 1;
@@ -305,6 +357,18 @@ impl SoftwareCache {
         spe.get(ls, Ea(line * LINE), count * LINE as u32, tag)
             .await?;
         Ok(Lookup::Fetching { slot: first, tag })
+    }
+
+    /// A written slot about to be reused goes back to memory first (its
+    /// put on `tag`, waited for before the slot is fetched into).
+    async fn write_back(&mut self, spe: &Spe, slot: usize, tag: u32) -> Result<(), CellError> {
+        if !std::mem::take(&mut self.dirty[slot]) {
+            return Ok(());
+        }
+        let ls = self.data.offset(slot as u32 * LINE as u32);
+        spe.put(ls, Ea((self.tags[slot] - 1) * LINE), LINE as u32, tag)
+            .await?;
+        spe.wait_tag(tag).await
     }
 
     fn busy(&self, slot: usize) -> bool {
@@ -342,6 +406,10 @@ impl SoftwareCache {
             self.pending.iter().chain(&self.pins).all(|&p| p == 0),
             "a software cache emptied with reads under way"
         );
+        assert!(
+            !self.dirty.contains(&true),
+            "a software cache emptied with written lines not flushed"
+        );
         spe.compute_items(self.rates.invalidate_line, self.tags.len() as u64);
         self.tags.fill(0);
         self.stats.invalidations += 1;
@@ -350,5 +418,57 @@ impl SoftwareCache {
     /// A ray has read the slot it waited for.
     pub fn unpin(&mut self, slot: u32) {
         self.pins[slot as usize] -= 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cell::{Cell, CellConfig};
+    use crate::kernels::rates::Code;
+
+    /// A small cache written through over a region eight times its size:
+    /// lines leave it written and come back; after the flush, memory holds
+    /// every byte written, and reading through the cache gives them too.
+    #[test]
+    fn what_is_written_through_the_cache_reaches_memory() {
+        let mut cell = Cell::new(CellConfig::ps3().with_spes(1)).unwrap();
+        let words = 2048u64;
+        let region = cell.memory_mut().alloc("region", words * 4, 128).unwrap();
+        let shape = CacheConfig {
+            kib: 1,
+            ways: 2,
+            fetch_lines: 1,
+        };
+        let run = cell.spawn_spe(0, move |spe| async move {
+            let mut cache = SoftwareCache::new(&spe, shape, CacheRates::of(Code::Paper), 1)?;
+            // Two passes, the second reading what the first wrote.
+            for i in 0..words {
+                let at = Ea(region.0 + ((i * 37) % words) * 4);
+                cache.write(&spe, at, &(i as u32 * 3).to_le_bytes()).await?;
+            }
+            let mut back = 0u64;
+            for i in 0..words {
+                let mut b = [0u8; 4];
+                cache.read(&spe, Ea(region.0 + i * 4), &mut b).await?;
+                back += u32::from_le_bytes(b) as u64;
+            }
+            cache.flush(&spe).await?;
+            Ok((back, cache.stats))
+        });
+        cell.run().unwrap();
+        let (back, stats) = run.take("spe 0").unwrap();
+        let expected: u64 = (0..words).map(|i| i * 3).sum();
+        assert_eq!(back, expected);
+        let memory: Vec<u32> = cell.memory_mut().read_pod(region, words as usize).unwrap();
+        for i in 0..words {
+            assert_eq!(
+                memory[((i * 37) % words) as usize],
+                i as u32 * 3,
+                "word {i}"
+            );
+        }
+        // 64 lines through 8 slots: most accesses of the scattered pass miss.
+        assert!(stats.misses > words / 2, "{stats:?}");
     }
 }

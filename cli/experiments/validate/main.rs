@@ -16,6 +16,8 @@ use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea, LsAddr, 
 
 mod compute;
 mod contention;
+mod ppe;
+mod sorts;
 use cellbih_cli::args::RunArgs;
 use cellbih_cli::report::{Format, side_by_side};
 
@@ -572,6 +574,7 @@ fn run(args: &Args) -> Result<(), String> {
     let (compute_rows, compute_failed) = compute::section(&cost, text)?;
     rows.extend(compute_rows);
     failed.extend(compute_failed);
+    rows.extend(ppe::section(text));
     let csv: Vec<String> = (rows.iter())
         .map(|r| {
             format!(
