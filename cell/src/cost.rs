@@ -174,7 +174,12 @@ pub struct CostModel {
     /// program beginning when its start is through; nothing is charged
     /// where programs stay resident between runs
     /// ([`CellConfig::resident`](super::CellConfig::resident)). 0
-    /// (`ps3_legacy()`): programs start at once.
+    /// (`ps3_legacy()`): programs start at once. Its uses: every program a
+    /// run starts (a build's, the caster's) and each program switch of a
+    /// frame in section 5's arrangement — a renderer starts its programs
+    /// as tasks of a SPURS instance it keeps. Band: up to 80 µs a program
+    /// ([`CostModel::SPE_START_GROUP`]), each started as an SPU thread
+    /// group through the OS.
     pub spe_start_cycles: Cycles,
     /// Extra cycles per PPE–SPE mailbox hand-off when the programs reach
     /// the mailboxes through the operating system, not by raw MMIO: the
@@ -461,6 +466,14 @@ impl CostModel {
         })
     }
 
+    /// An SPE program started as an SPU thread group through the
+    /// operating system, with its 256 KB local store copied in and out:
+    /// 80 µs on a retail PS3 under GameOS (the `ripcord` project,
+    /// `ports/ripcord-ps3/DECODE.md` §3: an empty one-SPE group 60 µs best
+    /// of 10, worst 70; with the copies 80, worst 127). The high end of
+    /// `spe_start_cycles`' band.
+    pub const SPE_START_GROUP: Cycles = Cycles(256_000);
+
     /// The band a machine rate no measurement pins may lie in, as
     /// `--rate` spells its values, and why: an estimate from half to twice
     /// its value; the PPE's bandwidth for its own bytes between the L2
@@ -469,6 +482,10 @@ impl CostModel {
     pub fn band_text(&self, name: &str) -> Option<String> {
         if name == "ppe_memory_bandwidth" {
             return Some("2.75-8.4 (cellmark PPE)".into());
+        }
+        if name == "spe_start_cycles" {
+            let (task, group) = (self.spe_start_cycles.0, Self::SPE_START_GROUP.0);
+            return Some(format!("{task}-{group} (SPURS task to OS thread group)"));
         }
         let v = self.estimate(name)?.0;
         Some(format!("{}-{} (estimate)", v / 2, v * 2))

@@ -84,6 +84,20 @@ fn variants(base: &CostModel, code: Code) -> Vec<Variant> {
             });
         }
     }
+    // Every program started as an SPU thread group through the OS, not as
+    // a SPURS task: the high end of the start's band.
+    let mut cost = base.clone();
+    let group = CostModel::SPE_START_GROUP.0;
+    cost.set_rate("spe_start_cycles", &group.to_string())
+        .expect("a machine rate")
+        .expect("a whole number of cycles");
+    v.push(Variant {
+        rate: "spe_start_cycles".into(),
+        end: "high",
+        value: group,
+        cost,
+        rates: class,
+    });
     for u in BuilderKind::uncertain_rates(code) {
         for (end, value) in [("low", u.low), ("high", u.high)] {
             v.push(Variant {
