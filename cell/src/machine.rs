@@ -285,6 +285,9 @@ pub(crate) struct Machine {
     pub resumes: u64,
     /// Lock lines that atomic commands have touched, by line number.
     pub lines: std::collections::HashMap<u64, LockLine>,
+    /// The line the PPE's last lwarx reserved (its address), until a
+    /// store by any core to the line.
+    pub ppe_reservation: Option<u64>,
     pub trace: Option<Trace>,
 }
 
@@ -332,6 +335,7 @@ impl Machine {
             flows: Vec::new(),
             resumes: 0,
             lines: Default::default(),
+            ppe_reservation: None,
             trace: cfg.trace.then(|| Trace::new(cfg.spes, cfg.cost.clock_hz)),
             cfg,
             cores,
@@ -558,6 +562,12 @@ impl Machine {
             {
                 s.reservation = None;
             }
+        }
+        if self
+            .ppe_reservation
+            .is_some_and(|l| (first..=last).contains(&(l / 128)))
+        {
+            self.ppe_reservation = None;
         }
     }
 

@@ -116,16 +116,42 @@ impl Ppe {
     }
 
     /// Atomically adds `delta` to the `u32` at `ea` (lwarx/stwcx.); returns
-    /// the old value. Loses SPE reservations on the line.
+    /// the old value. With shared lock lines, as the instructions do it:
+    /// the lwarx reads the line — free where the PPE holds a copy, else
+    /// in its turn behind the misses under way, brought over in
+    /// `getllar_cycles` like an SPE's getllar — and reserves it; the
+    /// stwcx. stores if no core wrote the line since (as the only holder
+    /// in `ppe_atomic_cycles`, else claiming it), and the pair is retried
+    /// if one did. Loses SPE reservations on the line.
     pub async fn atomic_fetch_add_u32(&self, ea: Ea, delta: u32) -> Result<u32, CellError> {
-        self.sync().await;
-        let mut m = self.m.borrow_mut();
-        let old: u32 = m.mem.read_pod(ea, 1)?[0];
-        m.mem.write_pod(ea, &[old.wrapping_add(delta)])?;
-        let c = m.cfg.cost.ppe_atomic_cycles;
-        // The line comes to the PPE; commands on it are served in turn.
-        m.store_line(PPE, ea, c, c);
-        Ok(old)
+        loop {
+            self.sync().await;
+            {
+                let mut m = self.m.borrow_mut();
+                let c = m.cfg.cost.ppe_atomic_cycles;
+                if m.cfg.cost.lock_lines == LockLines::Exclusive {
+                    let old: u32 = m.mem.read_pod(ea, 1)?[0];
+                    m.mem.write_pod(ea, &[old.wrapping_add(delta)])?;
+                    // The line comes to the PPE; commands on it are
+                    // served in turn.
+                    m.store_line(PPE, ea, c, c);
+                    return Ok(old);
+                }
+                let miss = m.cfg.cost.getllar_cycles;
+                m.read_line(PPE, ea, Cycles::ZERO, miss);
+                m.ppe_reservation = Some(ea.0);
+            }
+            self.sync().await;
+            let mut m = self.m.borrow_mut();
+            if m.ppe_reservation != Some(ea.0) {
+                continue;
+            }
+            let old: u32 = m.mem.read_pod(ea, 1)?[0];
+            m.mem.write_pod(ea, &[old.wrapping_add(delta)])?;
+            let c = m.cfg.cost.ppe_atomic_cycles;
+            m.store_line(PPE, ea, c, c);
+            return Ok(old);
+        }
     }
 
     /// Atomic compare-and-swap on the `u32` at `ea` (lwarx, compare,
