@@ -40,8 +40,9 @@ pub const FORMS: &str = "ground:<mesh>:<scale>, stadium:<mesh>[:<scale>], \
     clusters:<k>:<triangles>[:<seed>], row:<mesh>:<k>, soup:<triangles>[:<seed>], city:<k>[:<seed>]";
 
 /// The zoo scenes the experiments and tests run: one of each kind, at
-/// least 100,000 triangles where the kind has a count (mesh scenes need the
-/// data directory).
+/// least 100,000 triangles where the kind has a count, and three small
+/// ones where the SPEs a scene gets matter (mesh scenes need the data
+/// directory).
 pub const SET: &[&str] = &[
     "ground:dragon:10",
     "ground:dragon:1000",
@@ -51,6 +52,9 @@ pub const SET: &[&str] = &[
     "row:bunny:4",
     "soup:200000:1",
     "city:96:1",
+    "clusters:6:16000:16",
+    "city:16:18",
+    "soup:3000:20",
 ];
 
 /// The zoo scene named by `spec`, `None` if `spec` names none. Meshes

@@ -34,7 +34,7 @@ use super::machinery::breadth_first::{
 use super::machinery::coop::Coop;
 use super::machinery::top::{
     COOP_PARTITION, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE, TopKnobs,
-    build_top, help_top, largest_first,
+    WorkPerSpe, build_top, help_top, largest_first,
 };
 use super::machinery::work_queue::{Level, WORK_BYTES, WorkPpe};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -75,13 +75,13 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     ],
 ]);
 
-/// `--tris-per-spe auto`: each SPE used gets at least 12,000 record steps
-/// of the partition (`machinery::top::partition_work`): the largest share
-/// that keeps the counts measured on 1–8 SPEs with the split top
-/// (docs/many-spes.md, "Small scenes": the default scene, 5,472 triangles
-/// and 49,248 steps, on 4; scenes of 12,000 triangles and more on 8; the
-/// teapot and iss-nasa, slower on 6–8 than on 4–5, on 4).
-const AUTO_WORK_PER_SPE: u64 = 12_000;
+/// `--tris-per-spe auto`: the record steps of the partition
+/// (`machinery::top::partition_work`) each SPE must get before the build
+/// runs on 1, 2, … 8 SPEs: just above the most, on 34 small scenes (the
+/// data directory's, procedural and zoo scenes of 1,000 to 23,000
+/// triangles), at which that many SPEs were slower than fewer
+/// (docs/many-spes.md, "Small scenes").
+const AUTO_WORK_PER_SPE: WorkPerSpe = &[0, 0, 5_600, 5_600, 15_000, 15_000, 18_000, 21_700];
 
 /// The queue's defaults, the best measured (docs/many-spes.md,
 /// "Defaults"): section 5's three improvements together.

@@ -47,7 +47,7 @@ use super::machinery::coop::Coop;
 use super::machinery::node_writes::NodeWrites;
 use super::machinery::top::{
     COOP_PARTITION, DEAL_PER_SPE, NO_COOP_TOP, SpeExit, Start, TOP_END, TRIS_PER_SPE, TopKnobs,
-    build_top, help_top,
+    WorkPerSpe, build_top, help_top,
 };
 use super::machinery::work_queue::{Level, SharedSpill, WorkPpe, WorkQueue, from_wire};
 use super::{Knob, Readback, Setup, SpeWork};
@@ -108,12 +108,14 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
 /// the worst 4 % slower; docs/many-spes.md, "Balance").
 const DEFAULT_TOP: TopKnobs = TopKnobs::SPLIT_ONE_PER_SPE;
 
-/// `--tris-per-spe auto`: each SPE used gets at least 8,000 record steps
-/// of the partition (`machinery::top::partition_work`): the largest share
-/// that keeps the counts measured on 1–8 SPEs (docs/many-spes.md, "Small
-/// scenes": the default scene, 5,472 triangles and 49,248 steps, fastest
-/// on 6; every scene of 6,600 triangles and more on 8).
-const AUTO_WORK_PER_SPE: u64 = 8_000;
+/// `--tris-per-spe auto`: the record steps of the partition
+/// (`machinery::top::partition_work`) each SPE must get before the build
+/// runs on 1, 2, … 8 SPEs: just above the most, on 34 small scenes (the
+/// data directory's, procedural and zoo scenes of 1,000 to 23,000
+/// triangles), at which that many SPEs were slower than fewer. A fifth SPE
+/// is the dear one: it pays a cooperative top level more (docs/many-spes.md,
+/// "Small scenes").
+const AUTO_WORK_PER_SPE: WorkPerSpe = &[0, 0, 2_500, 2_500, 15_000, 15_500, 15_500, 15_500];
 
 /// `--agglomerate N`: `SharedKnobs::agglomerate`.
 pub const AGGLOMERATE: Knob = Knob::int(

@@ -69,7 +69,7 @@ pub const COOP_PARTITION: Knob = Knob::word(
 /// `--tris-per-spe N|auto`: `spes_used`.
 pub const TRIS_PER_SPE: Knob = Knob::int_or_auto(
     "tris-per-spe",
-    "each SPE used gets at least this many triangles (auto: at least the strategy's measured share of the build's partition work); below the SPEs given a power of two runs (1: every SPE)",
+    "each SPE used gets at least this many triangles (auto: at least the strategy's measured share of the build's partition work); more SPEs given run on that many (1: every SPE)",
     (1, usize::MAX),
     &["1", "4000"],
 );
@@ -82,30 +82,34 @@ pub fn partition_work(n: usize, leaf: u32) -> u64 {
     n as u64 * levels
 }
 
+/// The work each SPE must get before a strategy runs on `k` SPEs:
+/// `steps[k - 1]` record steps of [`partition_work`] an SPE (the last
+/// entry for every count past the table), non-decreasing.
+pub(in crate::strategy) type WorkPerSpe = &'static [u64];
+
 /// The SPEs a strategy runs on for `n` triangles when `available` are
-/// given, decided from the work: as many as get each at least `auto`
-/// record steps of [`partition_work`] (or, `--tris-per-spe N`, at least N
-/// triangles), at least one. Fewer than given run as a power of two: the
-/// top levels take one cooperative level more each time the count passes
-/// a power of two, so a count just past one pays a level for little
-/// (docs/many-spes.md, "Small scenes": 5 SPEs were slower than 4 on the cup
-/// and on rtPerf 4,000 to 5,000). So more SPEs given are never slower than
-/// 4: below the threshold both run on the same count.
+/// given, decided from the work: the most SPEs `k`, at most those given,
+/// that each get at least `auto[k - 1]` record steps of
+/// [`partition_work`] (or, `--tris-per-spe N`, at least N triangles); at
+/// least one. More SPEs given than that run on that many, the same run;
+/// the table is set where one SPE more was never slower on the scenes it
+/// was measured on (docs/many-spes.md, "Small scenes").
 pub(in crate::strategy) fn spes_used(
     available: usize,
     (n, leaf): (usize, u32),
     knobs: &Knobs,
-    auto: u64,
+    auto: WorkPerSpe,
 ) -> usize {
-    let fit = match knobs.int(&TRIS_PER_SPE) {
-        0 => partition_work(n, leaf) / auto.max(1),
-        t => (n / t.max(1)) as u64,
-    }
-    .max(1) as usize;
-    match fit >= available {
-        true => available,
-        false => 1 << fit.ilog2(),
-    }
+    debug_assert!(auto.windows(2).all(|w| w[0] <= w[1]));
+    let work = partition_work(n, leaf);
+    let fits = |k: usize| match knobs.int(&TRIS_PER_SPE) {
+        0 => work / k as u64 >= auto[(k - 1).min(auto.len() - 1)],
+        t => n / t.max(1) >= k,
+    };
+    (1..=available)
+        .take_while(|&k| k == 1 || fits(k))
+        .last()
+        .unwrap_or(1)
 }
 
 /// How the top levels are built.
@@ -205,7 +209,7 @@ impl Start {
         setup: &Setup,
         cfg: &BihConfig,
         top: &TopKnobs,
-        auto_work: u64,
+        auto_work: WorkPerSpe,
     ) -> Result<Self, CellError> {
         let n = setup.count;
         let spes = spes_used(

@@ -53,7 +53,7 @@ use areas::{Areas, RegionTables, serve};
 use super::machinery::arena::ObjectArena;
 use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, Job, NO_PREFETCH, QueueKnobs};
 use super::machinery::node_writes::NodeWrites;
-use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, spes_used};
+use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, WorkPerSpe, spes_used};
 use super::{Knob, Knobs, Readback, Records, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, LsAddr, Spe};
@@ -137,11 +137,13 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
     prefetch: true,
 };
 
-/// `--tris-per-spe auto`: every SPE (a threshold of one record step of
-/// the partition): on 1–8 SPEs every scene measured, down to the default
-/// scene's 5,472 triangles, was fastest on 8 (docs/many-spes.md, "Small
-/// scenes").
-const AUTO_WORK_PER_SPE: u64 = 1;
+/// `--tris-per-spe auto`: the record steps of the partition
+/// (`machinery::top::partition_work`) each SPE must get before the build
+/// runs on 1, 2, … 8 SPEs: just above the most, on 34 small scenes of
+/// 1,000 to 23,000 triangles, at which that many SPEs were slower than
+/// fewer; every SPE on any scene of 3,000 triangles or more
+/// (docs/many-spes.md, "Small scenes").
+const AUTO_WORK_PER_SPE: WorkPerSpe = &[0, 0, 0, 0, 0, 1_250, 1_250, 2_100];
 
 /// SPE 0's outbound-mailbox word before the region count and spill size
 /// (the pool's block requests share the mailbox: `arena::REQUEST_BLOCK`).
