@@ -160,22 +160,23 @@ fn every_multi_spe_builder_builds_the_baselines_tree_and_one_spe_more_is_never_s
         let s = load(spec);
         let (_, base) = run(BuilderKind::SPE_BFS, &s, 1);
         for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
-            let mut ms = [0.0; 9];
-            for spes in 1..=8 {
-                let (t, hash) = run(b, &s, spes);
-                assert_eq!(
-                    hash, base,
-                    "{spec} / {b} on {spes} SPEs: not the baseline's tree"
-                );
-                ms[spes] = t;
-            }
-            for k in 1..8 {
-                if ms[k + 1] > ms[k] {
+            let ms: Vec<f64> = (1..=8)
+                .map(|spes| {
+                    let (t, hash) = run(b, &s, spes);
+                    assert_eq!(
+                        hash, base,
+                        "{spec} / {b} on {spes} SPEs: not the baseline's tree"
+                    );
+                    t
+                })
+                .collect();
+            for (k, pair) in (1..).zip(ms.windows(2)) {
+                if pair[1] > pair[0] {
                     slower.push(format!(
                         "{spec} / {b}: {:.3} ms on {} SPEs, {:.3} on {k}",
-                        ms[k + 1],
+                        pair[1],
                         k + 1,
-                        ms[k]
+                        pair[0]
                     ));
                 }
             }
