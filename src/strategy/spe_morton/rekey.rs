@@ -22,7 +22,10 @@
 //! A range whose key pairs fit in a local store is keyed again by one SPE
 //! alone (taken largest first from an atomic counter, no barrier): its
 //! pairs loaded once, its records gathered twice (the box, the keys), the
-//! pairs sorted in the local store and put back.
+//! pairs sorted in the local store and put back — unless the round ends
+//! sooner with the largest of them keyed by every SPE
+//! ([`share_to_balance`]), as where one SPE would key two while the others
+//! wait.
 //!
 //! So the keys' width follows the spread of the triangles, not their
 //! count: bits are spent where the triangles are. A range that cannot be
@@ -97,6 +100,39 @@ impl Found {
 pub(super) fn rekey_bits(count: usize, region: usize, most: u32) -> u32 {
     let halvings = (count as f64 / region.max(1) as f64).log2().ceil().max(0.0) as u32;
     (halvings + 4).clamp(1, most)
+}
+
+/// A range keyed again by every SPE costs each SPE this share of what
+/// keying it alone costs one SPE, in thousandths (on the model, both
+/// classes' rates alike: 31 ns a record over 8 SPEs against 200 ns a
+/// record alone, the paper's class).
+const SHARED_PER_RECORD: u64 = 160;
+
+/// And this much besides, in records keyed alone (its barriers and the
+/// box exchanged: 46 µs, about 230 records alone).
+const SHARED_FIXED: u64 = 230;
+
+/// How many of the largest ranges that fit one local store (`counts`,
+/// largest first) to key by every SPE rather than alone, so that the
+/// round ends soonest: each choice priced in records keyed alone — the
+/// shared ones' share on every SPE ([`SHARED_PER_RECORD`],
+/// [`SHARED_FIXED`]) plus the longest SPE's of the rest dealt largest
+/// first to the least loaded (as the counter hands them out). Ties keep
+/// more ranges alone.
+pub(super) fn share_to_balance(counts: &[u64], spes: usize) -> usize {
+    let cost = |k: usize| {
+        let shared: u64 = (counts[..k].iter())
+            .map(|&c| c * SHARED_PER_RECORD / 1000 + SHARED_FIXED)
+            .sum();
+        let mut load = vec![0u64; spes.max(1)];
+        for &c in &counts[k..] {
+            *load.iter_mut().min().expect("an SPE") += c;
+        }
+        shared + load.iter().max().copied().unwrap_or(0)
+    };
+    (0..=counts.len())
+        .min_by_key(|&k| (cost(k), k))
+        .unwrap_or(0)
 }
 
 /// Where a range an SPE found went: keyed again (its index among every
@@ -179,14 +215,18 @@ impl Program<'_> {
         found: &[(usize, Found)],
     ) -> Result<Vec<(usize, Range)>, CellError> {
         let alone = self.alone_capacity();
-        let (shared, mut solo): (Vec<_>, Vec<_>) = found
+        let (mut shared, mut solo): (Vec<&(usize, Found)>, Vec<_>) = found
             .iter()
             .partition(|(_, f)| f.range.count as usize > alone);
+        // The rest largest first (ties by index); the largest of them
+        // keyed by every SPE too where that evens the round out.
+        solo.sort_by_key(|(j, f)| (std::cmp::Reverse(f.range.count), *j));
+        let counts: Vec<u64> = solo.iter().map(|(_, f)| f.range.count as u64).collect();
+        shared.extend(solo.drain(..share_to_balance(&counts, self.a.spes)));
         for &&(j, f) in &shared {
             self.rekey_shared(j, &f).await?;
         }
-        // The rest largest first (ties by index), from a counter.
-        solo.sort_by_key(|(j, f)| (std::cmp::Reverse(f.range.count), *j));
+        // The rest from a counter, largest first.
         let (line, at) = (self.line, self.a.rekey_line);
         loop {
             let k = self.spe.atomic_fetch_add_u32(line, at.offset(4), 1).await? as usize;
@@ -462,5 +502,27 @@ impl Program<'_> {
             all.1 = all.1.max(Vec3A::new(w[4], w[5], w[6]));
         }
         Ok(all)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::share_to_balance;
+
+    /// As many equal ranges as SPEs: each keys one alone. One range far
+    /// larger than the rest: every SPE keys it, the rest alone. Nothing to
+    /// gain: alone.
+    #[test]
+    fn the_largest_ranges_are_shared_only_where_that_evens_the_round() {
+        assert_eq!(share_to_balance(&[3000; 8], 8), 0);
+        assert_eq!(
+            share_to_balance(&[8000, 900, 800, 700, 600, 500, 400, 300], 8),
+            1
+        );
+        assert_eq!(share_to_balance(&[], 8), 0);
+        assert_eq!(share_to_balance(&[100], 1), 0);
+        // Nine equal ranges on eight SPEs: one SPE would key two; sharing
+        // one of them costs every SPE a sixth of it and its barriers.
+        assert_eq!(share_to_balance(&[5000; 9], 8), 1);
     }
 }
