@@ -233,7 +233,8 @@ fn an_emulated_build_gives_the_same_cycles_and_tree_every_run() {
     }
 }
 
-/// The PPE build's time is its kernel charges, its memory traffic and the
+/// The PPE build's time is its kernel charges (its bounds pass over every
+/// record, its partitions, its nodes), its memory traffic and the
 /// allocation of the node array.
 #[test]
 fn ppe_naive_time_is_kernels_plus_traffic() {
@@ -242,8 +243,9 @@ fn ppe_naive_time_is_kernels_plus_traffic() {
     let sim = r.simulated.unwrap();
     let k = cellbih::cell::CostModel::ps3();
     let r = cellbih::kernels::rates::KernelRates::PS3;
-    let compute =
-        r.ppe_partition_item.0 * sim.stats.items_partitioned + r.ppe_node.0 * sim.stats.nodes;
+    let compute = r.ppe_bounds_item.0 * s.len() as u64
+        + r.ppe_partition_item.0 * sim.stats.items_partitioned
+        + r.ppe_node.0 * sim.stats.nodes;
     // Read the triangle array, write it back sorted, write the nodes.
     let traffic = k.ppe_memory_bandwidth.cycles(48 * s.len() as u64).0 * 2
         + k.ppe_memory_bandwidth.cycles(12 * sim.stats.nodes).0;

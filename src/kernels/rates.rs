@@ -56,6 +56,10 @@ pub struct KernelRates {
     /// sweep, whose dependent double-precision operations the PPE's scalar
     /// FPU issues at a latency close to the SPU's.
     pub ppe_sah_bin: Cycles,
+    /// PPE cycles per record of the bounds pass the PPE's builds make of
+    /// their input (the box of the triangles and of their centers, which
+    /// the SPE builds pay at `spe_bounds_item`): [`PPE_BOUNDS_ITEM`].
+    pub ppe_bounds_item: Cycles,
     /// SPE cycles per job looked at when the multi-SPE strategies' top
     /// levels decide whether a level is balanced enough to deal (a load of
     /// the job's count from `WorkA`, a compare and an add: about 2 SPU
@@ -208,6 +212,7 @@ impl KernelRates {
             spe_bin_item: code.charge(counts::SPE_BIN_ITEM),
             spe_sah_bin: code.charge(counts::SPE_SAH_BIN),
             ppe_sah_bin: Cycles(PPE_SAH_BIN),
+            ppe_bounds_item: Cycles(PPE_BOUNDS_ITEM),
             spe_level_scan: code.charge(counts::SPE_LEVEL_SCAN),
         }
     }
@@ -220,6 +225,15 @@ impl KernelRates {
 /// operation), and the single-precision union, loads and stores beside
 /// them (about 10): 110 cycles, in either class.
 pub const PPE_SAH_BIN: u64 = 110;
+
+/// `ppe_bounds_item`, derived for the PPE: a record's three vertices as
+/// three quadwords (L1 hits: the read of the array streamed them in), the
+/// box's minimum and maximum each a chain of three dependent vector
+/// min/max a record at the PPE's dependent-operation latency (10 cycles,
+/// `ppe_rates::latency::DEPENDENT_FP`; the centers' chains run beside
+/// them), and the loads: 32 cycles, in either class. Band: 21 (the chain
+/// at the 7-cycle latency of cellmark's PPE FMA) to 64.
+pub const PPE_BOUNDS_ITEM: u64 = 32;
 
 /// One rate of a rate set `S` (the shared kernels' [`KernelRates`], a
 /// strategy's own): its name, written once, where it lives in the set, and
@@ -430,6 +444,11 @@ impl KernelRates {
             ppe_sah_bin: Band::Between {
                 low: Cycles(80),
                 high: Cycles(160),
+                why: "derived for the PPE",
+            },
+            ppe_bounds_item: Band::Between {
+                low: Cycles(21),
+                high: Cycles(64),
                 why: "derived for the PPE",
             },
             spe_level_scan: code.band(counts::SPE_LEVEL_SCAN),

@@ -47,6 +47,9 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     let max_cells = setup.knobs.int(&APPROX_CELLS);
     let ppe = cell.spawn_ppe(move |ppe| async move {
         let items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
+        // The root's box of the triangles and of their centers: a bounds
+        // pass over the records, as the SPE builds pay for theirs.
+        ppe.compute_items(rates.ppe_bounds_item, n as u64);
         let (sorted, bih, a) = build_approx(&items, region, &cfg, max_cells);
         let k = rates;
         let touched = a.items_sorted + a.buckets_partitioned + a.naive.items_partitioned;

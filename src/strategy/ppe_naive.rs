@@ -30,6 +30,9 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         let mut items: Vec<TriRecord> = ppe.read_pod(tris, n).await?;
         let (bih, stats) = build_items(&mut items, region, &cfg);
         let k = rates;
+        // The root's box of the triangles and of their centers: a bounds
+        // pass over the records, as the SPE builds pay for theirs.
+        ppe.compute_items(k.ppe_bounds_item, n as u64);
         let BuildStats {
             items_partitioned,
             items_binned,
