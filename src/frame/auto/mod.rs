@@ -87,6 +87,10 @@ pub struct Predictor {
     render_deep: Option<f64>,
     /// Whether the tree now is one a deep update left.
     deep_tree: bool,
+    /// Whether `render_now` was measured in a frame (not the first tree's
+    /// render before the frames, of the scene before anything moved): the
+    /// deep update's ratio is learned only against a frame's.
+    now_in_frame: bool,
     /// The deep update's builds as last priced from a whole plan, and the
     /// interval they were planned in: its price in a frame whose plan
     /// stops at Algorithm 1, scaled by the interval.
@@ -136,6 +140,7 @@ impl Predictor {
             render_local: None,
             render_deep: None,
             deep_tree: false,
+            now_in_frame: false,
             deep_last: None,
         };
         if let Some(ms) = first_build_ms {
@@ -240,7 +245,8 @@ impl Predictor {
     }
 
     /// What a deep update multiplies the render of the tree it is given
-    /// by: a fresh tree's as learned (else 1), one a deep update left 1.
+    /// by: a fresh tree's as learned in the frames (else 1), one a deep
+    /// update left 1.
     fn deep_ratio(&self, deep_tree: bool) -> f64 {
         match deep_tree {
             true => 1.0,
@@ -380,7 +386,7 @@ impl Predictor {
         match (full_rebuild, taken) {
             (false, Method::Local) => learn(&mut self.render_local, render_ms),
             (false, Method::Deep) => match self.render_now {
-                Some(before) if before > 0.0 && !self.deep_tree => {
+                Some(before) if before > 0.0 && !self.deep_tree && self.now_in_frame => {
                     learn(&mut self.render_deep, render_ms / before)
                 }
                 _ => {}
@@ -389,6 +395,7 @@ impl Predictor {
         }
         self.deep_tree = !full_rebuild && taken == Method::Deep;
         self.render_now = Some(render_ms);
+        self.now_in_frame = true;
     }
 }
 
