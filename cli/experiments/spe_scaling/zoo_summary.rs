@@ -179,18 +179,47 @@ pub fn print(s: &Summary) {
         s.goals.len() - missed.len(),
         s.goals.len()
     );
-    for g in missed {
-        let line = format!(
-            "  NOT met: {} · {}: {}",
-            g["scene"].as_str().unwrap_or_default(),
-            g["goal"].as_str().unwrap_or_default(),
-            match &g["measured"] {
-                Value::String(s) => s.clone(),
-                v => f(v) + "x",
-            }
-        );
+    // One line a goal missed, every scene where it was, what was measured
+    // there (the builders where one SPE more was slower; their counts are
+    // in the table's notes and the JSON).
+    let mut kinds: Vec<&str> = missed.iter().filter_map(|g| g["goal"].as_str()).collect();
+    kinds.dedup();
+    kinds.sort_unstable();
+    kinds.dedup();
+    for kind in kinds {
+        let at: Vec<String> = (missed.iter())
+            .filter(|g| g["goal"] == kind)
+            .map(|g| {
+                let measured = match &g["measured"] {
+                    Value::String(s) => builders_only(s),
+                    v => f(v) + "x",
+                };
+                format!("{} {measured}", g["scene"].as_str().unwrap_or_default())
+            })
+            .collect();
+        let line = format!("NOT met, {kind}: {}", at.join("; "));
         println!("{}", cellbih_cli::report::wrap(&line, 80));
     }
+}
+
+/// "spe_bfs_shared (7<6, 8<7), spe_morton (8<7)" as "spe_bfs_shared,
+/// spe_morton".
+fn builders_only(measured: &str) -> String {
+    let mut out = String::new();
+    let mut depth = 0;
+    for c in measured.chars() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            _ if depth == 0 => out.push(c),
+            _ => {}
+        }
+    }
+    out.split(',')
+        .map(str::trim)
+        .filter(|b| !b.is_empty())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// spe_scaling_speedup8.svg: each builder's speedup on 8 SPEs (defaults)
