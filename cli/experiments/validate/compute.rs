@@ -240,7 +240,7 @@ pub fn section(
                 format!("{count:.2}"),
                 format!("{:.3}", 1.0 / slower),
                 format!("{:.2}", 1.0 / slower_derived),
-                (if ok { "pass" } else { "FAIL" }).to_string(),
+                super::verdict(ok),
             ],
         );
         rows.push(serde_json::json!({
@@ -266,7 +266,7 @@ pub fn section(
                 format!("{count:.2}"),
                 format!("{ratio:.3}"),
                 format!("{ratio_paper:.2}"),
-                (if ok { "pass" } else { "FAIL" }).to_string(),
+                super::verdict(ok),
             ],
         );
         rows.push(serde_json::json!({

@@ -208,9 +208,12 @@ async fn take_turn(
 }
 
 /// SpuTest's `task_putllc.c`: every SPE repeats getllar/putllc on one line
-/// until the store succeeds, `count` times. Returns ns per successful
-/// store, aggregate.
-fn increments(cost: &CostModel, spes: usize) -> Result<f64, CellError> {
+/// until the store succeeds, `count` times; with `ppe_threads`, its
+/// `test_mfc64.c`: the PPE's hardware threads increment the line too
+/// (`cellAtomicIncr64`: lwarx/stwcx.), `count` times each, the PPE program
+/// interleaving its threads' increments. Returns ns per increment,
+/// aggregate.
+fn increments(cost: &CostModel, spes: usize, ppe_threads: u32) -> Result<f64, CellError> {
     let mut c = cell(cost, spes)?;
     let line = c.memory_mut().alloc("line", 128, 128)?;
     let count = 1000u32;
@@ -228,41 +231,17 @@ fn increments(cost: &CostModel, spes: usize) -> Result<f64, CellError> {
             Ok(())
         });
     }
-    let run = c.run()?;
-    Ok(seconds(cost, run.cycles) * 1e9 / (spes as u32 * count) as f64)
-}
-
-/// SpuTest's `test_mfc64.c` with two PPU threads: `spes` SPEs increment
-/// one line as in [`increments`] while the PPE's two hardware threads
-/// increment it too (`cellAtomicIncr64`: lwarx/stwcx.), `count` times
-/// each; the PPE program interleaves its two threads' increments. Returns
-/// ns per increment, aggregate.
-fn increments_with_ppe(cost: &CostModel, spes: usize) -> Result<f64, CellError> {
-    let mut c = cell(cost, spes)?;
-    let line = c.memory_mut().alloc("line", 128, 128)?;
-    let count = 1000u32;
-    for id in 0..spes {
-        c.spawn_spe(id, move |spe| async move {
-            let buf = spe.ls_alloc(128, 128)?;
-            for _ in 0..count {
-                loop {
-                    spe.getllar(buf, line).await?;
-                    if spe.putllc(buf, line).await? == Reservation::Stored {
-                        break;
-                    }
-                }
+    if ppe_threads > 0 {
+        c.spawn_ppe(move |ppe| async move {
+            for _ in 0..ppe_threads * count {
+                ppe.atomic_fetch_add_u32(line, 1).await?;
             }
             Ok(())
         });
     }
-    c.spawn_ppe(move |ppe| async move {
-        for _ in 0..2 * count {
-            ppe.atomic_fetch_add_u32(line, 1).await?;
-        }
-        Ok(())
-    });
     let run = c.run()?;
-    Ok(seconds(cost, run.cycles) * 1e9 / ((spes as u32 + 2) * count) as f64)
+    let total = (spes as u32 + ppe_threads) * count;
+    Ok(seconds(cost, run.cycles) * 1e9 / total as f64)
 }
 
 /// SpuTest's `task_putlluc.c`: every SPE stores one line unconditionally,
@@ -463,7 +442,7 @@ fn figures() -> Vec<Figure> {
             unit: "ns",
             tolerance: 0.25,
             sets: None,
-            probe: Box::new(|c| increments(c, 6)),
+            probe: Box::new(|c| increments(c, 6, 0)),
         },
         Figure {
             what: "6 SPEs and the PPE's 2 threads incrementing one line, per increment",
@@ -473,7 +452,7 @@ fn figures() -> Vec<Figure> {
             unit: "ns",
             tolerance: 0.25,
             sets: None,
-            probe: Box::new(|c| increments_with_ppe(c, 6)),
+            probe: Box::new(|c| increments(c, 6, 2)),
         },
         Figure {
             what: "6 SPEs putlluc on one line, per store",
@@ -523,6 +502,11 @@ fn figures() -> Vec<Figure> {
     ]);
     v.extend(contention::figures());
     v
+}
+
+/// A row's verdict.
+fn verdict(ok: bool) -> String {
+    (if ok { "pass" } else { "FAIL" }).to_string()
 }
 
 /// Columns of a row after its name.
@@ -600,7 +584,7 @@ fn run(args: &Args) -> Result<(), String> {
                     format!("{got:.2}"),
                     format!("{ratio:.3}"),
                     format!("{:.0}%", f.tolerance * 100.0),
-                    (if ok { "pass" } else { "FAIL" }).to_string(),
+                    verdict(ok),
                 ],
             );
             rows.push(json!({

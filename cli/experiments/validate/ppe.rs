@@ -93,7 +93,7 @@ pub fn section(text: bool) -> Vec<serde_json::Value> {
             format!("{got:.2}"),
             format!("{ratio:.3}"),
             "25%".into(),
-            (if ok { "pass" } else { "FAIL" }).to_string(),
+            super::verdict(ok),
         ],
     );
     // Where the sort puts the update's rates: each scaled as the sort's
