@@ -27,6 +27,43 @@ fn cfg(builder: &str, policy: Method, spes: usize, build_spes: usize) -> FrameCo
     }
 }
 
+/// The PPE's search made during the frame before (after its graft):
+/// the first frame has no frame before it; no frame is slower than
+/// serial, and none saves more than its PPE share or, in section 5's
+/// arrangement, more than the render before it, in the paper's more than
+/// the render's time beyond the update before it (none where the update
+/// was the longer); a local update (the scan of its interval is a search)
+/// saves in section 5's; the run's totals add up.
+#[test]
+fn the_ppes_search_overlaps_the_frame_before() {
+    let s = scene::load("rtperf:20000:1", None).unwrap();
+    let anim = Animation::named("rtperf", &s, 5, 2).unwrap();
+    for build_spes in [6, 1] {
+        let c = cfg("spe_bfs_private", Method::Local, 6, build_spes);
+        let run = play(&s, &anim, &c, |_| {}).unwrap();
+        let f = &run.frames;
+        assert_eq!(f[0].overlap_frame_ms, f[0].frame_ms);
+        let mut saved = 0.0;
+        for (k, x) in f.iter().enumerate().skip(1) {
+            let gain = x.frame_ms - x.overlap_frame_ms;
+            assert!(gain >= 0.0 && gain <= x.ppe_ms + 1e-9, "{x:?}");
+            let before = &f[k - 1];
+            let slack = match build_spes {
+                6 => before.render_ms,
+                _ => (before.overlap_frame_ms - before.update_ms).max(0.0) + before.ppe_ms,
+            };
+            assert!(gain <= slack + 1e-9, "{x:?} after {before:?}");
+            saved += gain;
+        }
+        let total: f64 = f.iter().map(|x| x.overlap_frame_ms).sum();
+        assert!((run.overlap_total_ms - total).abs() < 1e-9);
+        if build_spes == 6 {
+            assert!(saved > 0.0, "nothing overlapped");
+            assert!(run.overlap_fps > run.fps);
+        }
+    }
+}
+
 /// Section 5's arrangement adds update and render; the paper's overlaps
 /// them; the render on fewer SPEs is slower; the update's time is the
 /// updater's own simulated time; the same run twice gives the same times.

@@ -146,6 +146,12 @@ fn print(
             "oracle_total_ms": run.oracle_total_ms,
             "second_copy_bytes": run.second_copy_bytes,
             "sharing_bound_ms": run.sharing_bound_ms,
+            "overlap": {
+                "total_ms": run.overlap_total_ms,
+                "fps": run.overlap_fps,
+                "what": "the PPE's search of each frame made during the frame before, after its graft",
+                "policy_assumed": "serial",
+            },
         });
         println!(
             "{}",
@@ -232,6 +238,12 @@ fn print(
         );
     }
     println!("{}", crate::report::wrap(&of_it, 80));
+    let overlap = format!(
+        "with the PPE's search made during the frame before (after its graft): total {:.2} \
+         ms, {:.2} frames per second; the policy chose by the serial frames above",
+        run.overlap_total_ms, run.overlap_fps
+    );
+    println!("{}", crate::report::wrap(&overlap, 80));
     if let (Some(near), Some(best)) = (run.near_best, run.oracle_total_ms) {
         let line = format!(
             "oracle: {:.0} % of the frames within 10 % of the best option; every frame at its \

@@ -40,7 +40,8 @@ fn the_frame_command_reports_every_frame() {
     assert!(
         text.contains("of it: the PPE's share of the updates")
             && text.contains("second copy")
-            && text.contains("sharing the memory interface could add at most"),
+            && text.contains("sharing the memory interface could add at most")
+            && text.contains("with the PPE's search made during the frame before"),
         "{text}"
     );
     let mut json_args = args.to_vec();
@@ -59,6 +60,7 @@ fn the_frame_command_reports_every_frame() {
             "frame_ms",
             "ppe_ms",
             "copy_ms",
+            "overlap_frame_ms",
         ] {
             assert!(!f[key].is_null(), "{key}: {f}");
         }
@@ -67,6 +69,15 @@ fn the_frame_command_reports_every_frame() {
     assert!((v["total_ms"].as_f64().unwrap() - total).abs() < 1e-9);
     assert!(v["second_copy_bytes"].as_u64().is_some_and(|b| b > 0));
     assert!(v["sharing_bound_ms"].as_f64().is_some_and(|b| b >= 0.0));
+    // The frames with the PPE's search overlapped, beside the serial ones
+    // the policy chose by.
+    let overlap = &v["overlap"];
+    assert!(
+        overlap["total_ms"]
+            .as_f64()
+            .is_some_and(|t| t <= total + 1e-9)
+    );
+    assert_eq!(overlap["policy_assumed"], "serial");
     let out = cellbih(&line(
         "frame --scene car --animation car --frames 2 --builder spe_bfs --width 16 --height 12 --policy auto --oracle",
     ));
