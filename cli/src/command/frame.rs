@@ -239,8 +239,8 @@ fn print(
     }
     println!("{}", crate::report::wrap(&of_it, 80));
     let overlap = format!(
-        "with the PPE's search made during the frame before (after its graft): total {:.2} \
-         ms, {:.2} frames per second; the policy chose by the serial frames above",
+        "overlapped (each frame's PPE search during the frame before): {:.2} ms, {:.2} fps; \
+         chosen by the serial frames",
         run.overlap_total_ms, run.overlap_fps
     );
     println!("{}", crate::report::wrap(&overlap, 80));

@@ -41,7 +41,7 @@ fn the_frame_command_reports_every_frame() {
         text.contains("of it: the PPE's share of the updates")
             && text.contains("second copy")
             && text.contains("sharing the memory interface could add at most")
-            && text.contains("with the PPE's search made during the frame before"),
+            && text.contains("overlapped (each frame's PPE search during the frame before)"),
         "{text}"
     );
     let mut json_args = args.to_vec();
