@@ -31,6 +31,9 @@ pub struct Plan {
     /// made ([`Updater::plan`]), or only Algorithm 1
     /// ([`Updater::plan_search`]).
     pub deep_planned: bool,
+    /// On a complete rebuild: the new scene box (its six bounds' bits),
+    /// by which a predictor knows a scene state it has rebuilt before.
+    pub scene_box: Option<[u32; 6]>,
 }
 
 impl Plan {
@@ -72,7 +75,13 @@ impl Updater {
             });
         }
         if probe.scene.bounds() != probe.bih.bounds {
+            let b = probe.scene.bounds();
+            let (lo, hi) = (b.min.to_array(), b.max.to_array());
             return Ok(Plan {
+                scene_box: Some(std::array::from_fn(|i| match i {
+                    0..3 => lo[i].to_bits(),
+                    _ => hi[i - 3].to_bits(),
+                })),
                 full_rebuild: true,
                 interval: probe.scene.len(),
                 depth: 0,
@@ -92,6 +101,7 @@ impl Updater {
             deep_pieces: Vec::new(),
             find: found(&enc, 0),
             deep_planned: descend,
+            scene_box: None,
         };
         if descend {
             let moved_slots = probe.moved_slots(&m.moved, (first, end));

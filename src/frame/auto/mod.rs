@@ -95,6 +95,12 @@ pub struct Predictor {
     /// interval they were planned in: its price in a frame whose plan
     /// stops at Algorithm 1, scaled by the interval.
     deep_last: Option<(f64, usize)>,
+    /// Complete rebuilds the scene box forced, by the box they rebuilt
+    /// for: what the update cost beyond what was known before it, and the
+    /// render after it. A scene box seen before is rebuilt for what it
+    /// cost then (a part that moves back and forth across the box gives
+    /// builds of two shapes, alternately).
+    forced: Vec<([u32; 6], f64, f64)>,
 }
 
 /// How much weight a new render measured after an update, or a new
@@ -142,6 +148,7 @@ impl Predictor {
             deep_tree: false,
             now_in_frame: false,
             deep_last: None,
+            forced: Vec::new(),
         };
         if let Some(ms) = first_build_ms {
             p.seed_build(triangles, ms);
@@ -269,9 +276,17 @@ impl Predictor {
         let corrected = |m: Method, pieces: &[usize]| {
             self.build_ms(pieces) * self.correction(m, pieces) + known(m)
         };
-        let rebuild = Prediction {
-            update_ms: corrected(Method::Rebuild, &[triangles]),
-            render_ms: render_fresh,
+        let seen = (plan.scene_box.filter(|_| plan.full_rebuild))
+            .and_then(|b| self.forced.iter().find(|f| f.0 == b));
+        let rebuild = match seen {
+            Some(&(_, update_ms, render_ms)) => Prediction {
+                update_ms: update_ms + known(Method::Rebuild),
+                render_ms,
+            },
+            None => Prediction {
+                update_ms: corrected(Method::Rebuild, &[triangles]),
+                render_ms: render_fresh,
+            },
         };
         let update = |m: Method, pieces: &[usize], render_ms: f64| {
             if plan.full_rebuild {
@@ -379,6 +394,10 @@ impl Predictor {
             (self.correction.entry(Self::key(m, &pieces)))
                 .and_modify(|c| *c += LEARN * (seen - *c))
                 .or_insert(seen);
+        }
+        if let Some(b) = plan.scene_box.filter(|_| full_rebuild) {
+            self.forced.retain(|f| f.0 != b);
+            self.forced.push((b, update_ms, render_ms));
         }
         let learn = |learned: &mut Option<f64>, seen: f64| {
             *learned = Some(learned.map_or(seen, |l| l + LEARN * (seen - l)));

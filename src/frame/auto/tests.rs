@@ -11,6 +11,7 @@ fn plan(full: bool, interval: usize, deep_pieces: &[usize]) -> Plan {
         deep_pieces: deep_pieces.to_vec(),
         find: Default::default(),
         deep_planned: true,
+        scene_box: None,
     }
 }
 
@@ -347,4 +348,29 @@ fn the_deep_ratio_is_learned_against_a_frames_render_only() {
     p.observe(Method::Local, &small, (false, 10_000), 3.0, 11.5);
     let pr = p.predict(&small, 10_000, |_| 0.0);
     assert!((pr[1].1.render_ms - 12.65).abs() < 1e-9, "{pr:?}");
+}
+
+/// A complete rebuild the scene box forces is predicted from the last one
+/// for the same box (a part moving back and forth across the box gives
+/// builds of two shapes, alternately); a box not seen before from the
+/// cost curve.
+#[test]
+fn forced_rebuilds_are_predicted_from_their_own_box_history() {
+    let mut p = Predictor::new(6_000, Some(1.0));
+    p.seed_render(3.5);
+    let forced = |b: u32| Plan {
+        scene_box: Some([b; 6]),
+        ..plan(true, 6_000, &[6_000])
+    };
+    p.observe(Method::Deep, &forced(1), (true, 6_000), 1.6, 3.53);
+    p.observe(Method::Deep, &forced(2), (true, 6_000), 0.9, 3.49);
+    let known = |_| 0.25;
+    for (b, update, render) in [(1, 1.6, 3.53), (2, 0.9, 3.49)] {
+        let pr = p.predict(&forced(b), 6_000, known);
+        assert!(pr.iter().all(|(_, x)| *x == pr[0].1));
+        assert!((pr[0].1.update_ms - (update + 0.25)).abs() < 1e-9, "{pr:?}");
+        assert_eq!(pr[0].1.render_ms, render);
+    }
+    let pr = p.predict(&forced(3), 6_000, known);
+    assert_eq!(pr[0].1.render_ms, 3.49, "the last fresh tree's render");
 }
