@@ -69,7 +69,7 @@ pub const COOP_PARTITION: Knob = Knob::word(
 /// `--tris-per-spe N|auto`: `spes_used`.
 pub const TRIS_PER_SPE: Knob = Knob::int_or_auto(
     "tris-per-spe",
-    "each SPE used gets at least this many triangles (auto: at least the strategy's measured share of the build's partition work); more SPEs given run on that many (1: every SPE)",
+    "each SPE used gets at least this many triangles (auto: for each count of SPEs, the work per SPE below which that many were measured slower than fewer); more SPEs given run on that many (1: every SPE)",
     (1, usize::MAX),
     &["1", "4000"],
 );
