@@ -48,23 +48,29 @@ impl Machine {
     }
 }
 
-/// Runs `tasks` (core index, program) to completion in virtual-time order.
-/// Returns the cycle at which the last core or transfer finished.
+/// Runs the programs of `slots` (by core) in virtual-time order, to
+/// completion or until `enough` holds (checked before every step; the
+/// programs left stay in `slots`, part-run). Returns the cycle of the last
+/// step: the latest event applied or core ended.
 pub(crate) fn execute(
     m: &std::rc::Rc<std::cell::RefCell<Machine>>,
-    tasks: Vec<(usize, Task)>,
+    slots: &mut [Option<Task>],
+    enough: impl Fn(&Machine, &[Option<Task>]) -> bool,
 ) -> Result<Cycles, CellError> {
-    let mut slots: Vec<Option<Task>> = (0..m.borrow().cores.len()).map(|_| None).collect();
     let mut end = Cycles::ZERO;
     {
         let mut mm = m.borrow_mut();
-        for (core, task) in tasks {
-            mm.cores[core].status = Status::Ready;
-            slots[core] = Some(task);
+        for (core, slot) in slots.iter().enumerate() {
+            if slot.is_some() && mm.cores[core].status == Status::Done {
+                mm.cores[core].status = Status::Ready;
+            }
         }
     }
     let mut cx = Context::from_waker(Waker::noop());
     loop {
+        if enough(&m.borrow(), slots) {
+            break;
+        }
         let (ready, event_at, flow_end) = {
             let mm = m.borrow();
             (
@@ -126,16 +132,24 @@ pub(crate) fn execute(
             }
         }
     }
-    let mut mm = m.borrow_mut();
-    for c in &mut mm.cores {
-        c.counters.idle += end.saturating_sub(c.clock);
-        c.clock = end;
-    }
-    let high_water: Vec<u32> = mm.spes.iter().map(|s| s.ls.high_water).collect();
-    for (i, hw) in high_water.into_iter().enumerate() {
-        mm.cores[i + 1].counters.ls_high_water = hw;
-    }
     Ok(end)
+}
+
+impl Machine {
+    /// Brings the clocks of `cores` up to `at`, counting the wait as idle,
+    /// and records their SPEs' local-store high-water marks.
+    pub(crate) fn settle(&mut self, cores: impl Iterator<Item = usize>, at: Cycles) {
+        for core in cores {
+            let c = &mut self.cores[core];
+            c.counters.idle += at.saturating_sub(c.clock);
+            c.clock = c.clock.max(at);
+            if let Some(spe) = core.checked_sub(1) {
+                let hw = self.spes[spe].ls.high_water;
+                let c = &mut self.cores[core].counters;
+                c.ls_high_water = c.ls_high_water.max(hw);
+            }
+        }
+    }
 }
 
 /// Where core `core` stands among cores of equal clock after `resumes`

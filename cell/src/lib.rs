@@ -63,6 +63,7 @@ mod memif;
 pub mod memory;
 pub mod mfc;
 mod ppe;
+mod side;
 mod spe;
 pub mod trace;
 
@@ -78,6 +79,7 @@ pub use local_store::LsAddr;
 pub use memory::{Allocation, Ea, Label, MainMemory};
 pub use mfc::{ListElement, MAX_LIST_ELEMENTS, MAX_TRANSFER, Order, Segment, WaitMode};
 pub use ppe::Ppe;
+pub use side::Side;
 pub use spe::{Reservation, Spe};
 pub use trace::{CoreCounters, Trace};
 
@@ -220,7 +222,12 @@ pub struct RunReport {
 /// The machine: memory, cores, and the programs spawned on them.
 pub struct Cell {
     m: Rc<RefCell<Machine>>,
+    /// Programs spawned for the next run, by core.
     tasks: Vec<(usize, Task)>,
+    /// Programs part-run by [`Cell::run_side`], by core, and the cycle the
+    /// first of those runs started at.
+    running: Vec<Option<Task>>,
+    since: Option<Cycles>,
 }
 
 impl Cell {
@@ -240,6 +247,8 @@ impl Cell {
             ));
         }
         Ok(Cell {
+            running: (0..=cfg.spes).map(|_| None).collect(),
+            since: None,
             m: Rc::new(RefCell::new(Machine::new(cfg))),
             tasks: Vec::new(),
         })
@@ -295,21 +304,40 @@ impl Cell {
     /// Runs the spawned programs to completion. All clocks start together
     /// at the latest clock of any earlier run.
     pub fn run(&mut self) -> Result<RunReport, CellError> {
-        let start = {
-            let mut m = self.m.borrow_mut();
-            let start = m.cores.iter().map(|c| c.clock).max().unwrap_or_default();
-            for c in &mut m.cores {
-                c.clock = start;
-                c.counters = CoreCounters::default();
-            }
-            start
-        };
+        if self.since.is_some() {
+            return Err(CellError::Config(
+                "programs are part-run (run_side): end them with Cell::finish".into(),
+            ));
+        }
+        let start = self.align();
         let tasks = std::mem::take(&mut self.tasks);
         self.start_programs(start, &tasks);
-        let end = executor::execute(&self.m, tasks)?;
+        let mut slots: Vec<Option<Task>> = (0..self.running.len()).map(|_| None).collect();
+        for (core, task) in tasks {
+            slots[core] = Some(task);
+        }
+        let end = executor::execute(&self.m, &mut slots, |_, _| false)?;
+        let cores = slots.len();
+        self.m.borrow_mut().settle(0..cores, end);
+        Ok(self.report(start, end))
+    }
+
+    /// Every core's clock brought to the latest, counters cleared: where a
+    /// run starts.
+    fn align(&mut self) -> Cycles {
+        let mut m = self.m.borrow_mut();
+        let start = m.cores.iter().map(|c| c.clock).max().unwrap_or_default();
+        for c in &mut m.cores {
+            c.clock = start;
+            c.counters = CoreCounters::default();
+        }
+        start
+    }
+
+    fn report(&self, start: Cycles, end: Cycles) -> RunReport {
         let m = self.m.borrow();
         let cycles = end.saturating_sub(start);
-        Ok(RunReport {
+        RunReport {
             timed: m.cfg.cost.charge_compute,
             cycles,
             ms: cycles.ms(m.cfg.cost.clock_hz),
@@ -321,7 +349,7 @@ impl Cell {
                 .collect(),
             memory: m.mem.allocations().to_vec(),
             memory_bytes: m.mem.in_use(),
-        })
+        }
     }
 
     /// The timeline (if the config asked for it), taken out of the machine:

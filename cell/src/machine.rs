@@ -154,6 +154,45 @@ pub(crate) struct SpeState {
     pub atomic_cache: VecDeque<u64>,
 }
 
+impl SpeState {
+    /// An SPE as a program finds it when started: an empty local store
+    /// (beyond the room reserved for code and stack), an idle MFC, empty
+    /// mailboxes.
+    pub(crate) fn new(cfg: &CellConfig) -> Self {
+        SpeState {
+            ls: LocalStore::new(cfg.local_store_bytes, cfg.ls_reserved_bytes),
+            queued: 0,
+            outstanding: [0; 32],
+            unwaited: Vec::new(),
+            mfc_free: Cycles::ZERO,
+            mfc_busy: false,
+            pending: VecDeque::new(),
+            tag_names: Vec::new(),
+            incomplete: Vec::new(),
+            tag_done: [Cycles::ZERO; 32],
+            barrier_done: [Cycles::ZERO; 32],
+            issued: 0,
+            in_mbox: VecDeque::new(),
+            in_arriving: 0,
+            out_mbox: [VecDeque::new(), VecDeque::new()],
+            out_arriving: [0, 0],
+            signals: Default::default(),
+            reservation: None,
+            atomic_cache: VecDeque::new(),
+        }
+    }
+
+    /// Nothing of the SPE's is on its way: no command queued or in
+    /// flight, no mailbox value arriving.
+    pub(crate) fn quiet(&self) -> bool {
+        self.queued == 0
+            && self.pending.is_empty()
+            && self.incomplete.is_empty()
+            && self.in_arriving == 0
+            && self.out_arriving == [0, 0]
+    }
+}
+
 /// What checked mode keeps of a command until it completes.
 pub(crate) struct InFlight {
     pub id: u64,
@@ -293,29 +332,7 @@ pub(crate) struct Machine {
 
 impl Machine {
     pub fn new(cfg: CellConfig) -> Self {
-        let spes = (0..cfg.spes)
-            .map(|_| SpeState {
-                ls: LocalStore::new(cfg.local_store_bytes, cfg.ls_reserved_bytes),
-                queued: 0,
-                outstanding: [0; 32],
-                unwaited: Vec::new(),
-                mfc_free: Cycles::ZERO,
-                mfc_busy: false,
-                pending: VecDeque::new(),
-                tag_names: Vec::new(),
-                incomplete: Vec::new(),
-                tag_done: [Cycles::ZERO; 32],
-                barrier_done: [Cycles::ZERO; 32],
-                issued: 0,
-                in_mbox: VecDeque::new(),
-                in_arriving: 0,
-                out_mbox: [VecDeque::new(), VecDeque::new()],
-                out_arriving: [0, 0],
-                signals: Default::default(),
-                reservation: None,
-                atomic_cache: VecDeque::new(),
-            })
-            .collect();
+        let spes = (0..cfg.spes).map(|_| SpeState::new(&cfg)).collect();
         let cores = (0..=cfg.spes)
             .map(|_| Core {
                 clock: Cycles::ZERO,
