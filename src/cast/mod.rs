@@ -11,27 +11,28 @@
 //! the host tracer's (`bih::Tracer`), ray for ray; the time is simulated
 //! PS3 time, in the same currency as a build's.
 
+mod casting;
 mod packet;
 mod program;
 mod walk;
 
 pub use crate::spe::software_cache::{CacheConfig, CacheRates, CacheStats};
+pub use casting::Casting;
 pub use program::SpeCast;
 
-use std::rc::Rc;
 
 use glam::DVec3;
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, Hit, Ray, RayStats};
-use crate::cell::{Cell, CellConfig, CellError, Ea, Label, RunReport, Trace};
+use crate::cell::{Cell, CellConfig, CellError, Ea, RunReport, Trace};
 use crate::kernels::rates::RateOverrides;
 
 mod rates;
 use crate::render::Camera;
 use crate::scene::Scene;
 pub use crate::spe::layout::RecordOrder;
-use crate::spe::layout::{self, TriRecord};
+use crate::spe::layout::TriRecord;
 pub use rates::CastRates;
 
 /// A ray in main memory: 64 bytes.
@@ -300,9 +301,6 @@ pub struct Shares {
 /// get) near its end stays inside it.
 const TAIL: u64 = 16 * 1024;
 
-/// Casts `rays` through `bih` (built over `scene`) on a Cell configured by
-/// `cell_cfg`, every SPE taking tiles: the closest hits, as the host
-/// tracer gives them, and what it cost in simulated time.
 /// Bytes of emulated main memory a cast takes: the tree's `nodes`, the
 /// `triangles` (and, `order` [`RecordOrder::InputWithIds`], their ids),
 /// the `rays` and their hits, the tile counter, each allocation padded and
@@ -325,6 +323,9 @@ pub fn memory_needed(nodes: usize, triangles: usize, rays: usize, order: RecordO
     bytes.iter().map(|b| b.next_multiple_of(ALIGN)).sum()
 }
 
+/// Casts `rays` through `bih` (built over `scene`) on a Cell configured by
+/// `cell_cfg`, every SPE taking tiles: the closest hits, as the host
+/// tracer gives them, and what it cost in simulated time.
 ///
 /// The tree's triangles lie in main memory as its build left them
 /// (`order`): the records in leaf order, or (`spe_morton`) in the scene's
@@ -339,113 +340,10 @@ pub fn cast_on_cell(
     cell_cfg: &CellConfig,
     order: RecordOrder,
 ) -> Result<CastReport, CellError> {
-    if !(1..=CastConfig::MAX_TILE_RAYS).contains(&cfg.tile_rays) {
-        return Err(CellError::Config(format!(
-            "{} rays a tile: 1 to {}",
-            cfg.tile_rays,
-            CastConfig::MAX_TILE_RAYS
-        )));
-    }
-    if !(1..=CastConfig::MAX_RAYS_IN_FLIGHT).contains(&cfg.rays_in_flight) {
-        return Err(CellError::Config(format!(
-            "{} rays in flight: 1 to {}",
-            cfg.rays_in_flight,
-            CastConfig::MAX_RAYS_IN_FLIGHT
-        )));
-    }
-    let p = cfg.packet;
-    if !(1..=8).contains(&p.w) || !(1..=8).contains(&p.h) || !cfg.tile_rays.is_multiple_of(p.rays())
-    {
-        return Err(CellError::Config(format!(
-            "packets of {p} rays: each side 1 to 8, and a tile's {} rays a whole number of packets",
-            cfg.tile_rays
-        )));
-    }
-    cfg.cache.sets().map_err(CellError::Config)?;
-    assert_eq!(bih.prim_ids.len(), scene.len(), "tree and scene differ");
-    let cell = Cell::new(cell_cfg.clone())?;
-    let all = layout::records(scene);
-    let records: Vec<TriRecord> = match order {
-        RecordOrder::LeafOrder => bih.prim_ids.iter().map(|&p| all[p as usize]).collect(),
-        RecordOrder::InputWithIds => all,
-    };
-    let label = |name: &str| Label::new("ray casting", name);
-    let padded = |bytes: usize| bytes as u64 + TAIL;
-    let job = {
-        let mut m = cell.memory_mut();
-        let nodes = m.alloc(
-            label("nodes"),
-            padded(size_of_val(bih.nodes.as_slice())),
-            128,
-        )?;
-        m.write_pod(nodes, &bih.nodes)?;
-        let recs = m.alloc(
-            label(match order {
-                RecordOrder::LeafOrder => "triangles in leaf order",
-                RecordOrder::InputWithIds => "triangles in the scene's order",
-            }),
-            padded(size_of_val(records.as_slice())),
-            128,
-        )?;
-        m.write_pod(recs, &records)?;
-        let ids = match order {
-            RecordOrder::LeafOrder => None,
-            RecordOrder::InputWithIds => {
-                let at = m.alloc(
-                    label("triangle ids in leaf order"),
-                    padded(size_of_val(bih.prim_ids.as_slice())),
-                    128,
-                )?;
-                m.write_pod(at, &bih.prim_ids)?;
-                Some(at)
-            }
-        };
-        let cell_rays: Vec<CellRay> = rays.iter().map(CellRay::of).collect();
-        let ray_ea = m.alloc_pod(label("rays"), &cell_rays, 128)?;
-        let hits = m.alloc(
-            label("hits"),
-            (rays.len() * size_of::<CellHit>()) as u64,
-            128,
-        )?;
-        let counter = m.alloc(label("tile counter"), 128, 128)?;
-        Job {
-            nodes,
-            records: recs,
-            ids,
-            rays: ray_ea,
-            hits,
-            counter,
-            ray_count: rays.len() as u64,
-            bounds: bih.bounds,
-            max_depth: bih.config.max_depth,
-            tile_rays: cfg.tile_rays,
-            rays_in_flight: cfg.rays_in_flight,
-            packet_rays: cfg.packet.rays(),
-            cache: cfg.cache,
-            rates: CastRates::of(cfg.precision, &cfg.rates),
-        }
-    };
-    let (hits_ea, count) = (job.hits, rays.len());
-    let job = Rc::new(job);
-    let mut cell = cell;
-    let exits: Vec<_> = (0..cell_cfg.spes)
-        .map(|spe| {
-            let job = job.clone();
-            cell.spawn_spe(spe, move |s| program::caster(s, job))
-        })
-        .collect();
+    let mut cell = Cell::new(cell_cfg.clone())?;
+    let casting = Casting::launch(&mut cell, (bih, scene, order), rays, cfg, 0..cell_cfg.spes)?;
     let run = cell.run()?;
-    let spes = (exits.iter().enumerate())
-        .map(|(i, e)| e.take(&format!("ray caster on SPE {i}")))
-        .collect::<Result<Vec<_>, _>>()?;
-    let out: Vec<CellHit> = cell.memory().read_pod(hits_ea, count)?;
-    Ok(CastReport {
-        hits: out.iter().map(CellHit::hit).collect(),
-        costs: out.iter().map(|h| h.cost).collect(),
-        run,
-        spes,
-        trace: cell.take_trace(),
-    })
+    casting.land(&cell, run)
 }
 
 /// Casts `cam`'s rays (one a pixel) as [`cast_on_cell`] does, in the
@@ -463,10 +361,22 @@ pub fn cast_camera(
     cell_cfg: &CellConfig,
     order: RecordOrder,
 ) -> Result<CastReport, CellError> {
+    in_camera_order(cam, cfg, |rays| {
+        cast_on_cell(bih, scene, rays, cfg, cell_cfg, order)
+    })
+}
+
+/// What `cast` makes of `cam`'s rays given in the order packets need (as
+/// [`cast_camera`] gives them), its answers put back in the camera's order.
+pub fn in_camera_order<E>(
+    cam: &Camera,
+    cfg: &CastConfig,
+    cast: impl FnOnce(&[Ray]) -> Result<CastReport, E>,
+) -> Result<CastReport, E> {
     let pixels = crate::render::block_order(cam.width, cam.height, cfg.packet.w, cfg.packet.h);
     let w = cam.width;
     let rays: Vec<Ray> = (pixels.iter()).map(|&i| cam.ray(i % w, i / w)).collect();
-    let mut r = cast_on_cell(bih, scene, &rays, cfg, cell_cfg, order)?;
+    let mut r = cast(&rays)?;
     let (mut hits, mut costs) = (vec![None; rays.len()], vec![0; rays.len()]);
     for (k, &i) in pixels.iter().enumerate() {
         (hits[i as usize], costs[i as usize]) = (r.hits[k], r.costs[k]);

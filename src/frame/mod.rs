@@ -32,6 +32,7 @@
 
 pub mod auto;
 pub mod charge;
+pub mod one_cell;
 
 use crate::cast::{CastConfig, CastReport, cast_camera};
 use crate::cell::CellConfig;
@@ -142,8 +143,12 @@ pub struct FrameReport {
     pub copy_ms: f64,
     pub switch_ms: f64,
     /// The paper's arrangement: the most that sharing the memory interface
-    /// could add to `frame_ms` ([`charge::sharing_bound_ms`]).
+    /// could add to the frame alone ([`charge::sharing_bound_ms`]), a check
+    /// on the simulation of the two sides on one Cell ([`one_cell`]).
     pub sharing_bound_ms: Option<f64>,
+    /// The paper's arrangement: the update and the render each run alone
+    /// (on a Cell of their own), as the bound starts from.
+    pub alone: Option<Alone>,
     /// The frame with the PPE's search overlapped: made while the frame
     /// before it still ran after its graft (section 5's arrangement: its
     /// render; the paper's: the render's time beyond the update), as an
@@ -191,6 +196,13 @@ pub struct FrameRun {
     /// second.
     pub overlap_total_ms: f64,
     pub overlap_fps: f64,
+    /// How the update and the render of a frame share the machine:
+    /// `simulated` (the paper's arrangement, side by side on one Cell) or
+    /// `none` (section 5's: one after the other).
+    pub contention: &'static str,
+    /// The paper's arrangement: the frames' total with the update and the
+    /// render each run alone ([`FrameReport::alone`]).
+    pub alone_total_ms: Option<f64>,
 }
 
 impl FrameRun {
@@ -207,7 +219,16 @@ impl FrameRun {
             .map(|f| Some(f.oracle_ms?.into_iter().fold(f64::INFINITY, f64::min)))
             .sum();
         let sharing: Option<f64> = frames.iter().map(|f| f.sharing_bound_ms).sum();
+        let alone: Option<f64> = (frames.iter())
+            .map(|f| f.alone.as_ref().map(|a| a.frame_ms))
+            .sum();
+        let alone_total_ms = alone.filter(|_| !frames.is_empty());
         FrameRun {
+            contention: match alone_total_ms {
+                Some(_) => "simulated",
+                None => "none",
+            },
+            alone_total_ms,
             second_copy_bytes,
             sharing_bound_ms: sharing.filter(|_| !frames.is_empty()),
             overlap_total_ms,
@@ -356,40 +377,57 @@ pub fn play(
                 .filter(|p| p.deep_planned || p.full_rebuild || m != Method::Deep)
                 .map(|p| plan_find_ms(p, m, cfg, 0.0))
         };
-        let mut tried: Vec<(Method, Attempt)> = Vec::new();
+        // What this frame costs had it taken `m`: with `auto`, its plan's
+        // search in place of the update's own.
+        let try_out = |m: Method| -> Result<(Attempt, Charged, Times), FrameError> {
+            let a = attempt(&u, m, moves, &cam, cfg, &render_cell)?;
+            let c = bill.charge(&a.report, find_ms(m));
+            let t = times(&a, &c, changed, &cam, cfg)?;
+            Ok((a, c, t))
+        };
+        let mut tried: Vec<(Method, (Attempt, Charged, Times))> = Vec::new();
         if cfg.oracle {
             for m in Method::ALL {
-                tried.push((*m, attempt(&u, *m, moves, &cam, cfg, &render_cell)?));
+                tried.push((*m, try_out(*m)?));
             }
         }
         let oracle_ms = cfg.oracle.then(|| {
             let ms = |m: Method| {
-                let a = &tried
-                    .iter()
+                let t = &(tried.iter())
                     .find(|(t, _)| *t == m)
                     .expect("every option tried")
-                    .1;
-                // What this frame would have cost had it taken `m`: with
-                // `auto`, its plan's search in place of the update's own.
-                let c = bill.charge(&a.report, find_ms(m));
-                cfg.frame_ms(c.update_ms, a.cast.run.ms + c.switch_ms)
+                    .1
+                    .2;
+                cfg.frame_ms(t.update_ms, t.render_ms)
             };
             [ms(Method::Rebuild), ms(Method::Local), ms(Method::Deep)]
         });
         let done_now = match tried.into_iter().find(|(m, _)| *m == taken) {
             Some((_, a)) => a,
-            None => attempt(&u, taken, moves, &cam, cfg, &render_cell)?,
+            None => try_out(taken)?,
         };
-        let Attempt {
-            updater,
-            report: up,
-            cast,
-        } = done_now;
+        let (
+            Attempt {
+                updater,
+                report: up,
+                cast,
+            },
+            charged,
+            Times {
+                update_ms,
+                render_ms,
+                beside,
+            },
+        ) = done_now;
         u = updater;
-        let charged = bill.charge(&up, find_ms(taken));
-        let update_ms = charged.update_ms;
-        // The casters' switch, where the builders' program ran.
-        let render_ms = cast.run.ms + charged.switch_ms;
+        // The cast alone (section 5's arrangement: the only one), and
+        // beside the update on one Cell (the paper's).
+        let alone = beside.is_some().then_some(Alone {
+            update_ms: charged.update_ms,
+            render_ms: cast.run.ms,
+            frame_ms: cfg.frame_ms(charged.update_ms, cast.run.ms),
+        });
+        let cast = beside.map_or(cast, |b| b.cast);
         if let Some(plan) = &plan {
             let known =
                 plan_find_ms(plan, taken, cfg, 0.0) + bill.update_ms(taken, up.full_rebuild);
@@ -402,7 +440,7 @@ pub fn play(
                 render_ms,
             );
         }
-        let sharing_bound_ms = (!cfg.all_spes_build()).then(|| {
+        let sharing_bound_ms = alone.as_ref().map(|a| {
             let copied = match charged.copy_ms > 0.0 {
                 true => charge::COPY_CROSSINGS * changed,
                 false => 0,
@@ -411,8 +449,8 @@ pub fn play(
                 .map(|(_, c)| c.bytes_get + c.bytes_put)
                 .sum();
             charge::sharing_bound_ms(
-                (update_ms, up.dma_bytes + copied),
-                (render_ms, cast_bytes),
+                (a.update_ms, up.dma_bytes + copied),
+                (a.render_ms, cast_bytes),
                 cell,
             )
         });
@@ -443,6 +481,7 @@ pub fn play(
             copy_ms: charged.copy_ms,
             switch_ms: 2.0 * charged.switch_ms,
             sharing_bound_ms,
+            alone,
             overlap_frame_ms,
             ray_cost: (st.nodes_visited + st.triangles_tested) as f64 / st.rays.max(1) as f64,
             cache_hit_rate: cast.cache().hit_rate(),
@@ -539,6 +578,53 @@ struct Charged {
     ppe_ms: f64,
     copy_ms: f64,
     switch_ms: f64,
+}
+
+/// A frame's update and render, each run on a Cell of its own.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Alone {
+    pub update_ms: f64,
+    pub render_ms: f64,
+    pub frame_ms: f64,
+}
+
+/// A frame's update and render ms as its arrangement has them: one after
+/// the other, each as it ran (section 5's), or side by side on one Cell
+/// (the paper's: [`one_cell`]).
+struct Times {
+    update_ms: f64,
+    render_ms: f64,
+    beside: Option<one_cell::Beside>,
+}
+
+/// The [`Times`] of an attempt charged `c`; `changed`: the bytes the tree's
+/// other copy lacks before it.
+fn times(
+    a: &Attempt,
+    c: &Charged,
+    changed: u64,
+    cam: &crate::render::Camera,
+    cfg: &FrameConfig,
+) -> Result<Times, FrameError> {
+    if cfg.all_spes_build() {
+        // The casters' switch, where the builders' program ran.
+        return Ok(Times {
+            update_ms: c.update_ms,
+            render_ms: a.cast.run.ms + c.switch_ms,
+            beside: None,
+        });
+    }
+    let side = one_cell::UpdateSide {
+        find_ms: c.find_ms,
+        apply_ms: c.ppe_ms - c.find_ms,
+        copy_bytes: if c.copy_ms > 0.0 { changed } else { 0 },
+    };
+    let b = one_cell::side_by_side(&a.updater, &side, cam, cfg)?;
+    Ok(Times {
+        update_ms: b.update_ms,
+        render_ms: b.render_ms,
+        beside: Some(b),
+    })
 }
 
 /// One option tried on a copy of the updater: the updater after it, its

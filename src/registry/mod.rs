@@ -312,6 +312,15 @@ impl BuilderKind {
         matches!(self.0, Family::Cell(_))
     }
 
+    /// What spawns the builder's programs on a Cell, for a builder that
+    /// runs on the emulated Cell ([`strategy::launch`]).
+    pub fn spawn(self) -> Option<strategy::Spawn> {
+        match self.0 {
+            Family::Cell(s) => Some(s.spawn),
+            Family::Host(_) => None,
+        }
+    }
+
     /// Refuses a tree `cfg` the builder does not build, naming the
     /// builders that do.
     pub fn check_tree(self, cfg: &BihConfig) -> Result<(), CellError> {

@@ -141,60 +141,19 @@ pub fn run_in(
     knobs: &Knobs,
     rates: &RateOverrides,
 ) -> Result<(Bih, Simulated), CellError> {
-    assert!(
-        region.contains_box(&scene.bounds()),
-        "the region must contain the scene"
-    );
     let mut cell = Cell::new(cell_cfg.clone())?;
-    let triangles = layout::upload(&cell, scene)?;
-    let setup = Setup {
-        triangles,
-        count: scene.len(),
-        region,
-        knobs: knobs.clone(),
-        rates: *rates,
+    let on = On {
+        spes: cell_cfg.spes,
+        knobs,
+        rates,
     };
-    let readback = spawn(&mut cell, &setup, cfg)?;
+    let launched = launch(spawn, &mut cell, scene, (region, cfg), &on)?;
     let run = cell.run()?;
-    let o = readback()?;
-    if o.nodes.is_empty() {
-        return Err(CellError::Program {
-            core: "strategy".into(),
-            msg: "the program ended without writing a tree".into(),
-        });
-    }
-    let mut nodes: Vec<BihNode> = Vec::new();
-    for &(ea, count) in &o.nodes {
-        nodes.extend(cell.memory().read_pod::<BihNode>(ea, count)?);
-    }
-    if o.compact {
-        nodes = compact(&nodes)?;
-    }
-    check_jobs(&o.spe_work, nodes.len())?;
+    let o = (launched.readback)()?;
+    let bih = land(&cell, &o, scene.len(), launched.triangles, (region, cfg))?;
     let records = match o.records {
         Some(Records::Ids { .. }) => layout::RecordOrder::InputWithIds,
         _ => layout::RecordOrder::LeafOrder,
-    };
-    let prim_ids = match o.records {
-        Some(Records::Ids { at, stride, word }) => {
-            let words = stride as usize / 4;
-            let column: Vec<u32> = cell.memory().read_pod(at, scene.len() * words)?;
-            column.iter().skip(word).step_by(words).copied().collect()
-        }
-        moved => {
-            let at = match moved {
-                Some(Records::Moved(at)) => at,
-                _ => triangles,
-            };
-            let records: Vec<layout::TriRecord> = cell.memory().read_pod(at, scene.len())?;
-            records.iter().map(|r| r.id).collect()
-        }
-    };
-    let bih = Bih {
-        nodes,
-        prim_ids,
-        bounds: region,
-        config: *cfg,
     };
     let simulated = Simulated {
         footprint: crate::spe::footprint::Footprint::of(&run, &bih),
@@ -207,6 +166,99 @@ pub fn run_in(
         records,
     };
     Ok((bih, simulated))
+}
+
+/// Where and how a build runs on a Cell: on its SPEs `0 .. spes`, with
+/// these knobs and rates.
+pub struct On<'a> {
+    pub spes: usize,
+    pub knobs: &'a Knobs,
+    pub rates: &'a RateOverrides,
+}
+
+/// A build whose programs are spawned: what reads its output back once
+/// they have ended, and where its input triangles are.
+pub struct Launched {
+    pub readback: Readback,
+    pub triangles: crate::cell::Ea,
+}
+
+/// Puts `scene`'s triangles into `cell`'s main memory and spawns the
+/// strategy's programs (the PPE's and those of SPEs `0 .. on.spes`) for a
+/// build of its tree over `region` with `cfg`; run the Cell, then read the
+/// tree back with [`land`].
+pub fn launch(
+    spawn: Spawn,
+    cell: &mut Cell,
+    scene: &Scene,
+    (region, cfg): (Aabb, &BihConfig),
+    on: &On,
+) -> Result<Launched, CellError> {
+    assert!(
+        region.contains_box(&scene.bounds()),
+        "the region must contain the scene"
+    );
+    let triangles = layout::upload(cell, scene)?;
+    let setup = Setup {
+        triangles,
+        count: scene.len(),
+        spes: on.spes,
+        region,
+        knobs: on.knobs.clone(),
+        rates: *on.rates,
+    };
+    let readback = spawn(cell, &setup, cfg)?;
+    Ok(Launched {
+        readback,
+        triangles,
+    })
+}
+
+/// The tree a build left in `cell`'s main memory, as its programs' output
+/// `o` says where: its nodes (compacted if they share a pool) and its
+/// `count` triangle ids in leaf order.
+pub fn land(
+    cell: &Cell,
+    o: &Output,
+    count: usize,
+    triangles: crate::cell::Ea,
+    (region, cfg): (Aabb, &BihConfig),
+) -> Result<Bih, CellError> {
+    if o.nodes.is_empty() {
+        return Err(CellError::Program {
+            core: "strategy".into(),
+            msg: "the program ended without writing a tree".into(),
+        });
+    }
+    let mut nodes: Vec<BihNode> = Vec::new();
+    for &(ea, n) in &o.nodes {
+        nodes.extend(cell.memory().read_pod::<BihNode>(ea, n)?);
+    }
+    if o.compact {
+        nodes = compact(&nodes)?;
+    }
+    check_jobs(&o.spe_work, nodes.len())?;
+    let prim_ids = match o.records {
+        Some(Records::Ids { at, stride, word }) => {
+            let words = stride as usize / 4;
+            let column: Vec<u32> = cell.memory().read_pod(at, count * words)?;
+            column.iter().skip(word).step_by(words).copied().collect()
+        }
+        moved => {
+            let at = match moved {
+                Some(Records::Moved(at)) => at,
+                _ => triangles,
+            };
+            let records: Vec<layout::TriRecord> = cell.memory().read_pod(at, count)?;
+            records.iter().map(|r| r.id).collect()
+        }
+    };
+    Ok(Bih {
+        nodes,
+        prim_ids,
+        bounds: region,
+        config: *cfg,
+    })
 }
 
 #[cfg(test)]

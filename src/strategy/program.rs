@@ -99,6 +99,9 @@ impl Strategy {
 pub struct Setup {
     pub triangles: Ea,
     pub count: usize,
+    /// The SPEs the build may use: `0 .. spes` (of the Cell's, all unless
+    /// the build runs beside other programs: [`crate::frame`]'s casters).
+    pub spes: usize,
     pub region: Aabb,
     pub knobs: Knobs,
     /// The code class and the kernel rates moved from its values (`--code`,

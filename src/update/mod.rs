@@ -23,6 +23,7 @@
 //! shrinks, as an ObjectArena's would not.
 
 pub mod animation;
+pub mod builds;
 mod deep;
 pub mod local;
 mod plan;
@@ -221,6 +222,7 @@ struct Moved {
 struct Piece {
     bih: Bih,
     timed: Option<Timed>,
+    log: Option<builds::BuildLog>,
 }
 
 /// What an emulated build cost: its simulated ms and the bytes its DMA
@@ -263,6 +265,9 @@ pub struct Updater {
     pub first_build_ms: Option<f64>,
     /// Where the builder leaves the triangle records (the first build's).
     pub records: crate::spe::layout::RecordOrder,
+    /// The emulated builds of the last step, in the order their trees went
+    /// in.
+    pub builds: Vec<builds::BuildLog>,
     /// Triangle ids of each geometry id.
     members: Vec<Vec<u32>>,
     /// First slot of each free pair of node slots.
@@ -294,6 +299,7 @@ impl Updater {
             deep_stop_below: DEEP_STOP_BELOW,
             first_build_ms,
             records,
+            builds: Vec::new(),
             members,
             free: Vec::new(),
         })
@@ -304,6 +310,7 @@ impl Updater {
     /// builder's error) the scene is as it was and the tree valid for it.
     pub fn step(&mut self, moves: &[Move]) -> Result<UpdateReport, UpdateError> {
         let start = Instant::now();
+        self.builds.clear();
         let mut r = UpdateReport {
             moves: moves.len(),
             ..UpdateReport::default()
@@ -408,6 +415,14 @@ impl Updater {
 
     fn full_rebuild(&mut self, r: &mut UpdateReport) -> Result<(), UpdateError> {
         let b = self.build.run(&self.scene)?;
+        if self.build.builder.emulated() {
+            self.builds.push(builds::BuildLog {
+                ids: None,
+                region: self.scene.bounds(),
+                cfg: b.bih.config,
+                fingerprint: builds::fingerprint(&b.bih),
+            });
+        }
         self.bih = b.bih;
         self.free.clear();
         r.full_rebuild = true;
@@ -456,8 +471,8 @@ impl Updater {
             max_depth: self.bih.config.max_depth - depth,
             ..self.bih.config
         };
-        let (bih, timed) = self.build_piece(ids, region, &cfg)?;
-        Ok(Piece { bih, timed })
+        let (bih, timed, log) = self.build_piece(ids, region, &cfg)?;
+        Ok(Piece { bih, timed, log })
     }
 
     /// Deletes the subtree at `node` and grafts `piece` there, its
@@ -475,16 +490,18 @@ impl Updater {
         if let Some(t) = piece.timed {
             t.charge(r);
         }
+        self.builds.extend(piece.log.clone());
     }
 
     /// A tree over the triangles `ids` (global ids, leaves from slot 0), by
-    /// the updater's builder, and its simulated time if emulated.
+    /// the updater's builder, and, if emulated, its simulated time and what
+    /// it built.
     fn build_piece(
         &self,
         ids: &[u32],
         region: Aabb,
         cfg: &BihConfig,
-    ) -> Result<(Bih, Option<Timed>), UpdateError> {
+    ) -> Result<(Bih, Option<Timed>, Option<builds::BuildLog>), UpdateError> {
         if ids.is_empty() {
             let empty = Bih {
                 nodes: vec![BihNode::leaf(0, 0)],
@@ -492,31 +509,28 @@ impl Updater {
                 bounds: region,
                 config: *cfg,
             };
-            return Ok((empty, None));
+            return Ok((empty, None, None));
         }
         if self.build.builder == BuilderKind::HOST {
             let mut refs: Vec<PrimRef> = ids
                 .iter()
                 .map(|&i| PrimRef::new(i, self.scene.triangles[i as usize].bounds()))
                 .collect();
-            return Ok((build_items(&mut refs, region, cfg).0, None));
+            return Ok((build_items(&mut refs, region, cfg).0, None, None));
         }
-        let sub = Scene::new(
-            format!("{} (interval)", self.scene.name),
-            ids.iter()
-                .map(|&i| self.scene.triangles[i as usize])
-                .collect(),
-            ids.iter()
-                .map(|&i| self.scene.geometry_ids[i as usize])
-                .collect(),
-            self.scene.geometry_names.clone(),
-        )?;
+        let sub = builds::sub_scene(&self.scene, ids)?;
         let b = (self.build.clone().with_tree(*cfg)).run_in(&sub, region)?;
         let mut bih = b.bih;
+        let log = (b.simulated.is_some()).then(|| builds::BuildLog {
+            ids: Some(ids.to_vec()),
+            region,
+            cfg: *cfg,
+            fingerprint: builds::fingerprint(&bih),
+        });
         for p in &mut bih.prim_ids {
             *p = ids[*p as usize];
         }
-        Ok((bih, b.simulated.as_ref().and_then(Timed::of)))
+        Ok((bih, b.simulated.as_ref().and_then(Timed::of), log))
     }
 
     /// Puts the descendants of `node` on the free list.

@@ -213,7 +213,7 @@ impl Start {
     ) -> Result<Self, CellError> {
         let n = setup.count;
         let spes = spes_used(
-            cell.config().spes,
+            setup.spes,
             (n, cfg.leaf_size),
             &setup.knobs,
             auto_work,

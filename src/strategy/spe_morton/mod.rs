@@ -310,7 +310,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
     }
     let (rates, kernels) = (MortonRates::with(&setup.rates), setup.rates.kernels());
     let spes = spes_used(
-        cell.config().spes,
+        setup.spes,
         (n, cfg.leaf_size),
         &setup.knobs,
         AUTO_WORK_PER_SPE,

@@ -1,0 +1,146 @@
+//! A cast set up on a Cell: its inputs put in main memory and a caster
+//! spawned on each SPE of a range (section 4's ray casting on the SPEs),
+//! then its answers read back once the Cell has run. [`super::cast_on_cell`]
+//! runs one on a Cell of its own; the frame loop runs one beside a
+//! builder's programs on one Cell (the paper's arrangement).
+
+use std::rc::Rc;
+
+use super::program::{self, SpeCast};
+use super::{CellHit, CellRay, Job};
+use super::{CastConfig, CastRates, CastReport, RecordOrder, TAIL};
+use crate::bih::{Bih, Ray};
+use crate::cell::{Cell, CellError, Ea, Exit, Label, RunReport};
+use crate::scene::Scene;
+use crate::spe::layout::{self, TriRecord};
+
+/// A cast whose casters are spawned.
+pub struct Casting {
+    exits: Vec<Exit<SpeCast>>,
+    hits: Ea,
+    count: usize,
+}
+
+impl Casting {
+    /// Puts the tree `bih` over `scene` (its triangles as its build left
+    /// them, `order`) and `rays` into `cell`'s main memory, and spawns a
+    /// caster on each SPE of `spes`, every one taking tiles.
+    pub fn launch(
+        cell: &mut Cell,
+        (bih, scene, order): (&Bih, &Scene, RecordOrder),
+        rays: &[Ray],
+        cfg: &CastConfig,
+        spes: std::ops::Range<usize>,
+    ) -> Result<Casting, CellError> {
+        if !(1..=CastConfig::MAX_TILE_RAYS).contains(&cfg.tile_rays) {
+            return Err(CellError::Config(format!(
+                "{} rays a tile: 1 to {}",
+                cfg.tile_rays,
+                CastConfig::MAX_TILE_RAYS
+            )));
+        }
+        if !(1..=CastConfig::MAX_RAYS_IN_FLIGHT).contains(&cfg.rays_in_flight) {
+            return Err(CellError::Config(format!(
+                "{} rays in flight: 1 to {}",
+                cfg.rays_in_flight,
+                CastConfig::MAX_RAYS_IN_FLIGHT
+            )));
+        }
+        let p = cfg.packet;
+        if !(1..=8).contains(&p.w) || !(1..=8).contains(&p.h) || !cfg.tile_rays.is_multiple_of(p.rays())
+        {
+            return Err(CellError::Config(format!(
+                "packets of {p} rays: each side 1 to 8, and a tile's {} rays a whole number of packets",
+                cfg.tile_rays
+            )));
+        }
+        cfg.cache.sets().map_err(CellError::Config)?;
+        assert_eq!(bih.prim_ids.len(), scene.len(), "tree and scene differ");
+        let all = layout::records(scene);
+        let records: Vec<TriRecord> = match order {
+            RecordOrder::LeafOrder => bih.prim_ids.iter().map(|&p| all[p as usize]).collect(),
+            RecordOrder::InputWithIds => all,
+        };
+        let label = |name: &str| Label::new("ray casting", name);
+        let padded = |bytes: usize| bytes as u64 + TAIL;
+        let job = {
+            let mut m = cell.memory_mut();
+            let nodes = m.alloc(
+                label("nodes"),
+                padded(size_of_val(bih.nodes.as_slice())),
+                128,
+            )?;
+            m.write_pod(nodes, &bih.nodes)?;
+            let recs = m.alloc(
+                label(match order {
+                    RecordOrder::LeafOrder => "triangles in leaf order",
+                    RecordOrder::InputWithIds => "triangles in the scene's order",
+                }),
+                padded(size_of_val(records.as_slice())),
+                128,
+            )?;
+            m.write_pod(recs, &records)?;
+            let ids = match order {
+                RecordOrder::LeafOrder => None,
+                RecordOrder::InputWithIds => {
+                    let at = m.alloc(
+                        label("triangle ids in leaf order"),
+                        padded(size_of_val(bih.prim_ids.as_slice())),
+                        128,
+                    )?;
+                    m.write_pod(at, &bih.prim_ids)?;
+                    Some(at)
+                }
+            };
+            let cell_rays: Vec<CellRay> = rays.iter().map(CellRay::of).collect();
+            let ray_ea = m.alloc_pod(label("rays"), &cell_rays, 128)?;
+            let hits = m.alloc(
+                label("hits"),
+                (rays.len() * size_of::<CellHit>()) as u64,
+                128,
+            )?;
+            let counter = m.alloc(label("tile counter"), 128, 128)?;
+            Job {
+                nodes,
+                records: recs,
+                ids,
+                rays: ray_ea,
+                hits,
+                counter,
+                ray_count: rays.len() as u64,
+                bounds: bih.bounds,
+                max_depth: bih.config.max_depth,
+                tile_rays: cfg.tile_rays,
+                rays_in_flight: cfg.rays_in_flight,
+                packet_rays: cfg.packet.rays(),
+                cache: cfg.cache,
+                rates: CastRates::of(cfg.precision, &cfg.rates),
+            }
+        };
+        let (hits, count) = (job.hits, rays.len());
+        let job = Rc::new(job);
+        let exits = spes
+            .map(|spe| {
+                let job = job.clone();
+                cell.spawn_spe(spe, move |s| program::caster(s, job))
+            })
+            .collect();
+        Ok(Casting { exits, hits, count })
+    }
+
+    /// The answers, once `cell` has run the casters (`run`: that run's
+    /// report).
+    pub fn land(self, cell: &Cell, run: RunReport) -> Result<CastReport, CellError> {
+        let spes = (self.exits.iter().enumerate())
+            .map(|(i, e)| e.take(&format!("ray caster {i}")))
+            .collect::<Result<Vec<_>, _>>()?;
+        let out: Vec<CellHit> = cell.memory().read_pod(self.hits, self.count)?;
+        Ok(CastReport {
+            hits: out.iter().map(CellHit::hit).collect(),
+            costs: out.iter().map(|h| h.cost).collect(),
+            run,
+            spes,
+            trace: cell.take_trace(),
+        })
+    }
+}
