@@ -64,6 +64,46 @@ fn the_ppes_search_overlaps_the_frame_before() {
     }
 }
 
+/// The paper's arrangement runs on one Cell: the update beside the
+/// casters is never faster than alone and adds at most the bound on
+/// sharing the memory interface (and the copy's transfers, which alone are
+/// priced at the interface's rate); the casters feel the update; the run
+/// says its contention was simulated. Section 5's has none.
+#[test]
+fn the_papers_arrangement_runs_on_one_cell() {
+    let s = scene::load("rtperf:20000:1", None).unwrap();
+    let anim = Animation::named("rtperf", &s, 3, 2).unwrap();
+    let mut c = cfg("spe_bfs_private", Method::Local, 6, 1);
+    (c.width, c.height) = (96, 72);
+    let run = play(&s, &anim, &c, |_| {}).unwrap();
+    assert_eq!(run.contention, "simulated");
+    let mut felt = false;
+    for f in &run.frames {
+        let a = f.alone.as_ref().expect("the paper's arrangement");
+        let bound = f.sharing_bound_ms.unwrap();
+        assert!(f.update_ms >= a.update_ms - 1e-9, "{f:?}");
+        assert!(f.render_ms >= a.render_ms - 1e-9, "{f:?}");
+        assert!(f.frame_ms <= a.frame_ms + bound + f.copy_ms, "{f:?}");
+        felt |= f.render_ms > a.render_ms;
+    }
+    assert!(felt, "the casters never felt the update");
+    let alone: f64 = run
+        .frames
+        .iter()
+        .map(|f| f.alone.as_ref().unwrap().frame_ms)
+        .sum();
+    assert_eq!(run.alone_total_ms, Some(alone));
+    let all = play(
+        &s,
+        &anim,
+        &cfg("spe_bfs_private", Method::Local, 6, 6),
+        |_| {},
+    )
+    .unwrap();
+    assert_eq!((all.contention, all.alone_total_ms), ("none", None));
+    assert!(all.frames.iter().all(|f| f.alone.is_none()));
+}
+
 /// Section 5's arrangement adds update and render; the paper's overlaps
 /// them; the render on fewer SPEs is slower; the update's time is the
 /// updater's own simulated time; the same run twice gives the same times.
@@ -116,7 +156,7 @@ fn a_frame_is_its_update_and_its_render_as_the_arrangement_says() {
             assert_eq!(a.ppe_ms > 0.0, !up.full_rebuild, "{a:?}");
             // The paper's: no switch; an in-place update first copies what
             // the last one changed (the whole first tree, at first); the
-            // memory interface's sharing is bounded.
+            // bound on sharing the memory interface is reported.
             assert_eq!(p.switch_ms, 0.0);
             assert_eq!(p.copy_ms > 0.0, !p.full_rebuild, "{p:?}");
             assert!(

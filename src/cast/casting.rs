@@ -7,8 +7,8 @@
 use std::rc::Rc;
 
 use super::program::{self, SpeCast};
-use super::{CellHit, CellRay, Job};
 use super::{CastConfig, CastRates, CastReport, RecordOrder, TAIL};
+use super::{CellHit, CellRay, Job};
 use crate::bih::{Bih, Ray};
 use crate::cell::{Cell, CellError, Ea, Exit, Label, RunReport};
 use crate::scene::Scene;
@@ -47,7 +47,9 @@ impl Casting {
             )));
         }
         let p = cfg.packet;
-        if !(1..=8).contains(&p.w) || !(1..=8).contains(&p.h) || !cfg.tile_rays.is_multiple_of(p.rays())
+        if !(1..=8).contains(&p.w)
+            || !(1..=8).contains(&p.h)
+            || !cfg.tile_rays.is_multiple_of(p.rays())
         {
             return Err(CellError::Config(format!(
                 "packets of {p} rays: each side 1 to 8, and a tile's {} rays a whole number of packets",

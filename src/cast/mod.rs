@@ -20,7 +20,6 @@ pub use crate::spe::software_cache::{CacheConfig, CacheRates, CacheStats};
 pub use casting::Casting;
 pub use program::SpeCast;
 
-
 use glam::DVec3;
 
 use crate::aabb::Aabb;

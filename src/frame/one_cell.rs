@@ -95,7 +95,13 @@ pub fn side_by_side(
             let launched = strategy::launch(spawn, &mut cell, scene, (log.region, &log.cfg), &on)?;
             cell.run_side(&builder)?;
             let o = (launched.readback)()?;
-            let bih = strategy::land(&cell, &o, scene.len(), launched.triangles, (log.region, &log.cfg))?;
+            let bih = strategy::land(
+                &cell,
+                &o,
+                scene.len(),
+                launched.triangles,
+                (log.region, &log.cfg),
+            )?;
             if fingerprint(&bih) != log.fingerprint {
                 return Err(FrameError::Cell(CellError::Program {
                     core: "frame".into(),

@@ -40,7 +40,9 @@ pub fn sub_scene(scene: &Scene, ids: &[u32]) -> Result<Scene, SceneError> {
     Scene::new(
         format!("{} (interval)", scene.name),
         ids.iter().map(|&i| scene.triangles[i as usize]).collect(),
-        ids.iter().map(|&i| scene.geometry_ids[i as usize]).collect(),
+        ids.iter()
+            .map(|&i| scene.geometry_ids[i as usize])
+            .collect(),
         scene.geometry_names.clone(),
     )
 }

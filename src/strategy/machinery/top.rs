@@ -212,12 +212,7 @@ impl Start {
         auto_work: WorkPerSpe,
     ) -> Result<Self, CellError> {
         let n = setup.count;
-        let spes = spes_used(
-            setup.spes,
-            (n, cfg.leaf_size),
-            &setup.knobs,
-            auto_work,
-        );
+        let spes = spes_used(setup.spes, (n, cfg.leaf_size), &setup.knobs, auto_work);
         Ok(Start {
             tris: setup.triangles,
             n,
