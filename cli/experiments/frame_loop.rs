@@ -209,6 +209,9 @@ fn run(args: &Args) -> Result<(), String> {
                 "near_best": r.near_best,
                 "oracle_total_ms": r.oracle_total_ms,
                 "prediction_error": prediction_error,
+                "contention": r.contention,
+                "alone_total_ms": r.alone_total_ms,
+                "sharing_bound_ms": r.sharing_bound_ms,
                 "frames": r.frames,
             });
             Ok::<_, String>((row, series))
@@ -230,7 +233,7 @@ fn run(args: &Args) -> Result<(), String> {
         let (si, (w, h), ..) = jobs[k];
         plots.push((played[si].0, (w, h), std::mem::take(&mut series)));
     }
-    const KEYS: [&str; 18] = [
+    const KEYS: [&str; 21] = [
         "scene",
         "triangles",
         "animation",
@@ -248,6 +251,9 @@ fn run(args: &Args) -> Result<(), String> {
         "near_best",
         "oracle_total_ms",
         "prediction_error",
+        "contention",
+        "alone_total_ms",
+        "sharing_bound_ms",
         "frames",
     ];
     let flat: Vec<Value> = rows
@@ -267,6 +273,7 @@ fn run(args: &Args) -> Result<(), String> {
         |rows| {
             table(rows, note);
             goals(rows);
+            arrangement_table(rows);
         },
     )?;
     for (spec, (w, h), series) in plots {
@@ -350,6 +357,54 @@ fn cut(text: &str, n: usize) -> String {
         true => text.chars().take(n - 1).chain(['…']).collect(),
         false => text.to_string(),
     }
+}
+
+/// Which arrangement wins each scene and size, each at its best policy
+/// (fixed or `auto`), and by how much; for the paper's, what running the
+/// update beside the render on one Cell added to each alone, and the bound
+/// on it (both as a share of the frames alone).
+fn arrangement_table(rows: &[Value]) {
+    println!(
+        "\n{:<12} {:>9} {:<7} {:>8} {:<7} {:>8} {:>8} {:>7} {:>6}",
+        "scene", "size", "sec 5", "ms", "paper", "ms", "paper/5", "shared", "bound"
+    );
+    let total = |r: &Value| r["total_ms"].as_f64().unwrap_or(f64::INFINITY);
+    let mut seen = Vec::new();
+    for r in rows {
+        let case = (r["scene"].clone(), r["width"].clone(), r["height"].clone());
+        if seen.contains(&case) {
+            continue;
+        }
+        let best = |arrangement: &str| {
+            (rows.iter())
+                .filter(|x| (x["scene"].clone(), x["width"].clone(), x["height"].clone()) == case)
+                .filter(|x| x["arrangement"] == arrangement)
+                .min_by(|a, b| total(a).total_cmp(&total(b)))
+        };
+        let (Some(five), Some(paper)) = (best("section 5"), best("paper")) else {
+            continue;
+        };
+        let alone = paper["alone_total_ms"].as_f64().unwrap_or(f64::NAN);
+        let bound = paper["sharing_bound_ms"].as_f64().unwrap_or(f64::NAN);
+        println!(
+            "{:<12} {:>9} {:<7} {:>8.2} {:<7} {:>8.2} {:>8.3} {:>5.1} % {:>4.1} %",
+            cut(r["scene"].as_str().unwrap_or(""), 12),
+            format!("{}x{}", r["width"], r["height"]),
+            five["policy"].as_str().unwrap_or(""),
+            total(five),
+            paper["policy"].as_str().unwrap_or(""),
+            total(paper),
+            total(paper) / total(five),
+            (total(paper) / alone - 1.0) * 100.0,
+            bound / alone * 100.0,
+        );
+        seen.push(case);
+    }
+    let line = "each arrangement at its best policy; paper/5: the paper's total over section \
+                5's (above 1: section 5's wins); shared: what the update beside the render on \
+                one Cell added to each alone; bound: the most sharing the memory interface \
+                could add";
+    println!("{}", cellbih_cli::report::wrap(line, 80));
 }
 
 /// The metric's goals per case (scene, size, arrangement): `auto`'s total

@@ -18,11 +18,11 @@
 //!   changed are got and put by the builder SPEs' DMA, at the memory
 //!   interface's shared bandwidth. A complete rebuild writes a whole new
 //!   tree and needs no such copy. Builder and casters share one memory
-//!   interface; the frame loop simulates them on two machines, so their
-//!   contention is bounded, not simulated: on a work-conserving interface
-//!   a side's transfers finish no later than they would alone plus the
-//!   time the interface spends on the other side's bytes
-//!   ([`sharing_bound_ms`]).
+//!   interface: the frame loop runs them side by side on one Cell
+//!   ([`super::one_cell`]), and checks it against a bound: on a
+//!   work-conserving interface a side's transfers finish no later than
+//!   they would alone plus the time the interface spends on the other
+//!   side's bytes ([`sharing_bound_ms`]).
 
 use crate::bih::BihNode;
 use crate::cell::CellConfig;

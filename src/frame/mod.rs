@@ -26,9 +26,11 @@
 //! scan, the deep descent, the graft; with `auto`, its plan in place of
 //! the update's own search); in section 5's arrangement the SPEs' two
 //! program switches a frame, in the paper's the copy of what the last
-//! update changed into the tree's second copy ([`charge`]). The contention
-//! of builder and casters for the memory interface in the paper's
-//! arrangement is bounded, not simulated ([`charge::sharing_bound_ms`]).
+//! update changed into the tree's second copy ([`charge`]). In the paper's
+//! arrangement the update and the render run side by side on one Cell
+//! ([`one_cell`]), contending as on the hardware; each alone, and the bound
+//! on their sharing of the memory interface ([`charge::sharing_bound_ms`]),
+//! are kept as a check.
 
 pub mod auto;
 pub mod charge;

@@ -175,3 +175,31 @@ fn copy(cell: &mut Cell, bytes: u64, spes: usize) -> Result<(), CellError> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The copy simulated alone, on one SPE and on six, is within 5 % of
+    /// the price the frame puts on it alone
+    /// ([`super::super::charge::copy_ms`]: the bytes twice through the
+    /// memory interface).
+    #[test]
+    fn the_copy_simulated_alone_is_near_its_price() {
+        let bytes = 1 << 20;
+        let cfg = CellConfig {
+            resident: true,
+            ..CellConfig::ps3()
+        };
+        let priced = super::super::charge::copy_ms(bytes, &cfg);
+        for spes in [1, 6] {
+            let mut cell = Cell::new(cfg.clone()).unwrap();
+            copy(&mut cell, bytes, spes).unwrap();
+            let ms = cell.run().unwrap().ms;
+            assert!(
+                (ms / priced - 1.0).abs() < 0.05,
+                "{spes} SPEs: {ms} vs {priced}"
+            );
+        }
+    }
+}

@@ -35,12 +35,13 @@ fn the_frame_command_reports_every_frame() {
         "{text}"
     );
     assert!(text.contains("frames per second"), "{text}");
-    // What the paper's arrangement adds is said: the second copy and the
-    // bound on sharing the memory interface.
+    // What the paper's arrangement adds is said: the second copy, what the
+    // update beside the render on one Cell added, and the bound on it.
     assert!(
         text.contains("of it: the PPE's share of the updates")
             && text.contains("second copy")
-            && text.contains("sharing the memory interface could add at most")
+            && text.contains("side by side on one Cell")
+            && text.contains("the bound on sharing the memory interface: at most")
             && text.contains("overlapped (each frame's PPE search during the frame before)"),
         "{text}"
     );
@@ -69,6 +70,14 @@ fn the_frame_command_reports_every_frame() {
     assert!((v["total_ms"].as_f64().unwrap() - total).abs() < 1e-9);
     assert!(v["second_copy_bytes"].as_u64().is_some_and(|b| b > 0));
     assert!(v["sharing_bound_ms"].as_f64().is_some_and(|b| b >= 0.0));
+    // Contention simulated: the update beside the render on one Cell,
+    // never faster than each alone.
+    assert_eq!(v["contention"], "simulated");
+    assert!(
+        v["alone_total_ms"]
+            .as_f64()
+            .is_some_and(|a| a <= total + 1e-9)
+    );
     // The frames with the PPE's search overlapped, beside the serial ones
     // the policy chose by.
     let overlap = &v["overlap"];
