@@ -24,6 +24,7 @@ fn cfg(builder: &str, policy: Method, spes: usize, build_spes: usize) -> FrameCo
         height: 36,
         view: cellbih::render::View::Default,
         cast: CastConfig::DEFAULT,
+        find_moved: Default::default(),
     }
 }
 
@@ -87,6 +88,16 @@ fn the_papers_arrangement_runs_on_one_cell() {
         felt |= f.render_ms > a.render_ms;
     }
     assert!(felt, "the casters never felt the update");
+    // The SPEs' search of the moved triangles runs beside the casters too,
+    // in place of the PPE's scan.
+    c.find_moved = cellbih::update::FindMoved::Spe;
+    let spe = play(&s, &anim, &c, |_| {}).unwrap();
+    for (p, q) in run.frames.iter().zip(&spe.frames) {
+        if p.rebuilt > 0 && !p.full_rebuild {
+            assert!(q.ppe_ms < p.ppe_ms, "{q:?} vs {p:?}");
+            assert!(q.update_ms >= q.alone.as_ref().unwrap().update_ms - 1e-9);
+        }
+    }
     let alone: f64 = run
         .frames
         .iter()

@@ -320,6 +320,42 @@ fn an_emulated_builder_rebuilds_the_interval_on_the_cell() {
     }
 }
 
+/// `--find-moved spe`: the same trees; the PPE no longer scans the
+/// interval, the rebuild's SPEs test every slot of it and replace the moved
+/// triangles, charged within the rebuild (on the SPEs the build used).
+#[test]
+fn the_spes_find_the_moved_triangles_as_the_rebuild_streams_them() {
+    use cellbih::update::FindMoved;
+    let scene = cellbih::scene::load("rtperf:5000:1", None).unwrap();
+    let anim = Animation::named("rtperf", &scene, 4, 3).unwrap();
+    let b = Build::new(BuilderKind::from_name("spe_bfs_private").unwrap());
+    let mut ppe = Updater::new(scene.clone(), b.clone(), Method::Local).unwrap();
+    let mut spe = ppe.clone();
+    spe.find_moved = FindMoved::Spe;
+    let mut searched = 0;
+    for f in &anim.frames {
+        let (p, s) = (ppe.step(f).unwrap(), spe.step(f).unwrap());
+        assert_eq!(ppe.bih, spe.bih);
+        if p.full_rebuild || p.rebuilt == 0 {
+            assert_eq!(s.spe_find_ms, 0.0);
+            continue;
+        }
+        searched += 1;
+        assert_eq!(p.ppe_find.scanned, p.interval as u64);
+        assert_eq!(s.ppe_find.scanned, 0);
+        assert_eq!(
+            (s.spe_find.slots, s.spe_find.moved),
+            (s.interval as u64, s.transformed as u64)
+        );
+        assert!((1..=6).contains(&s.spe_find.spes));
+        assert!(s.spe_find_ms > 0.0 && s.ppe_find_ms < p.ppe_find_ms);
+        let build = |r: &cellbih::update::UpdateReport| r.build_ms.unwrap();
+        assert!((build(&s) - build(&p) - s.spe_find_ms).abs() < 1e-9);
+        assert_eq!(spe.spe_find, Some(s.spe_find));
+    }
+    assert!(searched > 0, "no frame searched");
+}
+
 #[test]
 fn a_bad_move_leaves_the_updater_as_it_was() {
     let scene = cluster_scene(10, 0, 9);

@@ -168,6 +168,7 @@ fn run(args: &Args) -> Result<(), String> {
                 height: h,
                 view: args.scene.camera.view(),
                 cast: CastConfig::DEFAULT,
+                find_moved: Default::default(),
             };
             let r = play(s, anim, &cfg, |_| {}).map_err(|e| format!("{spec}: {e}"))?;
             let n = r.frames.len() as f64;
@@ -364,8 +365,9 @@ fn cut(text: &str, n: usize) -> String {
 /// update beside the render on one Cell added to each alone, and the bound
 /// on it (both as a share of the frames alone).
 fn arrangement_table(rows: &[Value]) {
+    println!("\nwhich arrangement wins, each at its best policy:");
     println!(
-        "\n{:<12} {:>9} {:<7} {:>8} {:<7} {:>8} {:>8} {:>7} {:>6}",
+        "{:<12} {:>9} {:<7} {:>8} {:<7} {:>8} {:>8} {:>7} {:>6}",
         "scene", "size", "sec 5", "ms", "paper", "ms", "paper/5", "shared", "bound"
     );
     let total = |r: &Value| r["total_ms"].as_f64().unwrap_or(f64::INFINITY);
@@ -411,8 +413,9 @@ fn arrangement_table(rows: &[Value]) {
 /// within 5 % of the best fixed policy's, at least 90 % of its frames
 /// within 10 % of the oracle's best, its mean prediction error at most 5 %.
 fn goals(rows: &[Value]) {
+    println!("\nauto against the best fixed policy, per case:");
     println!(
-        "\n{:<13} {:>9} {:<9} {:<7} {:>8} {:>8} {:>6} {:>5} {:>6}",
+        "{:<13} {:>9} {:<9} {:<7} {:>8} {:>8} {:>6} {:>5} {:>6}",
         "scene", "size", "arrange", "best", "best ms", "auto ms", "x best", "near", "pred"
     );
     let case = |r: &Value| {

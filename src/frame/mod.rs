@@ -41,7 +41,7 @@ use crate::cell::CellConfig;
 use crate::registry::{Build, BuilderKind};
 use crate::render::View;
 use crate::scene::Scene;
-use crate::update::{Animation, Method, Move, Plan, UpdateError, UpdateReport, Updater};
+use crate::update::{Animation, FindMoved, Method, Move, Plan, UpdateError, UpdateReport, Updater};
 
 /// How the tree follows the moves each frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -88,6 +88,8 @@ pub struct FrameConfig {
     /// Where the camera stands (it stays as the scene starts).
     pub view: View,
     pub cast: CastConfig,
+    /// Where a local update finds the moved triangles of its interval.
+    pub find_moved: FindMoved,
 }
 
 impl FrameConfig {
@@ -303,6 +305,7 @@ pub fn play(
         .map_err(FrameError::Config)?;
     let mut u = Updater::new(scene.clone(), build, Method::Rebuild)?;
     u.build.cell.resident = true;
+    u.find_moved = cfg.find_moved;
     // Section 5's arrangement: one switch before the update, one before
     // the cast. The paper's: two copies of the tree, and the first in-place
     // update first copies the whole first tree.
@@ -322,6 +325,20 @@ pub fn play(
         // (neither is counted in the frames).
         let before = cast_camera(&u.bih, &u.scene, &cam, &cfg.cast, &render_cell, u.records)?;
         predictor.seed_render(before.run.ms + switch_ms);
+        // What the tree a local update leaves renders: the first frame's
+        // moving objects updated in place, unmoved (a renderer knows its
+        // dynamic objects at load).
+        if let Some(first) = anim.frames.first().filter(|f| !f.is_empty()) {
+            let mut probe = u.clone();
+            probe.method = Method::Local;
+            let marked: Vec<Move> = first.iter().map(|m| Move::marked(m.geometry)).collect();
+            let r = probe.step(&marked)?;
+            if !r.full_rebuild && r.rebuilt > 0 {
+                let (b, sc) = (&probe.bih, &probe.scene);
+                let left = cast_camera(b, sc, &cam, &cfg.cast, &render_cell, probe.records)?;
+                predictor.seed_local_render(left.run.ms + switch_ms);
+            }
+        }
         for n in auto::probe_sizes(scene.len()) {
             if let Some(ms) = u.probe_piece(n)? {
                 predictor.seed_build(n, ms);
@@ -497,12 +514,14 @@ pub fn play(
 
 /// The PPE's search of a frame that took `m` after `plan` (`auto`): what
 /// the plan did, and the scan of the interval a local or deep update
-/// still needs if the plan did not make it.
+/// still needs if the plan did not make it (a local update whose SPEs
+/// find the moved triangles needs none).
 /// The deep update's descent, where the plan did not make it, is
 /// estimated at `routed` routings per moved triangle ([`Routing`]).
 fn plan_find_ms(plan: &Plan, m: Method, cfg: &FrameConfig, routed: f64) -> f64 {
     let mut find = plan.find;
-    if !plan.deep_planned && !plan.full_rebuild && m != Method::Rebuild {
+    let spes_find = m == Method::Local && cfg.find_moved == FindMoved::Spe;
+    if !plan.deep_planned && !plan.full_rebuild && m != Method::Rebuild && !spes_find {
         find.scanned += plan.interval as u64;
         if m == Method::Deep {
             find.routed += (routed * plan.transformed as f64).round() as u64;

@@ -1,8 +1,8 @@
 //! The paper's arrangement on one emulated Cell (section 4: one SPE
 //! updates the tree while the other SPEs render): a frame's update runs on
 //! the PPE and SPEs `0 .. b` — the PPE's search, the copy into the tree's
-//! other copy, its builds one after another ([`Updater::builds`]), the
-//! PPE's graft — while the casters render on SPEs `b .. n`, in one virtual
+//! other copy, the SPEs' search where they make it, its builds one after
+//! another ([`Updater::builds`]), the PPE's graft — while the casters render on SPEs `b .. n`, in one virtual
 //! time, so that the two sides meet at the memory interface, the EIB and
 //! the lock lines as on the hardware ([`crate::cell::Side`]). The builds
 //! run again here as the update ran them alone, and each must give the
@@ -77,6 +77,11 @@ pub fn side_by_side(
         cell.run_side(&builder)?;
         copy(&mut cell, side.copy_bytes, b)?;
         cell.run_side(&builder)?;
+        // The SPEs' search of the moved triangles (`--find-moved spe`).
+        if let Some(work) = u.spe_find {
+            crate::update::spe_find::spawn(&mut cell, work, &cfg.build.rates)?;
+            cell.run_side(&builder)?;
+        }
         for log in &u.builds {
             let whole;
             let scene = match &log.ids {

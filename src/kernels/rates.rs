@@ -65,6 +65,18 @@ pub struct KernelRates {
     /// the job's count from `WorkA`, a compare and an add: about 2 SPU
     /// cycles pipelined). Derived and scaled the same way.
     pub spe_level_scan: Cycles,
+    /// SPE cycles per record of an interval the rebuild streams, to find
+    /// whether its triangle moved (the update's search moved to the SPEs,
+    /// `--find-moved spe`): the geometry id rotated out of the record's
+    /// quadword (1 odd), its word and bit of the moved-geometry bitmap in
+    /// the local store (2 even), the word loaded (1 odd), the bit shifted
+    /// and tested (2 even), a hinted branch (1 odd): about 4 dual-issued,
+    /// 5 counted. Scaled the same way.
+    pub spe_find_slot: Cycles,
+    /// SPE cycles per moved record put in place of the stale one in the
+    /// stream: its three quadwords loaded from the moved records got by
+    /// DMA and stored (3 odd + 3 odd), the pointer moved on: 6 counted.
+    pub spe_find_moved: Cycles,
 }
 
 /// The partition's fitted SPE rate over its derived one: the factor a new
@@ -190,6 +202,8 @@ pub mod counts {
     pub const SPE_BIN_ITEM: Count = Count::of(40);
     pub const SPE_SAH_BIN: Count = Count::of(75);
     pub const SPE_LEVEL_SCAN: Count = Count::of(2);
+    pub const SPE_FIND_SLOT: Count = Count::of(5);
+    pub const SPE_FIND_MOVED: Count = Count::of(6);
 }
 
 impl KernelRates {
@@ -214,6 +228,8 @@ impl KernelRates {
             ppe_sah_bin: Cycles(PPE_SAH_BIN),
             ppe_bounds_item: Cycles(PPE_BOUNDS_ITEM),
             spe_level_scan: code.charge(counts::SPE_LEVEL_SCAN),
+            spe_find_slot: code.charge(counts::SPE_FIND_SLOT),
+            spe_find_moved: code.charge(counts::SPE_FIND_MOVED),
         }
     }
 }
@@ -452,6 +468,8 @@ impl KernelRates {
                 why: "derived for the PPE",
             },
             spe_level_scan: code.band(counts::SPE_LEVEL_SCAN),
+            spe_find_slot: code.band(counts::SPE_FIND_SLOT),
+            spe_find_moved: code.band(counts::SPE_FIND_MOVED),
         })
         .to_vec()
     }

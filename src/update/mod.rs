@@ -28,6 +28,8 @@ mod deep;
 pub mod local;
 mod plan;
 pub mod ppe;
+mod report;
+pub mod spe_find;
 
 use std::time::Instant;
 
@@ -38,6 +40,8 @@ pub use animation::{Animation, MAX_FRAMES, Move, apply};
 pub use local::{Enclosing, Stop, enclosing_node, interval};
 pub use plan::Plan;
 pub use ppe::{PpeRates, PpeWork};
+pub use report::{Summary, UpdateReport};
+pub use spe_find::{FindMoved, SpeFind};
 
 use crate::aabb::Aabb;
 use crate::bih::{Bih, BihConfig, BihNode};
@@ -77,112 +81,6 @@ pub enum UpdateError {
     Scene(#[from] SceneError),
     #[error(transparent)]
     Cell(#[from] CellError),
-}
-
-/// What one frame's update did and cost.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct UpdateReport {
-    /// Moves in the frame, marked-only ones included.
-    pub moves: usize,
-    /// The tree was rebuilt completely (the method, or the scene box changed).
-    pub full_rebuild: bool,
-    /// Triangles of the moved objects (the paper's "trans").
-    pub transformed: usize,
-    /// Triangles the builder sorted (the paper's "rec").
-    pub rebuilt: usize,
-    /// Depth of the enclosing node (the paper's "trav"); 0 on a rebuild.
-    pub depth: u32,
-    /// Why Algorithm 1 stopped, if it ran.
-    pub stop: Option<Stop>,
-    /// Size of the enclosing node's interval.
-    pub interval: usize,
-    /// Deep update: triangles in subtrees kept as they were.
-    pub kept: usize,
-    /// Deep update: triangle slots of kept subtrees copied to a new place.
-    pub moved_slots: usize,
-    /// Deep update: leaves of kept subtrees whose first slot was adjusted.
-    pub leaves_adjusted: usize,
-    /// Subtrees rebuilt (1 for local, 1 or more for deep).
-    pub pieces: usize,
-    /// Host wall time of the whole update, moving the triangles included.
-    pub host_ms: f64,
-    /// Simulated Cell time of the update, for an emulated builder: the
-    /// rebuilds on the SPEs and the PPE's share before and after them.
-    pub simulated_ms: Option<f64>,
-    /// Simulated time of the rebuilds alone.
-    pub build_ms: Option<f64>,
-    /// The PPE's work before the rebuilds (Algorithm 1, the scan, the deep
-    /// descent) and after them (the graft, kept ranges moved), and its
-    /// simulated time ([`ppe`]).
-    pub ppe_find: PpeWork,
-    pub ppe_apply: PpeWork,
-    pub ppe_find_ms: f64,
-    pub ppe_apply_ms: f64,
-    /// Bytes the rebuilds' DMA moved (got and put, every core).
-    pub dma_bytes: u64,
-}
-
-/// A run of frames summed up as the paper's Table 2 sums them up.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct Summary {
-    pub frames: usize,
-    /// Frames brought up to date without a complete rebuild ("updates").
-    pub updates: usize,
-    /// Frames that rebuilt the tree completely ("rebuilds").
-    pub rebuilds: usize,
-    /// updates / rebuilds ("ratio"); `None` when no frame was a complete
-    /// rebuild.
-    pub ratio: Option<f64>,
-    /// Host time per frame: min, max, mean ("tmin", "tmax", "t"), in ms.
-    pub host_ms: [f64; 3],
-    /// Simulated Cell time per frame, same order, for emulated builders.
-    pub simulated_ms: Option<[f64; 3]>,
-    /// Mean transformed triangles ("trans").
-    pub transformed: f64,
-    /// Mean triangles used for rebuilds ("rec").
-    pub rebuilt: f64,
-    /// Mean of rebuilt − transformed ("Δ").
-    pub delta: f64,
-    /// Mean depth of the enclosing node ("trav"), 0 for complete rebuilds.
-    pub depth: f64,
-    /// Deep update: mean triangles kept in place, and mean slots moved.
-    pub kept: f64,
-    pub moved_slots: f64,
-}
-
-impl Summary {
-    /// Sums up the reports of frames that had moves (empty frames are
-    /// no updates at all); `None` when no frame had a move.
-    pub fn of(reports: &[UpdateReport]) -> Option<Summary> {
-        let r: Vec<&UpdateReport> = reports.iter().filter(|r| r.moves > 0).collect();
-        if r.is_empty() {
-            return None;
-        }
-        let n = r.len() as f64;
-        let mean = |f: &dyn Fn(&UpdateReport) -> f64| r.iter().map(|x| f(x)).sum::<f64>() / n;
-        let spread = |v: Vec<f64>| {
-            let min = v.iter().copied().fold(f64::INFINITY, f64::min);
-            let max = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            [min, max, v.iter().sum::<f64>() / v.len() as f64]
-        };
-        let rebuilds = r.iter().filter(|x| x.full_rebuild).count();
-        let updates = r.len() - rebuilds;
-        let sim: Option<Vec<f64>> = r.iter().map(|x| x.simulated_ms).collect();
-        Some(Summary {
-            frames: r.len(),
-            updates,
-            rebuilds,
-            ratio: (rebuilds > 0).then(|| updates as f64 / rebuilds as f64),
-            host_ms: spread(r.iter().map(|x| x.host_ms).collect()),
-            simulated_ms: sim.filter(|v| !v.is_empty()).map(spread),
-            transformed: mean(&|x| x.transformed as f64),
-            rebuilt: mean(&|x| x.rebuilt as f64),
-            delta: mean(&|x| x.rebuilt as f64 - x.transformed as f64),
-            depth: mean(&|x| x.depth as f64),
-            kept: mean(&|x| x.kept as f64),
-            moved_slots: mean(&|x| x.moved_slots as f64),
-        })
-    }
 }
 
 /// The emulated builders the update experiments report simulated time on,
@@ -231,11 +129,14 @@ struct Piece {
 struct Timed {
     ms: f64,
     dma_bytes: u64,
+    /// SPEs the build ran on.
+    spes: usize,
 }
 
 impl Timed {
     fn of(s: &crate::strategy::Simulated) -> Option<Timed> {
         s.run.timed.then(|| Timed {
+            spes: s.spes_used.max(1),
             ms: s.run.ms,
             dma_bytes: (s.run.cores.iter())
                 .map(|(_, c)| c.bytes_get + c.bytes_put)
@@ -265,9 +166,12 @@ pub struct Updater {
     pub first_build_ms: Option<f64>,
     /// Where the builder leaves the triangle records (the first build's).
     pub records: crate::spe::layout::RecordOrder,
+    /// Where a local update finds the moved triangles of its interval.
+    pub find_moved: FindMoved,
     /// The emulated builds of the last step, in the order their trees went
-    /// in.
+    /// in, and the SPEs' search before them (`find_moved` spe).
     pub builds: Vec<builds::BuildLog>,
+    pub spe_find: Option<SpeFind>,
     /// Triangle ids of each geometry id.
     members: Vec<Vec<u32>>,
     /// First slot of each free pair of node slots.
@@ -299,7 +203,9 @@ impl Updater {
             deep_stop_below: DEEP_STOP_BELOW,
             first_build_ms,
             records,
+            find_moved: FindMoved::Ppe,
             builds: Vec::new(),
+            spe_find: None,
             members,
             free: Vec::new(),
         })
@@ -311,6 +217,7 @@ impl Updater {
     pub fn step(&mut self, moves: &[Move]) -> Result<UpdateReport, UpdateError> {
         let start = Instant::now();
         self.builds.clear();
+        self.spe_find = None;
         let mut r = UpdateReport {
             moves: moves.len(),
             ..UpdateReport::default()
@@ -334,7 +241,8 @@ impl Updater {
             r.stop = Some(enc.stop);
             let (first, end) = interval(&self.bih, enc.node);
             r.interval = end - first;
-            r.ppe_find += found(&enc, r.interval);
+            let on_spes = self.method == Method::Local && self.find_moved == FindMoved::Spe;
+            r.ppe_find += found(&enc, if on_spes { 0 } else { r.interval });
             let moved_slots = self.moved_slots(&moved, (first, end));
             assert_eq!(
                 moved_slots.len(),
@@ -346,7 +254,14 @@ impl Updater {
                 Method::Local => {
                     let ids = &self.bih.prim_ids[first..end];
                     self.build_subtree(ids, enc.region, enc.depth)
-                        .map(|piece| self.install(enc.node, first, &piece, &mut r))
+                        .and_then(|piece| {
+                            let spes = piece.timed.filter(|_| on_spes).map(|t| t.spes);
+                            if let Some(spes) = spes {
+                                self.find_on_spes(spes, &mut r)?;
+                            }
+                            self.install(enc.node, first, &piece, &mut r);
+                            Ok(())
+                        })
                 }
                 Method::Deep => deep::update(self, &enc, (first, end), &moved_slots, &mut r),
                 Method::Rebuild => unreachable!(),
@@ -368,6 +283,23 @@ impl Updater {
         }
         r.host_ms = ms(start);
         Ok(r)
+    }
+
+    /// The moved triangles of the interval found by the `spes` SPEs of
+    /// its rebuild as they stream it ([`spe_find`]), run on the build's
+    /// Cell and charged to the rebuild.
+    fn find_on_spes(&mut self, spes: usize, r: &mut UpdateReport) -> Result<(), UpdateError> {
+        let work = SpeFind {
+            slots: r.interval as u64,
+            moved: r.transformed as u64,
+            spes,
+        };
+        let (ms, dma_bytes) = spe_find::alone(work, &self.build.cell, &self.build.rates)?;
+        (r.spe_find, r.spe_find_ms) = (work, ms);
+        *r.build_ms.get_or_insert(0.0) += ms;
+        r.dma_bytes += dma_bytes;
+        self.spe_find = Some(work);
+        Ok(())
     }
 
     /// Moves the objects of `moves` in the scene: which geometries moved,

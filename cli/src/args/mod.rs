@@ -253,6 +253,45 @@ pub struct PlayArgs {
     pub build: BuildArgs,
     #[command(flatten)]
     pub anim: AnimationArg,
+    /// Where a local update finds the moved triangles of its interval:
+    /// ppe (the paper's scan by geometry id) or spe (the build's SPEs, as
+    /// they stream the interval) [default: ppe]
+    #[arg(long)]
+    pub find_moved: Option<String>,
+}
+
+impl PlayArgs {
+    /// `--find-moved`, refused where no local update searches: the deep
+    /// update's descent needs the moved triangles before any build, a
+    /// rebuild searches nothing, a host builder has no SPEs.
+    pub fn find_moved(
+        &self,
+        local: bool,
+        what: &str,
+        build: &cellbih::registry::Build,
+    ) -> crate::Res<cellbih::update::FindMoved> {
+        use cellbih::update::FindMoved;
+        let Some(name) = &self.find_moved else {
+            return Ok(FindMoved::Ppe);
+        };
+        let f = FindMoved::from_name(name)
+            .ok_or_else(|| format!("unknown --find-moved '{name}': ppe or spe"))?;
+        if !local {
+            return Err(format!(
+                "--find-moved applies to local updates (the deep update's descent needs the \
+                 moved triangles before it builds; a rebuild searches nothing): here {what}"
+            )
+            .into());
+        }
+        if f == FindMoved::Spe && !build.builder.emulated() {
+            return Err(format!(
+                "--find-moved spe: builder {} builds on the host, without SPEs",
+                build.builder
+            )
+            .into());
+        }
+        Ok(f)
+    }
 }
 
 /// `--animation` and `--seed` of `update` and `frame`.

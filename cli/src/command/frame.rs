@@ -16,7 +16,7 @@ use crate::args::{CacheArgs, Format, FrameCommand, PlayArgs, check_memory, parse
 /// Runs `cellbih frame`.
 pub fn run(args: FrameCommand) -> Res<()> {
     let FrameCommand {
-        play: PlayArgs { scene, build, anim },
+        play,
         frames,
         policy,
         oracle,
@@ -27,8 +27,12 @@ pub fn run(args: FrameCommand) -> Res<()> {
         cache,
         format,
     } = args;
-    let c = parse_build_or(&build, BuilderKind::SPE_BFS, true)?;
+    let c = parse_build_or(&play.build, BuilderKind::SPE_BFS, true)?;
+    let local = matches!(policy.as_str(), "local" | "auto");
+    let find_moved = play.find_moved(local, &format!("--policy {policy}"), &c)?;
+    let PlayArgs { scene, anim, .. } = play;
     let asked = Asked {
+        find_moved,
         policy: &policy,
         oracle,
         build_spes,
@@ -40,10 +44,14 @@ pub fn run(args: FrameCommand) -> Res<()> {
     let cfg = config(&c, &asked)?;
     let rays = Some(width as usize * height as usize);
     scene.check_fits(&c, rays)?;
-    let settings = anim
+    let mut settings = anim
         .named(Settings::new(&cfg.build, Some(cfg.cast)).with_view(&cfg.view))
         .with("frames", frames)
-        .with("policy", policy.as_str())
+        .with("policy", policy.as_str());
+    if local {
+        settings = settings.with("find-moved", find_moved.name());
+    }
+    let settings = settings
         .with("oracle", oracle)
         .with("build-spes", cfg.build_spes)
         .with("width", width)
@@ -55,6 +63,7 @@ pub fn run(args: FrameCommand) -> Res<()> {
 
 /// What `frame` was asked, checked.
 pub struct Asked<'a> {
+    pub find_moved: cellbih::update::FindMoved,
     pub policy: &'a str,
     pub oracle: bool,
     pub build_spes: Option<u64>,
@@ -86,6 +95,7 @@ pub fn config(c: &Build, a: &Asked) -> Res<FrameConfig> {
         height: a.height,
         view: a.view.clone(),
         cast: a.cache.config()?,
+        find_moved: a.find_moved,
     })
 }
 

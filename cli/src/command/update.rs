@@ -15,15 +15,21 @@ use crate::args::{
 /// Runs `cellbih update`.
 pub fn run(args: UpdateCommand) -> Res<()> {
     let UpdateCommand {
-        play: PlayArgs { scene, build, anim },
+        play: asked,
         frames,
         strategy,
         deep_stop_below,
         format,
     } = args;
-    let c = parse_build(&build, false)?;
+    let c = parse_build(&asked.build, false)?;
     let method = Method::from_name(&strategy)
         .ok_or_else(|| format!("unknown --strategy '{strategy}': local, deep or rebuild"))?;
+    let find_moved = asked.find_moved(
+        method == Method::Local,
+        &format!("--strategy {strategy}"),
+        &c,
+    )?;
+    let PlayArgs { scene, anim, .. } = asked;
     if deep_stop_below.is_some() && method != Method::Deep {
         return Err(format!(
             "--deep-stop-below applies to --strategy deep only (here: {strategy})"
@@ -38,6 +44,9 @@ pub fn run(args: UpdateCommand) -> Res<()> {
     if method == Method::Deep {
         settings = settings.with("deep-stop-below", deep_stop_below);
     }
+    if method == Method::Local {
+        settings = settings.with("find-moved", find_moved.name());
+    }
     scene.check_fits(&c, None)?;
     let (s, anim) = anim.load(&scene, frames)?;
     check_memory(&s.name, (s.len(), 0), None, &c, Default::default())?;
@@ -45,6 +54,7 @@ pub fn run(args: UpdateCommand) -> Res<()> {
     c.install(|| {
         let mut u = Updater::new(s, c.clone(), method).map_err(|e| e.to_string())?;
         u.deep_stop_below = deep_stop_below;
+        u.find_moved = find_moved;
         play(&mut u, &anim, format, &c.describe(), &settings).map_err(|e| e.to_string())
     })??;
     Ok(())

@@ -464,6 +464,23 @@ fn options_that_do_not_apply_are_refused_by_name() {
         "update --animation rtperf --frames 1 --strategy deep --deep-stop-below 10",
     ));
     assert_ok(&out);
+    // `--find-moved` needs a local update, and `spe` the SPEs.
+    let out = cellbih(&line(
+        "update --animation rtperf --strategy deep --find-moved spe",
+    ));
+    assert_fails_with(&out, "--find-moved applies to local updates");
+    let out = cellbih(&line(
+        "frame --animation rtperf --policy rebuild --find-moved ppe",
+    ));
+    assert_fails_with(&out, "here --policy rebuild");
+    let out = cellbih(&line("update --animation rtperf --find-moved spe"));
+    assert_fails_with(&out, "--find-moved spe: builder host builds on the host");
+    let out = cellbih(&line("frame --animation rtperf --find-moved gpu"));
+    assert_fails_with(&out, "unknown --find-moved 'gpu': ppe or spe");
+    let out = cellbih(&line(
+        "frame --animation rtperf --frames 1 --width 16 --height 16 --policy auto --find-moved spe",
+    ));
+    assert_ok(&out);
 }
 
 /// `frame` runs with its defaults: the baseline builds on the Cell.

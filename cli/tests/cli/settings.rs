@@ -289,6 +289,7 @@ fn variant(cmd: &str, option: &str) -> Option<(Vec<String>, Vec<String>)> {
         "--policy" => (vec![], s(&["--policy", "deep"])),
         "--oracle" => (vec![], s(&["--oracle"])),
         "--build-spes" => (vec![], s(&["--build-spes", "1"])),
+        "--find-moved" => (emulated, s(&["--find-moved", "spe"])),
         _ => panic!(
             "{cmd} {option}: no variant in this test; add one (or say why it changes no figure)"
         ),

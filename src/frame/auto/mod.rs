@@ -38,10 +38,11 @@
 //!   for the deep update, which keeps the tree it is given, the render
 //!   before it times an average of what a deep update changed a fresh
 //!   tree's render by (a tree a deep update left keeps its render).
-//!   Before the local update was first taken its render is taken to be a
-//!   fresh tree's; an option not yet taken whose predicted frame is within
-//!   [`EXPLORE`] of the best is taken once, to learn what its tree
-//!   renders.
+//!   Before the local update is first taken its render is the one its
+//!   tree gave before the first frame (the moving objects' interval
+//!   rebuilt on a copy, nothing moved: what it would leave); an option not
+//!   yet seen whose predicted frame is within [`EXPLORE`] of the best is
+//!   taken once, to learn what its tree renders.
 //!
 //! A frame's predicted time combines the two as the arrangement does (sum,
 //! or the longer). An option is chosen by that frame plus the tree it
@@ -161,6 +162,13 @@ impl Predictor {
     pub fn seed_render(&mut self, render_ms: f64) {
         self.render_fresh = Some(render_ms);
         self.render_now = Some(render_ms);
+    }
+
+    /// The render of the tree a local update leaves, measured before the
+    /// first frame on a copy: the moving objects' interval rebuilt, nothing
+    /// moved (`play`). It prices the local update until it is taken.
+    pub fn seed_local_render(&mut self, render_ms: f64) {
+        self.render_local = Some(render_ms);
     }
 
     /// A build of one piece of `triangles`, timed before the first frame
