@@ -258,7 +258,8 @@ fn run(args: &Args) -> Result<(), String> {
     if text {
         println!("{}\n", cellbih_cli::report::wrap(&title, 80));
     }
-    let mut lines: Vec<(String, Vec<String>, Vec<String>)> = Vec::new();
+    // Each rate's line: its ends, the flips, the largest move at either end.
+    let mut lines: Vec<(String, Vec<String>, Vec<String>, f64)> = Vec::new();
     for (k, v) in variants.iter().enumerate() {
         let mut flips = Vec::new();
         for (si, s) in scenes.iter().enumerate() {
@@ -292,11 +293,12 @@ fn run(args: &Args) -> Result<(), String> {
             .trim_start()
             .to_string();
         match lines.last_mut() {
-            Some((rate, pieces, f)) if *rate == v.rate => {
+            Some((rate, pieces, f, most)) if *rate == v.rate => {
                 pieces.push(piece);
                 f.extend(flips.iter().cloned());
+                *most = most.max(worst.abs());
             }
-            _ => lines.push((v.rate.clone(), vec![piece], flips.clone())),
+            _ => lines.push((v.rate.clone(), vec![piece], flips.clone(), worst.abs())),
         }
         let speeds: Vec<String> = flat.iter().map(|x| format!("{x:.3}")).collect();
         csv.push(format!(
@@ -314,7 +316,14 @@ fn run(args: &Args) -> Result<(), String> {
             "speedups": heads.iter().zip(&flat).map(|(h, x)| json!({"headline": h, "speedup": x})).collect::<Vec<_>>(),
         }));
     }
-    for (rate, pieces, flips) in &lines {
+    // The rates that move no headline by 0.05 % at either end, named on
+    // one line after the others.
+    let mut still = Vec::new();
+    for (rate, pieces, flips, most) in &lines {
+        if flips.is_empty() && *most < 0.0005 && !rate.starts_with('(') {
+            still.push(rate.split(" (").next().unwrap_or(rate));
+            continue;
+        }
         let moved = match flips.is_empty() {
             true => "no flip".to_string(),
             false => format!("FLIPS: {}", flips.join("; ")),
@@ -324,6 +333,13 @@ fn run(args: &Args) -> Result<(), String> {
             let wrapped = cellbih_cli::report::wrap(line.trim_start(), 76);
             println!("{}", wrapped.replace('\n', "\n    "));
         }
+    }
+    if text && !still.is_empty() {
+        let line = format!(
+            "moving no headline by 0.05 % at either end, no flip: {}",
+            still.join(", ")
+        );
+        println!("{}", cellbih_cli::report::wrap(&line, 80));
     }
     let line = format!("headlines: {}", heads.join(", "));
     if text {

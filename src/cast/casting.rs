@@ -10,7 +10,7 @@ use super::program::{self, SpeCast};
 use super::{CastConfig, CastRates, CastReport, RecordOrder, TAIL};
 use super::{CellHit, CellRay, Job};
 use crate::bih::{Bih, Ray};
-use crate::cell::{Cell, CellError, Ea, Exit, Label, RunReport};
+use crate::cell::{Cell, CellError, Ea, Exit, Label, MainMemory, RunReport};
 use crate::scene::Scene;
 use crate::spe::layout::{self, TriRecord};
 
@@ -64,35 +64,24 @@ impl Casting {
             RecordOrder::InputWithIds => all,
         };
         let label = |name: &str| Label::new("ray casting", name);
-        let padded = |bytes: usize| bytes as u64 + TAIL;
         let job = {
             let mut m = cell.memory_mut();
-            let nodes = m.alloc(
-                label("nodes"),
-                padded(size_of_val(bih.nodes.as_slice())),
-                128,
-            )?;
-            m.write_pod(nodes, &bih.nodes)?;
-            let recs = m.alloc(
+            let nodes = padded(&mut m, label("nodes"), &bih.nodes)?;
+            let recs = padded(
+                &mut m,
                 label(match order {
                     RecordOrder::LeafOrder => "triangles in leaf order",
                     RecordOrder::InputWithIds => "triangles in the scene's order",
                 }),
-                padded(size_of_val(records.as_slice())),
-                128,
+                &records,
             )?;
-            m.write_pod(recs, &records)?;
             let ids = match order {
                 RecordOrder::LeafOrder => None,
-                RecordOrder::InputWithIds => {
-                    let at = m.alloc(
-                        label("triangle ids in leaf order"),
-                        padded(size_of_val(bih.prim_ids.as_slice())),
-                        128,
-                    )?;
-                    m.write_pod(at, &bih.prim_ids)?;
-                    Some(at)
-                }
+                RecordOrder::InputWithIds => Some(padded(
+                    &mut m,
+                    label("triangle ids in leaf order"),
+                    &bih.prim_ids,
+                )?),
             };
             let cell_rays: Vec<CellRay> = rays.iter().map(CellRay::of).collect();
             let ray_ea = m.alloc_pod(label("rays"), &cell_rays, 128)?;
@@ -145,4 +134,16 @@ impl Casting {
             trace: cell.take_trace(),
         })
     }
+}
+
+/// `values` in main memory, their allocation padded by [`TAIL`] (a cache
+/// line's get near the end stays inside it) and aligned to 128 bytes.
+fn padded<T: bytemuck::Pod>(
+    m: &mut MainMemory,
+    label: Label,
+    values: &[T],
+) -> Result<Ea, CellError> {
+    let at = m.alloc(label, size_of_val(values) as u64 + TAIL, 128)?;
+    m.write_pod(at, values)?;
+    Ok(at)
 }
