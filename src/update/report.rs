@@ -39,13 +39,13 @@ pub struct UpdateReport {
     pub build_ms: Option<f64>,
     /// The PPE's work before the rebuilds (Algorithm 1, the scan, the deep
     /// descent) and after them (the graft, kept ranges moved), and its
-    /// simulated time ([`ppe`]).
+    /// simulated time ([`super::ppe`]).
     pub ppe_find: PpeWork,
     pub ppe_apply: PpeWork,
     pub ppe_find_ms: f64,
     pub ppe_apply_ms: f64,
     /// `--find-moved spe`: the search the SPEs made as the rebuild streamed
-    /// the interval ([`spe_find`]), and its simulated time (within
+    /// the interval ([`super::spe_find`]), and its simulated time (within
     /// `build_ms`).
     pub spe_find: SpeFind,
     pub spe_find_ms: f64,
