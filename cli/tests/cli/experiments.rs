@@ -254,14 +254,19 @@ fn frame_loop_plays_every_policy_in_both_arrangements() {
             r["mean_render_ms"].as_f64().unwrap(),
             r["total_ms"].as_f64().unwrap(),
         );
-        // Section 5 adds update and render; the paper's overlaps them.
+        // Section 5 adds update and render; the paper's overlaps them, on
+        // one Cell, never faster than each side alone.
         if r["arrangement"] == "section 5" {
             assert!((t - 3.0 * (u + rd)).abs() < 1e-6 * t, "{r}");
+            assert_eq!(r["contention"], "none", "{r}");
         } else {
             assert!(
                 t <= 3.0 * (u + rd) + 1e-9 && t >= 3.0 * u.max(rd) - 1e-9,
                 "{r}"
             );
+            assert_eq!(r["contention"], "simulated", "{r}");
+            let alone = r["alone_total_ms"].as_f64().unwrap();
+            assert!(alone > 0.0 && alone <= t + 1e-9, "{r}");
         }
     }
     let doc: serde_json::Value =
