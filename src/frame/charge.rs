@@ -27,7 +27,7 @@
 use crate::bih::BihNode;
 use crate::cell::CellConfig;
 use crate::spe::layout::{RecordOrder, TriRecord};
-use crate::update::UpdateReport;
+use crate::update::{Method, UpdateReport};
 
 /// Simulated ms of one program switch on every SPE of `cell`.
 pub fn program_switch_ms(cell: &CellConfig) -> f64 {
@@ -102,6 +102,59 @@ pub fn sharing_bound_ms(
     let ms = |bytes: u64| c.memory_shared_bandwidth.cycles(bytes).0 as f64 / c.clock_hz * 1e3;
     let alone = update_ms.max(render_ms);
     (update_ms + ms(render_bytes)).max(render_ms + ms(update_bytes)) - alone
+}
+
+/// What a frame's update costs beyond its rebuilds and the PPE's share:
+/// the builder's program switch (section 5's arrangement) and the copy
+/// into the tree's second copy before an in-place update (the paper's).
+#[derive(Clone, Copy)]
+pub(super) struct Bill {
+    pub switch_ms: f64,
+    pub copy_ms: f64,
+}
+
+impl Bill {
+    /// The extra ms of an update by `m` (`full_rebuild`: the scene box
+    /// changed, so it rebuilds completely).
+    pub(super) fn update_ms(&self, m: Method, full_rebuild: bool) -> f64 {
+        match full_rebuild || m == Method::Rebuild {
+            true => self.switch_ms,
+            false => self.switch_ms + self.copy_ms,
+        }
+    }
+
+    /// An update's charged ms: its rebuilds, the PPE's work (with
+    /// `plan_find_ms`, the plan's search in place of the update's own), a
+    /// switch where something was built, the copy before an in-place
+    /// update that built something.
+    pub(super) fn charge(&self, up: &UpdateReport, plan_find_ms: Option<f64>) -> Charged {
+        let ppe_ms = plan_find_ms.unwrap_or(up.ppe_find_ms) + up.ppe_apply_ms;
+        let built = up.pieces > 0;
+        let copy_ms = match built && !up.full_rebuild {
+            true => self.copy_ms,
+            false => 0.0,
+        };
+        let switch_ms = if built { self.switch_ms } else { 0.0 };
+        Charged {
+            update_ms: up.build_ms.unwrap_or(0.0) + ppe_ms + copy_ms + switch_ms,
+            find_ms: ppe_ms - up.ppe_apply_ms,
+            ppe_ms,
+            copy_ms,
+            switch_ms,
+        }
+    }
+}
+
+/// What [`Bill::charge`] charged an update.
+pub(super) struct Charged {
+    pub update_ms: f64,
+    /// Of `ppe_ms`: the search (Algorithm 1, the scan, the deep descent;
+    /// with `auto`, its plan), which needs only the moves and the tree as
+    /// the last graft left it.
+    pub find_ms: f64,
+    pub ppe_ms: f64,
+    pub copy_ms: f64,
+    pub switch_ms: f64,
 }
 
 #[cfg(test)]

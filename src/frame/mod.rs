@@ -32,16 +32,21 @@
 //! on their sharing of the memory interface ([`charge::sharing_bound_ms`]),
 //! are kept as a check.
 
+mod attempt;
 pub mod auto;
 pub mod charge;
 pub mod one_cell;
 
-use crate::cast::{CastConfig, CastReport, cast_camera};
+pub use attempt::Alone;
+use attempt::{Attempt, Times, attempt, times};
+use charge::{Bill, Charged};
+
+use crate::cast::{CastConfig, cast_camera};
 use crate::cell::CellConfig;
 use crate::registry::{Build, BuilderKind};
 use crate::render::View;
 use crate::scene::Scene;
-use crate::update::{Animation, FindMoved, Method, Move, Plan, UpdateError, UpdateReport, Updater};
+use crate::update::{Animation, FindMoved, Method, Move, Plan, UpdateError, Updater};
 
 /// How the tree follows the moves each frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -546,140 +551,6 @@ impl Routing {
             self.0 = Some(plan.find.routed as f64 / plan.transformed as f64);
         }
     }
-}
-
-/// What a frame's update costs beyond its rebuilds and the PPE's share:
-/// the builder's program switch (section 5's arrangement) and the copy
-/// into the tree's second copy before an in-place update (the paper's).
-#[derive(Clone, Copy)]
-struct Bill {
-    switch_ms: f64,
-    copy_ms: f64,
-}
-
-impl Bill {
-    /// The extra ms of an update by `m` (`full_rebuild`: the scene box
-    /// changed, so it rebuilds completely).
-    fn update_ms(&self, m: Method, full_rebuild: bool) -> f64 {
-        match full_rebuild || m == Method::Rebuild {
-            true => self.switch_ms,
-            false => self.switch_ms + self.copy_ms,
-        }
-    }
-
-    /// An update's charged ms: its rebuilds, the PPE's work (with
-    /// `plan_find_ms`, the plan's search in place of the update's own), a
-    /// switch where something was built, the copy before an in-place
-    /// update that built something.
-    fn charge(&self, up: &UpdateReport, plan_find_ms: Option<f64>) -> Charged {
-        let ppe_ms = plan_find_ms.unwrap_or(up.ppe_find_ms) + up.ppe_apply_ms;
-        let built = up.pieces > 0;
-        let copy_ms = match built && !up.full_rebuild {
-            true => self.copy_ms,
-            false => 0.0,
-        };
-        let switch_ms = if built { self.switch_ms } else { 0.0 };
-        Charged {
-            update_ms: up.build_ms.unwrap_or(0.0) + ppe_ms + copy_ms + switch_ms,
-            find_ms: ppe_ms - up.ppe_apply_ms,
-            ppe_ms,
-            copy_ms,
-            switch_ms,
-        }
-    }
-}
-
-/// What [`Bill::charge`] charged an update.
-struct Charged {
-    update_ms: f64,
-    /// Of `ppe_ms`: the search (Algorithm 1, the scan, the deep descent;
-    /// with `auto`, its plan), which needs only the moves and the tree as
-    /// the last graft left it.
-    find_ms: f64,
-    ppe_ms: f64,
-    copy_ms: f64,
-    switch_ms: f64,
-}
-
-/// A frame's update and render, each run on a Cell of its own.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct Alone {
-    pub update_ms: f64,
-    pub render_ms: f64,
-    pub frame_ms: f64,
-}
-
-/// A frame's update and render ms as its arrangement has them: one after
-/// the other, each as it ran (section 5's), or side by side on one Cell
-/// (the paper's: [`one_cell`]).
-struct Times {
-    update_ms: f64,
-    render_ms: f64,
-    beside: Option<one_cell::Beside>,
-}
-
-/// The [`Times`] of an attempt charged `c`; `changed`: the bytes the tree's
-/// other copy lacks before it.
-fn times(
-    a: &Attempt,
-    c: &Charged,
-    changed: u64,
-    cam: &crate::render::Camera,
-    cfg: &FrameConfig,
-) -> Result<Times, FrameError> {
-    if cfg.all_spes_build() {
-        // The casters' switch, where the builders' program ran.
-        return Ok(Times {
-            update_ms: c.update_ms,
-            render_ms: a.cast.run.ms + c.switch_ms,
-            beside: None,
-        });
-    }
-    let side = one_cell::UpdateSide {
-        find_ms: c.find_ms,
-        apply_ms: c.ppe_ms - c.find_ms,
-        copy_bytes: if c.copy_ms > 0.0 { changed } else { 0 },
-    };
-    let b = one_cell::side_by_side(&a.updater, &side, cam, cfg)?;
-    Ok(Times {
-        update_ms: b.update_ms,
-        render_ms: b.render_ms,
-        beside: Some(b),
-    })
-}
-
-/// One option tried on a copy of the updater: the updater after it, its
-/// update's report, and the frame's cast.
-struct Attempt {
-    updater: Updater,
-    report: UpdateReport,
-    cast: CastReport,
-}
-
-fn attempt(
-    u: &Updater,
-    method: Method,
-    moves: &[Move],
-    cam: &crate::render::Camera,
-    cfg: &FrameConfig,
-    render_cell: &CellConfig,
-) -> Result<Attempt, FrameError> {
-    let mut updater = u.clone();
-    updater.method = method;
-    let report = updater.step(moves)?;
-    let cast = cast_camera(
-        &updater.bih,
-        &updater.scene,
-        cam,
-        &cfg.cast,
-        render_cell,
-        updater.records,
-    )?;
-    Ok(Attempt {
-        updater,
-        report,
-        cast,
-    })
 }
 
 fn emulated_names() -> String {
