@@ -374,3 +374,43 @@ fn forced_rebuilds_are_predicted_from_their_own_box_history() {
     let pr = p.predict(&forced(3), 6_000, known);
     assert_eq!(pr[0].1.render_ms, 3.49, "the last fresh tree's render");
 }
+
+/// An untried local update is priced at the render of the tree it leaves,
+/// measured before the frames, not at a fresh tree's: seen so, it is not
+/// taken only to learn its render, and taken where that tree renders
+/// faster (the fandisk case: a local update's tree renders a quarter
+/// faster than the first tree, which the deep update keeps).
+#[test]
+fn an_untried_local_update_is_priced_at_the_tree_it_leaves() {
+    let sum = |u: f64, r: f64| u + r;
+    let small = plan(false, 1_000, &[100]);
+    let unseeded = {
+        let mut p = Predictor::new(10_000, Some(5.0));
+        p.seed_render(20.0);
+        p
+    };
+    let local = |pr: &[(Method, Prediction); 3]| {
+        (pr.iter())
+            .find(|(m, _)| *m == Method::Local)
+            .expect("three")
+            .1
+    };
+    let pr = unseeded.predict(&small, 10_000, |_| 0.0);
+    assert_eq!(
+        local(&pr).render_ms,
+        20.0,
+        "a fresh tree's, unseeded: {pr:?}"
+    );
+    let mut p = unseeded;
+    p.seed_local_render(15.0);
+    let pr = p.predict(&small, 10_000, |_| 0.0);
+    assert_eq!(local(&pr).render_ms, 15.0, "{pr:?}");
+    assert_eq!(p.choose(&pr, sum).0, Method::Local, "{pr:?}");
+    // Seeded slower than the fresh tree: the local update is not taken
+    // to learn what it already knows.
+    let mut slow = Predictor::new(10_000, Some(5.0));
+    slow.seed_render(20.0);
+    slow.seed_local_render(26.0);
+    let pr = slow.predict(&small, 10_000, |_| 0.0);
+    assert_ne!(slow.choose(&pr, sum).0, Method::Local, "{pr:?}");
+}
