@@ -28,7 +28,8 @@ use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::ray::{Ray as ORay, RayHit};
 use obvhs::triangle::Triangle as OTri;
 
-use cellbih::bih::{Bih, BihConfig, Ray, RayStats, SplitChoice, Tracer};
+use cellbih::aabb::Aabb;
+use cellbih::bih::{Bih, BihConfig, Hit, Ray, RayStats, SplitChoice, Tracer};
 use cellbih::quality::rays::RaySets;
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{self, Scene};
@@ -139,6 +140,8 @@ fn compare(s: &Scene, runs: usize, above: &[u32], embree: Option<&embree::Embree
                 .bih
         })
         .collect();
+    let cut = Tracer::new(&trees[1], s);
+    let cut = &cut;
     let mut contenders: Vec<Contender> = Vec::new();
     for (cfg, bih) in settings.into_iter().zip(&trees) {
         let tracer = Tracer::new(bih, s);
@@ -156,25 +159,53 @@ fn compare(s: &Scene, runs: usize, above: &[u32], embree: Option<&embree::Embree
                 let (prep, _) = time(|| Tracer::new(&bih, s));
                 (built, built + prep)
             }),
-            trace: Box::new(move |set: &[Ray]| -> Answers {
-                let mut st = RayStats::default();
-                (tracer.closest_all(set, &mut st).iter())
-                    .map(|h| h.map(|h| (h.prim, h.t)))
-                    .collect()
-            }),
+            trace: Box::new(move |set: &[Ray]| -> Answers { answers(tracer.hits(set)) }),
             bytes,
         });
     }
-    // The paper's tree traced ray by ray, as before packets.
+    // The cut-off's tree traced other ways: the exact walk (packets, else
+    // single rays in f64: what counts nodes and triangles), the fast walk
+    // on every ray (no packets), and the rays sorted into coherent runs
+    // (direction octant, then the origin's Morton code; the sort timed
+    // with the tracing) before the default.
+    let ways: [(&str, Trace); 3] = [
+        (
+            "exact walk",
+            Box::new(move |set: &[Ray]| answers(cut.closest_all(set, &mut RayStats::default()))),
+        ),
+        (
+            "fast walk, no packets",
+            Box::new(move |set: &[Ray]| answers(set.iter().map(|r| cut.closest_fast(r)).collect())),
+        ),
+        (
+            "rays sorted first",
+            Box::new(move |set: &[Ray]| {
+                let order = coherent_order(set, &s.bounds());
+                let sorted: Vec<Ray> = order.iter().map(|&i| set[i as usize]).collect();
+                let mut out = vec![None; set.len()];
+                for (&i, h) in order.iter().zip(cut.hits(&sorted)) {
+                    out[i as usize] = h.map(|h| (h.prim, h.t));
+                }
+                out
+            }),
+        ),
+    ];
+    for (way, trace) in ways {
+        contenders.push(Contender {
+            name: format!("cellbih host --empty-cut 30, {way}"),
+            build: Box::new(|| (Duration::ZERO, Duration::ZERO)),
+            trace,
+            bytes: 0,
+        });
+    }
+    // The paper's tree traced ray by ray in f64, as before packets.
     let tracer = Tracer::new(&trees[0], s);
     contenders.push(Contender {
         name: "cellbih host, rays one by one".into(),
         build: Box::new(|| (Duration::ZERO, Duration::ZERO)),
         trace: Box::new(move |set: &[Ray]| -> Answers {
             let mut st = RayStats::default();
-            set.iter()
-                .map(|r| tracer.closest(r, &mut st).map(|h| (h.prim, h.t)))
-                .collect()
+            answers(set.iter().map(|r| tracer.closest(r, &mut st)).collect())
         }),
         bytes: 0,
     });
@@ -350,6 +381,29 @@ fn measured(
         })
         .collect();
     (rows, answers)
+}
+
+/// Each hit's triangle and distance.
+fn answers(hits: Vec<Option<Hit>>) -> Answers {
+    hits.iter().map(|h| h.map(|h| (h.prim, h.t))).collect()
+}
+
+/// The rays' indices sorted by direction octant, then by the Morton code
+/// of the origin in `bounds` (10 bits an axis).
+fn coherent_order(rays: &[Ray], bounds: &Aabb) -> Vec<u32> {
+    let (lo, ext) = (bounds.min.as_dvec3(), bounds.extent_f64());
+    let spread = |x: u64| -> u64 { (0..10).fold(0, |m, b| m | ((x >> b) & 1) << (3 * b)) };
+    let mut keyed: Vec<(u64, u32)> = (rays.iter().enumerate())
+        .map(|(i, r)| {
+            let octant = (0..3).fold(0u64, |o, a| o | (r.dir[a].is_sign_negative() as u64) << a);
+            let cell = (r.origin - lo) / ext.max(glam::DVec3::splat(f64::MIN_POSITIVE));
+            let q = cell.to_array().map(|c| (c.clamp(0.0, 1.0) * 1023.0) as u64);
+            let morton = spread(q[0]) | spread(q[1]) << 1 | spread(q[2]) << 2;
+            (octant << 30 | morton, i as u32)
+        })
+        .collect();
+    keyed.sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
 }
 
 /// Rays on which `a` and `b` agree.

@@ -10,6 +10,7 @@ mod packet;
 mod tracer;
 mod traverse;
 mod validate;
+mod wide;
 
 pub use node::{BihNode, MAX_INDEX};
 pub use packet::PACKET_RAYS;

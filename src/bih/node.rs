@@ -57,6 +57,22 @@ impl BihNode {
         }
     }
 
+    /// A leaf as [`BihNode::leaf`] with `number` in word 2 (zero in a
+    /// tree): the host tracer numbers its leaves there, the index of the
+    /// leaf's box in its own table.
+    pub fn numbered_leaf(first: u32, count: u32, number: u32) -> Self {
+        BihNode {
+            b: number,
+            ..Self::leaf(first, count)
+        }
+    }
+
+    /// Word 2 of a leaf: its number where the host tracer gave one.
+    pub fn leaf_number(&self) -> u32 {
+        debug_assert!(self.is_leaf());
+        self.b
+    }
+
     pub fn is_leaf(&self) -> bool {
         self.word & 3 == LEAF
     }

@@ -50,16 +50,28 @@ impl Tracer<'_> {
     pub fn closest_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
         assert!(rays.len() <= N, "{} rays: a packet holds {N}", rays.len());
         assert!(hits.len() == rays.len() && stats.len() == rays.len());
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: the CPU has AVX2 (checked when the tracer was made).
-        let traced = self.avx2 && unsafe { self.packet_avx2(rays, hits, stats) };
-        #[cfg(not(target_arch = "x86_64"))]
-        let traced = false;
-        if !traced && !self.packet_portable(rays, hits, stats) {
+        if !self.packet(rays, hits, stats) {
             for ((ray, hit), st) in rays.iter().zip(hits).zip(stats) {
                 *hit = self.closest(ray, st);
             }
         }
+    }
+
+    /// `rays` traced as one packet, if they are coherent (see
+    /// `packet_body`); else `false`, and nothing written.
+    #[inline(always)]
+    pub(super) fn packet(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        stats: &mut [RayStats],
+    ) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: the CPU has AVX2 (checked when the tracer was made).
+            return unsafe { self.packet_avx2(rays, hits, stats) };
+        }
+        self.packet_portable(rays, hits, stats)
     }
 
     /// Every ray's closest hit, the rays taken [`PACKET_RAYS`] at a time
@@ -173,7 +185,7 @@ impl Tracer<'_> {
                 // `Tracer::test_leaf` makes it (its slab distances are never
                 // NaN here: every reciprocal is finite), then the triangles
                 // of the rays that meet it before their best hit.
-                let bx = &self.leaf_boxes[node as usize];
+                let bx = &self.leaf_boxes[nd.leaf_number() as usize];
                 let (lo, hi) = (bx.min.as_dvec3(), bx.max.as_dvec3());
                 let mut meets = 0u32;
                 for i in 0..N {

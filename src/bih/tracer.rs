@@ -16,6 +16,7 @@ use super::traverse::{
     PreTriangle, clip_range, clip_range_finite, closer, pop_bound, root_interval, settle_t,
     widen_down, widen_up,
 };
+use super::wide::{self, WideNode};
 use super::{Bih, BihConfig, BihNode, Hit, Ray, RayStats};
 use crate::aabb::Aabb;
 use crate::scene::Scene;
@@ -26,7 +27,7 @@ const PREFETCH_AHEAD: usize = 16;
 
 /// A hint that `p` will be read soon (x86-64; elsewhere nothing).
 #[inline(always)]
-fn prefetch<T>(p: *const T) {
+pub(super) fn prefetch<T>(p: *const T) {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: a prefetch never faults, whatever the address.
     unsafe {
@@ -39,19 +40,26 @@ fn prefetch<T>(p: *const T) {
 /// A tree bound to its triangles, laid out in leaf order for traversal.
 pub struct Tracer<'a> {
     pub(super) bih: &'a Bih,
-    /// The tree's nodes with every leaf's first slot moved to a multiple of
-    /// four in the padded triangle order below, so that a leaf starts a
-    /// group and no lane tests another leaf's triangle.
+    /// The tree's nodes, each pair of children after its parent's pair in
+    /// depth-first order, every leaf's first slot moved to a multiple of
+    /// four in the padded triangle order below (so that a leaf starts a
+    /// group and no lane tests another leaf's triangle) and its number in
+    /// `leaf_boxes` in its third word.
     pub(super) nodes: Vec<BihNode>,
     /// Padded slot → scene triangle id (`u32::MAX` for padding).
     pub(super) prims: Vec<u32>,
-    /// The box of each leaf's triangles, by node id (unused for inner
-    /// nodes): a BIH leaf's region is bounded only by its ancestors' planes
+    /// The box of each leaf's triangles, by leaf number: a BIH leaf's region is bounded only by its ancestors' planes
     /// and is often much larger than what it holds, so a ray is tested
     /// against this box before the leaf's triangles.
     pub(super) leaf_boxes: Vec<Aabb>,
     /// Padded slot `k` is lane `k % 4` of group `k / 4`.
     pub(super) groups: Vec<Group>,
+    /// The tree collapsed four children to a node, each child's box that
+    /// of its triangles: the fast walk's ([`super::wide`]).
+    pub(super) wide: Vec<WideNode>,
+    /// The largest coordinate of the tree's box, in size: which rays the
+    /// fast walk can take.
+    pub(super) largest: f64,
     /// The CPU has AVX2: traverse with the AVX2 build of the loop.
     #[cfg(target_arch = "x86_64")]
     pub(super) avx2: bool,
@@ -65,23 +73,35 @@ impl<'a> Tracer<'a> {
             "tree and scene differ in size"
         );
         assert!(bih.config.max_depth <= BihConfig::MAX_SUPPORTED_DEPTH);
-        // One pass over the leaves in depth-first order, each triangle read
-        // once: its slot in the padded order, its lane in a group, its box
-        // into the leaf's box.
-        let mut nodes = bih.nodes.clone();
-        let mut leaf_boxes = vec![Aabb::EMPTY; nodes.len()];
+        // One pass over the tree in depth-first order. The tracer's nodes
+        // are laid out anew, each pair of children after the pair before it
+        // in that order (a ray's descent down the near side reads on in
+        // memory), and each leaf numbered with its box's index in a table
+        // of leaves only, in the same order. Each triangle is read once:
+        // its slot in the padded order, its lane in a group, its box into
+        // the leaf's box.
+        let mut nodes = Vec::with_capacity(bih.nodes.len());
+        nodes.push(BihNode::default());
+        let mut leaf_boxes = Vec::with_capacity(bih.nodes.len().div_ceil(2));
         let slots = bih.prim_ids.len() + 3 * bih.nodes.len().div_ceil(2);
         let mut prims = Vec::with_capacity(slots);
         let mut groups: Vec<Group> = Vec::with_capacity(slots.div_ceil(4));
-        let mut stack = vec![0u32];
-        while let Some(id) = stack.pop() {
+        // (the tree's id, the tracer's id)
+        let mut stack = vec![(0u32, 0u32)];
+        while let Some((id, at)) = stack.pop() {
             let nd = bih.nodes[id as usize];
             if !nd.is_leaf() {
-                stack.extend([nd.left_child() + 1, nd.left_child()]);
+                let pair = nodes.len() as u32;
+                nodes.extend([BihNode::default(); 2]);
+                let [cl, cr] = nd.clip();
+                nodes[at as usize] = BihNode::inner(pair, nd.axis(), cl, cr);
+                let left = nd.left_child();
+                stack.extend([(left + 1, pair + 1), (left, pair)]);
                 continue;
             }
             let (first, count) = nd.leaf_range();
-            nodes[id as usize] = BihNode::leaf(prims.len() as u32, count);
+            nodes[at as usize] =
+                BihNode::numbered_leaf(prims.len() as u32, count, leaf_boxes.len() as u32);
             let mut bounds = Aabb::EMPTY;
             for k in first as usize..(first + count) as usize {
                 // Leaves come in tree order, their ranges in slot order: the
@@ -103,11 +123,15 @@ impl<'a> Tracer<'a> {
                     .set(lane, PreTriangle::new(tri).v);
                 prims.push(p);
             }
-            leaf_boxes[id as usize] = bounds;
+            leaf_boxes.push(bounds);
             prims.resize(prims.len().next_multiple_of(4), u32::MAX);
         }
+        let wide = wide::collapse(&nodes, &leaf_boxes);
+        let b = &bih.bounds;
         Tracer {
             bih,
+            wide,
+            largest: b.min.abs().max(b.max.abs()).max_element() as f64,
             nodes,
             leaf_boxes,
             prims,
@@ -139,6 +163,7 @@ impl<'a> Tracer<'a> {
             + size_of_val(self.prims.as_slice())
             + size_of_val(self.leaf_boxes.as_slice())
             + size_of_val(self.groups.as_slice())
+            + size_of_val(self.wide.as_slice())
     }
 
     /// The closest hit in `[tmin, tmax]`, ties to the lower triangle id.
@@ -167,7 +192,19 @@ impl<'a> Tracer<'a> {
     ) -> bool {
         // Only a ray that meets the box of the leaf's triangles before its
         // best hit so far can hit one of them.
-        let leaf_box = &self.leaf_boxes[node as usize];
+        let nd = self.nodes[node as usize];
+        let (first, count) = nd.leaf_range();
+        // The leaf's triangles are the next cache misses after its box:
+        // ask for their first lines now, so that both misses overlap.
+        let g = self
+            .groups
+            .as_ptr()
+            .wrapping_add(first as usize / 4)
+            .cast::<u8>();
+        for line in 0..(count as usize * 36).div_ceil(64).min(4) {
+            prefetch(g.wrapping_add(64 * line));
+        }
+        let leaf_box = &self.leaf_boxes[nd.leaf_number() as usize];
         let (b0, b1) = if FINITE {
             clip_range_finite(leaf_box, ray.origin, inv, ray.tmin, *best_t)
         } else {
@@ -190,6 +227,22 @@ impl<'a> Tracer<'a> {
         stats: &mut RayStats,
     ) -> bool {
         let (first, count) = self.nodes[node as usize].leaf_range();
+        self.test_slots::<ANY>(first, count, ray, best, best_t, stats)
+    }
+
+    /// Slots `first .. first + count` of the padded triangle order (a
+    /// leaf's: `first` starts a group) against `ray`, as
+    /// [`Tracer::test_triangles`].
+    #[inline(always)]
+    pub(super) fn test_slots<const ANY: bool>(
+        &self,
+        first: u32,
+        count: u32,
+        ray: &Ray,
+        best: &mut Option<Hit>,
+        best_t: &mut f64,
+        stats: &mut RayStats,
+    ) -> bool {
         stats.triangles_tested += count as u64;
         let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
         let (first, end) = (first as usize, (first + count) as usize);

@@ -7,17 +7,24 @@
 
 use glam::DVec3;
 
-use crate::bih::{Ray, RayStats, Tracer, brute_force_closest};
+use crate::bih::{Hit, Ray, RayStats, Tracer, brute_force_closest};
 use crate::scene::{Scene, SplitMix64};
 
 /// Checks the tree's answer for `ray` against brute force: the same
 /// triangle at the same `t`, bit for bit (both sides run the same triangle
-/// test, and ties in `t` go to the lower triangle id on both); an error
-/// names what differs.
+/// test, and ties in `t` go to the lower triangle id on both), and the
+/// tracer's fast walk's answer against its exact walk's, bit for bit; an
+/// error names what differs.
 pub fn check_ray(scene: &Scene, tracer: &Tracer, ray: &Ray) -> Result<(), String> {
     let want = brute_force_closest(scene, ray);
     let got = tracer.closest(ray, &mut RayStats::default());
     let any = tracer.any(ray, &mut RayStats::default());
+    let fast = tracer.closest_fast(ray);
+    if !same_hit(&fast, &got) {
+        return Err(format!(
+            "fast walk {fast:?} but exact walk {got:?} for {ray:?}"
+        ));
+    }
     if any.is_some() != want.is_some() {
         return Err(format!(
             "any-hit {any:?} but brute force {want:?} for {ray:?}"
@@ -27,6 +34,21 @@ pub fn check_ray(scene: &Scene, tracer: &Tracer, ray: &Ray) -> Result<(), String
         (None, None) => Ok(()),
         (Some(g), Some(w)) if g.prim == w.prim && g.t.to_bits() == w.t.to_bits() => Ok(()),
         (g, w) => Err(format!("tree {g:?} but brute force {w:?} for {ray:?}")),
+    }
+}
+
+/// Bitwise the same answer (`Hit`'s f64 compared by bits, so that a NaN
+/// or a signed zero could not pass unnoticed).
+pub fn same_hit(a: &Option<Hit>, b: &Option<Hit>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(x), Some(y)) => {
+            x.prim == y.prim
+                && x.t.to_bits() == y.t.to_bits()
+                && x.u.to_bits() == y.u.to_bits()
+                && x.v.to_bits() == y.v.to_bits()
+        }
+        _ => false,
     }
 }
 

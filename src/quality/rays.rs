@@ -125,13 +125,15 @@ pub fn incoherent_rays(bounds: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
-/// Traces `rays` through `tracer` (closest hit, one thread), sixteen
-/// consecutive rays at a time as a packet where their directions agree
-/// ([`Tracer::closest_all`]; the same hits and counts as ray by ray).
+/// The cost of `rays` through `tracer` (closest hit, one thread): nodes
+/// visited and triangles tested by the exact walk ([`Tracer::closest_all`]:
+/// the tree's own counts), rays per second by the tracer's fastest
+/// ([`Tracer::hits`]: the same hits).
 pub fn measure(tracer: &Tracer, rays: &[Ray]) -> RayCost {
     let mut st = RayStats::default();
-    let start = Instant::now();
     std::hint::black_box(tracer.closest_all(rays, &mut st));
+    let start = Instant::now();
+    std::hint::black_box(tracer.hits(rays));
     let secs = start.elapsed().as_secs_f64().max(1e-9);
     let n = st.rays.max(1) as f64;
     RayCost {

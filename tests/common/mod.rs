@@ -2,9 +2,9 @@
 //! proptest, the brute-force comparison, and the data directory.
 #![allow(dead_code)]
 
-use cellbih::bih::{Bih, Hit};
+use cellbih::bih::Bih;
 #[allow(unused_imports)]
-pub use cellbih::quality::agree::{check_ray, rays_for};
+pub use cellbih::quality::agree::{check_ray, rays_for, same_hit};
 use cellbih::scene::{Scene, SplitMix64, Triangle};
 use glam::Vec3;
 use proptest::prelude::*;
@@ -122,19 +122,4 @@ pub fn check_multi_spe_runs(
         * cellbih::strategy::machinery::arena::BLOCK_NODES as u64;
     let unused: u64 = a.spe_work.iter().map(|w| w.arena_unused).sum();
     assert_eq!(slots - unused, jobs, "{what}");
-}
-
-/// Bitwise the same answer (`Hit`'s f64 compared by bits, so that a NaN
-/// or a signed zero could not pass unnoticed).
-pub fn same_hit(a: &Option<Hit>, b: &Option<Hit>) -> bool {
-    match (a, b) {
-        (None, None) => true,
-        (Some(x), Some(y)) => {
-            x.prim == y.prim
-                && x.t.to_bits() == y.t.to_bits()
-                && x.u.to_bits() == y.u.to_bits()
-                && x.v.to_bits() == y.v.to_bits()
-        }
-        _ => false,
-    }
 }

@@ -10,7 +10,7 @@
 //! ````
 //!
 //! After `figures:` come the command (a binary of the front end and its
-//! arguments) and, each after a `|`, the block's options: `quick` (in the
+//! arguments, or `bench NAME ARGS`: a bench's printed table) and, each after a `|`, the block's options: `quick` (in the
 //! quick check), `host` (every figure of it is host time: compared only
 //! for presence), `svg: FILE…` (plots the run writes into its `--out`
 //! directory, copied to that path from the page: `docs/<name>.svg` from the

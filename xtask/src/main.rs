@@ -296,21 +296,31 @@ fn data_dir(o: &Options, root: &Path) -> Option<PathBuf> {
 
 /// Runs `command` from the repository's root, an experiment's files into
 /// `out`.
+/// A command `bench NAME ARGS` is `cargo bench --bench NAME -- ARGS` (its
+/// table is what it prints; cargo's own lines go to the terminal).
 fn run(root: &Path, command: &str, out: &Path, data: Option<&Path>) -> Result<Run, String> {
     let mut words = command.split_whitespace();
     let bin = words.next().expect("a command has a binary");
-    let release = root.join("target/release");
-    let Some(exe) = [release.join(bin), release.join("examples").join(bin)]
-        .into_iter()
-        .find(|p| p.is_file())
-    else {
-        return Err(format!(
-            "`{command}`: no binary or example {bin} in the front end"
-        ));
+    let mut cmd = if bin == "bench" {
+        let name = words.next().ok_or("`bench` names a bench")?;
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let mut cmd = Command::new(cargo);
+        cmd.args(["bench", "--bench", name, "--"]);
+        cmd
+    } else {
+        let release = root.join("target/release");
+        let Some(exe) = [release.join(bin), release.join("examples").join(bin)]
+            .into_iter()
+            .find(|p| p.is_file())
+        else {
+            return Err(format!(
+                "`{command}`: no binary or example {bin} in the front end"
+            ));
+        };
+        Command::new(exe)
     };
-    let mut cmd = Command::new(&exe);
     cmd.current_dir(root).args(words);
-    if bin != "cellbih" {
+    if bin != "cellbih" && bin != "bench" {
         cmd.arg("--out").arg(out);
     }
     if let Some(d) = data {
