@@ -5,9 +5,16 @@
 //! quality knobs (the cut-off alone, and binned SAH with it) — on the same
 //! triangles and the same rays.
 //!
-//! `CELLBIH_DATA=../shared/data cargo bench --bench peers [-- --scenes bunny,dragon] [--runs 5] [--sah-above 4096,16384]`
+//! `CELLBIH_DATA=../shared/data cargo bench --bench peers [-- --scenes bunny,dragon] [--runs 5] [--sah-above 4096,16384] [--brief]`
 //! (`--sah-above`: a row of binned SAH with the cut-off per threshold;
-//! 4096 and 16384 by default, the settings of the goals in docs/tradeoff.md)
+//! 4096 and 16384 by default, the settings of the goals in docs/tradeoff.md;
+//! `--brief`: print only the rows of the cut-off's tree, of binned SAH with
+//! the cut-off and of Embree low, all measured all the same)
+//!
+//! cellbih's rows trace with the tracer's default (`Tracer::hits`: packets
+//! of coherent rays, the fast `f32` walk for the rest); the cut-off's tree
+//! is also traced by the exact walk alone, by the fast walk on every ray,
+//! and with the rays sorted into coherent runs first.
 //!
 //! For each scene: build ms (median of `--runs`), cellbih's with and
 //! without the tracer's own preparation (`Tracer::new`: the leaf-ordered
@@ -41,6 +48,7 @@ fn main() {
         .collect();
     let mut runs = 5usize;
     let mut above = vec![4096u32, 16384];
+    let mut brief = false;
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -53,13 +61,15 @@ fn main() {
                     .map(String::from)
                     .collect()
             }
+            "--brief" => brief = true,
             "--runs" => runs = it.next().and_then(|r| r.parse().ok()).expect("--runs N"),
             "--sah-above" => {
                 above = (it.next().expect("--sah-above LIST").split(','))
                     .map(|n| n.parse().expect("--sah-above: triangle counts"))
                     .collect()
             }
-            _ => {} // cargo bench's own flags (--bench)
+            "--bench" => {} // cargo bench's own flag
+            other => panic!("peers: unknown option {other}"),
         }
     }
     let embree = embree::Embree::load();
@@ -85,8 +95,12 @@ fn main() {
                 continue;
             }
         };
-        one_thread.install(|| compare(&s, runs, &above, embree.as_ref()));
+        one_thread.install(|| compare(&s, runs, &above, brief, embree.as_ref()));
     }
+    println!("\n(x ref: rays per second over Embree low's, else obvhs medium's; -: not measured)");
+    println!(
+        "(agree: rays whose answer matches cellbih's paper tree — same triangle, or the same t within 1e-4, or both miss)"
+    );
 }
 
 /// The cheap knob of the tradeoff experiment: the empty-space cut-off
@@ -112,7 +126,7 @@ struct Row {
     bytes: usize,
 }
 
-fn compare(s: &Scene, runs: usize, above: &[u32], embree: Option<&embree::Embree>) {
+fn compare(s: &Scene, runs: usize, above: &[u32], brief: bool, embree: Option<&embree::Embree>) {
     let rays = RaySets::standard(s);
     let sets = [&rays.primary, &rays.incoherent];
     let tris: Vec<OTri> = (s.triangles.iter())
@@ -285,10 +299,7 @@ fn compare(s: &Scene, runs: usize, above: &[u32], embree: Option<&embree::Embree
         .find(|r| r.name == "Embree low")
         .or_else(|| rows.iter().find(|r| r.name == "obvhs medium"))
         .expect("obvhs medium is always measured");
-    let (ref_name, by) = (
-        reference.name.clone(),
-        (reference.primary, reference.incoherent),
-    );
+    let by = (reference.primary, reference.incoherent);
     println!(
         "{:<44} {:>9} {:>9} {:>9} {:>7} {:>9} {:>7} {:>7} {:>8} {:>6}",
         "",
@@ -304,6 +315,9 @@ fn compare(s: &Scene, runs: usize, above: &[u32], embree: Option<&embree::Embree
     );
     let blank = |x: f64, text: String| if x > 0.0 { text } else { "-".into() };
     for (k, r) in rows.iter().enumerate() {
+        if brief && !BRIEF.iter().any(|w| r.name.starts_with(w)) {
+            continue;
+        }
         let agree: usize = (0..2)
             .map(|set| agreeing(&answers[k][set], &answers[0][set]))
             .sum();
@@ -322,10 +336,6 @@ fn compare(s: &Scene, runs: usize, above: &[u32], embree: Option<&embree::Embree
             blank(r.bytes as f64, format!("{:.1}", r.bytes as f64 / 1e6)),
         );
     }
-    println!("(x ref: rays per second over {ref_name}'s; -: not measured)");
-    println!(
-        "(agree: rays whose answer matches cellbih's paper tree — same triangle, or the same t within 1e-4, or both miss)"
-    );
 }
 
 /// Answers a set of rays (a contender's tracer).
@@ -382,6 +392,14 @@ fn measured(
         .collect();
     (rows, answers)
 }
+
+/// The rows `--brief` prints: the cut-off's tree every way it is traced,
+/// binned SAH with the cut-off, Embree low.
+const BRIEF: [&str; 3] = [
+    "cellbih host --empty-cut 30",
+    "cellbih host --split sah --empty-cut 10",
+    "Embree low",
+];
 
 /// Each hit's triangle and distance.
 fn answers(hits: Vec<Option<Hit>>) -> Answers {
