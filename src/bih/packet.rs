@@ -21,10 +21,9 @@
 
 use std::mem::MaybeUninit;
 
-use glam::DVec3;
-
-use super::traverse::{SLACK, clip_range_finite};
+use super::traverse::SLACK;
 use super::{BihConfig, Hit, Ray, RayStats, Tracer};
+use crate::aabb::Aabb;
 
 /// The most rays a host packet holds: a 4 × 4 block of pixels.
 pub const PACKET_RAYS: usize = 16;
@@ -153,20 +152,15 @@ impl Tracer<'_> {
         if !coherent {
             return false;
         }
-        let (mut tn, mut tf) = ([0.0f64; N], [0.0f64; N]);
+        // `root_interval`'s interval, lane-wise: the branch-free slab test
+        // gives the careful one's for a finite reciprocal.
+        let b = &self.bih.bounds;
+        let (mut tn, mut tf) = clip_lanes(b, &o, &inv, &tmin, &best_t);
         let mut mask = 0u32;
-        for (i, ray) in rays.iter().enumerate() {
+        for i in 0..rays.len() {
             stats[i].rays += 1;
             hits[i] = None;
-            // `root_interval`'s interval: the branch-free slab test gives
-            // the careful one's for a finite reciprocal.
-            let inv_dir = DVec3::new(inv[0][i], inv[1][i], inv[2][i]);
-            let (t0, t1) =
-                clip_range_finite(&self.bih.bounds, ray.origin, inv_dir, ray.tmin, ray.tmax);
-            if t0 <= t1 {
-                (tn[i], tf[i]) = (t0, t1);
-                mask |= 1 << i;
-            }
+            mask |= ((tn[i] <= tf[i]) as u32) << i;
         }
         // Not zeroed per packet: an entry is read only after a push.
         let mut stack =
@@ -185,20 +179,13 @@ impl Tracer<'_> {
                 // `Tracer::test_leaf` makes it (its slab distances are never
                 // NaN here: every reciprocal is finite), then the triangles
                 // of the rays that meet it before their best hit.
+                let (first, count) = nd.leaf_range();
+                self.prefetch_slots(first, count);
                 let bx = &self.leaf_boxes[nd.leaf_number() as usize];
-                let (lo, hi) = (bx.min.as_dvec3(), bx.max.as_dvec3());
+                let (b0, b1) = clip_lanes(bx, &o, &inv, &tmin, &best_t);
                 let mut meets = 0u32;
                 for i in 0..N {
-                    let (mut near, mut far) = (f64::NEG_INFINITY, f64::INFINITY);
-                    for a in 0..3 {
-                        let ta = (lo[a] - o[a][i]) * inv[a][i];
-                        let tb = (hi[a] - o[a][i]) * inv[a][i];
-                        near = max(near, min(ta, tb));
-                        far = min(far, max(ta, tb));
-                    }
-                    let b0 = max(tmin[i], down(near));
-                    let b1 = min(best_t[i], up(far));
-                    meets |= ((b0 <= b1) as u32) << i;
+                    meets |= ((b0[i] <= b1[i]) as u32) << i;
                 }
                 let mut m = meets & mask;
                 while m != 0 {
@@ -289,6 +276,32 @@ impl Tracer<'_> {
         }
         true
     }
+}
+
+/// Each lane's `clip_range_finite` of box `b`: its entry and exit,
+/// widened, cut to `[t0, t1]`.
+#[inline(always)]
+fn clip_lanes(
+    b: &Aabb,
+    o: &[[f64; N]; 3],
+    inv: &[[f64; N]; 3],
+    t0: &[f64; N],
+    t1: &[f64; N],
+) -> ([f64; N], [f64; N]) {
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let (mut b0, mut b1) = ([0.0; N], [0.0; N]);
+    for i in 0..N {
+        let (mut near, mut far) = (f64::NEG_INFINITY, f64::INFINITY);
+        for a in 0..3 {
+            let ta = (lo[a] - o[a][i]) * inv[a][i];
+            let tb = (hi[a] - o[a][i]) * inv[a][i];
+            near = max(near, min(ta, tb));
+            far = min(far, max(ta, tb));
+        }
+        b0[i] = max(t0[i], down(near));
+        b1[i] = min(t1[i], up(far));
+    }
+    (b0, b1)
 }
 
 // The packet's arithmetic never meets a NaN: every reciprocal is finite

@@ -195,15 +195,8 @@ impl<'a> Tracer<'a> {
         let nd = self.nodes[node as usize];
         let (first, count) = nd.leaf_range();
         // The leaf's triangles are the next cache misses after its box:
-        // ask for their first lines now, so that both misses overlap.
-        let g = self
-            .groups
-            .as_ptr()
-            .wrapping_add(first as usize / 4)
-            .cast::<u8>();
-        for line in 0..(count as usize * 36).div_ceil(64).min(4) {
-            prefetch(g.wrapping_add(64 * line));
-        }
+        // ask for them now, so that both misses overlap.
+        self.prefetch_slots(first, count);
         let leaf_box = &self.leaf_boxes[nd.leaf_number() as usize];
         let (b0, b1) = if FINITE {
             clip_range_finite(leaf_box, ray.origin, inv, ray.tmin, *best_t)
@@ -211,6 +204,19 @@ impl<'a> Tracer<'a> {
             clip_range(leaf_box, ray, inv, ray.tmin, *best_t)
         };
         b0 <= b1 && self.test_triangles::<ANY>(node, ray, best, best_t, stats)
+    }
+
+    /// Asks for the memory of slots `first .. first + count` (a leaf's
+    /// triangle groups, up to four cache lines).
+    #[inline(always)]
+    pub(super) fn prefetch_slots(&self, first: u32, count: u32) {
+        let g = (self.groups.as_ptr())
+            .wrapping_add(first as usize / 4)
+            .cast::<u8>();
+        let bytes = (count as usize).div_ceil(4) * size_of::<Group>();
+        for line in 0..bytes.div_ceil(64).min(4) {
+            prefetch(g.wrapping_add(64 * line));
+        }
     }
 
     /// Leaf `node`'s triangles against `ray` (whose test of the leaf's

@@ -31,7 +31,6 @@ use std::mem::MaybeUninit;
 
 use glam::DVec3;
 
-use super::lanes::Group;
 use super::tracer::prefetch;
 use super::{BihConfig, BihNode, Hit, PACKET_RAYS, Ray, RayStats, Tracer};
 use crate::aabb::Aabb;
@@ -238,15 +237,7 @@ impl Tracer<'_> {
     #[inline(always)]
     fn prefetch_child(&self, child: u32, first: u32) {
         if child & LEAF != 0 {
-            let g = self
-                .groups
-                .as_ptr()
-                .wrapping_add(first as usize / 4)
-                .cast::<u8>();
-            let groups = ((child & !LEAF) as usize).div_ceil(4);
-            for line in 0..(groups * size_of::<Group>()).div_ceil(64).min(4) {
-                prefetch(g.wrapping_add(64 * line));
-            }
+            self.prefetch_slots(first, child & !LEAF);
         } else {
             let w = self.wide.as_ptr().wrapping_add(child as usize).cast::<u8>();
             prefetch(w);
