@@ -8,8 +8,9 @@
 //! `CELLBIH_DATA=../shared/data cargo bench --bench peers [-- --scenes bunny,dragon] [--runs 5] [--sah-above 4096,16384] [--brief]`
 //! (`--sah-above`: a row of binned SAH with the cut-off per threshold;
 //! 4096 and 16384 by default, the settings of the goals in docs/tradeoff.md;
-//! `--brief`: print only the rows of the cut-off's tree, of binned SAH with
-//! the cut-off and of Embree low, all measured all the same)
+//! `--brief`: only the rows of the cut-off's tree, of binned SAH with the
+//! cut-off and of Embree low, and only build plus preparation, rays per
+//! second and agreement; all measured all the same)
 //!
 //! cellbih's rows trace with the tracer's default (`Tracer::hits`: packets
 //! of coherent rays, the fast `f32` walk for the rest); the cut-off's tree
@@ -97,10 +98,14 @@ fn main() {
         };
         one_thread.install(|| compare(&s, runs, &above, brief, embree.as_ref()));
     }
-    println!("\n(x ref: rays per second over Embree low's, else obvhs medium's; -: not measured)");
-    println!(
-        "(agree: rays whose answer matches cellbih's paper tree — same triangle, or the same t within 1e-4, or both miss)"
-    );
+    if !brief {
+        println!(
+            "\n(x ref: rays per second over Embree low's, else obvhs medium's; -: not measured)"
+        );
+        println!(
+            "(agree: rays whose answer matches cellbih's paper tree — same triangle, or the same t within 1e-4, or both miss)"
+        );
+    }
 }
 
 /// The cheap knob of the tradeoff experiment: the empty-space cut-off
@@ -300,20 +305,28 @@ fn compare(s: &Scene, runs: usize, above: &[u32], brief: bool, embree: Option<&e
         .or_else(|| rows.iter().find(|r| r.name == "obvhs medium"))
         .expect("obvhs medium is always measured");
     let by = (reference.primary, reference.incoherent);
-    println!(
-        "{:<44} {:>9} {:>9} {:>9} {:>7} {:>9} {:>7} {:>7} {:>8} {:>6}",
-        "",
-        "build ms",
-        "+prep ms",
-        "prim Mr/s",
-        "x ref",
-        "inco Mr/s",
-        "x ref",
-        "hits",
-        "agree",
-        "MB"
-    );
     let blank = |x: f64, text: String| if x > 0.0 { text } else { "-".into() };
+    if brief {
+        // Build plus preparation, rays per second, agreement.
+        println!(
+            "{:<38} {:>9} {:>9} {:>6} {:>9} {:>6} {:>8}",
+            "", "ready ms", "prim Mr/s", "x ref", "inco Mr/s", "x ref", "agree"
+        );
+    } else {
+        println!(
+            "{:<44} {:>9} {:>9} {:>9} {:>7} {:>9} {:>7} {:>7} {:>8} {:>6}",
+            "",
+            "build ms",
+            "+prep ms",
+            "prim Mr/s",
+            "x ref",
+            "inco Mr/s",
+            "x ref",
+            "hits",
+            "agree",
+            "MB"
+        );
+    }
     for (k, r) in rows.iter().enumerate() {
         if brief && !BRIEF.iter().any(|w| r.name.starts_with(w)) {
             continue;
@@ -321,7 +334,21 @@ fn compare(s: &Scene, runs: usize, above: &[u32], brief: bool, embree: Option<&e
         let agree: usize = (0..2)
             .map(|set| agreeing(&answers[k][set], &answers[0][set]))
             .sum();
+        let agree = 100.0 * agree as f64 / (sets[0].len() + sets[1].len()) as f64;
         let (b, p) = (ms(r.build), ms(r.ready));
+        if brief {
+            println!(
+                "{:<38} {:>9} {:>9.2} {:>6.2} {:>9.2} {:>6.2} {:>7.2}%",
+                r.name.trim_start_matches("cellbih host "),
+                blank(p, format!("{p:.1}")),
+                r.primary,
+                r.primary / by.0,
+                r.incoherent,
+                r.incoherent / by.1,
+                agree,
+            );
+            continue;
+        }
         println!(
             "{:<44} {:>9} {:>9} {:>9.2} {:>7.2} {:>9.2} {:>7.2} {:>7} {:>7.2}% {:>6}",
             r.name,
@@ -332,7 +359,7 @@ fn compare(s: &Scene, runs: usize, above: &[u32], brief: bool, embree: Option<&e
             r.incoherent,
             r.incoherent / by.1,
             r.hits[0] + r.hits[1],
-            100.0 * agree as f64 / (sets[0].len() + sets[1].len()) as f64,
+            agree,
             blank(r.bytes as f64, format!("{:.1}", r.bytes as f64 / 1e6)),
         );
     }

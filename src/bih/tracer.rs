@@ -17,25 +17,13 @@ use super::traverse::{
     widen_down, widen_up,
 };
 use super::wide::{self, WideNode};
-use super::{Bih, BihConfig, BihNode, Hit, Ray, RayStats};
+use super::{Bih, BihConfig, BihNode, Hit, Ray, RayStats, prefetch};
 use crate::aabb::Aabb;
 use crate::scene::Scene;
 
 /// How many slots ahead [`Tracer::new`] prefetches the triangle it will
 /// read: about one memory latency of work at a few ns a triangle.
 const PREFETCH_AHEAD: usize = 16;
-
-/// A hint that `p` will be read soon (x86-64; elsewhere nothing).
-#[inline(always)]
-pub(super) fn prefetch<T>(p: *const T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch never faults, whatever the address.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
-}
 
 /// A tree bound to its triangles, laid out in leaf order for traversal.
 pub struct Tracer<'a> {

@@ -23,16 +23,16 @@
 //! error of a subnormal result), the widening's own roundings included:
 //! twice the bound. A hit the exact test finds lies in its triangle's box
 //! within that test's error (`SLACK / 4` relative, `traverse`), far inside
-//! the widening. The walk stays in `f32`'s range: a ray whose `|o|` or
-//! `(M + |o|)·|1/d|` (M the largest coordinate) reaches [`F32_LIMIT`], or
-//! with a zero or subnormal direction component, takes the exact walk.
+//! the widening. The walk stays in `f32`'s range: a ray whose `|o|`,
+//! `|1/d|` or `(M + |o|)·|1/d|` (M the largest coordinate, itself below
+//! the limit) reaches [`F32_LIMIT`], or whose `1/d` is not a normal `f32`,
+//! takes the exact walk.
 
 use std::mem::MaybeUninit;
 
 use glam::DVec3;
 
-use super::tracer::prefetch;
-use super::{BihConfig, BihNode, Hit, PACKET_RAYS, Ray, RayStats, Tracer};
+use super::{BihConfig, BihNode, Hit, PACKET_RAYS, Ray, RayStats, Tracer, prefetch};
 use crate::aabb::Aabb;
 
 /// A child slot that holds nothing.
@@ -205,13 +205,16 @@ impl Tracer<'_> {
     /// the exact walk.
     pub fn fast_walk_takes(&self, ray: &Ray) -> bool {
         let inv = DVec3::ONE / ray.dir;
-        let reach = (DVec3::splat(self.largest) + ray.origin.abs()) * inv.abs();
-        // `1/d` must be a normal f32 for its rounding to be relative.
-        let normal = inv
-            .abs()
-            .cmplt(DVec3::splat(1.0 / f32::MIN_POSITIVE as f64));
-        inv.is_finite()
-            && normal.all()
+        let o = ray.origin.abs();
+        let reach = (DVec3::splat(self.largest) + o) * inv.abs();
+        // `1/d` a normal f32 (its rounding relative), and the box, the
+        // origin, `1/d` and every distance within `F32_LIMIT`.
+        let normal = inv.abs().cmpge(DVec3::splat(f32::MIN_POSITIVE as f64));
+        let limit = DVec3::splat(F32_LIMIT);
+        normal.all()
+            && inv.abs().cmplt(limit).all()
+            && o.cmplt(limit).all()
+            && self.largest < F32_LIMIT
             && reach.max_element() < F32_LIMIT
             && !ray.tmin.is_nan()
             && !ray.tmax.is_nan()
@@ -252,10 +255,12 @@ impl Tracer<'_> {
         }
         let inv = DVec3::ONE / ray.dir;
         let o = ray.origin;
-        let o32 = o.to_array().map(|x| x as f32);
-        let inv32 = inv.to_array().map(|x| x as f32);
-        let e = [0, 1, 2].map(|a| 4.0 * U * o32[a].abs() * inv32[a].abs() + TINY);
-        let neg = [0, 1, 2].map(|a| inv32[a] < 0.0);
+        // Written out, not `array::map` (see `lanes::each`).
+        let o32 = [o.x as f32, o.y as f32, o.z as f32];
+        let inv32 = [inv.x as f32, inv.y as f32, inv.z as f32];
+        let widen = |a: usize| 4.0 * U * o32[a].abs() * inv32[a].abs() + TINY;
+        let e = [widen(0), widen(1), widen(2)];
+        let neg = [inv32[0] < 0.0, inv32[1] < 0.0, inv32[2] < 0.0];
         let tmin = down32(ray.tmin);
         let mut best: Option<Hit> = None;
         let mut best_t = ray.tmax;
