@@ -6,7 +6,7 @@ use std::io::BufReader;
 
 use rayon::prelude::*;
 
-use cellbih::bih::{RayStats, Tracer};
+use cellbih::bih::Tracer;
 use cellbih::cast::cast_on_cell;
 use cellbih::rays_csv;
 use cellbih::registry::Settings;
@@ -59,10 +59,12 @@ pub fn run(args: RaycastCommand) -> Res<()> {
         }
         None => {
             let tracer = Tracer::new(&report.bih, &s);
-            let hits: Vec<_> = rays
-                .par_iter()
-                .map(|r| tracer.closest(r, &mut RayStats::default()))
-                .collect();
+            // The tracer's fastest (`Tracer::hits`), in chunks over the
+            // threads: the same hits as ray by ray.
+            let hits: Vec<_> = (rays.par_chunks(4096))
+                .map(|chunk| tracer.hits(chunk))
+                .collect::<Vec<_>>()
+                .concat();
             (hits, None)
         }
     };
