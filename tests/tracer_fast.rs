@@ -13,30 +13,9 @@ mod common;
 use cellbih::bih::{Ray, RayStats, Tracer};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::Camera;
-use cellbih::scene::Scene;
-use common::{rays_for, same_hit as same, scene_strategy};
+use common::{packet_ray_sets as ray_sets, same_hit as same, scene_strategy};
 use glam::DVec3;
 use proptest::prelude::*;
-
-fn ray_sets(scene: &Scene, seed: u64) -> Vec<(&'static str, Vec<Ray>)> {
-    let b = scene.bounds();
-    let outside = Camera::framing(&b, 10, 7);
-    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
-    let inside = Camera::look(lo + (hi - lo) * 0.3, hi, DVec3::Z, 70.0, 9, 6);
-    let loose = rays_for(scene, 64, seed);
-    let octant = (loose.iter())
-        .map(|r| Ray {
-            dir: r.dir.abs(),
-            ..*r
-        })
-        .collect();
-    vec![
-        ("framing camera", outside.rays_in_blocks(4, 4)),
-        ("inside camera", inside.rays_in_blocks(4, 4)),
-        ("one octant", octant),
-        ("scattered", loose),
-    ]
-}
 
 proptest! {
     #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]

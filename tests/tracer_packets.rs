@@ -12,37 +12,8 @@ mod common;
 use cellbih::bih::{PACKET_RAYS, Ray, RayStats, Tracer};
 use cellbih::registry::{Build, BuilderKind};
 use cellbih::render::Camera;
-use cellbih::scene::Scene;
-use common::{rays_for, same_hit as same, scene_strategy};
-use glam::DVec3;
+use common::{packet_ray_sets as ray_sets, same_hit as same, scene_strategy};
 use proptest::prelude::*;
-
-/// The sets of rays a packet is tried on: a framing camera's rays and a
-/// camera's from inside the box, in 4 × 4 blocks (edge blocks cut, so
-/// some packets hold fewer rays); scattered rays with every direction
-/// turned into the positive octant (coherent packets whose rays start
-/// anywhere and some end early); and the scattered rays as they are
-/// (mixed signs and zero components: ray by ray).
-fn ray_sets(scene: &Scene, seed: u64) -> Vec<(&'static str, Vec<Ray>)> {
-    let b = scene.bounds();
-    let outside = Camera::framing(&b, 10, 7);
-    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
-    let inside = Camera::look(lo + (hi - lo) * 0.3, hi, DVec3::Z, 70.0, 9, 6);
-    let loose = rays_for(scene, 48, seed);
-    let octant = (loose.iter())
-        .filter(|r| (DVec3::ONE / r.dir).is_finite())
-        .map(|r| Ray {
-            dir: r.dir.abs(),
-            ..*r
-        })
-        .collect();
-    vec![
-        ("framing camera", outside.rays_in_blocks(4, 4)),
-        ("inside camera", inside.rays_in_blocks(4, 4)),
-        ("one octant", octant),
-        ("scattered", loose),
-    ]
-}
 
 proptest! {
     #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]

@@ -2,10 +2,12 @@
 //! proptest, the brute-force comparison, and the data directory.
 #![allow(dead_code)]
 
-use cellbih::bih::Bih;
+use cellbih::bih::{Bih, Ray};
 #[allow(unused_imports)]
 pub use cellbih::quality::agree::{check_ray, rays_for, same_hit};
+use cellbih::render::Camera;
 use cellbih::scene::{Scene, SplitMix64, Triangle};
+use glam::DVec3;
 use glam::Vec3;
 use proptest::prelude::*;
 
@@ -122,4 +124,31 @@ pub fn check_multi_spe_runs(
         * cellbih::strategy::machinery::arena::BLOCK_NODES as u64;
     let unused: u64 = a.spe_work.iter().map(|w| w.arena_unused).sum();
     assert_eq!(slots - unused, jobs, "{what}");
+}
+
+/// The sets of rays a packet is tried on: a framing camera's rays and a
+/// camera's from inside the box, in 4 × 4 blocks (edge blocks cut, so
+/// some packets hold fewer rays); scattered rays with every direction
+/// turned into the positive octant (coherent packets whose rays start
+/// anywhere and some end early); and the scattered rays as they are
+/// (mixed signs and zero components: ray by ray).
+pub fn packet_ray_sets(scene: &Scene, seed: u64) -> Vec<(&'static str, Vec<Ray>)> {
+    let b = scene.bounds();
+    let outside = Camera::framing(&b, 10, 7);
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let inside = Camera::look(lo + (hi - lo) * 0.3, hi, DVec3::Z, 70.0, 9, 6);
+    let loose = rays_for(scene, 48, seed);
+    let octant = (loose.iter())
+        .filter(|r| (DVec3::ONE / r.dir).is_finite())
+        .map(|r| Ray {
+            dir: r.dir.abs(),
+            ..*r
+        })
+        .collect();
+    vec![
+        ("framing camera", outside.rays_in_blocks(4, 4)),
+        ("inside camera", inside.rays_in_blocks(4, 4)),
+        ("one octant", octant),
+        ("scattered", loose),
+    ]
 }
