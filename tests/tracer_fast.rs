@@ -1,6 +1,7 @@
 //! The host tracer's fast walk (`Tracer::closest_fast`: `f32` boxes of a
 //! four-wide tree, widened never to cull what the exact test keeps) and
-//! its default for sets of rays (`Tracer::hits`): every ray answers as the
+//! its default for sets of rays (`Tracer::hits`, also with packets that
+//! hand their rays over to the fast walk): every ray answers as the
 //! exact walk does, bit for bit, for every builder's tree at the numerical
 //! extremes of the property scenes — camera rays from outside and inside,
 //! rays from scattered origins, rays turned into one octant — in both
@@ -27,6 +28,9 @@ proptest! {
                 .map_err(|e| TestCaseError::fail(format!("{b}: {e}")))?;
             let tracer = Tracer::new(&r.bih, &scene);
             let portable = Tracer::new(&r.bih, &scene).portable();
+            // Packets that hand rays over to the fast walk, at one active
+            // ray and at up to all sixteen.
+            let handing = [1, 16].map(|k| Tracer::new(&r.bih, &scene).handing_over(k));
             for (set, rays) in ray_sets(&scene, seed) {
                 let mut st = RayStats::default();
                 let exact = tracer.closest_all(&rays, &mut st);
@@ -39,6 +43,12 @@ proptest! {
                     let all = t.hits(&rays);
                     for (i, (got, want)) in all.iter().zip(&exact).enumerate() {
                         prop_assert!(same(got, want), "{b}, {set}: hits() ray {i}");
+                    }
+                }
+                for (t, k) in handing.iter().zip([1, 16]) {
+                    let all = t.hits(&rays);
+                    for (i, (got, want)) in all.iter().zip(&exact).enumerate() {
+                        prop_assert!(same(got, want), "{b}, {set}: handing over at {k}: ray {i}");
                     }
                 }
             }

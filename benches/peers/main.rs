@@ -161,6 +161,8 @@ fn compare(s: &Scene, runs: usize, above: &[u32], brief: bool, embree: Option<&e
         .collect();
     let cut = Tracer::new(&trees[1], s);
     let cut = &cut;
+    let handing = [1, 4].map(|k| Tracer::new(&trees[1], s).handing_over(k));
+    let handing = &handing;
     let mut contenders: Vec<Contender> = Vec::new();
     for (cfg, bih) in settings.into_iter().zip(&trees) {
         let tracer = Tracer::new(bih, s);
@@ -184,10 +186,11 @@ fn compare(s: &Scene, runs: usize, above: &[u32], brief: bool, embree: Option<&e
     }
     // The cut-off's tree traced other ways: the exact walk (packets, else
     // single rays in f64: what counts nodes and triangles), the fast walk
-    // on every ray (no packets), and the rays sorted into coherent runs
-    // (direction octant, then the origin's Morton code; the sort timed
-    // with the tracing) before the default.
-    let ways: [(&str, Trace); 3] = [
+    // on every ray (no packets), packets that hand their last one or four
+    // active rays over to the fast walk, and the rays sorted into coherent
+    // runs (direction octant, then the origin's Morton code; the sort
+    // timed with the tracing) before the default.
+    let ways: [(&str, Trace); 5] = [
         (
             "exact walk",
             Box::new(move |set: &[Ray]| answers(cut.closest_all(set, &mut RayStats::default()))),
@@ -195,6 +198,14 @@ fn compare(s: &Scene, runs: usize, above: &[u32], brief: bool, embree: Option<&e
         (
             "fast walk, no packets",
             Box::new(move |set: &[Ray]| answers(set.iter().map(|r| cut.closest_fast(r)).collect())),
+        ),
+        (
+            "handing 1 ray over to the fast walk",
+            Box::new(move |set: &[Ray]| answers(handing[0].hits(set))),
+        ),
+        (
+            "handing up to 4 rays over to the fast walk",
+            Box::new(move |set: &[Ray]| answers(handing[1].hits(set))),
         ),
         (
             "rays sorted first",
@@ -211,7 +222,11 @@ fn compare(s: &Scene, runs: usize, above: &[u32], brief: bool, embree: Option<&e
     ];
     for (way, trace) in ways {
         contenders.push(Contender {
-            name: format!("cellbih host --empty-cut 30, {way}"),
+            // Not among `--brief`'s rows: the hand-over rows.
+            name: match way.starts_with("handing") {
+                true => format!("cellbih host, --empty-cut 30 {way}"),
+                false => format!("cellbih host --empty-cut 30, {way}"),
+            },
             build: Box::new(|| (Duration::ZERO, Duration::ZERO)),
             trace,
             bytes: 0,

@@ -22,7 +22,7 @@
 use std::mem::MaybeUninit;
 
 use super::traverse::SLACK;
-use super::{BihConfig, Hit, Ray, RayStats, Tracer};
+use super::{BihConfig, Hit, Ray, RayStats, Tracer, closer};
 use crate::aabb::Aabb;
 
 /// The most rays a host packet holds: a 4 × 4 block of pixels.
@@ -49,7 +49,7 @@ impl Tracer<'_> {
     pub fn closest_packet(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) {
         assert!(rays.len() <= N, "{} rays: a packet holds {N}", rays.len());
         assert!(hits.len() == rays.len() && stats.len() == rays.len());
-        if !self.packet(rays, hits, stats) {
+        if !self.packet(rays, hits, stats, 0) {
             for ((ray, hit), st) in rays.iter().zip(hits).zip(stats) {
                 *hit = self.closest(ray, st);
             }
@@ -57,20 +57,22 @@ impl Tracer<'_> {
     }
 
     /// `rays` traced as one packet, if they are coherent (see
-    /// `packet_body`); else `false`, and nothing written.
+    /// `packet_body`); else `false`, and nothing written. `hand_over`:
+    /// see `packet_body` (0 for exact counts).
     #[inline(always)]
     pub(super) fn packet(
         &self,
         rays: &[Ray],
         hits: &mut [Option<Hit>],
         stats: &mut [RayStats],
+        hand_over: u32,
     ) -> bool {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: the CPU has AVX2 (checked when the tracer was made).
-            return unsafe { self.packet_avx2(rays, hits, stats) };
+            return unsafe { self.packet_avx2(rays, hits, stats, hand_over) };
         }
-        self.packet_portable(rays, hits, stats)
+        self.packet_portable(rays, hits, stats, hand_over)
     }
 
     /// Every ray's closest hit, the rays taken [`PACKET_RAYS`] at a time
@@ -100,16 +102,23 @@ impl Tracer<'_> {
         rays: &[Ray],
         hits: &mut [Option<Hit>],
         stats: &mut [RayStats],
+        hand_over: u32,
     ) -> bool {
-        self.packet_body(rays, hits, stats)
+        self.packet_body(rays, hits, stats, hand_over)
     }
 
     /// The packet loop compiled for AVX2: four lanes an instruction.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline(never)]
-    fn packet_avx2(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) -> bool {
-        self.packet_body(rays, hits, stats)
+    fn packet_avx2(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        stats: &mut [RayStats],
+        hand_over: u32,
+    ) -> bool {
+        self.packet_body(rays, hits, stats, hand_over)
     }
 
     /// One packet's traversal, if its rays are coherent (else `false`,
@@ -118,8 +127,19 @@ impl Tracer<'_> {
     /// or subnormal component (every reciprocal is finite, so the
     /// branch-free slab test holds for all of them), and their origins and
     /// ends are numbers (so that no slab distance is NaN: see below).
+    ///
+    /// `hand_over` > 0: at a node where at most that many rays are
+    /// active, each of them leaves the packet and finishes alone by the
+    /// fast walk, from the root up to its best hit so far (the same hits;
+    /// the counts then mean nothing). Measured slower: docs/tradeoff.md.
     #[inline(always)]
-    fn packet_body(&self, rays: &[Ray], hits: &mut [Option<Hit>], stats: &mut [RayStats]) -> bool {
+    fn packet_body(
+        &self,
+        rays: &[Ray],
+        hits: &mut [Option<Hit>],
+        stats: &mut [RayStats],
+        hand_over: u32,
+    ) -> bool {
         if rays.is_empty() {
             return false;
         }
@@ -169,12 +189,31 @@ impl Tracer<'_> {
         let mut node = 0u32;
         // Nodes each ray visits, counted in lanes.
         let mut visits = [0u32; N];
+        // Rays handed over to the fast walk.
+        let mut gone = 0u32;
         while mask != 0 {
             for (i, v) in visits.iter_mut().enumerate() {
                 *v += mask >> i & 1;
             }
             let nd = &self.nodes[node as usize];
-            let descended = if nd.is_leaf() {
+            let descended = if mask.count_ones() <= hand_over {
+                let mut m = mask;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    let alone = Ray {
+                        tmax: best_t[i],
+                        ..rays[i]
+                    };
+                    if let Some(h) = self.closest_fast(&alone)
+                        && closer(h.t, h.prim, hits[i])
+                    {
+                        hits[i] = Some(h);
+                    }
+                }
+                gone |= mask;
+                false
+            } else if nd.is_leaf() {
                 // Each ray's test of the box of the leaf's triangles, as
                 // `Tracer::test_leaf` makes it (its slab distances are never
                 // NaN here: every reciprocal is finite), then the triangles
@@ -268,7 +307,7 @@ impl Tracer<'_> {
                     entering |= ((k.tn[i] <= bound) as u32) << i;
                     tf[i] = min(k.tf[i], bound);
                 }
-                (node, mask, tn) = (k.node, k.mask & entering, k.tn);
+                (node, mask, tn) = (k.node, k.mask & entering & !gone, k.tn);
             }
         }
         for (st, v) in stats.iter_mut().zip(visits) {

@@ -48,6 +48,9 @@ pub struct Tracer<'a> {
     /// The largest coordinate of the tree's box, in size: which rays the
     /// fast walk can take.
     pub(super) largest: f64,
+    /// [`Tracer::hits`]' packets hand a ray over to the fast walk at a node
+    /// where at most this many of their rays are active (0: never).
+    pub(super) hand_over: u32,
     /// The CPU has AVX2: traverse with the AVX2 build of the loop.
     #[cfg(target_arch = "x86_64")]
     pub(super) avx2: bool,
@@ -120,6 +123,7 @@ impl<'a> Tracer<'a> {
             bih,
             wide,
             largest: b.min.abs().max(b.max.abs()).max_element() as f64,
+            hand_over: 0,
             nodes,
             leaf_boxes,
             prims,
@@ -137,6 +141,15 @@ impl<'a> Tracer<'a> {
         {
             self.avx2 = false;
         }
+        self
+    }
+
+    /// The same tracer whose [`Tracer::hits`] hands a packet's rays over
+    /// to the fast walk, each alone, at a node where at most `lanes` of
+    /// them are active: the same hits; measured slower than keeping them
+    /// (docs/tradeoff.md), so off by default (0).
+    pub fn handing_over(mut self, lanes: u32) -> Self {
+        self.hand_over = lanes;
         self
     }
 

@@ -191,7 +191,7 @@ impl Tracer<'_> {
         let (mut chunk, mut each) = ([None; PACKET_RAYS], [RayStats::default(); PACKET_RAYS]);
         for r in rays.chunks(PACKET_RAYS) {
             let chunk = &mut chunk[..r.len()];
-            if self.packet(r, chunk, &mut each[..r.len()]) {
+            if self.packet(r, chunk, &mut each[..r.len()], self.hand_over) {
                 hits.extend_from_slice(chunk);
             } else {
                 hits.extend(r.iter().map(|ray| self.closest_fast(ray)));
