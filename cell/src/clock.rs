@@ -21,21 +21,33 @@ impl Cycles {
         self.0 as f64 / hz * 1e6
     }
 
+    /// The last cycle time can reach: a clock there has overflowed.
+    pub const END: Cycles = Cycles(u64::MAX);
+
+    /// `items` times `rate`, saturating at [`Cycles::END`].
+    pub const fn times(rate: Cycles, items: u64) -> Cycles {
+        Cycles(rate.0.saturating_mul(items))
+    }
+
     pub fn saturating_sub(self, o: Cycles) -> Cycles {
         Cycles(self.0.saturating_sub(o.0))
     }
 }
 
+/// Time never wraps: a sum past `u64::MAX` cycles (about 182 years at
+/// 3.2 GHz) stays there, and the executor ends the run with
+/// [`CellError::TimeOverflow`](super::CellError::TimeOverflow) when a
+/// clock reaches it.
 impl Add for Cycles {
     type Output = Cycles;
     fn add(self, o: Cycles) -> Cycles {
-        Cycles(self.0 + o.0)
+        Cycles(self.0.saturating_add(o.0))
     }
 }
 
 impl AddAssign for Cycles {
     fn add_assign(&mut self, o: Cycles) {
-        self.0 += o.0;
+        *self = *self + o;
     }
 }
 

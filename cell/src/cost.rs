@@ -9,32 +9,64 @@
 
 use super::clock::Cycles;
 
-/// Bandwidth as bytes per 1,000 cycles, so that all timing is integer
-/// arithmetic and the same on every host.
+/// Bandwidth as bytes per 10^12 cycles, so that all timing is integer
+/// arithmetic and the same on every host. The grid is fine enough that
+/// every bandwidth of six significant digits from [`Bandwidth::MIN_GB_PER_S`]
+/// to [`Bandwidth::MAX_GB_PER_S`] at 3.2 GHz lies on it exactly (0.001 GB/s
+/// is 312,500,000 of these units; a last digit at that scale, 3,125).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct Bandwidth {
-    pub bytes_per_kcycle: u64,
+    pub bytes_per_tcycle: u64,
 }
 
+/// Cycles in the bandwidth grid's unit (10^12).
+const TCYCLE: u128 = 1_000_000_000_000;
+
 impl Bandwidth {
+    /// The least bandwidth a rate may be set to (`--rate`), in GB/s.
+    pub const MIN_GB_PER_S: f64 = 0.001;
+    /// The greatest, in GB/s.
+    pub const MAX_GB_PER_S: f64 = 10_000.0;
+
     /// `gb_per_s` (10^9 bytes per second) at a clock of `hz`.
     pub fn from_gb_per_s(gb_per_s: f64, hz: f64) -> Self {
         Bandwidth {
-            bytes_per_kcycle: (gb_per_s * 1e9 / hz * 1000.0).round() as u64,
+            bytes_per_tcycle: (gb_per_s * 1e9 / hz * 1e12).round() as u64,
         }
     }
 
-    /// Cycles to move `bytes`, rounded up; 0 for an infinite bandwidth
-    /// (`bytes_per_kcycle == 0` means "free", the functional mode).
+    /// Whether the bandwidth is infinite (`bytes_per_tcycle == 0`, the
+    /// functional mode's "free").
+    pub fn is_free(self) -> bool {
+        self.bytes_per_tcycle == 0
+    }
+
+    /// Cycles to move `bytes`, rounded up; 0 for an infinite bandwidth.
+    /// Saturates at `u64::MAX` cycles (the machine reports that as an
+    /// overflow of simulated time).
     pub fn cycles(self, bytes: u64) -> Cycles {
-        if self.bytes_per_kcycle == 0 {
+        if self.is_free() {
             return Cycles::ZERO;
         }
-        Cycles((bytes * 1000).div_ceil(self.bytes_per_kcycle))
+        let c = (bytes as u128 * TCYCLE).div_ceil(self.bytes_per_tcycle as u128);
+        Cycles(u64::try_from(c).unwrap_or(u64::MAX))
+    }
+
+    /// Bytes a cycle.
+    pub fn bytes_per_cycle(self) -> f64 {
+        self.bytes_per_tcycle as f64 / TCYCLE as f64
     }
 
     pub fn gb_per_s(self, hz: f64) -> f64 {
-        self.bytes_per_kcycle as f64 / 1000.0 * hz / 1e9
+        self.bytes_per_cycle() * hz / 1e9
+    }
+
+    /// The bandwidth as `--rate` spells it: GB/s at `hz`, the shortest
+    /// decimal of six significant digits that gives it back.
+    pub fn text(self, hz: f64) -> String {
+        let g = self.gb_per_s(hz);
+        let six: f64 = format!("{g:.5e}").parse().expect("a number");
+        format!("{six}")
     }
 }
 
@@ -220,9 +252,12 @@ impl CostModel {
     pub fn ps3() -> Self {
         let hz = 3.2e9;
         CostModel {
-            memory_shared_bandwidth: Bandwidth::from_gb_per_s(22.83, hz),
+            // The 22.83 GB/s measured, to the byte per 1,000 cycles (the
+            // grid the model's figures were generated on).
+            memory_shared_bandwidth: Bandwidth::from_gb_per_s(22.8288, hz),
             memory_whole_lines: true,
-            eib_total_bandwidth: Some(Bandwidth::from_gb_per_s(114.73, hz)),
+            // The 114.73 GB/s measured, on the same grid.
+            eib_total_bandwidth: Some(Bandwidth::from_gb_per_s(114.7296, hz)),
             ls_port_bandwidth: Some(Bandwidth::from_gb_per_s(23.6, hz)),
             put_ack_cycles: Cycles(128),
             lock_lines: LockLines::Shared {
@@ -336,7 +371,7 @@ impl CostModel {
     /// as the host allows, and its cycle counts mean nothing.
     pub fn functional() -> Self {
         let free = Bandwidth {
-            bytes_per_kcycle: 0,
+            bytes_per_tcycle: 0,
         };
         CostModel {
             clock_hz: 3.2e9,
@@ -363,6 +398,44 @@ impl CostModel {
             // The legacy rules: nothing to charge.
             ..CostModel::ps3_legacy()
         }
+    }
+}
+
+/// The most cycles any rate may be set to (`--rate`): 2^40, about 344 s
+/// at 3.2 GHz for one operation or one item.
+pub const MAX_RATE_CYCLES: u64 = 1 << 40;
+
+/// A rate in cycles as `--rate` spells it: a whole number from 0 to
+/// [`MAX_RATE_CYCLES`]; the error says what a value must be.
+pub fn parse_cycles(value: &str) -> Result<Cycles, String> {
+    match value.trim().parse::<u64>() {
+        Ok(c) if c <= MAX_RATE_CYCLES => Ok(Cycles(c)),
+        _ => Err(format!(
+            "a whole number of cycles from 0 to {MAX_RATE_CYCLES} (2^40)"
+        )),
+    }
+}
+
+/// A bandwidth as `--rate` spells it, in GB/s: from
+/// [`Bandwidth::MIN_GB_PER_S`] to [`Bandwidth::MAX_GB_PER_S`], with at most
+/// six significant digits (what the model keeps exactly); at a clock of
+/// `hz`. The error says what a value must be.
+pub fn parse_gb_per_s(value: &str, hz: f64) -> Result<Bandwidth, String> {
+    let why = || {
+        format!(
+            "a bandwidth in GB/s from {} to {}, to six significant digits",
+            Bandwidth::MIN_GB_PER_S,
+            Bandwidth::MAX_GB_PER_S
+        )
+    };
+    let g: f64 = value.trim().parse().map_err(|_| why())?;
+    if !(Bandwidth::MIN_GB_PER_S..=Bandwidth::MAX_GB_PER_S).contains(&g) {
+        return Err(why());
+    }
+    let b = Bandwidth::from_gb_per_s(g, hz);
+    match b.text(hz).parse::<f64>() == Ok(g) {
+        true => Ok(b),
+        false => Err(why()),
     }
 }
 
@@ -429,24 +502,19 @@ impl CostModel {
     pub fn set_rate(&mut self, name: &str, value: &str) -> Option<Result<(), String>> {
         let rate = Self::RATES.iter().find(|r| r.name == name)?;
         let hz = self.clock_hz;
-        let gb = |v: &str| match v.trim().parse::<f64>() {
-            Ok(g) if g.is_finite() && g > 0.0 && g <= 10_000.0 => {
-                Ok(Bandwidth::from_gb_per_s(g, hz))
-            }
-            _ => Err(format!(
-                "{name}={v}: a bandwidth in GB/s, more than 0 and at most 10000"
-            )),
-        };
+        let gb = |v: &str| parse_gb_per_s(v, hz).map_err(|why| format!("{name}={v}: {why}"));
         Some(match rate.slot {
-            Slot::Cycles(at) => match value.trim().parse::<u64>() {
-                Ok(c) if c <= 1 << 40 => {
-                    *at(self) = Cycles(c);
+            Slot::Cycles(at) => parse_cycles(value)
+                .map(|c| *at(self) = c)
+                .map_err(|why| format!("{name}={value}: {why}")),
+            Slot::Bandwidth(at) => gb(value).map(|b| *at(self) = b),
+            Slot::Ceiling(at) => match value.trim() {
+                "unlimited" => {
+                    *at(self) = None;
                     Ok(())
                 }
-                _ => Err(format!("{name}={value}: a whole number of cycles")),
+                v => gb(v).map(|b| *at(self) = Some(b)),
             },
-            Slot::Bandwidth(at) => gb(value).map(|b| *at(self) = b),
-            Slot::Ceiling(at) => gb(value).map(|b| *at(self) = Some(b)),
         })
     }
 
@@ -455,7 +523,7 @@ impl CostModel {
     pub fn rate_text(&self, name: &str) -> Option<String> {
         let rate = Self::RATES.iter().find(|r| r.name == name)?;
         let mut c = self.clone();
-        let gb = |b: Bandwidth| format!("{}", (b.gb_per_s(c.clock_hz) * 1e4).round() / 1e4);
+        let gb = |b: Bandwidth| b.text(c.clock_hz);
         Some(match rate.slot {
             Slot::Cycles(at) => at(&mut c).0.to_string(),
             Slot::Bandwidth(at) => gb(*at(&mut c.clone())),

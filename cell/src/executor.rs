@@ -112,7 +112,13 @@ pub(crate) fn execute(
         };
         m.borrow_mut().resumes += 1;
         let task = slots[core].as_mut().expect("a ready core has a program");
-        match task.as_mut().poll(&mut cx) {
+        let poll = task.as_mut().poll(&mut cx);
+        if m.borrow().cores[core].clock == Cycles::END {
+            return Err(CellError::TimeOverflow {
+                core: super::machine::core_name(core),
+            });
+        }
+        match poll {
             Poll::Pending => {}
             Poll::Ready(result) => {
                 slots[core] = None;
@@ -131,6 +137,11 @@ pub(crate) fn execute(
                 result?;
             }
         }
+    }
+    if end == Cycles::END {
+        return Err(CellError::TimeOverflow {
+            core: "the memory interface".into(),
+        });
     }
     Ok(end)
 }

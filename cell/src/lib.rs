@@ -74,7 +74,7 @@ use std::rc::Rc;
 use thiserror::Error;
 
 pub use clock::Cycles;
-pub use cost::{Bandwidth, CostModel, LockLines};
+pub use cost::{Bandwidth, CostModel, LockLines, MAX_RATE_CYCLES, parse_cycles, parse_gb_per_s};
 pub use local_store::LsAddr;
 pub use memory::{Allocation, Ea, Label, MainMemory};
 pub use mfc::{ListElement, MAX_LIST_ELEMENTS, MAX_TRANSFER, Order, Segment, WaitMode};
@@ -198,8 +198,13 @@ pub enum CellError {
     Deadlock { at: Cycles, waits: Vec<String> },
     #[error("{core}: {msg}")]
     Program { core: String, msg: String },
-    #[error("configuration: {0}")]
+    #[error("{0}")]
     Config(String),
+    #[error(
+        "simulated time passed 2^64 cycles (about 182 years at 3.2 GHz) on {core}: \
+         a rate is too large for this run"
+    )]
+    TimeOverflow { core: String },
 }
 
 /// Where one run's time went.

@@ -13,7 +13,7 @@
 //! (16 cycles) per transfer.
 //!
 //! Arithmetic is integer, so time is the same on every host: a flow's
-//! remaining data is kept in units of 1/(1000 · [`SHARE_SCALE`]) byte and
+//! remaining data is kept in units of 1/(10^12 · [`SHARE_SCALE`]) byte and
 //! rates in those units per cycle; `SHARE_SCALE` = lcm(1..=17), so an equal
 //! share among up to 17 requesters (16 SPEs and the PPE) is exact. A lone
 //! flow takes exactly `Bandwidth::cycles(bytes)` of its own link or of the
@@ -24,6 +24,10 @@ use super::cost::Bandwidth;
 
 /// lcm(1, 2, …, 17).
 pub(crate) const SHARE_SCALE: u128 = 12_252_240;
+
+/// A byte in the units flows are kept in: a bandwidth's grid (bytes per
+/// 10^12 cycles) times [`SHARE_SCALE`].
+const UNITS_A_BYTE: u128 = 1_000_000_000_000 * SHARE_SCALE;
 
 /// What a flow moves through: the memory interface, the EIB, and each
 /// SPE's local-store port (one direction each).
@@ -46,7 +50,7 @@ pub(crate) struct Flow {
     core: usize,
     /// What it moves through.
     uses: Vec<Resource>,
-    /// Data still to move, in 1/(1000 · SHARE_SCALE) byte.
+    /// Data still to move, in 1/[`UNITS_A_BYTE`] byte.
     rem: u128,
     /// The flow's own link limit per cycle, same units (`u128::MAX`: none).
     link: u128,
@@ -75,10 +79,10 @@ pub(crate) struct MemoryInterface {
 }
 
 fn per_cycle(b: Bandwidth) -> u128 {
-    if b.bytes_per_kcycle == 0 {
+    if b.is_free() {
         u128::MAX
     } else {
-        b.bytes_per_kcycle as u128 * SHARE_SCALE
+        b.bytes_per_tcycle as u128 * SHARE_SCALE
     }
 }
 
@@ -92,7 +96,7 @@ impl MemoryInterface {
         eib: Option<Bandwidth>,
         ls_port: Option<Bandwidth>,
     ) -> Self {
-        let free = bandwidth.bytes_per_kcycle == 0;
+        let free = bandwidth.is_free();
         MemoryInterface {
             capacity: if free { 0 } else { per_cycle(bandwidth) },
             shared_capacity: if free { 0 } else { per_cycle(shared) },
@@ -132,7 +136,7 @@ impl MemoryInterface {
         let link = per_cycle(link);
         let alone_rate = (uses.iter()).fold(link, |r, &u| r.min(self.lone_capacity(u)));
         let alone = Cycles(
-            (bytes as u128 * 1000 * SHARE_SCALE)
+            (bytes as u128 * UNITS_A_BYTE)
                 .div_ceil(alone_rate)
                 .try_into()
                 .expect("a transfer's time fits in 64 bits"),
@@ -141,7 +145,7 @@ impl MemoryInterface {
             id: self.next_id,
             core,
             uses,
-            rem: bytes as u128 * 1000 * SHARE_SCALE,
+            rem: bytes as u128 * UNITS_A_BYTE,
             link,
             rate: 0,
             started: at,
@@ -164,7 +168,7 @@ impl MemoryInterface {
     pub fn next_end(&self) -> Option<Cycles> {
         self.flows
             .iter()
-            .map(|f| self.now + Cycles(f.rem.div_ceil(f.rate) as u64))
+            .map(|f| self.now + Cycles(u64::try_from(f.rem.div_ceil(f.rate)).unwrap_or(u64::MAX)))
             .min()
     }
 

@@ -30,7 +30,7 @@ impl Ppe {
 
     /// Charges `items` items of a kernel at `rate` cycles each.
     pub fn compute_items(&self, rate: Cycles, items: u64) {
-        self.compute(Cycles(rate.0 * items));
+        self.compute(Cycles::times(rate, items));
     }
 
     /// Number of SPEs of the machine.

@@ -60,7 +60,7 @@ impl Spe {
     /// Charges `items` items of a kernel at `rate` cycles each (the
     /// program's named rate).
     pub fn compute_items(&self, rate: Cycles, items: u64) {
-        self.compute(Cycles(rate.0 * items));
+        self.compute(Cycles::times(rate, items));
     }
 
     /// `count` consecutive tag groups for the buffers called `name`,

@@ -130,6 +130,31 @@ fn a_full_local_store_says_what_is_in_use() {
     );
 }
 
+/// Simulated time never wraps: a charge that would carry a clock past
+/// 2^64 cycles ends the run with an error naming the core, and the
+/// largest sum below it is kept exactly.
+#[test]
+fn time_past_2_64_cycles_is_an_error_not_a_wrapped_clock() {
+    let mut c = cell(1);
+    c.spawn_spe(0, |spe| async move {
+        spe.compute_items(Cycles(1 << 40), 1 << 23);
+        spe.compute_items(Cycles(1 << 40), 1 << 23);
+        spe.compute(Cycles(1));
+        Ok(())
+    });
+    let e = c.run().unwrap_err();
+    assert!(matches!(e, CellError::TimeOverflow { .. }), "{e}");
+    assert!(e.to_string().contains("on SPE 0"), "{e}");
+    let mut c = cell(1);
+    c.spawn_spe(0, |spe| async move {
+        spe.compute_items(Cycles(1 << 40), 1 << 23);
+        spe.compute_items(Cycles(1 << 40), (1 << 23) - 1);
+        Ok(())
+    });
+    let r = c.run().unwrap();
+    assert_eq!(r.cycles, Cycles((1u64 << 63) + ((1 << 63) - (1 << 40))));
+}
+
 #[test]
 fn main_memory_runs_out_like_a_ps3() {
     let c = cell(1);

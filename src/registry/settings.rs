@@ -209,7 +209,7 @@ impl<'a> Settings<'a> {
                 "model": c.model, "mailboxes": c.mailboxes,
                 "code": self.build.rates.code().name(),
                 "machine_rates": (!c.moved.is_empty()).then(|| {
-                    c.moved.iter().map(|(n, v)| (n.to_string(), json!(v)))
+                    c.moved.iter().map(|(n, v)| (n.to_string(), rate_json(v)))
                         .collect::<serde_json::Map<String, Value>>()
                 }),
             })),
@@ -311,5 +311,16 @@ impl<'a> Settings<'a> {
         // from commit to commit (the JSON's `version` names the commit).
         parts.push(format!("cellbih {}", env!("CARGO_PKG_VERSION")));
         parts.join("; ")
+    }
+}
+
+/// A machine rate as `--rate` spells it, as JSON: a number (cycles or
+/// GB/s), as the kernel rates are; `null` for an absent ceiling
+/// (`unlimited`).
+fn rate_json(text: &str) -> Value {
+    match (text.parse::<u64>(), text.parse::<f64>()) {
+        (Ok(c), _) => json!(c),
+        (_, Ok(g)) => json!(g),
+        _ => Value::Null,
     }
 }

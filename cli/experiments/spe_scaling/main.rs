@@ -138,7 +138,7 @@ fn row(
         .iter()
         .map(|(_, c)| c.bytes_get + c.bytes_put)
         .sum();
-    let peak = cell.cost.memory_bandwidth.bytes_per_kcycle as f64 / 1000.0;
+    let peak = cell.cost.memory_bandwidth.bytes_per_cycle();
     let arena_slots: u64 = sim.spe_work.iter().map(|w| w.arena_blocks).sum::<u64>()
         * cellbih::strategy::machinery::arena::BLOCK_NODES as u64;
     let arena_unused: u64 = sim.spe_work.iter().map(|w| w.arena_unused).sum();

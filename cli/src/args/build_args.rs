@@ -94,8 +94,9 @@ pub struct RateSetArgs {
     /// (repeatable; `cellbih rates` lists every name, value and band)
     #[arg(long = "rate", value_name = "NAME=VALUE")]
     pub rate: Vec<String>,
-    /// Rates from a file: one `NAME = VALUE` a line, `#` starts a comment;
-    /// a --rate given beside it wins
+    /// Rates from a file (`-`: the standard input): one `NAME = VALUE` a
+    /// line, `#` starts a comment, each name once; a --rate given beside
+    /// it wins
     #[arg(long = "rates", value_name = "FILE")]
     pub rates_file: Option<std::path::PathBuf>,
 }
@@ -165,31 +166,39 @@ impl RateSetArgs {
         .collect()
     }
 
-    /// Every NAME=VALUE given, the file's first, in order.
-    fn entries(&self) -> Res<Vec<(String, String)>> {
-        let mut out = Vec::new();
+    /// Every NAME=VALUE given, the file's first, in order, each with where
+    /// it was given (`FILE:LINE` or `--rate`). A name set twice in the
+    /// file, or twice by `--rate`, is an error naming both places; a
+    /// `--rate` beside the file wins over its line.
+    fn entries(&self) -> Res<Vec<RateEntry>> {
+        let mut out: Vec<RateEntry> = Vec::new();
         if let Some(path) = &self.rates_file {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| format!("--rates {}: {e}", path.display()))?;
-            for (i, line) in text.lines().enumerate() {
-                let line = line.split('#').next().unwrap_or("").trim();
-                if line.is_empty() {
-                    continue;
-                }
-                let (n, v) = line.split_once('=').ok_or_else(|| {
-                    format!(
-                        "{}:{}: '{line}': a line is NAME = VALUE",
-                        path.display(),
-                        i + 1
+            for (line, name, value) in read_rates_file(path)? {
+                let at = format!("{}:{line}", shown(path));
+                if let Some(first) = out.iter().find(|e| e.name == name) {
+                    return Err(format!(
+                        "{at}: {name} is set again (first at {}); set each rate once",
+                        first.at
                     )
-                })?;
-                out.push((n.trim().to_string(), v.trim().to_string()));
+                    .into());
+                }
+                out.push(RateEntry { at, name, value });
             }
         }
+        let from_file = out.len();
         for r in &self.rate {
             let (n, v) = (r.split_once('='))
                 .ok_or_else(|| format!("--rate {r}: NAME=VALUE (cycles, or GB/s)"))?;
-            out.push((n.trim().to_string(), v.trim().to_string()));
+            let (name, value) = (n.trim().to_string(), v.trim().to_string());
+            if name.is_empty() {
+                return Err(format!("--rate {r}: the rate's name is missing before '='").into());
+            }
+            if out[from_file..].iter().any(|e| e.name == name) {
+                return Err(format!("--rate {name} is given twice; give each rate once").into());
+            }
+            out.retain(|e| e.name != name);
+            let at = "--rate".to_string();
+            out.push(RateEntry { at, name, value });
         }
         Ok(out)
     }
@@ -217,20 +226,93 @@ impl RateSetArgs {
     /// name.
     pub fn apply(&self, cost: &mut cellbih::cell::CostModel, code: Code) -> Res<RateOverrides> {
         let mut rates = RateOverrides::default().with_code(code);
-        for (name, value) in self.entries()? {
+        for RateEntry { at, name, value } in self.entries()? {
+            let with_place = |e: String| match at.as_str() {
+                "--rate" => format!("--rate {e}"),
+                _ => format!("{at}: {e}"),
+            };
             match cost.set_rate(&name, &value) {
-                Some(done) => done?,
+                Some(done) => done.map_err(with_place)?,
                 None => {
-                    let name = BuilderKind::rate_named(&name, code)?;
-                    let cycles: u64 = value
-                        .parse()
-                        .map_err(|_| format!("--rate {name}={value}: a whole number of cycles"))?;
-                    rates = rates.with(name, cellbih::cell::Cycles(cycles));
+                    let name = BuilderKind::rate_named(&name, code)
+                        .map_err(|e| with_place(e.to_string()))?;
+                    let cycles = cellbih::cell::parse_cycles(&value)
+                        .map_err(|why| with_place(format!("{name}={value}: {why}")))?;
+                    rates = rates.with(name, cycles);
                 }
             }
         }
         Ok(rates)
     }
+}
+
+/// One rate given: where (`FILE:LINE` or `--rate`), its name and value.
+struct RateEntry {
+    at: String,
+    name: String,
+    value: String,
+}
+
+/// The most bytes a rates file may hold: every rate with a comment is a
+/// few kilobytes.
+const MAX_RATES_FILE_BYTES: u64 = 1 << 20;
+
+/// A path as messages show it (`-`: the standard input).
+fn shown(path: &std::path::Path) -> String {
+    match path.as_os_str() == "-" {
+        true => "- (the standard input)".into(),
+        false => path.display().to_string(),
+    }
+}
+
+/// The `NAME = VALUE` lines of a rates file (`-`: the standard input),
+/// each with its line number: at most [`MAX_RATES_FILE_BYTES`], text
+/// (a UTF-8 byte-order mark skipped), `#` starting a comment.
+fn read_rates_file(path: &std::path::Path) -> Res<Vec<(usize, String, String)>> {
+    use std::io::Read;
+    let err = |why: String| format!("--rates {}: {why}", shown(path));
+    let input: Box<dyn Read> = match path.as_os_str() == "-" {
+        true => Box::new(std::io::stdin()),
+        false => Box::new(std::fs::File::open(path).map_err(|e| err(e.to_string()))?),
+    };
+    let mut bytes = Vec::new();
+    (input.take(MAX_RATES_FILE_BYTES + 1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| err(e.to_string()))?;
+    if bytes.len() as u64 > MAX_RATES_FILE_BYTES {
+        return Err(err(format!(
+            "more than {} MiB: not a rates file",
+            MAX_RATES_FILE_BYTES >> 20
+        ))
+        .into());
+    }
+    let text = cellbih::text_input::read_text(&bytes[..]).map_err(|e| err(e.to_string()))?;
+    let text = String::from_utf8(text).map_err(|_| err("it is not UTF-8 text".into()))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let (n, v) = line.split_once('=').ok_or_else(|| {
+            format!(
+                "{}:{}: '{line}': a line is NAME = VALUE",
+                shown(path),
+                i + 1
+            )
+        })?;
+        if n.trim().is_empty() {
+            return Err(format!(
+                "{}:{}: '{line}': the rate's name is missing",
+                shown(path),
+                i + 1
+            )
+            .into());
+        }
+        out.push((i + 1, n.trim().to_string(), v.trim().to_string()));
+    }
+    Ok(out)
 }
 
 impl CellArgs {
@@ -277,8 +359,12 @@ impl CellArgs {
             timing.extend(self.mailboxes.map(|_| "--mailboxes"));
             timing.extend(self.rates.given());
             if !timing.is_empty() {
+                let verb = match timing.len() {
+                    1 => "does",
+                    _ => "do",
+                };
                 return Err(format!(
-                    "--mode functional has no timing: {} do not apply",
+                    "--mode functional has no timing: {} {verb} not apply",
                     timing.join(", ")
                 )
                 .into());

@@ -18,5 +18,6 @@ mod job_stacks;
 mod meshes;
 mod model_checks;
 mod quiet;
+mod rates;
 mod refusals;
 mod settings;

@@ -190,7 +190,10 @@ fn timing_models_are_refused_in_the_functional_mode() {
         let out = cellbih(&args);
         assert_fails_with(
             &out,
-            &format!("--mode functional has no timing: {} do not apply", extra[0]),
+            &format!(
+                "--mode functional has no timing: {} does not apply",
+                extra[0]
+            ),
         );
     }
 }
