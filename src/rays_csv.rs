@@ -7,8 +7,10 @@
 //! (not subnormal) component: a direction such as `(0, 0, -1e-320)` would
 //! put every hit at a `t` beyond `f64`, and is an error naming its line;
 //! so is a component beyond ±1e200 ([`MAX_COMPONENT`]), whose products with
-//! the scene's coordinates would overflow `f64`. A UTF-8 byte-order mark
-//! before the header is skipped.
+//! the scene's coordinates would overflow `f64`. `raycast` traces each ray
+//! at unit scale ([`Ray::at_unit_scale`]), so that origin and direction
+//! may both be that large. A UTF-8 byte-order mark before the header is
+//! skipped.
 //!
 //! Hits: header `ray,prim,t`, one line per ray in input order; `prim` is the
 //! 0-based triangle id, a miss is `-1` with an empty `t`. `t` is written

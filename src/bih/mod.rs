@@ -15,7 +15,7 @@ mod wide;
 pub use node::{BihNode, MAX_INDEX};
 pub use packet::PACKET_RAYS;
 pub use tracer::Tracer;
-pub use traverse::{Hit, Ray, RayStats, brute_force_closest, intersect_triangle};
+pub use traverse::{Hit, Ray, RayStats, brute_force_closest, intersect_triangle, times_pow2};
 pub(crate) use traverse::{closer, descend, pop_bound, root_interval};
 pub use validate::Violation;
 

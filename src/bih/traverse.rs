@@ -51,6 +51,43 @@ impl Ray {
             tmax: f64::INFINITY,
         }
     }
+
+    /// The same ray with its direction scaled by a power of two so that
+    /// its largest component lies in [1, 2) (the direction times `2^-k`),
+    /// and `k`: a hit at `t'` on it is at `t' · 2^-k` on this ray (`tmin`
+    /// and `tmax` are scaled by `2^k`). Every path's triangle test multiplies origin offsets
+    /// by the direction; a direction near 1 keeps those products inside
+    /// `f64` for every origin up to ±1e200 (`rays_csv::MAX_COMPONENT`),
+    /// where a direction of 1e155 beside an origin of 1e154 would
+    /// overflow them and miss. Exact: scaling by a power of two changes
+    /// no bit of a normal product, so a ray already at this scale (`k`
+    /// = 0) and the hits of every other one are what they were.
+    pub fn at_unit_scale(&self) -> (Ray, i32) {
+        let largest = self.dir.abs().max_element();
+        if !largest.is_normal() {
+            return (*self, 0);
+        }
+        let k = ((largest.to_bits() >> 52) & 0x7ff) as i32 - 1023;
+        let ray = Ray {
+            origin: self.origin,
+            dir: self.dir.map(|c| times_pow2(c, -k)),
+            tmin: times_pow2(self.tmin, k),
+            tmax: times_pow2(self.tmax, k),
+        };
+        (ray, k)
+    }
+}
+
+/// 2^k for k in -1022..=1023.
+fn pow2(k: i32) -> f64 {
+    f64::from_bits(((k + 1023) as u64) << 52)
+}
+
+/// `x · 2^k` for |k| ≤ 2044, in two steps (each factor a normal `f64`):
+/// exact but where the result leaves the normal range.
+pub fn times_pow2(x: f64, k: i32) -> f64 {
+    let half = k / 2;
+    x * pow2(half) * pow2(k - half)
 }
 
 /// The closest (or any) hit: triangle id, distance and barycentrics.

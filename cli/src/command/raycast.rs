@@ -38,6 +38,9 @@ pub fn run(args: RaycastCommand) -> Res<()> {
         let file = File::open(&rays).map_err(|e| format!("{path}: cannot open: {e}"))?;
         rays_csv::read_rays(&path, BufReader::new(file))?
     };
+    // Every path traces each ray at unit scale (its hits are the same);
+    // a hit's t is then given back in the ray's own units.
+    let (rays, scales): (Vec<_>, Vec<_>) = rays.iter().map(|r| r.at_unit_scale()).unzip();
     let cast_rays = on_cell.is_some().then_some(rays.len());
     scene.check_fits(&c, cast_rays)?;
     let s = scene.load()?;
@@ -68,6 +71,13 @@ pub fn run(args: RaycastCommand) -> Res<()> {
             (hits, None)
         }
     };
+    let hits: Vec<_> = (hits.into_iter().zip(scales))
+        .map(|(h, k)| {
+            let t = h.map(|h| cellbih::bih::times_pow2(h.t, -k));
+            h.zip(t.filter(|t| t.is_finite()))
+                .map(|(h, t)| cellbih::bih::Hit { t, ..h })
+        })
+        .collect();
     write_file(&out, |w| rays_csv::write_hits(w, &hits))?;
     let n_hit = hits.iter().flatten().count();
     let said = format!(

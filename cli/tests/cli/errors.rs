@@ -242,6 +242,44 @@ fn degenerate_updates_give_sensible_answers() {
     assert!(!text.contains("inf"), "{text}");
 }
 
+/// Origin and direction up to the ±1e200 the ray file takes, both large at
+/// once (their products pass f64::MAX from about 1e154): every path —
+/// the host's (packets, fast walk, exact walk), the SPEs' packets and
+/// single rays in either precision — hits at t = 1, the same bits.
+#[test]
+fn large_origins_and_directions_hit_on_every_path() {
+    let scene = text_file("sweep.obj", "v 0 0 0\nv -1 1 0\nv 1 1 0\nf 1 2 3\n");
+    let mut rays = String::from("ox,oy,oz,dx,dy,dz,tmin,tmax\n");
+    for m in (0..=200).step_by(5) {
+        // o + d = (0, 0.5, 0), inside the triangle; o - v0 = o exactly.
+        rays += &format!("1e{},0.5,1e{m},-1e{},0,-1e{m},0,inf\n", m - 1, m - 1);
+    }
+    let rays = text_file("sweep.rays.csv", &rays);
+    let mut answers = Vec::new();
+    for extra in [
+        &[][..],
+        &["--on-cell"][..],
+        &["--on-cell", "--packet", "1x1", "--precision", "double"][..],
+    ] {
+        let out_path = tmp(&format!("sweep{}.hits.csv", answers.len()));
+        let o = out_path.to_str().unwrap();
+        let args = [
+            &["raycast", "--scene", &scene, "--rays", &rays, "--out", o][..],
+            extra,
+        ];
+        assert_ok(&cellbih(&args.concat()));
+        let hits = std::fs::read_to_string(&out_path).unwrap();
+        for line in hits.lines().skip(1) {
+            let f: Vec<&str> = line.split(',').collect();
+            assert_eq!(f[1], "0", "{extra:?} missed: {line}");
+            let t: f64 = f[2].parse().unwrap();
+            assert!((t - 1.0).abs() < 1e-15, "{extra:?}: {line}");
+        }
+        answers.push(hits);
+    }
+    assert!(answers.iter().all(|a| *a == answers[0]), "{answers:?}");
+}
+
 #[test]
 fn rays_at_the_edges_of_f64() {
     let out_path = tmp("edge.hits.csv");
