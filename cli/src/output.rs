@@ -63,8 +63,8 @@ fn target(path: &Path) -> Result<Target, OutputError> {
         Ok(m) if !m.is_file() => return Ok(Target::Direct),
         _ => {}
     }
-    // A link to a regular file is replaced at its target, keeping the link.
-    let file = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    // A link is replaced at its target (there yet or not), keeping the link.
+    let file = resolved(path);
     if file.file_name().is_none() {
         return Err(err("not a file name".into()));
     }
@@ -278,6 +278,30 @@ enum Identity {
     Unknown(PathBuf),
 }
 
+/// Where `path` leads: its links followed (a link to a file not yet there
+/// included, relative targets read from the link's directory, at most 40
+/// links deep as the kernel allows), its directory's links resolved.
+pub fn resolved(path: &Path) -> PathBuf {
+    let mut p = path.to_path_buf();
+    for _ in 0..40 {
+        match std::fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => match std::fs::read_link(&p) {
+                Ok(to) => p = p.parent().map_or(to.clone(), |d| d.join(&to)),
+                Err(_) => break,
+            },
+            _ => break,
+        }
+    }
+    let dir = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    match (std::fs::canonicalize(&dir), p.file_name()) {
+        (Ok(d), Some(name)) => d.join(name),
+        _ => p,
+    }
+}
+
 fn identity(path: &Path) -> Identity {
     use std::os::unix::fs::MetadataExt;
     let of = |m: std::fs::Metadata| Identity::Inode(m.dev(), m.ino());
@@ -289,7 +313,8 @@ fn identity(path: &Path) -> Identity {
             Err(_) => Identity::Unknown(path.to_path_buf()),
         };
     }
-    if let Ok(m) = std::fs::metadata(path) {
+    let path = resolved(path);
+    if let Ok(m) = std::fs::metadata(&path) {
         return of(m);
     }
     let dir = match path.parent() {
@@ -302,20 +327,33 @@ fn identity(path: &Path) -> Identity {
     }
 }
 
+/// A path as the checks below name it.
+fn shown(p: &Path) -> String {
+    match p.as_os_str() == "-" {
+        true => "- (the standard output)".to_string(),
+        false => p.display().to_string(),
+    }
+}
+
 /// Refuses, before any work, two outputs of one run that would write one
-/// file: the same name, a link to it, `/dev/stdout` beside `-`, … Each
-/// output is `(option, path)`; the error names both options and paths.
+/// file: the same name, a link to it (or to where it would be),
+/// `/dev/stdout` beside `-`, … Each output is `(option, path)`; the error
+/// names both options and paths.
 pub fn check_distinct(outputs: &[(&str, &Path)]) -> Result<(), String> {
+    check_files(outputs, &[])
+}
+
+/// [`check_distinct`] of `outputs`, and each output against each of the
+/// run's `inputs` (`(option, path)`; `-`, the standard input, is no file
+/// an output could replace): an output that would replace an input is
+/// refused, naming both.
+pub fn check_files(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), String> {
     let ids: Vec<Identity> = outputs.iter().map(|(_, p)| identity(p)).collect();
     // Anything may go to /dev/null together.
     let null = identity(Path::new("/dev/null"));
     for i in 0..outputs.len() {
         for j in i + 1..outputs.len() {
             if ids[i] == ids[j] && ids[i] != null {
-                let shown = |p: &Path| match p.as_os_str() == "-" {
-                    true => "- (the standard output)".to_string(),
-                    false => p.display().to_string(),
-                };
                 return Err(format!(
                     "{} {} and {} {} name the same file: one would overwrite the other; \
                      give them different files",
@@ -325,6 +363,17 @@ pub fn check_distinct(outputs: &[(&str, &Path)]) -> Result<(), String> {
                     shown(outputs[j].1),
                 ));
             }
+        }
+    }
+    for (option, path) in inputs.iter().filter(|(_, p)| p.as_os_str() != "-") {
+        let id = identity(path);
+        if let Some(k) = ids.iter().position(|o| *o == id && id != null) {
+            return Err(format!(
+                "{} {} would replace the input {option} {}: give the output another file",
+                outputs[k].0,
+                shown(outputs[k].1),
+                path.display()
+            ));
         }
     }
     Ok(())
@@ -486,6 +535,15 @@ mod tests {
             "{e}"
         );
         assert!(check_distinct(&[("--out", &a), ("--trace", &other)]).is_ok());
+        // A link to a file not yet there names that file.
+        let dangling = dir.path().join("dangling.json");
+        std::os::unix::fs::symlink("later.csv", &dangling).unwrap();
+        let later = dir.path().join("later.csv");
+        assert!(check_distinct(&[("--out", &later), ("--trace", &dangling)]).is_err());
+        // An output that would replace an input.
+        let e = check_files(&[("--out", &a)], &[("--rays", &link)]).unwrap_err();
+        assert!(e.contains("would replace the input --rays"), "{e}");
+        assert!(check_files(&[("--out", &other)], &[("--rays", &a)]).is_ok());
         assert!(
             check_distinct(&[
                 ("--out", Path::new("-")),

@@ -154,6 +154,15 @@ impl RateArgs {
     }
 }
 
+impl BuildArgs {
+    /// The files the build reads besides its scene (`--rates`), by option:
+    /// no output may replace one.
+    pub fn inputs(&self) -> Vec<(&'static str, &std::path::Path)> {
+        let file = self.request.cell.rates.set.rates_file.as_deref();
+        file.map(|p| ("--rates", p)).into_iter().collect()
+    }
+}
+
 impl RateSetArgs {
     /// The options given, by name.
     pub fn given(&self) -> Vec<&'static str> {

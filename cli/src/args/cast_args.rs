@@ -76,14 +76,24 @@ impl CastArgs {
     /// that names it, and so is a trace of an untimed cast (`timed`:
     /// whether the Cell's mode keeps time), one that cannot be written, or
     /// one sent to the standard output where `out` (the hits or the image)
-    /// already goes.
-    pub fn config(&self, timed: bool, out: &std::path::Path) -> Res<Option<CastConfig>> {
+    /// already goes; and an output that would replace one of `inputs`.
+    pub fn config(
+        &self,
+        timed: bool,
+        out: &std::path::Path,
+        inputs: &[(&str, &std::path::Path)],
+    ) -> Res<Option<CastConfig>> {
+        let trace = self.trace.as_deref().filter(|_| self.on_cell);
+        let outputs: Vec<(&str, &std::path::Path)> = [("--out", out)]
+            .into_iter()
+            .chain(trace.map(|t| ("--trace", t)))
+            .collect();
+        crate::output::check_files(&outputs, inputs)?;
         if self.on_cell {
             if let Some(path) = &self.trace {
                 if !timed {
                     return Err("--trace: --mode functional keeps no timeline".into());
                 }
-                crate::output::check_distinct(&[("--out", out), ("--trace", path)])?;
                 crate::output::check_writable(path)?;
             }
             return Ok(Some(self.cache.config()?));

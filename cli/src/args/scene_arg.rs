@@ -24,6 +24,13 @@ pub struct SceneArg {
 }
 
 impl SceneArg {
+    /// The scene's file, by option, where `--scene` names one here: no
+    /// output may replace it.
+    pub fn input(&self) -> Option<(&'static str, &Path)> {
+        let path = Path::new(&self.scene);
+        path.is_file().then_some(("--scene", path))
+    }
+
     /// Before any work: an `rtperf:N` scene that does not fit in the
     /// emulated Cell's main memory — its triangle records (48 bytes each,
     /// every emulated build uploads them) or, with `cast_rays`, what the

@@ -27,7 +27,9 @@ pub fn run(args: BuildCommand) -> Res<()> {
             )
             .into());
         }
-        crate::output::check_distinct(&[("the report", Path::new("-")), ("--trace", path)])?;
+        let inputs: Vec<_> = scene.input().into_iter().chain(build.inputs()).collect();
+        let outputs = [("the report", Path::new("-")), ("--trace", path.as_path())];
+        crate::output::check_files(&outputs, &inputs)?;
         if matches!(build.request.cell.mode, Some(crate::args::Mode::Functional)) {
             return Err("--trace: --mode functional has no timing, so no timeline; use --mode timed or checked".into());
         }

@@ -27,7 +27,11 @@ pub fn run(args: RaycastCommand) -> Res<()> {
         cast,
     } = args;
     let c = parse_build(&build, cast.on_cell)?;
-    let on_cell = cast.config(c.cell.cost.charge_compute, &out)?;
+    let inputs: Vec<_> = (scene.input().into_iter())
+        .chain(build.inputs())
+        .chain([("--rays", rays.as_path())])
+        .collect();
+    let on_cell = cast.config(c.cell.cost.charge_compute, &out, &inputs)?;
     check_writable(&out)?;
     let rays_path = rays.display().to_string();
     // `-`: the rays come on the standard input.

@@ -24,7 +24,8 @@ pub fn run(args: RenderCommand) -> Res<()> {
         cast,
     } = args;
     let c = parse_build(&build, cast.on_cell)?;
-    let on_cell = cast.config(c.cell.cost.charge_compute, &out)?;
+    let inputs: Vec<_> = (scene.input().into_iter()).chain(build.inputs()).collect();
+    let on_cell = cast.config(c.cell.cost.charge_compute, &out, &inputs)?;
     render::check_size(width, height)?;
     check_png(&out)?;
     let cast_rays = on_cell

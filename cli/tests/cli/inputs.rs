@@ -515,3 +515,120 @@ fn every_bad_scene_is_named_and_a_reason_said_once() {
     assert_eq!(err.matches("not a procedural scene").count(), 1, "{err}");
     assert!(err.lines().all(|l| l.chars().count() <= 80), "{err}");
 }
+
+/// An output that names an input — the rays, the scene's file, the rates
+/// file, through a link or by another name — is refused before any work
+/// and the input is left as it was; a link to a file not yet there names
+/// that file.
+#[test]
+fn an_output_never_replaces_an_input() {
+    let dir = tmp("inputs-as-outputs");
+    std::fs::create_dir_all(&dir).unwrap();
+    let at = |n: &str| dir.join(n).to_str().unwrap().to_string();
+    let rays = at("r.csv");
+    std::fs::write(
+        &rays,
+        "ox,oy,oz,dx,dy,dz,tmin,tmax\n0.1,0.1,5,0,0,-1,0,inf\n",
+    )
+    .unwrap();
+    let mesh = at("m.obj");
+    std::fs::write(&mesh, "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let rates = at("x.rates");
+    std::fs::write(&rates, "spe_job = 200\n").unwrap();
+    let rays_link = at("rays-link.csv");
+    std::os::unix::fs::symlink(&rays, &rays_link).unwrap();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["raycast", "--rays", &rays, "--out", &rays], "--out"),
+        (
+            vec!["raycast", "--rays", &rays, "--out", &rays_link],
+            "--out",
+        ),
+        (
+            vec![
+                "raycast",
+                "--rays",
+                &rays,
+                "--on-cell",
+                "--out",
+                "-",
+                "--trace",
+                &rays,
+            ],
+            "--trace",
+        ),
+        (
+            vec![
+                "build",
+                "--scene",
+                &mesh,
+                "--builder",
+                "spe_bfs",
+                "--trace",
+                &mesh,
+            ],
+            "--trace",
+        ),
+        (
+            vec![
+                "build",
+                "--builder",
+                "spe_bfs",
+                "--rates",
+                &rates,
+                "--trace",
+                &rates,
+            ],
+            "--trace",
+        ),
+        (
+            vec![
+                "render", "--scene", &mesh, "--out", &mesh, "--width", "4", "--height", "4",
+            ],
+            "--out",
+        ),
+    ];
+    for (args, option) in cases {
+        let out = cellbih(&args);
+        assert_fails_with(&out, &format!("{option} "));
+        assert_fails_with(&out, "would replace the input");
+    }
+    assert!(std::fs::read_to_string(&rays).unwrap().starts_with("ox,"));
+    assert!(std::fs::read_to_string(&mesh).unwrap().starts_with("v -1"));
+    assert_eq!(std::fs::read_to_string(&rates).unwrap(), "spe_job = 200\n");
+    // A link to a file not yet there, beside that file.
+    let later = at("later.csv");
+    let dangling = at("dangling.json");
+    std::os::unix::fs::symlink("later.csv", &dangling).unwrap();
+    let args = [
+        "raycast",
+        "--rays",
+        &rays,
+        "--on-cell",
+        "--out",
+        &later,
+        "--trace",
+        &dangling,
+    ];
+    assert_fails_with(&cellbih(&args), "name the same file");
+    assert!(!std::path::Path::new(&later).exists());
+    // Written through it, the link stays a link to the trace.
+    let hits = at("hits.csv");
+    let args = [
+        "raycast",
+        "--rays",
+        &rays,
+        "--on-cell",
+        "--out",
+        &hits,
+        "--trace",
+        &dangling,
+    ];
+    crate::common::assert_ok(&cellbih(&args));
+    let link = std::fs::symlink_metadata(&dangling).unwrap();
+    assert!(link.file_type().is_symlink());
+    assert!(
+        std::fs::read_to_string(&later)
+            .unwrap()
+            .contains("traceEvents")
+    );
+}
