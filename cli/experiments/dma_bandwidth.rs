@@ -229,9 +229,9 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
         &series,
         true,
     )?;
-    eprintln!(
+    cellbih_cli::report::result_set::say_written(format!(
         "written: {}/dma_bandwidth.{{csv,json,svg}}",
         args.output.out.display()
-    );
+    ));
     Ok(())
 }

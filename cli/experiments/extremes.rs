@@ -94,10 +94,10 @@ fn run(args: &Args) -> Result<(), String> {
         .iter()
         .filter(|r| r["valid"] == false || r["disagree"] != 0)
         .count();
-    eprintln!(
+    cellbih_cli::report::result_set::say_written(format!(
         "written: {}/extremes.{{csv,json}}",
         args.run.output.out.display()
-    );
+    ));
     if bad > 0 {
         return Err(format!(
             "{bad} rows with an invalid tree or rays that disagree with brute force"

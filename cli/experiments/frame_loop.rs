@@ -294,10 +294,10 @@ fn run(args: &Args) -> Result<(), String> {
         .map_err(|e| e.to_string())?;
     }
 
-    eprintln!(
+    cellbih_cli::report::result_set::say_written(format!(
         "written: {}/frame_loop.{{csv,json}}, frame_loop_*.svg",
         args.run.output.out.display()
-    );
+    ));
     Ok(())
 }
 

@@ -221,10 +221,10 @@ fn run(args: &Args) -> Result<(), String> {
     for method in ["local", "deep"] {
         plots(&args.output.out, method, &rows).map_err(|e| e.to_string())?;
     }
-    eprintln!(
+    cellbih_cli::report::result_set::say_written(format!(
         "written: {}/partial_rebuild.{{csv,json}}, fig3a_*.svg, fig3b_*.svg",
         args.output.out.display()
-    );
+    ));
     Ok(())
 }
 

@@ -199,10 +199,10 @@ fn run(args: &Args) -> Result<(), String> {
     let print = |rows: &[Value]| print_tables(rows, ps3_summary);
     (args.run.output).report("tradeoff", (&keys, &rows), &doc, Some(&shared), print)?;
     plots(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
-    eprintln!(
+    cellbih_cli::report::result_set::say_written(format!(
         "written: {}/tradeoff.{{csv,json}}, tradeoff_*.svg",
         args.run.output.out.display()
-    );
+    ));
     Ok(())
 }
 

@@ -25,9 +25,10 @@ use std::sync::Mutex;
 
 use thiserror::Error;
 
-/// A file that could not be written.
+/// A file that could not be written, named by the path the user gave (a
+/// file of an experiment's set by its place in `--out`, not its staging).
 #[derive(Debug, Error)]
-#[error("{}: cannot write: {source}", path.display())]
+#[error("{}: cannot write: {source}", crate::report::result_set::user_path(path).display())]
 pub struct OutputError {
     pub path: PathBuf,
     pub source: std::io::Error,
@@ -187,6 +188,16 @@ fn lock_in_flight() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// Held by a step that must finish whole once begun (an experiment's set
+/// moved into place): an interrupt waits for it, then ends the process.
+static WHOLE: Mutex<()> = Mutex::new(());
+
+/// Holds off interrupts until the guard is dropped: what runs meanwhile
+/// is either done whole or, if the signal came first, not begun.
+pub fn whole_step() -> std::sync::MutexGuard<'static, ()> {
+    WHOLE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Directories an interrupt removes whole (an experiment's staged set).
 static DIRS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
@@ -245,6 +256,9 @@ pub fn clean_up_on_interrupt() {
             };
             std::thread::spawn(move || {
                 if let Some(sig) = signals.forever().next() {
+                    // A step under way that must finish whole does; none
+                    // begins after this.
+                    let _whole = whole_step();
                     let removed = remove_in_flight();
                     let name = match sig {
                         SIGINT => "interrupted",

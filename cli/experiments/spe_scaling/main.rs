@@ -272,10 +272,10 @@ fn run(args: &Args) -> Result<(), String> {
         })?;
     plots(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
     zoo_summary::plot(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
-    eprintln!(
+    cellbih_cli::report::result_set::say_written(format!(
         "written: {}/spe_scaling.{{csv,json}}, spe_scaling_*.svg",
         args.run.output.out.display()
-    );
+    ));
     Ok(())
 }
 

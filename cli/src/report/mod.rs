@@ -122,7 +122,7 @@ pub fn experiment_main(name: &'static str, out: &Path, run: impl FnOnce() -> Res
         .map(Path::to_path_buf)
         .collect();
     let result = prepare_dir(out).map_err(|e| e.to_string()).and_then(|()| {
-        result_set::begin(out);
+        result_set::begin(out, name);
         run()?;
         result_set::commit().map(drop)
     });
@@ -417,7 +417,10 @@ impl OutputArgs {
         }
         let json = output(&self.out, &format!("{name}.json")).map_err(io)?;
         write_document(&json, &doc).map_err(io)?;
-        eprintln!("written: {}/{name}.{{csv,json}}", self.out.display());
+        result_set::say_written(format!(
+            "written: {}/{name}.{{csv,json}}",
+            self.out.display()
+        ));
         Ok(())
     }
 }

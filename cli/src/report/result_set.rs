@@ -7,14 +7,31 @@
 //! old plots whose recorded command describes another run: the old set
 //! stays whole, and what this run measured before it failed is kept in
 //! `OUT/incomplete-NAME/` and named.
+//!
+//! The move is one step an interrupt waits for ([`crate::output::whole_step`]):
+//! a signal during it ends the process once the set is in place; before
+//! it, the set is not begun. A staging directory left by a process that
+//! died (killed with SIGKILL, a power cut) is removed by the next run into
+//! that `--out`, and said. The set names its files (`OUT/.NAME.set`): the
+//! next run of the same experiment there removes those of its files that
+//! the new set does not write (an earlier run's plot of a scene no longer
+//! asked for), and says what "written" only once the set is in place.
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-/// The run's staging: the `--out` directory and where its files go first.
+/// The run's staging: the `--out` directory, where its files go first,
+/// the experiment's name, and what to say once the set is in place.
 struct Stage {
     out: PathBuf,
     dir: PathBuf,
+    name: String,
+    said: Vec<String>,
+}
+
+/// The staging directory's name for process `pid`.
+fn staging_name(pid: u32) -> String {
+    format!(".cellbih-run-{pid}")
 }
 
 static STAGE: Mutex<Option<Stage>> = Mutex::new(None);
@@ -23,15 +40,82 @@ fn stage() -> std::sync::MutexGuard<'static, Option<Stage>> {
     STAGE.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// From now on, files written into `out` through [`super::output`] are
-/// staged until [`commit`].
-pub fn begin(out: &Path) {
-    let dir = out.join(format!(".cellbih-run-{}", std::process::id()));
+/// From now on, files written into `out` through [`super::output`] by the
+/// experiment `name` are staged until [`commit`]. Staging directories of
+/// processes no longer running are removed first, and said.
+pub fn begin(out: &Path, name: &str) {
+    remove_stale(out);
+    let dir = out.join(staging_name(std::process::id()));
     crate::output::remove_dir_on_interrupt(&dir);
     *stage() = Some(Stage {
         out: out.to_path_buf(),
         dir,
+        name: name.to_string(),
+        said: Vec::new(),
     });
+}
+
+/// Removes the staging directories in `out` of processes that are no
+/// longer running (a process id in use again keeps its directory).
+fn remove_stale(out: &Path) {
+    let Ok(entries) = std::fs::read_dir(out) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name.strip_prefix(".cellbih-run-") else {
+            continue;
+        };
+        let Ok(pid) = pid.parse::<u32>() else {
+            continue;
+        };
+        if pid == std::process::id() || alive(pid) {
+            continue;
+        }
+        if std::fs::remove_dir_all(e.path()).is_ok() {
+            eprintln!(
+                "note: removed {}, left by an earlier run (process {pid}) that did not finish",
+                e.path().display()
+            );
+        }
+    }
+}
+
+/// Whether process `pid` is running (signal 0 reaches it, or it exists
+/// but belongs to another user).
+fn alive(pid: u32) -> bool {
+    let Ok(pid) = libc::pid_t::try_from(pid) else {
+        return false;
+    };
+    // SAFETY: signal 0 only asks whether the process exists.
+    let r = unsafe { libc::kill(pid, 0) };
+    r == 0 || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM)
+}
+
+/// `line` said once the set is in place ("written: …"); at once where no
+/// set is open.
+pub fn say_written(line: String) {
+    match &mut *stage() {
+        Some(s) => s.said.push(line),
+        None => eprintln!("{line}"),
+    }
+}
+
+/// The path a user knows `path` by: a file staged for a set, at its place
+/// in `--out`; any other path as it is.
+pub fn user_path(path: &Path) -> PathBuf {
+    // Errors are also made while the stage is held (by `commit`): then the
+    // path is the user's already.
+    let Ok(guard) = STAGE.try_lock() else {
+        return path.to_path_buf();
+    };
+    match &*guard {
+        Some(s) if path.parent() == Some(s.dir.as_path()) => match path.file_name() {
+            Some(f) => s.out.join(f),
+            None => path.to_path_buf(),
+        },
+        _ => path.to_path_buf(),
+    }
 }
 
 /// Where a file named `file` for directory `dir` is written: the staging
@@ -66,9 +150,16 @@ fn names(dir: &Path) -> Vec<String> {
 /// replaced at its target and stays a link. On failure the set stays
 /// staged, for [`abandon`].
 pub fn commit() -> Result<Vec<String>, String> {
-    let guard = stage();
+    let _whole = crate::output::whole_step();
+    let mut guard = stage();
     let Some(s) = &*guard else {
         return Ok(Vec::new());
+    };
+    let s = Stage {
+        out: s.out.clone(),
+        dir: s.dir.clone(),
+        name: s.name.clone(),
+        said: Vec::new(),
     };
     let files = names(&s.dir);
     let (direct, replaced): (Vec<&String>, Vec<&String>) =
@@ -114,9 +205,33 @@ pub fn commit() -> Result<Vec<String>, String> {
         return Err(why);
     }
     let _ = std::fs::remove_dir_all(&s.dir);
+    let gone = replace_set(&s.out, &s.name, &files);
+    let said = std::mem::take(&mut guard.as_mut().expect("a stage").said);
+    *guard = None;
     drop(guard);
-    *stage() = None;
+    for line in said {
+        eprintln!("{line}");
+    }
+    if !gone.is_empty() {
+        eprintln!("removed, of the set this one replaces: {}", gone.join(", "));
+    }
     Ok(files)
+}
+
+/// Records `files` as the set of experiment `name` in `out`
+/// (`OUT/.NAME.set`, a name a line) and removes the files of the set it
+/// replaces that this one does not write; returns their names.
+fn replace_set(out: &Path, name: &str, files: &[String]) -> Vec<String> {
+    let record = out.join(format!(".{name}.set"));
+    let old = std::fs::read_to_string(&record).unwrap_or_default();
+    let gone: Vec<String> = (old.lines())
+        .filter(|f| !f.is_empty() && !f.contains('/') && !files.iter().any(|n| n == f))
+        .filter(|f| std::fs::symlink_metadata(out.join(f)).is_ok_and(|m| m.is_file()))
+        .filter(|f| std::fs::remove_file(out.join(f)).is_ok())
+        .map(str::to_string)
+        .collect();
+    let _ = crate::output::write_bytes(&record, (files.join("\n") + "\n").as_bytes());
+    gone
 }
 
 /// After a failed run: the old files stay as they were, and what this run

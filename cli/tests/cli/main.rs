@@ -20,4 +20,5 @@ mod model_checks;
 mod quiet;
 mod rates;
 mod refusals;
+mod result_sets;
 mod settings;
