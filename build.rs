@@ -21,8 +21,7 @@ fn main() {
     let git = |args: &[&str]| {
         std::process::Command::new("git")
             .args(args)
-            // `git status` would otherwise refresh the index, which this
-            // script watches: every build would then run it again.
+            // `git status` would otherwise refresh the index as it reads.
             .env("GIT_OPTIONAL_LOCKS", "0")
             .output()
             .ok()
@@ -39,20 +38,30 @@ fn main() {
         commit.push_str("-dirty");
     }
     println!("cargo:rustc-env=CELLBIH_COMMIT={commit}");
-    // A new commit moves HEAD or the branch it names; an edit to a source
-    // makes the build dirty (or clean again).
-    for path in [
-        ".git/HEAD",
-        ".git/refs/heads",
-        ".git/packed-refs",
-        ".git/index",
-    ]
-    .into_iter()
-    .chain(SOURCES)
-    // A path that does not exist counts as changed on every build, and
-    // would rebuild everything each time: only those there are named.
-    .filter(|p| std::path::Path::new(p).exists())
-    {
+    for path in watched(std::path::Path::new(".git")) {
         println!("cargo:rerun-if-changed={path}");
     }
+}
+
+/// What names the commit — `HEAD` and the ref it points at (loose, or in
+/// `packed-refs`) — and the sources: a new commit or checkout moves the
+/// first, an edit to a source makes the build dirty (or clean again). Not
+/// the index: `git status` and `git add` rewrite it without changing what
+/// is built, and every cargo command after them would build again. Only
+/// paths that exist are named: one that does not counts as changed on
+/// every build.
+pub fn watched(git: &std::path::Path) -> Vec<String> {
+    let head = git.join("HEAD");
+    let branch = std::fs::read_to_string(&head)
+        .ok()
+        .and_then(|h| (h.trim().strip_prefix("ref: ")).map(|r| git.join(r).display().to_string()));
+    [
+        head.display().to_string(),
+        git.join("packed-refs").display().to_string(),
+    ]
+    .into_iter()
+    .chain(branch)
+    .chain(SOURCES.iter().map(|s| s.to_string()))
+    .filter(|p| std::path::Path::new(p).exists())
+    .collect()
 }

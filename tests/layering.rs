@@ -364,3 +364,34 @@ fn the_loop_finder_sees_a_loop() {
     assert!(g[&m("a")].contains(&m("b")) && g[&m("b")].contains(&m("a")));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The build script, whose `watched` list is tested below.
+#[allow(dead_code)]
+#[path = "../build.rs"]
+mod build_script;
+
+/// The build script watches what names the commit (HEAD and the branch it
+/// points at) and the sources, never the index: `git status` (which the
+/// suite runs) rewrites the index, and would make the next cargo command
+/// build `cellbih` again.
+#[test]
+fn the_build_script_watches_the_commit_not_the_index() {
+    let dir = std::env::temp_dir().join(format!("cellbih-git-{}", std::process::id()));
+    let git = dir.join(".git");
+    std::fs::create_dir_all(git.join("refs/heads")).unwrap();
+    std::fs::write(git.join("HEAD"), "ref: refs/heads/topic\n").unwrap();
+    std::fs::write(git.join("refs/heads/topic"), "0123\n").unwrap();
+    std::fs::write(git.join("index"), "x").unwrap();
+    let has = |w: &[String], p: &str| w.iter().any(|x| x == &git.join(p).display().to_string());
+    let w = build_script::watched(&git);
+    assert!(has(&w, "HEAD") && has(&w, "refs/heads/topic"), "{w:?}");
+    assert!(!w.iter().any(|x| x.ends_with("index")), "{w:?}");
+    // A detached HEAD names no branch; nothing absent is named.
+    std::fs::write(git.join("HEAD"), "0123\n").unwrap();
+    let w = build_script::watched(&git);
+    assert!(
+        has(&w, "HEAD") && !w.iter().any(|x| x.contains("refs/")),
+        "{w:?}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
