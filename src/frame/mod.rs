@@ -176,6 +176,15 @@ pub struct FrameReport {
 }
 
 impl FrameReport {
+    /// What the frame did: its choice, or `rebuild` where the choice's
+    /// update found the scene box changed and rebuilt completely.
+    pub fn what_ran(&self) -> &'static str {
+        match self.full_rebuild {
+            true => "rebuild",
+            false => self.choice,
+        }
+    }
+
     /// With the oracle: this frame's time within `slack` (0.1: 10 %) of the
     /// best option's.
     pub fn near_best(&self, slack: f64) -> Option<bool> {

@@ -306,6 +306,12 @@ impl BuilderKind {
         }
     }
 
+    /// Whether the builder's work runs on the emulated SPEs (an emulated
+    /// builder that builds on the PPE alone does not).
+    pub fn on_spes(self) -> bool {
+        matches!(self.0, Family::Cell(s) if !s.ppe_only)
+    }
+
     /// Whether the builder runs on the emulated Cell (and so reports
     /// simulated time and can keep a trace).
     pub fn emulated(self) -> bool {

@@ -26,6 +26,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     "Wachter & Keller's approximate sorting (bucket presort) on the emulated PPE, nodes over 12 triangles finished naively (Table 1, column 2)",
     spawn,
 )
+.on_the_ppe()
 .with_knobs(&[&APPROX_CELLS]);
 
 /// `--approx-cells N`: at most this many cells of the presort's grid per

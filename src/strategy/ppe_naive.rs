@@ -21,6 +21,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     "the paper's naive recursive build on the emulated PPE (Table 1, column 1)",
     spawn,
 )
+.on_the_ppe()
 .with_quality(crate::bih::Quality::ALL);
 
 fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, CellError> {

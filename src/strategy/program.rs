@@ -31,6 +31,8 @@ pub struct Strategy {
     pub describe: &'static str,
     /// It puts every SPE of the machine to work (`--spes` changes its time).
     pub multi_spe: bool,
+    /// It builds on the PPE alone: no SPE takes part.
+    pub ppe_only: bool,
     /// The quality knobs of [`BihConfig`] it builds beyond the paper's
     /// tree; it refuses the others, by name.
     pub quality: Quality,
@@ -54,6 +56,7 @@ impl Strategy {
             name,
             describe,
             multi_spe: false,
+            ppe_only: false,
             quality: Quality::PAPER,
             knobs: &[],
             combos: &[],
@@ -66,6 +69,14 @@ impl Strategy {
     pub const fn on_every_spe(self) -> Self {
         Strategy {
             multi_spe: true,
+            ..self
+        }
+    }
+
+    /// It builds on the PPE alone.
+    pub const fn on_the_ppe(self) -> Self {
+        Strategy {
+            ppe_only: true,
             ..self
         }
     }

@@ -283,9 +283,13 @@ impl PlayArgs {
             )
             .into());
         }
-        if f == FindMoved::Spe && !build.builder.emulated() {
+        if f == FindMoved::Spe && !build.builder.on_spes() {
+            let on = match build.builder.emulated() {
+                true => "the PPE",
+                false => "the host",
+            };
             return Err(format!(
-                "--find-moved spe: builder {} builds on the host, without SPEs",
+                "--find-moved spe: builder {} builds on {on}, without SPEs",
                 build.builder
             )
             .into());

@@ -86,6 +86,23 @@ pub fn config(c: &Build, a: &Asked) -> Res<FrameConfig> {
     }
     cellbih::render::check_size(a.width, a.height)?;
     let spes = c.cell.spes;
+    if let Some(k) = a.build_spes {
+        if !c.builder.on_spes() {
+            return Err(format!(
+                "--build-spes: builder {} builds on the PPE, and no SPE builds",
+                c.builder
+            )
+            .into());
+        }
+        if k as usize == spes {
+            return Err(format!(
+                "--build-spes {k} with --spes {spes}: every SPE would build, then all \
+                 render (section 5's arrangement, the default); give fewer than --spes \
+                 for the paper's (some SPEs build while the others render)"
+            )
+            .into());
+        }
+    }
     Ok(FrameConfig {
         build: c.clone(),
         policy,
@@ -148,7 +165,15 @@ fn print(
             "build_spes": cfg.build_spes,
             "width": cfg.width,
             "height": cfg.height,
-            "frames": run.frames,
+            // `choice` is what the frame did, as the table says it
+            // (`rebuild` where a local or deep update rebuilt completely);
+            // `policy_choice` what the policy chose.
+            "frames": (run.frames.iter()).map(|f| {
+                let mut v = json!(f);
+                v["policy_choice"] = json!(f.choice);
+                v["choice"] = json!(f.what_ran());
+                v
+            }).collect::<Vec<_>>(),
             "total_ms": run.total_ms,
             "fps": run.fps,
             "oracle": cfg.oracle,
@@ -191,7 +216,7 @@ fn print(
         "frame", "choice", "rebuilt", "update ms", "render ms", "frame ms", "ray cost", "cache"
     );
     for f in &run.frames {
-        let choice = if f.full_rebuild { "rebuild" } else { f.choice };
+        let choice = f.what_ran();
         println!(
             "{:>5} {choice:>8} {:>8} {:>10.2} {:>10.2} {:>10.2} {:>9.1} {:>5.1}%",
             f.frame,
@@ -215,7 +240,7 @@ fn print(
         }
         println!();
         for f in &run.frames {
-            let choice = if f.full_rebuild { "rebuild" } else { f.choice };
+            let choice = f.what_ran();
             print!("{:>5} {choice:>8}", f.frame);
             if let Some(p) = f.predicted {
                 print!(" {:>11.2} {:>11.2}", p.update_ms, p.render_ms);

@@ -108,3 +108,36 @@ fn the_frame_command_reports_every_frame() {
         assert_fails_with(&cellbih(&args), says);
     }
 }
+
+/// Options that cannot apply are refused by name: `--build-spes` and
+/// `--find-moved spe` for a builder that builds on the PPE alone, and
+/// `--build-spes` equal to `--spes` (no SPE left to render beside the
+/// build); the JSON's `choice` is what the table shows.
+#[test]
+fn frame_options_that_cannot_apply_are_refused() {
+    let base = "frame --scene car --animation car --frames 1";
+    for (extra, says) in [
+        (
+            "--builder ppe_naive --build-spes 1",
+            "--build-spes: builder ppe_naive builds on the PPE",
+        ),
+        (
+            "--builder ppe_naive --find-moved spe",
+            "--find-moved spe: builder ppe_naive builds on the PPE",
+        ),
+        ("--spes 1 --build-spes 1", "--build-spes 1 with --spes 1"),
+        ("--spes 4 --build-spes 4", "--build-spes 4 with --spes 4"),
+    ] {
+        let args = format!("{base} --width 8 --height 8 {extra}");
+        assert_fails_with(&cellbih(&line(&args)), says);
+    }
+    let args = "frame --scene car --animation car --frames 2 --width 32 --height 32 --format json";
+    let out = cellbih(&line(args));
+    assert_ok(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for f in v["frames"].as_array().unwrap() {
+        let full = f["full_rebuild"].as_bool().unwrap();
+        assert_eq!(f["choice"] == "rebuild", full, "{f}");
+        assert_eq!(f["policy_choice"], "local", "{f}");
+    }
+}
