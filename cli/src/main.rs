@@ -28,8 +28,17 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
+            eprintln!("{}", report::wrapped(&format!("error: {e}")));
+            if e.to_string().contains("main memory full:") {
+                eprintln!(
+                    "{}",
+                    report::wrapped(
+                        "note: the emulated Cell's main memory is --memory-mib (256 MiB, a PS3's, \
+                         unless given): give more to run this"
+                    )
+                );
+            }
+            ExitCode::from(cellbih_cli::exit_status(&*e))
         }
     }
 }

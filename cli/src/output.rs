@@ -327,10 +327,11 @@ fn identity(path: &Path) -> Identity {
             Err(_) => Identity::Unknown(path.to_path_buf()),
         };
     }
-    let path = resolved(path);
-    if let Ok(m) = std::fs::metadata(&path) {
+    if let Ok(m) = std::fs::metadata(path) {
         return of(m);
     }
+    // Not there yet (or a link to a file not there yet): where it leads.
+    let path = resolved(path);
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),

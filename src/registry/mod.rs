@@ -306,6 +306,21 @@ impl BuilderKind {
         }
     }
 
+    /// Bytes of main memory the builder needs at least for `n` triangles
+    /// with `cfg` on `spes` SPEs, known before any work: the records, its
+    /// buffers ([`Strategy::buffers`]) and the fewest nodes a tree of
+    /// leaves of `cfg.leaf_size` can have (`2⌈n / leaf⌉ − 1`). 0 for a
+    /// builder on the host.
+    pub fn least_memory(self, n: usize, cfg: &BihConfig, spes: usize) -> u64 {
+        let Family::Cell(s) = self.0 else {
+            return 0;
+        };
+        let records = (n * size_of::<crate::spe::layout::TriRecord>()) as u64;
+        let nodes = (2 * n.div_ceil(cfg.leaf_size.max(1) as usize)).saturating_sub(1);
+        let nodes = (nodes * size_of::<crate::bih::BihNode>()) as u64;
+        records + (s.buffers)(n, cfg, spes) + nodes
+    }
+
     /// Whether the builder's work runs on the emulated SPEs (an emulated
     /// builder that builds on the PPE alone does not).
     pub fn on_spes(self) -> bool {

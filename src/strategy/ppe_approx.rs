@@ -26,6 +26,8 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     "Wachter & Keller's approximate sorting (bucket presort) on the emulated PPE, nodes over 12 triangles finished naively (Table 1, column 2)",
     spawn,
 )
+// The scatter's second array of records.
+.with_buffers(|n, _, _| (n * size_of::<TriRecord>()) as u64)
 .on_the_ppe()
 .with_knobs(&[&APPROX_CELLS]);
 

@@ -33,6 +33,11 @@ pub struct Strategy {
     pub multi_spe: bool,
     /// It builds on the PPE alone: no SPE takes part.
     pub ppe_only: bool,
+    /// Bytes of main memory it allocates for a scene of `n` triangles
+    /// with `cfg` on `spes` SPEs beside the records and the nodes, before
+    /// it builds (job buffers, a second array of records): with them, a
+    /// lower bound on its footprint that is known before any work.
+    pub buffers: fn(n: usize, cfg: &BihConfig, spes: usize) -> u64,
     /// The quality knobs of [`BihConfig`] it builds beyond the paper's
     /// tree; it refuses the others, by name.
     pub quality: Quality,
@@ -57,6 +62,7 @@ impl Strategy {
             describe,
             multi_spe: false,
             ppe_only: false,
+            buffers: |_, _, _| 0,
             quality: Quality::PAPER,
             knobs: &[],
             combos: &[],
@@ -79,6 +85,11 @@ impl Strategy {
             ppe_only: true,
             ..self
         }
+    }
+
+    /// It allocates `buffers` bytes beside the records and nodes.
+    pub const fn with_buffers(self, buffers: fn(usize, &BihConfig, usize) -> u64) -> Self {
+        Strategy { buffers, ..self }
     }
 
     /// It builds the quality knobs `quality`.

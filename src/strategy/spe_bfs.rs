@@ -20,6 +20,8 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     "breadth first, the baseline: one SPE builds level by level (WorkA/WorkB, Fig. 2), small jobs agglomerated, nodes in an ObjectArena (Table 1, column 4)",
     spawn,
 )
+// WorkAPPE and WorkBPPE.
+.with_buffers(|n, cfg, _| 2 * Job::spill_bytes_for(n, cfg).next_multiple_of(128))
 .with_quality(crate::bih::Quality::ALL);
 
 fn spawn(

@@ -47,6 +47,8 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     "section 5: SPE 0 builds the top levels (the other SPEs help partition them unless --no-coop-top), deals the jobs largest first, then every SPE builds its own jobs breadth first with its own ObjectArena list (--spes)",
     spawn,
 )
+// Every SPE's WorkAPPE and WorkBPPE (without the per-part slack).
+.with_buffers(|n, cfg, _| 2 * Job::spill_bytes_for(n, cfg))
 .on_every_spe()
 .with_quality(crate::bih::Quality::ALL)
 .with_knobs(&[

@@ -63,6 +63,11 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     "section 5: every SPE takes jobs from one shared job queue (lock-line atomics, --agglomerate jobs per take), a barrier per level, each SPE's nodes in its own ObjectArena list (--spes)",
     spawn,
 )
+// The shared queue's two level arrays.
+.with_buffers(|n, cfg, spes| {
+    let jobs = crate::spe::footprint::work_ppe_jobs(n, cfg.leaf_size).max(32 * spes);
+    2 * ((jobs * Job::bytes(cfg)) as u64).next_multiple_of(128)
+})
 .on_every_spe()
 .with_quality(crate::bih::Quality::ALL)
 .with_knobs(&[

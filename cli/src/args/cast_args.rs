@@ -146,13 +146,13 @@ impl CacheArgs {
             packet: self.packet.unwrap_or(d.packet),
             rates: d.rates,
         };
-        cfg.cache.sets()?;
+        cfg.cache.sets().map_err(crate::usage)?;
         if !cfg.tile_rays.is_multiple_of(cfg.packet.rays()) {
-            return Err(format!(
-                "--packet {}: a tile's {} rays (--tile-rays) must be a whole number of packets",
-                cfg.packet, cfg.tile_rays
-            )
-            .into());
+            return Err(crate::usage(format!(
+                "--packet {}: a tile's {} (--tile-rays) must be a whole number of packets",
+                cfg.packet,
+                cellbih::words::count(cfg.tile_rays as u64, "ray")
+            )));
         }
         Ok(cfg)
     }

@@ -218,7 +218,8 @@ pub struct FrameCommand {
     /// done — what each would build, counted on a copy of the tree, at
     /// the cost of builds timed before the first frame, and the render
     /// of the tree each leaves — the cheapest taken).
-    #[arg(long, default_value = "local")]
+    #[arg(long, default_value = "local",
+          value_parser = ["rebuild", "local", "deep", "auto"])]
     pub policy: String,
     /// Also run every option from the same state each frame (three
     /// times the work) and report how the policy's choices compare.
@@ -256,7 +257,7 @@ pub struct PlayArgs {
     /// Where a local update finds the moved triangles of its interval:
     /// ppe (the paper's scan by geometry id) or spe (the build's SPEs, as
     /// they stream the interval) [default: ppe]
-    #[arg(long)]
+    #[arg(long, value_parser = ["ppe", "spe"])]
     pub find_moved: Option<String>,
 }
 
@@ -277,22 +278,20 @@ impl PlayArgs {
         let f = FindMoved::from_name(name)
             .ok_or_else(|| format!("unknown --find-moved '{name}': ppe or spe"))?;
         if !local {
-            return Err(format!(
+            return Err(crate::usage(format!(
                 "--find-moved applies to local updates (the deep update's descent needs the \
                  moved triangles before it builds; a rebuild searches nothing): here {what}"
-            )
-            .into());
+            )));
         }
         if f == FindMoved::Spe && !build.builder.on_spes() {
             let on = match build.builder.emulated() {
                 true => "the PPE",
                 false => "the host",
             };
-            return Err(format!(
+            return Err(crate::usage(format!(
                 "--find-moved spe: builder {} builds on {on}, without SPEs",
                 build.builder
-            )
-            .into());
+            )));
         }
         Ok(f)
     }

@@ -4,9 +4,8 @@
 
 use std::path::{Path, PathBuf};
 
-use cellbih::registry::Build;
+use cellbih::registry::{Build, BuilderKind};
 use cellbih::scene::{self, Scene};
-use cellbih::spe::layout::TriRecord;
 
 use crate::Res;
 
@@ -87,12 +86,17 @@ pub fn check_memory(
     order: cellbih::cast::RecordOrder,
 ) -> Res<()> {
     let have = c.cell.main_memory_bytes;
-    let records = triangles as u64 * size_of::<TriRecord>() as u64;
-    if c.builder.emulated() && records > have {
+    let least = c.builder.least_memory(triangles, &c.tree, c.cell.spes);
+    if c.builder.emulated() && least > have {
+        let floor = BuilderKind::PPE_NAIVE.least_memory(triangles, &c.tree, c.cell.spes);
+        let what = match least > floor {
+            true => format!("their records, {}'s buffers, the fewest nodes", c.builder),
+            false => "their records and the fewest nodes".into(),
+        };
         return Err(format!(
-            "{scene}: its {triangles} triangle records alone take {} MiB, more than the \
-             emulated Cell's {} MiB (--memory-mib): nothing built",
-            records.div_ceil(1 << 20),
+            "{scene}: building its {triangles} triangles takes at least {} MiB ({what}), \
+             more than the emulated Cell's {} MiB (--memory-mib): nothing built",
+            least.div_ceil(1 << 20),
             have >> 20
         )
         .into());

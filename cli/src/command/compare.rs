@@ -33,9 +33,10 @@ pub fn run(args: CompareCommand) -> Res<()> {
         return Err("--mode functional: compare reports simulated time, and the functional mode times nothing; use --mode timed or checked".into());
     }
     let (cell, rates) = cell.config_and_rates()?;
-    // A scene whose triangle records alone overflow the emulated
-    // Cell fails every emulated builder: refused before any build.
-    let emulated = Build::new(BuilderKind::SPE_BFS).on(&cell);
+    // A scene whose triangle records and fewest nodes alone overflow the
+    // emulated Cell fails every emulated builder: refused before any
+    // build (the naive PPE build needs nothing more).
+    let emulated = Build::new(BuilderKind::PPE_NAIVE).on(&cell);
     scene.check_fits(&emulated, None)?;
     let s = scene.load()?;
     check_memory(&s.name, (s.len(), 0), None, &emulated, Default::default())?;

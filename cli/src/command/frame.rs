@@ -58,7 +58,41 @@ pub fn run(args: FrameCommand) -> Res<()> {
         .with("height", height);
     let (s, anim) = anim.load(&scene, frames)?;
     check_memory(&s.name, (s.len(), 0), rays, &c, Default::default())?;
+    check_frame_memory(&s, &cfg)?;
     play_and_print(&s, &anim, &cfg, format, &settings)
+}
+
+/// Refuses, before any work, a frame the emulated Cell's main memory
+/// cannot hold even at its least: in the paper's arrangement the one Cell
+/// holds at once the build (records, its buffers, the fewest nodes), the
+/// casters' tree, triangles, rays and hits, and the tree's two copies the
+/// update copies between; in section 5's the build and the cast come one
+/// after the other ([`check_memory`] checked each).
+fn check_frame_memory(s: &Scene, cfg: &FrameConfig) -> Res<()> {
+    if cfg.all_spes_build() {
+        return Ok(());
+    }
+    let c = &cfg.build;
+    let n = s.len();
+    let rays = cfg.width as usize * cfg.height as usize;
+    let nodes = (2 * n.div_ceil(c.tree.leaf_size.max(1) as usize)).saturating_sub(1);
+    let order = Default::default();
+    let need = c.builder.least_memory(n, &c.tree, cfg.build_spes)
+        + cellbih::cast::memory_needed(nodes, n, rays, order)
+        + 2 * cellbih::frame::charge::tree_bytes(nodes, n, order).next_multiple_of(128);
+    let have = c.cell.main_memory_bytes;
+    if need > have {
+        return Err(format!(
+            "{}: the frame in the paper's arrangement holds on one Cell the build, the \
+             cast ({rays} rays) and the tree's two copies: at least {} MiB of main memory; \
+             the emulated Cell has {} MiB (--memory-mib): nothing built or cast",
+            s.name,
+            need.div_ceil(1 << 20),
+            have >> 20
+        )
+        .into());
+    }
+    Ok(())
 }
 
 /// What `frame` was asked, checked.
@@ -88,19 +122,23 @@ pub fn config(c: &Build, a: &Asked) -> Res<FrameConfig> {
     let spes = c.cell.spes;
     if let Some(k) = a.build_spes {
         if !c.builder.on_spes() {
-            return Err(format!(
+            return Err(crate::usage(format!(
                 "--build-spes: builder {} builds on the PPE, and no SPE builds",
                 c.builder
-            )
-            .into());
+            )));
+        }
+        if k as usize > spes {
+            return Err(crate::usage(format!(
+                "--build-spes {k}: more than the {spes} SPEs (--spes); give fewer than \
+                 --spes for the paper's arrangement"
+            )));
         }
         if k as usize == spes {
-            return Err(format!(
+            return Err(crate::usage(format!(
                 "--build-spes {k} with --spes {spes}: every SPE would build, then all \
                  render (section 5's arrangement, the default); give fewer than --spes \
                  for the paper's (some SPEs build while the others render)"
-            )
-            .into());
+            )));
         }
     }
     Ok(FrameConfig {

@@ -96,6 +96,27 @@ pub fn wrap(text: &str, width: usize) -> String {
     lines.join("\n")
 }
 
+/// An error or note for the terminal: each line of `text` wrapped at 80
+/// columns, the lines it continues onto indented by two spaces (a word
+/// longer than a line, such as a path, stands alone).
+pub fn wrapped(text: &str) -> String {
+    let mut out: Vec<String> = Vec::new();
+    for line in text.lines() {
+        let mut cur = String::new();
+        for word in line.split(' ').filter(|w| !w.is_empty()) {
+            if !cur.trim().is_empty() && cur.chars().count() + 1 + word.chars().count() > 80 {
+                out.push(std::mem::replace(&mut cur, "  ".into()));
+            }
+            if !cur.trim().is_empty() {
+                cur.push(' ');
+            }
+            cur.push_str(word);
+        }
+        out.push(cur);
+    }
+    out.join("\n")
+}
+
 /// An experiment's whole `main`: its arguments parsed
 /// ([`crate::args::parse`]), then `run` on them as [`experiment_main`]
 /// runs it, into the `--out` directory `output` names.
@@ -134,9 +155,9 @@ pub fn experiment_main(name: &'static str, out: &Path, run: impl FnOnce() -> Res
                 break;
             }
         }
-        eprintln!("error: {e}");
+        eprintln!("{}", wrapped(&format!("error: {e}")));
         for line in said {
-            eprintln!("{line}");
+            eprintln!("{}", wrapped(&line));
         }
         std::process::exit(1);
     }

@@ -5,6 +5,7 @@
 //! refusals of arguments in `cli/tests/cli/refusals.rs`; failed writes in
 //! `cli/tests/cli/errors.rs`.
 
+use crate::common::stderr;
 use crate::common::{assert_ok, cellbih, fill, json, line, tmp};
 use cellbih::bih::brute_force_closest;
 use cellbih::rays_csv::write_rays;
@@ -72,11 +73,7 @@ fn every_builder_name_works_with_build_and_raycast() {
             "build --scene car --builder {} --format json",
             &[b.name()],
         ));
-        assert!(
-            out.status.success(),
-            "{b}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert!(out.status.success(), "{b}: {}", stderr(&out));
         let hits = tmp(&format!("builders.{b}.hits.csv"));
         let args = [
             "raycast",
@@ -90,11 +87,7 @@ fn every_builder_name_works_with_build_and_raycast() {
             hits.to_str().unwrap(),
         ];
         let out = cellbih(&args);
-        assert!(
-            out.status.success(),
-            "{b}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert!(out.status.success(), "{b}: {}", stderr(&out));
         outputs.push(std::fs::read_to_string(hits).unwrap());
     }
     assert!(
@@ -116,7 +109,7 @@ fn bad_rays_file_is_a_clear_error() {
         &[p.to_str().unwrap(), tmp("x.csv").to_str().unwrap()],
     ));
     assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = stderr(&out);
     assert!(
         err.contains("bad.rays.csv:3: field 6 ('zero') is not a number"),
         "{err}"
@@ -127,7 +120,7 @@ fn bad_rays_file_is_a_clear_error() {
         "raycast --rays {} --out {}",
         &[p.to_str().unwrap(), tmp("x.csv").to_str().unwrap()],
     ));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("the header must be"));
+    assert!(stderr(&out).contains("the header must be"));
 }
 
 #[test]
@@ -151,9 +144,9 @@ fn info_and_errors() {
     );
     let out = cellbih(&line("build --builder nope"));
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("the builders are: host"));
+    assert!(stderr(&out).contains("the builders are: host"));
     let out = cellbih(&line("info --scene /no/such/file.obj"));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("/no/such/file.obj: cannot read"));
+    assert!(stderr(&out).contains("/no/such/file.obj: cannot read"));
 }
 
 #[test]
@@ -233,7 +226,7 @@ fn update_prints_frames_and_a_summary() {
         let mut a = vec!["update", "--scene", "car"];
         a.extend_from_slice(args);
         let out = cellbih(&a);
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = stderr(&out);
         assert!(!out.status.success() && err.contains(msg), "{err}");
     }
 }
@@ -288,7 +281,7 @@ fn a_dash_is_the_standard_input_or_output() {
     assert_ok(&out);
     let hits = String::from_utf8_lossy(&out.stdout);
     assert!(hits.starts_with("ray,prim,t\n0,"), "{hits}");
-    assert!(String::from_utf8_lossy(&out.stderr).contains("written to the standard output"));
+    assert!(stderr(&out).contains("written to the standard output"));
     let out = run(
         &["render", "--out", "-", "--width", "32", "--height", "24"],
         b"",
@@ -296,12 +289,12 @@ fn a_dash_is_the_standard_input_or_output() {
     assert_ok(&out);
     assert!(out.stdout.starts_with(b"\x89PNG"));
     let out = run(&["build", "--builder", "spe_bfs", "--trace", "-"], b"");
-    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--trace -"));
+    assert!(!out.status.success() && stderr(&out).contains("--trace -"));
     let exp = crate::common::command(env!("CARGO_BIN_EXE_validate"))
         .args(["--out", "-"])
         .current_dir(&dir)
         .output()
         .unwrap();
-    assert!(!exp.status.success() && String::from_utf8_lossy(&exp.stderr).contains("'-'"));
+    assert!(!exp.status.success() && stderr(&exp).contains("'-'"));
     assert!(!dir.join("-").exists(), "a file or directory named '-'");
 }

@@ -39,11 +39,7 @@ pub fn cellbih<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
 
 /// Fails with the command's stderr unless it succeeded.
 pub fn assert_ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", stderr(&out));
 }
 
 /// The builders that build on the host's threads (`--threads`).
@@ -123,8 +119,11 @@ pub fn run_limited(exe: &str, args: &[&str], limit: Duration) -> Output {
     child.wait_with_output().unwrap()
 }
 
+/// What the command said on stderr, each error or note unwrapped (the
+/// lines it was wrapped onto at 80 columns, indented by two spaces,
+/// joined again).
 pub fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
+    String::from_utf8_lossy(&out.stderr).replace("\n  ", " ")
 }
 
 pub fn stdout(out: &Output) -> String {

@@ -1,6 +1,7 @@
 //! `cellbih compare`: every builder side by side, with the paper's tree
 //! and with quality knobs.
 
+use crate::common::stderr;
 use crate::common::{assert_ok, assert_says, cellbih, json, line};
 use cellbih::registry::BuilderKind;
 
@@ -102,10 +103,7 @@ fn compare_with_knobs_builds_them_where_they_are_built() {
 fn a_failing_builder_is_named_and_the_others_are_compared() {
     let args = ["compare", "--scene", "rtperf:30000", "--memory-mib", "2"];
     let out = crate::common::cellbih(&args);
-    let (stdout, stderr) = (
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr),
-    );
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), stderr(&out));
     assert!(!out.status.success());
     assert!(
         stdout.contains("FAILED: builder ") && stdout.contains("main memory full"),

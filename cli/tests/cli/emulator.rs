@@ -3,6 +3,7 @@
 //! timing, said so), `--model` and `--mailboxes`, and `--trace`'s Chrome
 //! JSON; `raycast --on-cell` and `render --on-cell` (casting on the SPEs).
 
+use crate::common::stderr;
 use crate::common::{assert_fails_with, assert_ok, cellbih, fill, json, line, tmp};
 
 #[test]
@@ -25,7 +26,7 @@ fn build_trace_writes_chrome_json() {
         "build --scene cup --builder host --trace {}",
         &[p.to_str().unwrap()],
     ));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("does not run on the emulated Cell"));
+    assert!(stderr(&out).contains("does not run on the emulated Cell"));
 }
 
 /// `cellbih builders` lists the registry; `--spes N` reaches every emulated
@@ -122,7 +123,7 @@ fn the_registry_and_spes_reach_every_command() {
         a.extend(["--builder", "spe_bfs", "--spes", "3"]);
         let out = cellbih(&a);
         assert_ok(&out);
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = stderr(&out);
         assert!(err.contains(want), "{err}");
     }
     let out = cellbih(&line(
@@ -131,7 +132,7 @@ fn the_registry_and_spes_reach_every_command() {
     assert_ok(&out);
     assert!(String::from_utf8_lossy(&out.stdout).contains("builder spe_dfs on 2 SPEs"));
     let out = cellbih(&line("build --spes 0"));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("0 is not between 1 and 16"));
+    assert!(stderr(&out).contains("0 is not between 1 and 16"));
 }
 
 /// `--mode`: checked and timed give the same cycles and tree; functional
@@ -227,7 +228,7 @@ fn the_functional_mode_reports_no_timing() {
         &[t],
     ));
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("no timing"));
+    assert!(stderr(&out).contains("no timing"));
     assert!(!trace.exists());
 }
 
@@ -241,11 +242,7 @@ fn one_spe_is_singular() {
     ] {
         let out = cellbih(args);
         assert_ok(&out);
-        let text = format!(
-            "{}{}",
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        );
+        let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), stderr(&out));
         assert!(
             text.contains("1 SPE") && !text.contains("1 SPEs"),
             "{args:?}: {text}"
@@ -275,7 +272,7 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
             args.extend(extra);
             let out = cellbih(&args);
             assert_ok(&out);
-            let err = String::from_utf8_lossy(&out.stderr);
+            let err = stderr(&out);
             assert_eq!(err.contains("on the Cell:"), !extra.is_empty(), "{err}");
             if !extra.is_empty() {
                 assert!(
@@ -334,7 +331,7 @@ fn casting_on_the_cell_writes_what_the_host_writes() {
             }
             let out = cellbih(&args);
             assert_ok(&out);
-            let err = String::from_utf8_lossy(&out.stderr);
+            let err = stderr(&out);
             assert!(err.contains(&format!("--packet {packet}")), "{err}");
             assert_eq!(err.contains(" packets, "), packet == "4x4", "{err}");
             pngs.push(std::fs::read(&p).unwrap());

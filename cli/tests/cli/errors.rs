@@ -364,7 +364,7 @@ fn a_closed_pipe_ends_the_command_quietly() {
     let mut first = [0u8; 1];
     child.stdout.take().unwrap().read_exact(&mut first).unwrap();
     let out = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = stderr(&out);
     assert!(!err.contains("panicked"), "{err}");
 }
 
@@ -409,7 +409,7 @@ fn a_full_standard_output_is_a_one_line_error() {
             .stdout(full())
             .output()
             .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = stderr(&out);
         assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
         assert!(
             err.contains("cannot write to standard output") && !err.contains("panicked"),
@@ -451,7 +451,7 @@ fn an_experiment_with_a_scene_that_does_not_load_fails_and_keeps_earlier_results
         std::fs::create_dir_all(&dir).unwrap();
         std::fs::write(dir.join(file), "earlier results\n").unwrap();
         let out = run(&dir);
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = stderr(&out);
         assert!(!out.status.success(), "{file}: {err}");
         assert!(
             err.starts_with("error: 1 scene of --scenes did not load")
@@ -468,7 +468,7 @@ fn an_experiment_with_a_scene_that_does_not_load_fails_and_keeps_earlier_results
         let plain = dir.join("plain");
         std::fs::write(&plain, "x").unwrap();
         let out = run(&plain);
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = stderr(&out);
         assert!(err.contains("plain is not a directory"), "{err}");
     }
 }
@@ -504,7 +504,7 @@ fn a_signal_leaves_no_file_behind() {
             .unwrap();
         assert!(kill.success());
         let o = child.wait_with_output().unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
+        let err = stderr(&o);
         assert_eq!(o.status.code(), Some(code), "SIG{signal}: {err}");
         assert!(err.contains(said), "SIG{signal}: {err}");
         let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();

@@ -5,6 +5,7 @@
 //! frame on the Cell). `footprint` is in `tests/footprint.rs`; `validate`
 //! and `sensitivity` in `cli/tests/cli/model_checks.rs`.
 
+use crate::common::stderr;
 use serde_json::json;
 
 use crate::common::{assert_ok, fill, run_experiment, tmp};
@@ -221,7 +222,7 @@ fn spe_scaling_writes_a_row_per_builder_and_spe_count() {
         (&["--out", "/proc/x"][..], "/proc/x: cannot write"),
     ] {
         let out = crate::common::command(exe).args(args).output().unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = stderr(&out);
         assert!(!out.status.success() && err.contains(msg), "{err}");
     }
 }
@@ -286,7 +287,7 @@ fn frame_loop_plays_every_policy_in_both_arrangements() {
         .output()
         .unwrap();
     assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-mesh"));
+    assert!(stderr(&out).contains("no-such-mesh"));
     // A tree knob the builder does not take is refused by name.
     let out = crate::common::command(env!("CARGO_BIN_EXE_frame_loop"))
         .args([
@@ -301,7 +302,7 @@ fn frame_loop_plays_every_policy_in_both_arrangements() {
         .output()
         .unwrap();
     assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = stderr(&out);
     assert!(
         err.contains("empty-cut") || err.contains("cut-off"),
         "{err}"
@@ -504,7 +505,7 @@ fn host_scaling_builds_with_the_quality_knobs() {
         .output()
         .unwrap();
     assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = stderr(&out);
     assert!(err.contains("--sah-above"), "{err}");
 }
 

@@ -2,6 +2,7 @@
 //! and the sizes; the `footprint` experiment brackets the largest scene
 //! each emulated builder fits, and never runs the host out of memory.
 
+use crate::common::stderr;
 use cellbih::registry::BuilderKind;
 
 use crate::common::{assert_ok, cellbih, line, run_experiment};
@@ -11,7 +12,7 @@ fn a_build_that_does_not_fit_names_the_buffer_and_the_sizes() {
     let out = cellbih(&line(
         "build --scene rtperf:200000 --builder spe_morton --memory-mib 12",
     ));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = stderr(&out);
     assert!(!out.status.success(), "{err}");
     assert!(
         err.contains("main memory full: ")

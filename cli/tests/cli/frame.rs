@@ -100,7 +100,10 @@ fn the_frame_command_reports_every_frame() {
     for (extra, says) in [
         (&["--builder", "host"][..], "needs an emulated builder"),
         (&["--mode", "functional"][..], "--mode functional has none"),
-        (&["--policy", "fastest"][..], "unknown --policy 'fastest'"),
+        (
+            &["--policy", "fastest"][..],
+            "invalid value 'fastest' for '--policy <POLICY>' [possible values: rebuild, local, deep, auto]",
+        ),
         (&line("--cache-kib 1 --cache-ways 16")[..], "whole sets"),
     ] {
         let mut args = vec!["frame", "--animation", "car", "--scene", "car"];

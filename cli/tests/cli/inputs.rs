@@ -240,7 +240,7 @@ fn an_experiment_replaces_its_files_together_or_not_at_all() {
                 .unwrap()
                 .file_name()
                 .to_string_lossy()
-                .starts_with('.')
+                .starts_with(".cellbih-run")
         })
         .count();
     assert_eq!(hidden, 0, "a staging directory was left behind");

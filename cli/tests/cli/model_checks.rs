@@ -4,6 +4,7 @@
 //! (how the headline speedups move across every unpinned rate's band),
 //! and `cellbih rates` (every rate a run may set).
 
+use crate::common::stderr;
 use cellbih::registry::BuilderKind;
 
 use crate::common::{assert_fails_with, assert_ok, cellbih};
@@ -22,7 +23,7 @@ fn validate_holds_the_measured_model_to_every_published_figure() {
         .args(["--out", dir.to_str().unwrap()])
         .output()
         .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = stderr(&out);
     assert!(out.status.success(), "{err}");
     let doc: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("validate.json")).unwrap()).unwrap();
@@ -119,7 +120,7 @@ fn validate_holds_the_measured_model_to_every_published_figure() {
         .args(["--model", "legacy", "--out", dir.to_str().unwrap()])
         .output()
         .unwrap();
-    let err = String::from_utf8_lossy(&legacy.stderr);
+    let err = stderr(&legacy);
     assert!(!legacy.status.success(), "the legacy model passed: {err}");
     for figure in [
         "16 KiB gets, 2 in flight",
@@ -149,11 +150,7 @@ fn sensitivity_moves_every_uncertain_rate_across_its_band() {
         ))
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", stderr(&out));
     for line in String::from_utf8_lossy(&out.stdout).lines() {
         assert!(
             line.chars().count() <= 80,

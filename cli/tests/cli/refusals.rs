@@ -357,7 +357,7 @@ fn a_procedural_scene_too_big_for_the_emulated_memory_is_refused_up_front() {
         args.extend(too_big);
         assert_fails_with(
             &cellbih(&args),
-            "rtperf:5000000: its 5000000 triangle records alone take 229 MiB, more than the emulated Cell's 64 MiB (--memory-mib): nothing built",
+            "rtperf:5000000: building its 5000000 triangles takes at least 333 MiB (their records, spe_bfs's buffers, the fewest nodes), more than the emulated Cell's 64 MiB (--memory-mib): nothing built",
         );
     }
     let fits = cellbih(&line(
@@ -479,7 +479,11 @@ fn options_that_do_not_apply_are_refused_by_name() {
     let out = cellbih(&line("update --animation rtperf --find-moved spe"));
     assert_fails_with(&out, "--find-moved spe: builder host builds on the host");
     let out = cellbih(&line("frame --animation rtperf --find-moved gpu"));
-    assert_fails_with(&out, "unknown --find-moved 'gpu': ppe or spe");
+    assert_fails_with(
+        &out,
+        "invalid value 'gpu' for '--find-moved <FIND_MOVED>' [possible values: ppe, spe]",
+    );
+    assert_eq!(out.status.code(), Some(2));
     let out = cellbih(&line(
         "frame --animation rtperf --frames 1 --width 16 --height 16 --policy auto --find-moved spe",
     ));
