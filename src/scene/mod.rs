@@ -296,6 +296,16 @@ pub fn data_dir(given: Option<&Path>) -> Option<PathBuf> {
 /// - a path to an `.obj` or `.obj.gz` file;
 /// - a bare name such as `bunny`: `<data dir>/<name>.obj.gz` (or `.obj`).
 pub fn load(spec: &str, data: Option<&Path>) -> Result<Scene, SceneError> {
+    if spec.trim().is_empty() {
+        return Err(SceneError::Unknown {
+            spec: spec.into(),
+            why: format!(
+                "no scene given: default, rtperf:N[:SEED], car, cup, a mesh name or file, \
+                 or a zoo scene ({})",
+                zoo::FORMS
+            ),
+        });
+    }
     if spec == "default" {
         return parse_obj("default", DEFAULT_SCENE_OBJ.as_bytes());
     }

@@ -118,6 +118,14 @@ fn normalize(text: &[u8]) -> Option<Cow<'_, [u8]>> {
 }
 
 pub(super) fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Scene, SceneError> {
+    // Vertices are checked as written, before their colours are dropped.
+    if let Some((line, what)) = bad_vertex(text) {
+        return Err(SceneError::Malformed {
+            path: path.into(),
+            line,
+            what,
+        });
+    }
     let Some(text) = normalize(text) else {
         let nul = text.iter().position(|&b| b == 0).unwrap_or(0);
         let line = 1 + text[..nul].iter().filter(|&&b| b == b'\n').count();
@@ -208,6 +216,42 @@ fn short_face(text: &[u8]) -> Option<(usize, usize)> {
         let corners = words.count();
         (corners < 3).then_some((n + 1, corners))
     })
+}
+
+/// The first vertex line (1-based) that is not `x y z`, `x y z w` or
+/// `x y z r g b` of finite `f32` numbers, and why.
+fn bad_vertex(text: &[u8]) -> Option<(usize, String)> {
+    let mut seen = 0;
+    for (n, line) in text.split(|&b| b == b'\n').enumerate() {
+        let mut words = (line.split(u8::is_ascii_whitespace)).filter(|w| !w.is_empty());
+        if words.next() != Some(b"v") {
+            continue;
+        }
+        seen += 1;
+        let values: Vec<&[u8]> = words.collect();
+        if !matches!(values.len(), 3 | 4 | 6) {
+            return Some((
+                n + 1,
+                format!(
+                    "vertex {seen} has {} values: a vertex is x y z, x y z w (a weight) or \
+                     x y z r g b (a colour)",
+                    values.len()
+                ),
+            ));
+        }
+        for (i, v) in values.iter().enumerate() {
+            let role = match (i, values.len()) {
+                (3.., 6) => "'s colour",
+                (3.., _) => "'s weight",
+                _ => "",
+            };
+            let c = String::from_utf8_lossy(v);
+            if let Err(why) = coordinate(&c, &format!("vertex {seen}{role}")) {
+                return Some((n + 1, why));
+            }
+        }
+    }
+    None
 }
 
 /// Turns a tobj failure into an error that names the line and element, when

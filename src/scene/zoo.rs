@@ -98,45 +98,70 @@ pub fn by_name(spec: &str, data: Option<&Path>) -> Result<Option<Scene>, SceneEr
             (None, Some(d)) => return Ok(d),
             _ => field(i, "a scale")?,
         };
-        s.parse::<f32>()
-            .ok()
-            .filter(|x| x.is_finite() && *x > 0.0)
-            .ok_or_else(|| {
-                bad(format!(
-                    "the scale of {kind} is not a positive number: '{s}'"
-                ))
-            })
-    };
-    let mesh = |i: usize| -> Result<Scene, SceneError> { super::load(field(i, "a mesh")?, data) };
-    let capped = |n: usize| -> Result<usize, SceneError> {
-        match n > MAX_ZOO_TRIANGLES {
-            true => Err(bad(format!(
-                "{kind} makes {n} triangles; the zoo makes at most {MAX_ZOO_TRIANGLES}"
+        match s.parse::<f64>() {
+            Ok(x) if x.is_finite() && x > 0.0 && x <= f32::MAX as f64 => Ok(x as f32),
+            Ok(x) if x.is_finite() && x > 0.0 => Err(bad(format!(
+                "the scale of {kind} is beyond f32: '{s}' (at most 3.4e38)"
             ))),
-            false => Ok(n),
+            _ => Err(bad(format!(
+                "the scale of {kind} is not a positive number: '{s}'"
+            ))),
+        }
+    };
+    let mesh = |i: usize| -> Result<Scene, SceneError> {
+        let name = field(i, "a mesh")?;
+        super::load(name, data).map_err(|e| match e {
+            SceneError::Unknown { why, .. } => bad(format!(
+                "its mesh '{name}' {}: {why}",
+                "(a mesh name or file: a scene with ':' cannot stand inside a zoo scene)"
+            )),
+            e => e,
+        })
+    };
+    // `None`: more than `usize` holds.
+    let capped = |n: Option<usize>| -> Result<usize, SceneError> {
+        match n.filter(|&n| n <= MAX_ZOO_TRIANGLES) {
+            None => Err(bad(format!(
+                "{kind} makes {}; the zoo makes at most {MAX_ZOO_TRIANGLES}",
+                match n {
+                    Some(n) => format!("{n} triangles"),
+                    None => format!("more than {MAX_ZOO_TRIANGLES} triangles"),
+                }
+            ))),
+            Some(n) => Ok(n),
         }
     };
     let (scene, fields) = match kind {
-        "ground" => (ground(&mesh(1)?, scale(2, None)?), 3),
-        "stadium" => (stadium(&mesh(1)?, scale(2, Some(200.0))?), 3),
+        // The scale is checked before the mesh is loaded.
+        "ground" => {
+            let scale = scale(2, None)?;
+            (ground(&mesh(1)?, scale), 3)
+        }
+        "stadium" => {
+            let scale = scale(2, Some(200.0))?;
+            (stadium(&mesh(1)?, scale), 3)
+        }
         "clusters" => {
             let k = count(1, "cluster count", 1)?;
-            let n = capped(count(2, "triangle count", k)?)?;
+            let n = capped(Some(count(2, "triangle count", k)?))?;
             (clusters(k, n, seed(3)?), 4)
         }
         "row" => {
             let m = mesh(1)?;
             let k = count(2, "copy count", 1)?;
-            capped(m.len().saturating_mul(k))?;
+            capped(m.len().checked_mul(k))?;
             (row(&m, k), 3)
         }
         "soup" => {
-            let n = capped(count(1, "triangle count", 1)?)?;
+            let n = capped(Some(count(1, "triangle count", 1)?))?;
             (soup(n, seed(2)?), 3)
         }
         _ => {
             let k = count(1, "grid size", 1)?;
-            capped(k.saturating_mul(k).saturating_mul(12).saturating_add(2))?;
+            capped(
+                k.checked_mul(k)
+                    .and_then(|kk| kk.checked_mul(12)?.checked_add(2)),
+            )?;
             (city(k, seed(2)?), 3)
         }
     };

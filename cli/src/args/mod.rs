@@ -361,7 +361,21 @@ pub struct SceneArgs {
 /// An experiment's arguments, parsed as every program of the front end
 /// parses them: help wrapped at 80 columns, errors printed by clap.
 pub fn parse<A: clap::Parser>() -> A {
-    let mut cmd = A::command().term_width(80);
+    // `--version` says which experiment, and the commit it was built from.
+    let name = (std::env::args_os().next()).and_then(|a| {
+        Some(
+            std::path::Path::new(&a)
+                .file_name()?
+                .to_string_lossy()
+                .into_owned(),
+        )
+    });
+    let mut cmd =
+        (A::command().term_width(80)).version(cellbih::registry::settings::version_static());
+    if let Some(name) = name {
+        // Once per process: clap keeps names as `&'static str`.
+        cmd = cmd.name(&*Box::leak(name.into_boxed_str()));
+    }
     let matches = cmd.clone().get_matches();
     A::from_arg_matches(&matches).unwrap_or_else(|e| e.format(&mut cmd).exit())
 }

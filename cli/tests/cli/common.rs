@@ -39,7 +39,7 @@ pub fn cellbih<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
 
 /// Fails with the command's stderr unless it succeeded.
 pub fn assert_ok(out: &Output) {
-    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(out.status.success(), "{}", stderr(out));
 }
 
 /// The builders that build on the host's threads (`--threads`).

@@ -632,3 +632,41 @@ fn an_output_never_replaces_an_input() {
             .contains("traceEvents")
     );
 }
+
+/// A vertex is `x y z`, `x y z w` or `x y z r g b`: any other count, or a
+/// colour that is not a number, is named by its line; zoo and built-in
+/// scene specs say what is wrong with them, never a saturated count or the
+/// wrong part.
+#[test]
+fn vertex_colours_and_scene_specs_are_checked_by_what_they_say() {
+    for (first, says) in [
+        ("v 0 0 0 0.5 0.5", ":1: vertex 1 has 5 values"),
+        (
+            "v 1 0 0 1 0 x",
+            ":1: vertex 1's colour: 'x' is not a number",
+        ),
+        ("v 0 0 0 1 0 0 1", ":1: vertex 1 has 7 values"),
+    ] {
+        let obj =
+            crate::common::text_file("col.obj", &format!("{first}\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
+        assert_fails_with(&cellbih(&["info", "--scene", &obj]), says);
+    }
+    let obj = crate::common::text_file("rgb.obj", "v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    crate::common::assert_ok(&cellbih(&["info", "--scene", &obj]));
+    for (spec, says) in [
+        ("city:4294967297", "city makes more than 50000000 triangles"),
+        (
+            "ground:teapot:1e39",
+            "the scale of ground is beyond f32: '1e39'",
+        ),
+        (
+            "ground:rtperf:100:10",
+            "its mesh 'rtperf' (a mesh name or file",
+        ),
+        ("", "unknown scene '': no scene given"),
+    ] {
+        let out = cellbih(&["info", "--scene", spec]);
+        assert_fails_with(&out, says);
+        assert!(!crate::common::stderr(&out).contains("18446744073709551615"));
+    }
+}
