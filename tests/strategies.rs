@@ -505,3 +505,31 @@ fn every_knob_table_states_its_range_and_each_sweep_value_moves_its_builders() {
     }
     assert!(!seen.is_empty(), "the registry declares no knob");
 }
+
+/// The machine rates the front end refuses for every build
+/// (`cost::FABRIC_AND_PPE_ATOMICS`: transfers between local stores and
+/// the PPE's atomics) move no build of any emulated builder, on 1 and 8
+/// SPEs: so that list cannot go stale while a builder starts to use them.
+#[test]
+fn no_build_charges_the_fabric_or_the_ppe_atomics() {
+    use cellbih::cell::{CellConfig, cost::FABRIC_AND_PPE_ATOMICS};
+    let s = scene::load("rtperf:6000:2", None).unwrap();
+    for spes in [1, 8] {
+        let base = CellConfig::ps3().with_spes(spes);
+        let mut moved = base.clone();
+        for name in FABRIC_AND_PPE_ATOMICS {
+            let value = match name.ends_with("_cycles") {
+                true => "100000",
+                false => "0.01",
+            };
+            moved.cost.set_rate(name, value).unwrap().unwrap();
+        }
+        for &b in BuilderKind::ALL.iter().filter(|b| b.emulated()) {
+            let cycles = |cell: &CellConfig| {
+                let r = Build::new(b).on(cell).run(&s).unwrap();
+                r.simulated.unwrap().run.cycles
+            };
+            assert_eq!(cycles(&base), cycles(&moved), "{b} on {spes} SPEs");
+        }
+    }
+}

@@ -62,11 +62,22 @@ impl Bandwidth {
     }
 
     /// The bandwidth as `--rate` spells it: GB/s at `hz`, the shortest
-    /// decimal of six significant digits that gives it back.
+    /// decimal (of six significant digits or more) that gives it back.
     pub fn text(self, hz: f64) -> String {
         let g = self.gb_per_s(hz);
-        let six: f64 = format!("{g:.5e}").parse().expect("a number");
-        format!("{six}")
+        let back = |t: &str| {
+            t.parse()
+                .is_ok_and(|x: f64| Self::from_gb_per_s(x, hz) == self)
+        };
+        (5..17)
+            .map(|digits| {
+                format!(
+                    "{}",
+                    format!("{g:.digits$e}").parse::<f64>().expect("a number")
+                )
+            })
+            .find(|t| back(t))
+            .unwrap_or_else(|| format!("{g}"))
     }
 }
 
@@ -116,10 +127,9 @@ pub struct CostModel {
     /// getllar of a line not in this SPE's atomic cache: the line is
     /// brought from main memory or another core's atomic cache. Estimate:
     /// costed as a 128-byte DMA get (Kistler et al.'s cache-line figure).
+    /// With the legacy model's exclusive lock lines, a putlluc of a line
+    /// another core holds moves it at the same cost.
     pub getllar_cycles: Cycles,
-    /// putllc / putlluc of a line this SPE's atomic cache does not hold
-    /// (it must be claimed from its holder): estimate, like getllar.
-    pub putllc_cycles: Cycles,
     /// An atomic command on a line already in this SPE's atomic cache, or
     /// a putllc that fails because the reservation is known lost. Estimate:
     /// IBM's patent application US 2009/0077322 describes a getllar hit as
@@ -221,6 +231,11 @@ pub struct CostModel {
     /// hardware (the default: the paper's builders ran under Linux with
     /// libspe2, whose problem-state mailbox access is raw MMIO).
     pub mailbox_os_cycles: Cycles,
+    /// Whether the mailboxes are reached through the PS3 kernel
+    /// ([`CostModel::with_ps3_kernel_mailboxes`], `--mailboxes
+    /// ps3-kernel`), whatever `mailbox_os_cycles` is set to: a name the
+    /// settings report, not a rate.
+    pub os_mailboxes: bool,
 }
 
 /// How the atomic caches hold lock lines (getllar, putllc, putlluc).
@@ -293,7 +308,6 @@ impl CostModel {
             ppe_mmio_cycles: Cycles(100),
             signal_latency_cycles: Cycles(316),
             getllar_cycles: Cycles(316),
-            putllc_cycles: Cycles(316),
             atomic_hit_cycles: Cycles(128),
             ppe_event_cycles: Cycles(3200),
             ppe_alloc_cycles: Cycles(300),
@@ -307,6 +321,7 @@ impl CostModel {
             put_ack_cycles: Cycles::ZERO,
             lock_lines: LockLines::Exclusive,
             mailbox_os_cycles: Cycles::ZERO,
+            os_mailboxes: false,
             atomic_cache_lines: None,
             partial_puts_claim: false,
             eib_total_bandwidth_blade: None,
@@ -322,6 +337,7 @@ impl CostModel {
         let one_way = (5.8e-6 * self.clock_hz) as u64;
         CostModel {
             mailbox_os_cycles: Cycles(one_way - self.mailbox_latency_cycles.0),
+            os_mailboxes: true,
             ..self
         }
     }
@@ -387,7 +403,6 @@ impl CostModel {
             ppe_mmio_cycles: Cycles::ZERO,
             signal_latency_cycles: Cycles::ZERO,
             getllar_cycles: Cycles::ZERO,
-            putllc_cycles: Cycles::ZERO,
             atomic_hit_cycles: Cycles::ZERO,
             ppe_event_cycles: Cycles::ZERO,
             ppe_alloc_cycles: Cycles::ZERO,
@@ -400,6 +415,17 @@ impl CostModel {
         }
     }
 }
+
+/// The machine rates only transfers between local stores (the EIB and the
+/// local stores' ports) and the PPE's atomics charge: no build, cast or
+/// update of the library makes either; `validate`'s kernels do.
+pub const FABRIC_AND_PPE_ATOMICS: [&str; 5] = [
+    "eib_bandwidth",
+    "eib_total_bandwidth",
+    "eib_total_bandwidth_blade",
+    "ls_port_bandwidth",
+    "ppe_atomic_cycles",
+];
 
 /// The most cycles any rate may be set to (`--rate`): 2^40, about 344 s
 /// at 3.2 GHz for one operation or one item.
@@ -417,13 +443,15 @@ pub fn parse_cycles(value: &str) -> Result<Cycles, String> {
 }
 
 /// A bandwidth as `--rate` spells it, in GB/s: from
-/// [`Bandwidth::MIN_GB_PER_S`] to [`Bandwidth::MAX_GB_PER_S`], with at most
-/// six significant digits (what the model keeps exactly); at a clock of
-/// `hz`. The error says what a value must be.
+/// [`Bandwidth::MIN_GB_PER_S`] to [`Bandwidth::MAX_GB_PER_S`], a value the
+/// model keeps as given (its grid's step is 3.2e-12 GB/s at 3.2 GHz: any
+/// six significant digits); at a clock of `hz`. The error says what a
+/// value must be.
 pub fn parse_gb_per_s(value: &str, hz: f64) -> Result<Bandwidth, String> {
     let why = || {
         format!(
-            "a bandwidth in GB/s from {} to {}, to six significant digits",
+            "a bandwidth in GB/s from {} to {}, in steps of 3.2e-12 GB/s (any six \
+             significant digits)",
             Bandwidth::MIN_GB_PER_S,
             Bandwidth::MAX_GB_PER_S
         )
@@ -432,6 +460,7 @@ pub fn parse_gb_per_s(value: &str, hz: f64) -> Result<Bandwidth, String> {
     if !(Bandwidth::MIN_GB_PER_S..=Bandwidth::MAX_GB_PER_S).contains(&g) {
         return Err(why());
     }
+    // Kept exactly where the grid holds it: six significant digits always.
     let b = Bandwidth::from_gb_per_s(g, hz);
     match b.text(hz).parse::<f64>() == Ok(g) {
         true => Ok(b),
@@ -448,6 +477,10 @@ pub enum Slot {
     Bandwidth(fn(&mut CostModel) -> &mut Bandwidth),
     /// A ceiling that may be absent (unlimited), set and shown in GB/s.
     Ceiling(fn(&mut CostModel) -> &mut Option<Bandwidth>),
+    /// The shared lock lines' claim ([`LockLines::Shared`]), in cycles: a
+    /// rate of the measured model only (the legacy model's lines are
+    /// exclusive and claim nothing).
+    Claim,
 }
 
 /// One of the machine's rates a user may set by name (`--rate`).
@@ -458,11 +491,11 @@ pub struct MachineRate {
 }
 
 macro_rules! machine_rates {
-    ($($kind:ident $field:ident),* $(,)?) => {
+    ($($kind:ident $field:ident),* ; $($extra:expr),* $(,)?) => {
         &[$(MachineRate {
             name: stringify!($field),
             slot: Slot::$kind(|c| &mut c.$field),
-        }),*]
+        },)* $($extra),*]
     };
 }
 
@@ -481,7 +514,6 @@ impl CostModel {
         Cycles ppe_mmio_cycles,
         Cycles signal_latency_cycles,
         Cycles getllar_cycles,
-        Cycles putllc_cycles,
         Cycles atomic_hit_cycles,
         Cycles ppe_event_cycles,
         Cycles ppe_alloc_cycles,
@@ -493,7 +525,8 @@ impl CostModel {
         Cycles put_ack_cycles,
         Ceiling eib_total_bandwidth_blade,
         Cycles spe_start_cycles,
-        Cycles mailbox_os_cycles,
+        Cycles mailbox_os_cycles;
+        MachineRate { name: "claim_cycles", slot: Slot::Claim },
     );
 
     /// The machine rate `name` at `value` (cycles, or GB/s for a
@@ -515,6 +548,15 @@ impl CostModel {
                 }
                 v => gb(v).map(|b| *at(self) = Some(b)),
             },
+            Slot::Claim => match &mut self.lock_lines {
+                LockLines::Shared { claim_cycles } => parse_cycles(value)
+                    .map(|c| *claim_cycles = c)
+                    .map_err(|why| format!("{name}={value}: {why}")),
+                LockLines::Exclusive => Err(format!(
+                    "{name}: the legacy model's lock lines are exclusive and claim nothing \
+                     (--model measured claims them)"
+                )),
+            },
         })
     }
 
@@ -530,6 +572,10 @@ impl CostModel {
             Slot::Ceiling(at) => match *at(&mut c.clone()) {
                 Some(b) => gb(b),
                 None => "unlimited".into(),
+            },
+            Slot::Claim => match c.lock_lines {
+                LockLines::Shared { claim_cycles } => claim_cycles.0.to_string(),
+                LockLines::Exclusive => return None,
             },
         })
     }

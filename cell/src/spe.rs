@@ -503,7 +503,7 @@ impl Spe {
         self.check_line("putllc", ls, ea)?;
         self.sync().await;
         let mut m = self.m.borrow_mut();
-        let (hit, miss) = (m.cfg.cost.atomic_hit_cycles, m.cfg.cost.putllc_cycles);
+        let (hit, miss) = (m.cfg.cost.atomic_hit_cycles, m.cfg.cost.getllar_cycles);
         if m.spes[self.id].reservation != Some(ea.0) {
             // The loss is known locally (the line was snooped away): the
             // command fails without touching the line.
@@ -527,7 +527,7 @@ impl Spe {
         let r = ls_range(self.id, &m, ls, 128)?;
         let data = m.spes[self.id].ls.bytes()[r].to_vec();
         m.mem.write(ea, &data)?;
-        let (hit, miss) = (m.cfg.cost.atomic_hit_cycles, m.cfg.cost.putllc_cycles);
+        let (hit, miss) = (m.cfg.cost.atomic_hit_cycles, m.cfg.cost.getllar_cycles);
         m.store_line(self.core(), ea, hit, miss);
         Ok(())
     }

@@ -89,6 +89,15 @@ fn size_of(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
+    use cellbih_cli::args::Charges;
+    cellbih_cli::args::set_charges(
+        "frame_loop",
+        Charges {
+            casts: true,
+            updates: true,
+            ..Charges::BUILDS
+        },
+    );
     args.run.threads.install()?;
     let emulated = || -> Vec<&str> {
         (BuilderKind::ALL.iter())

@@ -131,6 +131,14 @@ fn main() {
 }
 
 fn run(args: &Args) -> Result<(), String> {
+    use cellbih_cli::args::Charges;
+    cellbih_cli::args::set_charges(
+        "tradeoff",
+        Charges {
+            casts: true,
+            ..Charges::BUILDS
+        },
+    );
     args.run.threads.install()?;
     let settings = settings();
     let scenes = cellbih_cli::report::load_scenes(&args.scenes, args.scene.data.dir().as_deref())?;

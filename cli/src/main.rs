@@ -7,13 +7,17 @@ use std::process::ExitCode;
 
 use clap::Parser;
 
-use cellbih_cli::args::{Cli, Command};
+use cellbih_cli::args::{Charges, Cli, Command, set_charges};
 use cellbih_cli::command;
 use cellbih_cli::report;
 
 fn main() -> ExitCode {
     report::start("cellbih");
-    let result = match Cli::parse().command {
+    let command = Cli::parse().command;
+    if let Some((name, charges)) = charges(&command) {
+        set_charges(name, charges);
+    }
+    let result = match command {
         None => command::compare::demo(),
         Some(Command::Builders) => command::builders::run(),
         Some(Command::Rates(args)) => command::rates::run(args),
@@ -41,4 +45,24 @@ fn main() -> ExitCode {
             ExitCode::from(cellbih_cli::exit_status(&*e))
         }
     }
+}
+
+/// What `command` charges, for refusing a `--rate` it never charges.
+fn charges(command: &Option<Command>) -> Option<(&'static str, Charges)> {
+    let with = |casts: bool, updates: bool| Charges {
+        casts,
+        updates,
+        ..Charges::BUILDS
+    };
+    Some(match command.as_ref()? {
+        Command::Build(_) => ("build", Charges::BUILDS),
+        Command::Compare(_) => ("compare", Charges::BUILDS),
+        Command::Raycast(a) if a.cast.on_cell => ("raycast --on-cell", with(true, false)),
+        Command::Raycast(_) => ("raycast without --on-cell", Charges::BUILDS),
+        Command::Render(a) if a.cast.on_cell => ("render --on-cell", with(true, false)),
+        Command::Render(_) => ("render without --on-cell", Charges::BUILDS),
+        Command::Update(_) => ("update", with(false, true)),
+        Command::Frame(_) => ("frame", with(true, true)),
+        _ => return None,
+    })
 }

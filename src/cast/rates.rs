@@ -5,7 +5,7 @@
 
 use super::{CacheRates, Precision};
 use crate::cell::Cycles;
-use crate::kernels::rates::{Band, Code, Count, Rate, RateOverrides, overridden};
+use crate::kernels::rates::{Code, Count, Rate, RateOverrides, overridden};
 
 /// The caster's compute rates, per SPE. The kernels' rates are derived
 /// from SPU instruction counts (issue cycles on the two pipelines) and
@@ -118,11 +118,12 @@ const RAY_SWITCH: u64 = 32;
 
 impl CastRates {
     /// The caster's rates in `precision` and the class `code`, each named
-    /// (`cast.…`) and banded; the software cache's measured ones fixed.
+    /// (`cast.…`) and banded; the software cache's are its own
+    /// ([`CacheRates::table`], `cache.…`).
     pub fn table(precision: Precision, code: Code) -> Vec<Rate<CastRates>> {
         let c = precision.counts().0;
         let band = |i: usize| code.band(Count::of(c[i]));
-        let mut v = crate::rate_table!(CastRates, "cast.", {
+        crate::rate_table!(CastRates, "cast.", {
             ray_setup: band(0),
             node_step: band(1),
             triangle_test: band(2),
@@ -133,31 +134,17 @@ impl CastRates {
             packet_triangle: band(6),
             packet_triangle_quad: band(7),
         })
-        .to_vec();
-        v.extend_from_slice(&[
-            Rate {
-                name: "cast.cache.lookup",
-                at: |s| &mut s.cache.lookup,
-                band: Band::Fitted,
-            },
-            Rate {
-                name: "cast.cache.miss",
-                at: |s| &mut s.cache.miss,
-                band: Band::Fitted,
-            },
-            Rate {
-                name: "cast.cache.invalidate_line",
-                at: |s| &mut s.cache.invalidate_line,
-                band: code.band(crate::spe::software_cache::INVALIDATE_COUNT),
-            },
-        ]);
-        v
+        .to_vec()
     }
 
     /// The rates of a cast: `precision`'s in the class of `rates`, with
     /// its overrides.
     pub fn of(precision: Precision, rates: &RateOverrides) -> CastRates {
         let code = rates.code();
-        overridden(precision.rates(code), &Self::table(precision, code), rates)
+        let cast = overridden(precision.rates(code), &Self::table(precision, code), rates);
+        CastRates {
+            cache: CacheRates::with(rates),
+            ..cast
+        }
     }
 }

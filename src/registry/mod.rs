@@ -14,6 +14,7 @@ use crate::host::{HostBuild, HostBuilder};
 use crate::kernels::ppe_rates::PpeRates;
 use crate::kernels::rates::{Code, KernelRates, RateInfo, RateOverrides, Uncertain, infos};
 use crate::scene::Scene;
+use crate::spe::software_cache::CacheRates;
 use crate::strategy::{self, Strategy};
 
 mod build;
@@ -207,6 +208,7 @@ impl BuilderKind {
         let mut v = Self::rates(code);
         let single = Precision::Single;
         v.extend(infos(single.rates(code), &CastRates::table(single, code)));
+        v.extend(infos(CacheRates::of(code), &CacheRates::table(code)));
         v.extend(infos(PpeRates::PS3, &PpeRates::table()));
         v
     }

@@ -32,7 +32,7 @@
 //! bookkeeping on top of the get the machine times.
 
 use crate::cell::{CellError, Cycles, Ea, LsAddr, Spe};
-use crate::kernels::rates::{Code, Count};
+use crate::kernels::rates::{Band, Code, Count, Rate, RateOverrides, overridden};
 
 /// Bytes of a cache line: the DMA's and the atomic unit's line.
 pub const LINE: u64 = 128;
@@ -67,6 +67,24 @@ impl CacheRates {
             miss: Cycles(600 - 28 - 316),
             invalidate_line: code.charge(INVALIDATE_COUNT),
         }
+    }
+
+    /// The software cache's rates, each named (`cache.…`) and banded: one
+    /// set for every software cache (the caster's, `spe_bfs_shared`'s job
+    /// cache).
+    pub fn table(code: Code) -> Vec<Rate<CacheRates>> {
+        crate::rate_table!(CacheRates, "cache.", {
+            lookup: Band::Fitted,
+            miss: Band::Fitted,
+            invalidate_line: code.band(INVALIDATE_COUNT),
+        })
+        .to_vec()
+    }
+
+    /// The rates in the class of `rates`, with its overrides.
+    pub fn with(rates: &RateOverrides) -> CacheRates {
+        let code = rates.code();
+        overridden(Self::of(code), &Self::table(code), rates)
     }
 }
 

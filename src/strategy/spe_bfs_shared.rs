@@ -53,7 +53,6 @@ use super::machinery::work_queue::{Level, SharedSpill, WorkPpe, WorkQueue, from_
 use super::{Knob, Readback, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea, LsAddr, Spe};
-use crate::kernels::rates::Code;
 use crate::spe::barrier::Barrier;
 use crate::spe::software_cache::{CacheConfig, CacheRates, LINE, SoftwareCache};
 
@@ -269,7 +268,7 @@ impl Program {
         b.share_queue(writes);
         let mut cache = match knobs.job_cache {
             0 => None,
-            kib => Some(job_cache(&spe, kib as u32, self.start.code)?),
+            kib => Some(job_cache(&spe, kib as u32, self.start.cache)?),
         };
         work.taken = shared_levels(&spe, &mut b, q, knobs, line, cache.as_mut()).await?;
         if let Some(c) = cache {
@@ -360,7 +359,7 @@ impl Queue {
 
 /// The job queue's software cache of `kib` KiB in `spe`'s local store
 /// (4-way); an error says how much room the other buffers left.
-fn job_cache(spe: &Spe, kib: u32, code: Code) -> Result<SoftwareCache, CellError> {
+fn job_cache(spe: &Spe, kib: u32, rates: CacheRates) -> Result<SoftwareCache, CellError> {
     let shape = CacheConfig {
         kib,
         ways: 4,
@@ -373,7 +372,7 @@ fn job_cache(spe: &Spe, kib: u32, code: Code) -> Result<SoftwareCache, CellError
             shape.ls_bytes()
         )));
     }
-    SoftwareCache::new(spe, shape, CacheRates::of(code), 1)
+    SoftwareCache::new(spe, shape, rates, 1)
 }
 
 /// Every SPE: takes jobs from the shared queue level by level until a

@@ -241,10 +241,14 @@ impl RateSetArgs {
                 _ => format!("{at}: {e}"),
             };
             match cost.set_rate(&name, &value) {
-                Some(done) => done.map_err(with_place)?,
+                Some(done) => {
+                    done.map_err(with_place)?;
+                    check_charged(&name, code).map_err(with_place)?;
+                }
                 None => {
                     let name = BuilderKind::rate_named(&name, code)
                         .map_err(|e| with_place(e.to_string()))?;
+                    check_charged(name, code).map_err(with_place)?;
                     let cycles = cellbih::cell::parse_cycles(&value)
                         .map_err(|why| with_place(format!("{name}={value}: {why}")))?;
                     rates = rates.with(name, cycles);
@@ -252,6 +256,92 @@ impl RateSetArgs {
             }
         }
         Ok(rates)
+    }
+}
+
+/// What a command charges, so that a `--rate` of a rate it never charges
+/// is refused by name (it would move nothing): its builds' kernels, the
+/// caster's, the update's PPE share, and the machine's rates for transfers
+/// between local stores and for the PPE's atomics (which only `validate`'s
+/// kernels exercise). The software cache's rates go with builds (a job
+/// cache) and casts alike; every other machine rate with any run.
+#[derive(Clone, Copy, Debug)]
+pub struct Charges {
+    pub builds: bool,
+    pub casts: bool,
+    pub updates: bool,
+    pub fabric_and_ppe_atomics: bool,
+}
+
+impl Charges {
+    /// Builds only.
+    pub const BUILDS: Charges = Charges {
+        builds: true,
+        casts: false,
+        updates: false,
+        fabric_and_ppe_atomics: false,
+    };
+}
+
+/// The command's name and what it charges, set once before its rates are
+/// read (none set: every rate is taken).
+static CHARGES: std::sync::OnceLock<(&'static str, Charges)> = std::sync::OnceLock::new();
+
+/// This process runs `command`, which charges `charges`.
+pub fn set_charges(command: &'static str, charges: Charges) {
+    let _ = CHARGES.set((command, charges));
+}
+
+/// What charges the rate `name` (in the class `code`), as `cellbih rates`
+/// marks it: `(whether a command charging `c` charges it, the runs that do)`.
+pub fn charged_by(name: &str, code: Code, c: Charges) -> (bool, &'static str) {
+    use cellbih::cast::{CastRates, Precision};
+    use cellbih::kernels::ppe_rates::PpeRates;
+    use cellbih::spe::software_cache::CacheRates;
+    let named = |v: Vec<&'static str>| v.contains(&name);
+    let cast = CastRates::table(Precision::Single, code)
+        .iter()
+        .map(|r| r.name)
+        .collect();
+    let cache = CacheRates::table(code).iter().map(|r| r.name).collect();
+    let update = PpeRates::table().iter().map(|r| r.name).collect();
+    let builds = BuilderKind::rates(code)
+        .into_iter()
+        .map(|r| r.name)
+        .collect();
+    if cellbih::cell::cost::FABRIC_AND_PPE_ATOMICS.contains(&name) {
+        (c.fabric_and_ppe_atomics, "validate")
+    } else if named(cast) {
+        (c.casts, "casts")
+    } else if named(cache) {
+        (c.casts || c.builds, "casts, builds")
+    } else if named(update) {
+        (c.updates, "updates")
+    } else if named(builds) {
+        (c.builds, "builds")
+    } else {
+        (true, "every run")
+    }
+}
+
+/// Refuses `name` where the command set by [`set_charges`] never charges
+/// it, saying which runs do.
+fn check_charged(name: &str, code: Code) -> Result<(), String> {
+    let Some(&(command, c)) = CHARGES.get() else {
+        return Ok(());
+    };
+    let (charged, runs) = charged_by(name, code, c);
+    let runs = match runs {
+        "validate" => "validate's kernels (transfers between local stores, the PPE's atomics)",
+        "casts" => "casts on the Cell (render and raycast --on-cell, frame, frame_loop, tradeoff)",
+        "updates" => "updates (update, frame, table2, partial_rebuild, frame_loop)",
+        other => other,
+    };
+    match charged {
+        true => Ok(()),
+        false => Err(format!(
+            "{name}: {command} never charges it (it moves {runs})"
+        )),
     }
 }
 

@@ -21,8 +21,8 @@ use cellbih::render::View;
 use cellbih::update::MAX_FRAMES;
 
 pub use build_args::{
-    BuildArgs, CellArgs, CodeArg, HostThreadsArg, KnobArgs, MachineModel, Mailboxes, Mode,
-    RateArgs, RateSetArgs, RequestArgs, parse_build, parse_build_or,
+    BuildArgs, CellArgs, Charges, CodeArg, HostThreadsArg, KnobArgs, MachineModel, Mailboxes, Mode,
+    RateArgs, RateSetArgs, RequestArgs, charged_by, parse_build, parse_build_or, set_charges,
 };
 pub use cast_args::{CacheArgs, CastArgs};
 pub use scene_arg::{CameraArg, SceneArg, check_built, check_memory};

@@ -11,7 +11,7 @@ use cellbih::kernels::rates::Band;
 use cellbih::registry::BuilderKind;
 
 use crate::Res;
-use crate::args::{Format, MachineModel, RatesCommand};
+use crate::args::{Charges, Format, MachineModel, RatesCommand, charged_by};
 
 /// Runs `cellbih rates`.
 pub fn run(args: RatesCommand) -> Res<()> {
@@ -22,12 +22,21 @@ pub fn run(args: RatesCommand) -> Res<()> {
     let base = cost.clone();
     let rates = args.rates.apply(&mut cost)?;
     let code = rates.code();
+    // Every command's charges: what marks each rate with the runs it moves.
+    let all = Charges {
+        casts: true,
+        updates: true,
+        fabric_and_ppe_atomics: true,
+        ..Charges::BUILDS
+    };
+    let moves = |name: &str| charged_by(name, code, all).1;
+    // A rate of the other model only (the legacy model claims no line).
     let machine: Vec<_> = (CostModel::RATES.iter())
-        .map(|r| {
-            let value = cost.rate_text(r.name).expect("a machine rate");
+        .filter_map(|r| {
+            let value = cost.rate_text(r.name)?;
             let moved = base.rate_text(r.name).as_ref() != Some(&value);
             let band = base.band_text(r.name).unwrap_or_default();
-            (r.name, value, moved, band)
+            Some((r.name, value, moved, band))
         })
         .collect();
     let kernels: Vec<_> = (BuilderKind::every_rate(code).into_iter())
@@ -46,11 +55,12 @@ pub fn run(args: RatesCommand) -> Res<()> {
             "model": match args.model { Some(MachineModel::Legacy) => "legacy", _ => "measured" },
             "code": code.name(),
             "machine": machine.iter().map(|(n, v, moved, band)| json!({
-                "name": n, "value": v, "moved": moved,
-                "band": (!band.is_empty()).then_some(band),
+                "name": n, "value": v.parse::<f64>().ok(), "moved": moved,
+                "band": (!band.is_empty()).then_some(band), "moves": moves(n),
             })).collect::<Vec<_>>(),
             "kernels": kernels.iter().map(|(n, v, b, moved)| json!({
                 "name": n, "cycles": v, "band": band_text(*b), "moved": moved,
+                "moves": moves(n),
             })).collect::<Vec<_>>(),
         });
         println!("{}", serde_json::to_string_pretty(&doc)?);
@@ -65,16 +75,22 @@ pub fn run(args: RatesCommand) -> Res<()> {
         }
     );
     println!("\nthe machine's (cell/src/cost.rs): cycles, or GB/s for a bandwidth;");
-    println!("band: where a rate no measurement pins may lie");
+    println!("band: where a rate no measurement pins may lie; moves: the runs that");
+    println!("charge it (a command that charges none refuses it)");
     for (name, value, moved, band) in &machine {
-        let line = format!("  {name:<26} {value:>9}{:<2} {band}", mark(*moved));
+        let line = format!(
+            "  {name:<25} {value:>8}{:<2} {:<9} {band}",
+            mark(*moved),
+            moves(name)
+        );
         println!("{}", line.trim_end());
     }
     println!("\nthe kernels' (cycles; band: what sensitivity moves it through)");
     for (name, value, band, moved) in &kernels {
         println!(
-            "  {name:<34} {value:>6}{:<2} {}",
+            "  {name:<30} {value:>5}{:<2} {:<13} {}",
             mark(*moved),
+            moves(name),
             band_text(*band)
         );
     }

@@ -4,8 +4,13 @@
 
 use crate::common::*;
 
+/// `build --format json` with `extra` (on `spe_bfs` unless it names a
+/// builder).
 fn build_json(extra: &[&str]) -> serde_json::Value {
-    let mut args = vec!["build", "--builder", "spe_bfs", "--format", "json"];
+    let mut args = vec!["build", "--format", "json"];
+    if !extra.contains(&"--builder") {
+        args.extend(["--builder", "spe_bfs"]);
+    }
     args.extend(extra);
     let out = cellbih(&args);
     assert_ok(&out);
@@ -31,7 +36,7 @@ fn a_bandwidth_keeps_its_digits_and_a_smaller_one_is_slower() {
     let a = ms(&["--rate", "spe_bandwidth=1.0001"]);
     let b = ms(&["--rate", "spe_bandwidth=1.0002"]);
     assert!(a > b, "{a} vs {b}");
-    for bad in ["0.0009", "0", "10001", "1.0000001", "nan"] {
+    for bad in ["0.0009", "0", "10001", "0.0010000000001", "nan"] {
         let arg = format!("spe_bandwidth={bad}");
         let out = cellbih(&["build", "--builder", "spe_bfs", "--rate", &arg]);
         assert_fails_with(
@@ -40,13 +45,13 @@ fn a_bandwidth_keeps_its_digits_and_a_smaller_one_is_slower() {
         );
     }
     // A ceiling may be given as `cellbih rates` prints its absence.
-    assert_ok(&cellbih(&[
-        "build",
-        "--builder",
-        "spe_bfs",
-        "--rate",
-        "ls_port_bandwidth=unlimited",
-    ]));
+    let out = cellbih(&["rates", "--rate", "ls_port_bandwidth=unlimited"]);
+    assert_ok(&out);
+    assert!(
+        stdout(&out).contains("ls_port_bandwidth         unlimited * validate"),
+        "{}",
+        stdout(&out)
+    );
 }
 
 /// Every rate has a range; outside it, refused by name; a charge that
@@ -154,4 +159,71 @@ fn a_rates_file_is_read_like_every_text_input() {
         doc["simulated_ms"].as_f64().unwrap(),
         ms(&["--rate", "spe_partition_item=200"])
     );
+}
+
+/// Every rate `cellbih rates` lists moves something, and says what; a
+/// command refuses a rate it never charges, naming it; the software
+/// cache's rates are charged by every software cache (the job cache
+/// too); the lock lines' claim is a rate; what was given is recorded.
+#[test]
+fn every_listed_rate_moves_what_it_says() {
+    let listed = cellbih(&["rates", "--format", "json"]);
+    assert_ok(&listed);
+    let doc: serde_json::Value = serde_json::from_slice(&listed.stdout).unwrap();
+    let names: Vec<&str> = (doc["machine"].as_array().unwrap().iter())
+        .chain(doc["kernels"].as_array().unwrap())
+        .map(|r| r["name"].as_str().unwrap())
+        .collect();
+    assert!(names.contains(&"claim_cycles") && !names.contains(&"putllc_cycles"));
+    assert!(names.contains(&"cache.lookup") && !names.contains(&"cast.cache.lookup"));
+    for r in doc["machine"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .chain(doc["kernels"].as_array().unwrap())
+    {
+        assert!(r["moves"].is_string(), "{r}");
+    }
+    for (args, says) in [
+        (
+            vec![
+                "build",
+                "--builder",
+                "spe_bfs",
+                "--rate",
+                "cast.node_step=5",
+            ],
+            "--rate cast.node_step: build never charges it",
+        ),
+        (
+            vec!["build", "--builder", "spe_bfs", "--rate", "eib_bandwidth=5"],
+            "--rate eib_bandwidth: build never charges it",
+        ),
+        (
+            vec!["build", "--builder", "spe_bfs", "--rate", "update.route=5"],
+            "--rate update.route: build never charges it",
+        ),
+        (
+            vec![
+                "render",
+                "--builder",
+                "spe_bfs",
+                "--out",
+                "-",
+                "--rate",
+                "cast.node_step=5",
+            ],
+            "render without --on-cell never charges it",
+        ),
+    ] {
+        assert_fails_with(&cellbih(&args), says);
+    }
+    let shared = |extra: &[&str]| {
+        let base = ["--builder", "spe_bfs_shared", "--job-cache", "8"];
+        ms(&[&base[..], extra].concat())
+    };
+    assert!(shared(&["--rate", "cache.lookup=2800"]) > shared(&[]));
+    assert!(shared(&["--rate", "claim_cycles=20000"]) > shared(&[]));
+    let doc = build_json(&["--mailboxes", "ps3-kernel", "--rate", "mailbox_os_cycles=5"]);
+    assert_eq!(doc["settings"]["cell"]["mailboxes"], "ps3-kernel", "{doc}");
 }

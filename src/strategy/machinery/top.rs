@@ -194,8 +194,9 @@ pub(in crate::strategy) struct Start {
     pub region: Aabb,
     pub cfg: BihConfig,
     pub rates: crate::kernels::rates::KernelRates,
-    /// The code class the run's kernels are charged in.
-    pub code: crate::kernels::rates::Code,
+    /// The software cache's rates in the run's class, with its overrides
+    /// (`spe_bfs_shared --job-cache`).
+    pub cache: crate::spe::software_cache::CacheRates,
     pub spes: usize,
     pub common: Common,
 }
@@ -219,7 +220,7 @@ impl Start {
             region: setup.region,
             cfg: *cfg,
             rates: setup.rates.kernels(),
-            code: setup.rates.code(),
+            cache: crate::spe::software_cache::CacheRates::with(&setup.rates),
             spes,
             common: Common::alloc(cell, setup.triangles, n, (cfg, top), spes)?,
         })
