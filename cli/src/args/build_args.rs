@@ -135,7 +135,19 @@ impl RateArgs {
     /// rates given (the code class, and each other name at its value), a
     /// name that is no rate refused by name.
     pub fn apply(&self, cost: &mut cellbih::cell::CostModel) -> Res<RateOverrides> {
-        self.set.apply(cost, self.code())
+        let rates = self.set.apply(cost, self.code())?;
+        let mut given: Vec<String> = Vec::new();
+        if rates.code() != Code::Paper {
+            given.push(format!("--code {}", rates.code()));
+        }
+        if let Some(file) = &self.set.rates_file {
+            given.push(format!("--rates {}", file.display()));
+        }
+        given.extend(self.set.rate.iter().map(|r| format!("--rate {}", r.trim())));
+        if !given.is_empty() {
+            crate::report::name_the_model(given.join(" "));
+        }
+        Ok(rates)
     }
 
     /// An experiment's model as a build request every builder of it

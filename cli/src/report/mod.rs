@@ -117,6 +117,31 @@ pub fn wrapped(text: &str) -> String {
     out.join("\n")
 }
 
+/// The model an experiment runs, where it is not the default (`--code
+/// tuned --rate …`), once it is known; and whether its text goes to the
+/// standard output.
+static MODEL: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+static TEXT_OUT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The run's model is not the default: `given` names it (the options as
+/// typed). An experiment printing text says so first on its standard
+/// output, and every plot's title says it ([`model_note`]).
+pub fn name_the_model(given: String) {
+    if MODEL.set(given.clone()).is_ok() && TEXT_OUT.load(std::sync::atomic::Ordering::Relaxed) {
+        println!(
+            "{}",
+            wrapped(&format!(
+                "model: {given} (not the default: the paper's class, every rate as calibrated)"
+            ))
+        );
+    }
+}
+
+/// The run's model where it is not the default, as a plot's title says it.
+pub fn model_note() -> Option<&'static str> {
+    MODEL.get().map(String::as_str)
+}
+
 /// An experiment's whole `main`: its arguments parsed
 /// ([`crate::args::parse`]), then `run` on them as [`experiment_main`]
 /// runs it, into the `--out` directory `output` names.
@@ -126,6 +151,8 @@ pub fn main<A: clap::Parser>(
     run: impl FnOnce(&A) -> Result<(), String>,
 ) {
     let args: A = crate::args::parse();
+    let text = output(&args).format == crate::args::Format::Text;
+    TEXT_OUT.store(text, std::sync::atomic::Ordering::Relaxed);
     let out = output(&args).out.clone();
     experiment_main(name, &out, || run(&args));
 }

@@ -168,6 +168,11 @@ fn frame<'a, 'b, DB: DrawingBackend>(
     size: u32,
 ) -> ChartBuilder<'a, 'b, DB> {
     let mut b = ChartBuilder::on(root);
+    // A model that is not the default is named in every plot's title.
+    let title = match super::model_note() {
+        Some(model) => format!("{title} ({model})"),
+        None => title.to_string(),
+    };
     b.caption(title, ("sans-serif", size))
         .margin(16)
         .x_label_area_size(48)

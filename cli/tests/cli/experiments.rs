@@ -537,3 +537,44 @@ fn every_experiment_says_what_it_measures_and_how_long_it_takes() {
         );
     }
 }
+
+/// An experiment run in a model that is not the default says so first in
+/// its text and in every plot's title; run in the default, neither does;
+/// an experiment answers `--version` with its name and the commit.
+#[test]
+fn an_experiment_names_a_model_that_is_not_the_default() {
+    let exe = env!("CARGO_BIN_EXE_spe_scaling");
+    let dir = crate::common::tmp("named-model");
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "--scenes",
+            "rtperf:3000",
+            "--max-spes",
+            "2",
+            "--defaults-only",
+        ];
+        args.extend(extra);
+        args.extend(["--out", dir.to_str().unwrap()]);
+        let out = crate::common::command(exe).args(&args).output().unwrap();
+        crate::common::assert_ok(&out);
+        let svg = std::fs::read_to_string(dir.join("spe_scaling_time.svg")).unwrap();
+        (String::from_utf8_lossy(&out.stdout).into_owned(), svg)
+    };
+    let (text, svg) = run(&["--code", "tuned", "--rate", "spe_job=300"]);
+    assert!(
+        text.starts_with("model: --code tuned --rate spe_job=300"),
+        "{text}"
+    );
+    assert!(svg.contains("--code tuned --rate spe_job=300"));
+    let (text, svg) = run(&[]);
+    assert!(
+        !text.contains("model:") && !svg.contains("--code"),
+        "{text}"
+    );
+    let out = crate::common::command(exe)
+        .arg("--version")
+        .output()
+        .unwrap();
+    crate::common::assert_ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("spe_scaling "));
+}
