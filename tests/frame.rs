@@ -66,7 +66,12 @@ fn the_ppes_search_overlaps_the_frame_before() {
 }
 
 /// The paper's arrangement runs on one Cell: the update beside the
-/// casters is never faster than alone and adds at most the bound on
+/// casters is never faster than alone; the render is compared with the
+/// casters alone with the same deal of tiles (with their own deal the
+/// tiles' order moves the cache's hits either way) and is never faster
+/// than it by more than 0.1 % (the update's transfers can move the
+/// casters' own out of each other's way: max-min sharing is not
+/// monotone); they add at most the bound on
 /// sharing the memory interface (and the copy's transfers, which alone are
 /// priced at the interface's rate); the casters feel the update; the run
 /// says its contention was simulated. Section 5's has none.
@@ -83,9 +88,9 @@ fn the_papers_arrangement_runs_on_one_cell() {
         let a = f.alone.as_ref().expect("the paper's arrangement");
         let bound = f.sharing_bound_ms.unwrap();
         assert!(f.update_ms >= a.update_ms - 1e-9, "{f:?}");
-        assert!(f.render_ms >= a.render_ms - 1e-9, "{f:?}");
+        assert!(f.render_ms >= a.render_same_deal_ms * (1.0 - 1e-3), "{f:?}");
         assert!(f.frame_ms <= a.frame_ms + bound + f.copy_ms, "{f:?}");
-        felt |= f.render_ms > a.render_ms;
+        felt |= f.render_ms > a.render_same_deal_ms;
     }
     assert!(felt, "the casters never felt the update");
     // The SPEs' search of the moved triangles runs beside the casters too,

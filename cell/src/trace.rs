@@ -108,6 +108,22 @@ impl Trace {
         }
     }
 
+    /// Appends `other`'s spans (a machine of as many SPEs or fewer) moved
+    /// `offset` later: several runs in one timeline, one after another.
+    pub fn append(&mut self, other: Trace, offset: Cycles) {
+        self.spes = self.spes.max(other.spes);
+        self.spans.extend(other.spans.into_iter().map(|s| Span {
+            start: s.start + offset,
+            end: s.end + offset,
+            ..s
+        }));
+    }
+
+    /// An empty timeline of a machine of `spes` SPEs at `hz`.
+    pub fn empty(spes: usize, hz: f64) -> Self {
+        Trace::new(spes, hz)
+    }
+
     /// Each span's lane within its row: spans of one row that overlap in
     /// time (an MFC with several transfers in flight) go to different
     /// lanes, each lane holding spans that never overlap. Lanes are given

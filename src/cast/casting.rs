@@ -16,7 +16,7 @@ use crate::spe::layout::{self, TriRecord};
 
 /// A cast whose casters are spawned.
 pub struct Casting {
-    exits: Vec<Exit<SpeCast>>,
+    exits: Vec<Exit<(SpeCast, Vec<u32>)>>,
     hits: Ea,
     count: usize,
 }
@@ -27,10 +27,27 @@ impl Casting {
     /// caster on each SPE of `spes`, every one taking tiles.
     pub fn launch(
         cell: &mut Cell,
+        on: (&Bih, &Scene, RecordOrder),
+        rays: &[Ray],
+        cfg: &CastConfig,
+        spes: std::ops::Range<usize>,
+    ) -> Result<Casting, CellError> {
+        Self::launch_dealt(cell, on, rays, cfg, spes, None)
+    }
+
+    /// [`Casting::launch`], the tiles dealt as `deal` says (each caster's,
+    /// in order: another run's [`CastReport::deal`]) where it is given: each
+    /// caster still takes from the counter as often (the same lock-line
+    /// traffic) but casts the tile dealt to it. So a run beside other
+    /// programs and one alone can be compared with the same work on each
+    /// SPE, in the same order.
+    pub fn launch_dealt(
+        cell: &mut Cell,
         (bih, scene, order): (&Bih, &Scene, RecordOrder),
         rays: &[Ray],
         cfg: &CastConfig,
         spes: std::ops::Range<usize>,
+        deal: Option<Vec<Vec<u32>>>,
     ) -> Result<Casting, CellError> {
         if !(1..=CastConfig::MAX_TILE_RAYS).contains(&cfg.tile_rays) {
             return Err(CellError::Config(format!(
@@ -106,14 +123,15 @@ impl Casting {
                 packet_rays: cfg.packet.rays(),
                 cache: cfg.cache,
                 rates: CastRates::of(cfg.precision, &cfg.rates),
+                deal,
             }
         };
         let (hits, count) = (job.hits, rays.len());
         let job = Rc::new(job);
-        let exits = spes
-            .map(|spe| {
+        let exits = (spes.enumerate())
+            .map(|(k, spe)| {
                 let job = job.clone();
-                cell.spawn_spe(spe, move |s| program::caster(s, job))
+                cell.spawn_spe(spe, move |s| program::caster(s, job, k))
             })
             .collect();
         Ok(Casting { exits, hits, count })
@@ -122,15 +140,18 @@ impl Casting {
     /// The answers, once `cell` has run the casters (`run`: that run's
     /// report).
     pub fn land(self, cell: &Cell, run: RunReport) -> Result<CastReport, CellError> {
-        let spes = (self.exits.iter().enumerate())
+        let (spes, deal) = (self.exits.iter().enumerate())
             .map(|(i, e)| e.take(&format!("ray caster {i}")))
-            .collect::<Result<Vec<_>, _>>()?;
+            .collect::<Result<Vec<_>, _>>()?
+            .into_iter()
+            .unzip();
         let out: Vec<CellHit> = cell.memory().read_pod(self.hits, self.count)?;
         Ok(CastReport {
             hits: out.iter().map(CellHit::hit).collect(),
             costs: out.iter().map(|h| h.cost).collect(),
             run,
             spes,
+            deal,
             trace: cell.take_trace(),
         })
     }

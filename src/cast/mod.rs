@@ -224,6 +224,10 @@ pub(crate) struct Job {
     packet_rays: u32,
     cache: CacheConfig,
     rates: CastRates,
+    /// The tiles each caster casts, in order, where they are dealt (a
+    /// replay of another run's deal: [`Casting::launch_dealt`]); `None`:
+    /// each takes the next from the counter.
+    deal: Option<Vec<Vec<u32>>>,
 }
 
 /// What casting the rays on the Cell gave and cost.
@@ -236,6 +240,9 @@ pub struct CastReport {
     pub run: RunReport,
     /// What each SPE did, by SPE.
     pub spes: Vec<SpeCast>,
+    /// The tiles each SPE cast, in the order it took them: the deal, which
+    /// [`Casting::launch_dealt`] replays.
+    pub deal: Vec<Vec<u32>>,
     /// The timeline, if the Cell's config asked for it.
     pub trace: Option<Trace>,
 }

@@ -42,8 +42,13 @@ pub struct SpeCast {
     pub packet_quads: u64,
 }
 
-/// The caster's program on one SPE.
-pub(super) async fn caster(spe: Spe, job: Rc<Job>) -> Result<SpeCast, CellError> {
+/// The caster's program on one SPE, the `k`-th caster: what it did, and
+/// the tiles it cast in order.
+pub(super) async fn caster(
+    spe: Spe,
+    job: Rc<Job>,
+    k: usize,
+) -> Result<(SpeCast, Vec<u32>), CellError> {
     let in_flight = job.rays_in_flight;
     let mut cache = SoftwareCache::new(&spe, job.cache, job.rates.cache, in_flight)?;
     let line = spe.ls_alloc(128, 128)?;
@@ -54,13 +59,20 @@ pub(super) async fn caster(spe: Spe, job: Rc<Job>) -> Result<SpeCast, CellError>
     spe.ls_alloc(in_flight * (job.max_depth + 2) * 16, 16)?;
     let tag = spe.tag("ray tiles")?;
     let mut done = SpeCast::default();
+    let mut taken = Vec::new();
+    let mut dealt = job.deal.as_ref().map(|d| d[k].iter());
     loop {
-        let t = spe.atomic_fetch_add_u32(line, job.counter, 1).await? as u64;
+        let counted = spe.atomic_fetch_add_u32(line, job.counter, 1).await?;
+        let t = match &mut dealt {
+            None => counted,
+            Some(tiles) => tiles.next().copied().unwrap_or(u32::MAX),
+        } as u64;
         let first = t * tile as u64;
         if first >= job.ray_count {
             break;
         }
         done.tiles += 1;
+        taken.push(t as u32);
         let n = (job.ray_count - first).min(tile as u64) as usize;
         let ray_bytes = (n * size_of::<CellRay>()) as u32;
         let ray_ea = job.rays.offset(first * size_of::<CellRay>() as u64);
@@ -76,7 +88,7 @@ pub(super) async fn caster(spe: Spe, job: Rc<Job>) -> Result<SpeCast, CellError>
         spe.wait_tag(tag).await?;
     }
     done.cache = cache.stats;
-    Ok(done)
+    Ok((done, taken))
 }
 
 /// Where a ray in flight stands.

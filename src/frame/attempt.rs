@@ -15,6 +15,9 @@ pub struct Alone {
     pub update_ms: f64,
     pub render_ms: f64,
     pub frame_ms: f64,
+    /// The render alone with the deal of tiles it had beside the update
+    /// ([`one_cell::Beside::render_same_deal_ms`]).
+    pub render_same_deal_ms: f64,
 }
 
 /// A frame's update and render ms as its arrangement has them: one after

@@ -221,6 +221,10 @@ pub struct FrameRun {
     /// The paper's arrangement: the frames' total with the update and the
     /// render each run alone ([`FrameReport::alone`]).
     pub alone_total_ms: Option<f64>,
+    /// With the frame's Cell's `trace` on, the paper's arrangement: each
+    /// frame's one-Cell run, placed at the frame's start.
+    #[serde(skip)]
+    pub trace: Option<crate::cell::Trace>,
 }
 
 impl FrameRun {
@@ -258,6 +262,7 @@ impl FrameRun {
             frames,
             total_ms,
             fps,
+            trace: None,
         }
     }
 }
@@ -302,17 +307,26 @@ pub fn play(
         )));
     }
     let cell = &cfg.build.cell;
+    // Only the one-Cell runs are traced (`cell.trace`).
+    let untraced = CellConfig {
+        trace: false,
+        ..cell.clone()
+    };
     let build = cfg
         .build
         .clone()
-        .on(&cell.clone().with_spes(cfg.build_spes));
+        .on(&untraced.clone().with_spes(cfg.build_spes));
     // The loop's SPE programs are started once, with its first build, and
     // stay resident: no frame pays their start (`CostModel::spe_start_cycles`),
     // as a renderer keeps its programs running between frames.
     let render_cell = CellConfig {
         resident: true,
-        ..cell.clone().with_spes(cfg.render_spes())
+        ..untraced.with_spes(cfg.render_spes())
     };
+    let hz = cell.cost.clock_hz;
+    let mut trace =
+        (cell.trace && !cfg.all_spes_build()).then(|| crate::cell::Trace::empty(cell.spes, hz));
+    let mut frame_start_ms = 0.0;
     // The camera frames the scene as it starts, and stays.
     let cam = (cfg.view)
         .camera(&scene.name, &scene.bounds(), cfg.width, cfg.height)
@@ -455,12 +469,19 @@ pub fn play(
         u = updater;
         // The cast alone (section 5's arrangement: the only one), and
         // beside the update on one Cell (the paper's).
-        let alone = beside.is_some().then_some(Alone {
+        let alone = beside.as_ref().map(|b| Alone {
             update_ms: charged.update_ms,
             render_ms: cast.run.ms,
             frame_ms: cfg.frame_ms(charged.update_ms, cast.run.ms),
+            render_same_deal_ms: b.render_same_deal_ms,
         });
-        let cast = beside.map_or(cast, |b| b.cast);
+        let mut cast = beside.map_or(cast, |b| b.cast);
+        if let (Some(t), Some(one)) = (&mut trace, cast.trace.take()) {
+            t.append(
+                one,
+                crate::cell::Cycles((frame_start_ms * hz / 1e3).round() as u64),
+            );
+        }
         if let Some(plan) = &plan {
             let known =
                 plan_find_ms(plan, taken, cfg, 0.0) + bill.update_ms(taken, up.full_rebuild);
@@ -521,9 +542,13 @@ pub fn play(
             predicted,
             oracle_ms,
         });
+        frame_start_ms += cfg.frame_ms(update_ms, render_ms);
         done(frames.last().expect("pushed"));
     }
-    Ok(FrameRun::of(frames, second_copy))
+    Ok(FrameRun {
+        trace,
+        ..FrameRun::of(frames, second_copy)
+    })
 }
 
 /// The PPE's search of a frame that took `m` after `plan` (`auto`): what

@@ -27,6 +27,12 @@ use super::{FrameConfig, FrameError};
 pub struct Beside {
     pub update_ms: f64,
     pub render_ms: f64,
+    /// The casters alone on the same Cell with the same deal of tiles as
+    /// beside the update (each SPE the same tiles in the same order):
+    /// what the render beside is never faster than. The render alone with
+    /// its own deal may be slower or faster than either (the tiles' order
+    /// moves the cache's hits).
+    pub render_same_deal_ms: f64,
     pub cast: CastReport,
 }
 
@@ -65,6 +71,7 @@ pub fn side_by_side(
     };
     let mut update_end = Cycles::ZERO;
     let mut casting = None;
+    let mut same_deal_ms = 0.0;
     let cast = in_camera_order(cam, &cfg.cast, |rays| -> Result<CastReport, FrameError> {
         let on_cell = (&u.bih, &u.scene, u.records);
         casting = Some(Casting::launch(&mut cell, on_cell, rays, &cfg.cast, b..n)?);
@@ -133,13 +140,40 @@ pub fn side_by_side(
         let mut r = casting.take().expect("launched").land(&cell, run)?;
         r.run.cycles = render_end;
         r.run.ms = render_end.ms(hz);
+        same_deal_ms = alone_with_deal(cfg, on_cell, rays, &r)?;
         Ok(r)
     })?;
     Ok(Beside {
         update_ms: update_end.ms(hz),
         render_ms: cast.run.ms,
+        render_same_deal_ms: same_deal_ms,
         cast,
     })
+}
+
+/// The casters of `beside` run again alone on a Cell like it (the same
+/// SPEs, nothing else running), each casting the tiles it took beside the
+/// update in the same order: their simulated ms.
+fn alone_with_deal(
+    cfg: &FrameConfig,
+    on_cell: (
+        &crate::bih::Bih,
+        &crate::scene::Scene,
+        crate::cast::RecordOrder,
+    ),
+    rays: &[crate::bih::Ray],
+    beside: &CastReport,
+) -> Result<f64, FrameError> {
+    let mut cell = Cell::new(CellConfig {
+        resident: true,
+        trace: false,
+        ..cfg.build.cell.clone()
+    })?;
+    let spes = cfg.build_spes..cfg.spes();
+    let deal = Some(beside.deal.clone());
+    let casting = Casting::launch_dealt(&mut cell, on_cell, rays, &cfg.cast, spes, deal)?;
+    let run = cell.run()?;
+    Ok(casting.land(&cell, run)?.run.ms)
 }
 
 /// Spawns on SPEs `0 .. spes` the copy of `bytes` into the tree's other

@@ -242,6 +242,12 @@ pub struct FrameCommand {
     pub cache: CacheArgs,
     #[arg(long, value_enum, default_value = "text")]
     pub format: Format,
+    /// Write the paper's arrangement's one-Cell runs (each frame's update
+    /// beside the casters, placed at the frame's start) here as Chrome
+    /// trace JSON (open it in ui.perfetto.dev); needs --build-spes fewer
+    /// than --spes
+    #[arg(long)]
+    pub trace: Option<PathBuf>,
 }
 
 /// What `update` and `frame` play: a scene, the build that makes (and

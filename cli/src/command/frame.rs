@@ -26,8 +26,27 @@ pub fn run(args: FrameCommand) -> Res<()> {
         camera,
         cache,
         format,
+        trace,
     } = args;
-    let c = parse_build_or(&play.build, BuilderKind::SPE_BFS, true)?;
+    let mut c = parse_build_or(&play.build, BuilderKind::SPE_BFS, true)?;
+    if let Some(path) = &trace {
+        if !build_spes.is_some_and(|k| (k as usize) < c.cell.spes) {
+            return Err(crate::usage(
+                "--trace: the trace is of the paper's arrangement's one-Cell runs; give \
+                 --build-spes fewer than --spes",
+            ));
+        }
+        let inputs: Vec<_> = (play.scene.input().into_iter())
+            .chain(play.build.inputs())
+            .collect();
+        let outputs = [
+            ("the report", std::path::Path::new("-")),
+            ("--trace", path.as_path()),
+        ];
+        crate::output::check_files(&outputs, &inputs)?;
+        crate::output::check_writable(path)?;
+        c.cell.trace = true;
+    }
     let local = matches!(policy.as_str(), "local" | "auto");
     let find_moved = play.find_moved(local, &format!("--policy {policy}"), &c)?;
     let PlayArgs { scene, anim, .. } = play;
@@ -59,7 +78,17 @@ pub fn run(args: FrameCommand) -> Res<()> {
     let (s, anim) = anim.load(&scene, frames)?;
     check_memory(&s.name, (s.len(), 0), rays, &c, Default::default())?;
     check_frame_memory(&s, &cfg)?;
-    play_and_print(&s, &anim, &cfg, format, &settings)
+    let run = play_and_print(&s, &anim, &cfg, format, &settings)?;
+    if let Some(path) = &trace {
+        let timeline = run.trace.ok_or("--trace: the frames kept no timeline")?;
+        crate::output::write_file(path, |w| timeline.write_chrome(w))?;
+        eprintln!(
+            "trace written to {} ({} spans)",
+            path.display(),
+            timeline.spans.len()
+        );
+    }
+    Ok(())
 }
 
 /// Refuses, before any work, a frame the emulated Cell's main memory
@@ -154,19 +183,19 @@ pub fn config(c: &Build, a: &Asked) -> Res<FrameConfig> {
     })
 }
 
-/// Plays the animation and prints every frame and the totals.
+/// Plays the animation and prints every frame and the totals; the run.
 pub fn play_and_print(
     s: &Scene,
     anim: &Animation,
     cfg: &FrameConfig,
     format: Format,
     settings: &crate::report::Settings,
-) -> Res<()> {
+) -> Res<FrameRun> {
     let progress = crate::report::Progress::new("frames", anim.frames.len() as u64);
     let run = play(s, anim, cfg, |_| progress.inc())?;
     progress.finish();
     print(s, anim, cfg, &run, format, settings);
-    Ok(())
+    Ok(run)
 }
 
 fn print(

@@ -144,3 +144,44 @@ fn frame_options_that_cannot_apply_are_refused() {
         assert_eq!(f["policy_choice"], "local", "{f}");
     }
 }
+
+/// `frame --trace` writes the paper's arrangement's one-Cell runs as a
+/// Chrome trace whose tracks nest, each frame at its start; without a
+/// paper's arrangement it is refused by name.
+#[test]
+fn frame_writes_the_one_cell_runs_as_a_trace() {
+    let path = crate::common::tmp("frame.trace.json");
+    let p = path.to_str().unwrap();
+    let base = "frame --scene car --animation car --width 32 --height 24";
+    let out = cellbih(&crate::common::fill(
+        &format!("{base} --frames 2 --build-spes 2 --trace {{}}"),
+        &[p],
+    ));
+    assert_ok(&out);
+    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    crate::common::check_nesting(&doc).unwrap();
+    let ends: Vec<f64> = (doc["traceEvents"].as_array().unwrap().iter())
+        .filter_map(|e| Some(e["ts"].as_f64()? + e["dur"].as_f64()?))
+        .collect();
+    let first_frame_us = 1e3 * {
+        let v: serde_json::Value = serde_json::from_slice(
+            &cellbih(&line(&format!(
+                "{base} --build-spes 2 --frames 1 --format json"
+            )))
+            .stdout,
+        )
+        .unwrap();
+        v["total_ms"].as_f64().unwrap()
+    };
+    assert!(
+        ends.iter().any(|&e| e > first_frame_us),
+        "no span of the second frame"
+    );
+    assert_fails_with(
+        &cellbih(&crate::common::fill(
+            &format!("{base} --frames 2 --trace {{}}"),
+            &[p],
+        )),
+        "--trace: the trace is of the paper's arrangement's one-Cell runs",
+    );
+}
