@@ -30,7 +30,7 @@ pub fn run(args: FrameCommand) -> Res<()> {
     } = args;
     let mut c = parse_build_or(&play.build, BuilderKind::SPE_BFS, true)?;
     if let Some(path) = &trace {
-        if !build_spes.is_some_and(|k| (k as usize) < c.cell.spes) {
+        if build_spes.is_none_or(|k| (k as usize) >= c.cell.spes) {
             return Err(crate::usage(
                 "--trace: the trace is of the paper's arrangement's one-Cell runs; give \
                  --build-spes fewer than --spes",
