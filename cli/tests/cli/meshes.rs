@@ -317,3 +317,39 @@ fn the_loader_names_a_mesh_that_is_not_the_manifests() {
     assert_ok(&out);
     assert!(!stderr(&out).contains("warning"), "{}", stderr(&out));
 }
+
+/// A source that cannot be reached is said as such, with curl's reason
+/// (not "not in SOURCE"); a truncated .glb is one line naming the file,
+/// never a Python traceback.
+#[test]
+fn unreachable_sources_and_truncated_files_say_why() {
+    let sum = sha256(CUBE_CORNER);
+    let manifest = tmp("reach.tsv");
+    std::fs::write(
+        &manifest,
+        format!("name\ttriangles\tobj_sha256\tgz_sha256\tdownload\ngood\t1\t{sum}\t-\t-\n"),
+    )
+    .unwrap();
+    let data = tmp("reach-data");
+    // Nothing listens on the loopback's discard port: refused at once.
+    let out = Command::new("bash")
+        .arg(format!("{}/scripts/get-meshes", crate::common::ROOT))
+        .args([data.to_str().unwrap(), "--from", "http://127.0.0.1:9/meshes"])
+        .env("CELLBIH_MESHES_MANIFEST", &manifest)
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{err}");
+    assert!(err.contains("good: cannot reach http://127.0.0.1:9/meshes: curl: (7)"), "{err}");
+    let glb = tmp("trunc.glb");
+    std::fs::write(&glb, b"glTF\x02\x00\x00\x00\x40\x00\x00\x00\x30\x00\x00\x00JSON{\"asset\":").unwrap();
+    let out = Command::new("python3")
+        .arg(format!("{}/scripts/gltf-to-obj", crate::common::ROOT))
+        .args(["x", glb.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(!out.status.success());
+    assert!(err.contains("trunc.glb: truncated or malformed .glb") && !err.contains("Traceback"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+}
