@@ -28,7 +28,7 @@ use thiserror::Error;
 /// A file that could not be written, named by the path the user gave (a
 /// file of an experiment's set by its place in `--out`, not its staging).
 #[derive(Debug, Error)]
-#[error("{}: cannot write: {source}", crate::report::result_set::user_path(path).display())]
+#[error("{}: cannot write: {source}", user_path(path).display())]
 pub struct OutputError {
     pub path: PathBuf,
     pub source: std::io::Error,
@@ -186,6 +186,26 @@ impl Drop for Listed {
 
 fn lock_in_flight() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A staging directory and the directory its files are for (an
+/// experiment's set: [`crate::report::result_set`]).
+static STAGED: Mutex<Option<(PathBuf, PathBuf)>> = Mutex::new(None);
+
+/// Files written into `staging` are the user's files of `out`: errors
+/// name them there ([`user_path`]); `None` ends it.
+pub fn stage_for(dirs: Option<(PathBuf, PathBuf)>) {
+    *STAGED.lock().unwrap_or_else(|e| e.into_inner()) = dirs;
+}
+
+/// The path a user knows `path` by: a file in a staging directory, at its
+/// place in the directory it is for; any other path as it is.
+pub fn user_path(path: &Path) -> PathBuf {
+    let staged = STAGED.lock().unwrap_or_else(|e| e.into_inner());
+    match (&*staged, path.file_name()) {
+        (Some((staging, out)), Some(f)) if path.parent() == Some(staging.as_path()) => out.join(f),
+        _ => path.to_path_buf(),
+    }
 }
 
 /// Held by a step that must finish whole once begun (an experiment's set

@@ -140,8 +140,11 @@ fn figures(o: &Options) -> Result<bool, String> {
         made.insert(command.clone(), run);
     }
     eprintln!(
-        "{} command(s) in {:.1} min",
-        commands.len(),
+        "{} in {:.1} min",
+        match commands.len() {
+            1 => "1 command".to_string(),
+            n => format!("{n} commands"),
+        },
         started.elapsed().as_secs_f64() / 60.0
     );
     let mut agree = true;

@@ -145,7 +145,7 @@ impl RateArgs {
         }
         given.extend(self.set.rate.iter().map(|r| format!("--rate {}", r.trim())));
         if !given.is_empty() {
-            crate::report::name_the_model(given.join(" "));
+            name_the_model(given.join(" "));
         }
         Ok(rates)
     }
@@ -269,6 +269,35 @@ impl RateSetArgs {
         }
         Ok(rates)
     }
+}
+
+/// The model an experiment runs, where it is not the default (`--code
+/// tuned --rate …`), once it is known; and whether its text goes to the
+/// standard output.
+static MODEL: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+static TEXT_OUT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether this process prints its tables as text: then a model that is
+/// not the default is said first ([`name_the_model`]).
+pub fn name_the_model_in_text(text: bool) {
+    TEXT_OUT.store(text, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// The run's model is not the default: `given` names it (the options as
+/// typed). An experiment printing text says so first on its standard
+/// output, and every plot's title says it ([`model_note`]).
+fn name_the_model(given: String) {
+    if MODEL.set(given.clone()).is_ok() && TEXT_OUT.load(std::sync::atomic::Ordering::Relaxed) {
+        let line = format!(
+            "model: {given} (not the default: the paper's class, every rate as calibrated)"
+        );
+        println!("{}", cellbih::words::wrapped(&line));
+    }
+}
+
+/// The run's model where it is not the default, as a plot's title says it.
+pub fn model_note() -> Option<&'static str> {
+    MODEL.get().map(String::as_str)
 }
 
 /// What a command charges, so that a `--rate` of a rate it never charges

@@ -22,7 +22,8 @@ use cellbih::update::MAX_FRAMES;
 
 pub use build_args::{
     BuildArgs, CellArgs, Charges, CodeArg, HostThreadsArg, KnobArgs, MachineModel, Mailboxes, Mode,
-    RateArgs, RateSetArgs, RequestArgs, charged_by, parse_build, parse_build_or, set_charges,
+    RateArgs, RateSetArgs, RequestArgs, charged_by, model_note, name_the_model_in_text,
+    parse_build, parse_build_or, set_charges,
 };
 pub use cast_args::{CacheArgs, CastArgs};
 pub use scene_arg::{CameraArg, SceneArg, check_built, check_memory};

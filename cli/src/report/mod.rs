@@ -96,51 +96,7 @@ pub fn wrap(text: &str, width: usize) -> String {
     lines.join("\n")
 }
 
-/// An error or note for the terminal: each line of `text` wrapped at 80
-/// columns, the lines it continues onto indented by two spaces (a word
-/// longer than a line, such as a path, stands alone).
-pub fn wrapped(text: &str) -> String {
-    let mut out: Vec<String> = Vec::new();
-    for line in text.lines() {
-        let mut cur = String::new();
-        for word in line.split(' ').filter(|w| !w.is_empty()) {
-            if !cur.trim().is_empty() && cur.chars().count() + 1 + word.chars().count() > 80 {
-                out.push(std::mem::replace(&mut cur, "  ".into()));
-            }
-            if !cur.trim().is_empty() {
-                cur.push(' ');
-            }
-            cur.push_str(word);
-        }
-        out.push(cur);
-    }
-    out.join("\n")
-}
-
-/// The model an experiment runs, where it is not the default (`--code
-/// tuned --rate …`), once it is known; and whether its text goes to the
-/// standard output.
-static MODEL: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-static TEXT_OUT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-/// The run's model is not the default: `given` names it (the options as
-/// typed). An experiment printing text says so first on its standard
-/// output, and every plot's title says it ([`model_note`]).
-pub fn name_the_model(given: String) {
-    if MODEL.set(given.clone()).is_ok() && TEXT_OUT.load(std::sync::atomic::Ordering::Relaxed) {
-        println!(
-            "{}",
-            wrapped(&format!(
-                "model: {given} (not the default: the paper's class, every rate as calibrated)"
-            ))
-        );
-    }
-}
-
-/// The run's model where it is not the default, as a plot's title says it.
-pub fn model_note() -> Option<&'static str> {
-    MODEL.get().map(String::as_str)
-}
+pub use cellbih::words::wrapped;
 
 /// An experiment's whole `main`: its arguments parsed
 /// ([`crate::args::parse`]), then `run` on them as [`experiment_main`]
@@ -151,8 +107,7 @@ pub fn main<A: clap::Parser>(
     run: impl FnOnce(&A) -> Result<(), String>,
 ) {
     let args: A = crate::args::parse();
-    let text = output(&args).format == crate::args::Format::Text;
-    TEXT_OUT.store(text, std::sync::atomic::Ordering::Relaxed);
+    crate::args::name_the_model_in_text(output(&args).format == crate::args::Format::Text);
     let out = output(&args).out.clone();
     experiment_main(name, &out, || run(&args));
 }

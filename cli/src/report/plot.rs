@@ -169,7 +169,7 @@ fn frame<'a, 'b, DB: DrawingBackend>(
 ) -> ChartBuilder<'a, 'b, DB> {
     let mut b = ChartBuilder::on(root);
     // A model that is not the default is named in every plot's title.
-    let title = match super::model_note() {
+    let title = match crate::args::model_note() {
         Some(model) => format!("{title} ({model})"),
         None => title.to_string(),
     };

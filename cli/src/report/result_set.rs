@@ -47,6 +47,7 @@ pub fn begin(out: &Path, name: &str) {
     remove_stale(out);
     let dir = out.join(staging_name(std::process::id()));
     crate::output::remove_dir_on_interrupt(&dir);
+    crate::output::stage_for(Some((dir.clone(), out.to_path_buf())));
     *stage() = Some(Stage {
         out: out.to_path_buf(),
         dir,
@@ -98,23 +99,6 @@ pub fn say_written(line: String) {
     match &mut *stage() {
         Some(s) => s.said.push(line),
         None => eprintln!("{line}"),
-    }
-}
-
-/// The path a user knows `path` by: a file staged for a set, at its place
-/// in `--out`; any other path as it is.
-pub fn user_path(path: &Path) -> PathBuf {
-    // Errors are also made while the stage is held (by `commit`): then the
-    // path is the user's already.
-    let Ok(guard) = STAGE.try_lock() else {
-        return path.to_path_buf();
-    };
-    match &*guard {
-        Some(s) if path.parent() == Some(s.dir.as_path()) => match path.file_name() {
-            Some(f) => s.out.join(f),
-            None => path.to_path_buf(),
-        },
-        _ => path.to_path_buf(),
     }
 }
 
@@ -251,9 +235,13 @@ pub fn abandon(name: &str) -> Vec<String> {
     say.push(match kept.is_empty() {
         true => format!("nothing in {} was replaced", s.out.display()),
         false => format!(
-            "nothing in {} was replaced: {} kept as they were",
+            "nothing in {} was replaced: {} kept as {}",
             s.out.display(),
-            kept.join(", ")
+            kept.join(", "),
+            match kept.len() {
+                1 => "it was",
+                _ => "they were",
+            }
         ),
     });
     let incomplete = s.out.join(format!("incomplete-{name}"));

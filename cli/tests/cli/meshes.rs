@@ -334,15 +334,26 @@ fn unreachable_sources_and_truncated_files_say_why() {
     // Nothing listens on the loopback's discard port: refused at once.
     let out = Command::new("bash")
         .arg(format!("{}/scripts/get-meshes", crate::common::ROOT))
-        .args([data.to_str().unwrap(), "--from", "http://127.0.0.1:9/meshes"])
+        .args([
+            data.to_str().unwrap(),
+            "--from",
+            "http://127.0.0.1:9/meshes",
+        ])
         .env("CELLBIH_MESHES_MANIFEST", &manifest)
         .output()
         .unwrap();
     let err = stderr(&out);
     assert!(!out.status.success(), "{err}");
-    assert!(err.contains("good: cannot reach http://127.0.0.1:9/meshes: curl: (7)"), "{err}");
+    assert!(
+        err.contains("good: cannot reach http://127.0.0.1:9/meshes: curl: (7)"),
+        "{err}"
+    );
     let glb = tmp("trunc.glb");
-    std::fs::write(&glb, b"glTF\x02\x00\x00\x00\x40\x00\x00\x00\x30\x00\x00\x00JSON{\"asset\":").unwrap();
+    std::fs::write(
+        &glb,
+        b"glTF\x02\x00\x00\x00\x40\x00\x00\x00\x30\x00\x00\x00JSON{\"asset\":",
+    )
+    .unwrap();
     let out = Command::new("python3")
         .arg(format!("{}/scripts/gltf-to-obj", crate::common::ROOT))
         .args(["x", glb.to_str().unwrap()])
@@ -350,6 +361,9 @@ fn unreachable_sources_and_truncated_files_say_why() {
         .unwrap();
     let err = stderr(&out);
     assert!(!out.status.success());
-    assert!(err.contains("trunc.glb: truncated or malformed .glb") && !err.contains("Traceback"), "{err}");
+    assert!(
+        err.contains("trunc.glb: truncated or malformed .glb") && !err.contains("Traceback"),
+        "{err}"
+    );
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
 }

@@ -548,3 +548,24 @@ fn cameras_are_checked_and_named() {
     );
     assert_ne!(ray_line("framing"), ray_line("0,0,0:1,0,0:60"));
 }
+
+/// Counts are said in words ("1 ray", "2 rays"), and a value an option
+/// cannot take exits with status 2, wherever it is checked.
+#[test]
+fn counts_in_words_and_bad_values_exit_2() {
+    let out = cellbih(&line(
+        "raycast --rays - --out - --on-cell --packet 2x2 --tile-rays 1",
+    ));
+    assert_fails_with(&out, "--packet 2x2: a tile's 1 ray (--tile-rays) must be");
+    assert_eq!(out.status.code(), Some(2));
+    for args in [
+        "render --on-cell --out x.png --cache-ways 0",
+        "render --on-cell --out x.png --cache-ways 3",
+        "frame --scene car --animation car --build-spes 0",
+        "frame --scene car --animation car --build-spes 7",
+        "frame --scene car --animation car --find-moved junk",
+    ] {
+        let out = cellbih(&line(args));
+        assert_eq!(out.status.code(), Some(2), "{args}: {}", stderr(&out));
+    }
+}

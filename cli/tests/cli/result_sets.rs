@@ -136,6 +136,8 @@ fn staging_left_by_a_dead_process_is_removed_and_said() {
 #[test]
 fn a_failed_write_names_the_users_path_and_says_nothing_written() {
     let dir = tmp("limited-set");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("dma_bandwidth.csv"), "old\n").unwrap();
     let script = format!(
         "ulimit -f 8 && exec {EXP} --mib 1 --max-spes 1 --out {}",
         dir.display()
