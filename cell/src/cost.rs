@@ -599,7 +599,7 @@ impl CostModel {
         }
         if name == "spe_start_cycles" {
             let (task, group) = (self.spe_start_cycles.0, Self::SPE_START_GROUP.0);
-            return Some(format!("{task}-{group} (SPURS task-OS group)"));
+            return Some(format!("{task}-{group} (SPURS to OS group)"));
         }
         let v = self.estimate(name)?.0;
         Some(format!("{}-{} (estimate)", v / 2, v * 2))

@@ -118,8 +118,9 @@ fn normalize(text: &[u8]) -> Option<Cow<'_, [u8]>> {
 }
 
 pub(super) fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Scene, SceneError> {
-    // Vertices are checked as written, before their colours are dropped.
-    if let Some((line, what)) = bad_vertex(text) {
+    // Vertices are checked as written, before their colours are dropped
+    // (a file with a NUL byte is no text: said below).
+    if let Some((line, what)) = bad_vertex(text).filter(|_| !text.contains(&0)) {
         return Err(SceneError::Malformed {
             path: path.into(),
             line,

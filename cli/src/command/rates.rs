@@ -88,7 +88,7 @@ pub fn run(args: RatesCommand) -> Res<()> {
     println!("\nthe kernels' (cycles; band: what sensitivity moves it through)");
     for (name, value, band, moved) in &kernels {
         println!(
-            "  {name:<30} {value:>5}{:<2} {:<13} {}",
+            "  {name:<26} {value:>5}{:<2} {:<13} {}",
             mark(*moved),
             moves(name),
             band_text(*band)

@@ -578,3 +578,42 @@ fn an_experiment_names_a_model_that_is_not_the_default() {
     crate::common::assert_ok(&out);
     assert!(String::from_utf8_lossy(&out.stdout).starts_with("spe_scaling "));
 }
+
+/// How long an experiment's default run takes is written in one place,
+/// its `--help` (measured): every experiment's says it, and the README's
+/// table of experiments types none.
+#[test]
+fn an_experiments_duration_is_written_once() {
+    let manifest =
+        std::fs::read_to_string(format!("{}/cli/Cargo.toml", crate::common::ROOT)).unwrap();
+    let bins: Vec<&str> = (manifest.split("[[bin]]").skip(1))
+        .map(|b| b.split("\n[").next().unwrap())
+        .filter_map(|b| {
+            b.lines()
+                .find_map(|l| l.strip_prefix("name = \"")?.strip_suffix('"'))
+        })
+        .filter(|&n| n != "cellbih")
+        .collect();
+    assert!(bins.len() >= 10, "{bins:?}");
+    let release = std::path::Path::new(env!("CARGO_BIN_EXE_cellbih"))
+        .parent()
+        .unwrap()
+        .to_path_buf();
+    for bin in &bins {
+        let out = crate::common::command(release.join(bin))
+            .arg("--help")
+            .output()
+            .unwrap();
+        let help = String::from_utf8_lossy(&out.stdout);
+        assert!(help.contains("(default run: "), "{bin}: {help}");
+    }
+    let readme = std::fs::read_to_string(format!("{}/README.md", crate::common::ROOT)).unwrap();
+    let section = readme.split("## The experiments").nth(1).unwrap();
+    let section = section.split("\n## ").next().unwrap();
+    for word in [" min", " s,", " s |", "seconds", "minutes"] {
+        assert!(
+            !section.contains(word),
+            "the README types a duration ({word}): {section}"
+        );
+    }
+}
