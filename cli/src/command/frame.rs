@@ -92,11 +92,12 @@ pub fn run(args: FrameCommand) -> Res<()> {
 }
 
 /// Refuses, before any work, a frame the emulated Cell's main memory
-/// cannot hold even at its least: in the paper's arrangement the one Cell
-/// holds at once the build (records, its buffers, the fewest nodes), the
-/// casters' tree, triangles, rays and hits, and the tree's two copies the
-/// update copies between; in section 5's the build and the cast come one
-/// after the other ([`check_memory`] checked each).
+/// cannot hold even at its least. In the paper's arrangement the one Cell
+/// holds at once the casters' tree, triangles, rays and hits, and either
+/// the tree's two copies an in-place update copies between or a whole
+/// build (the lesser counted: a first frame does one of them); in
+/// section 5's the build and the cast come one after the other
+/// ([`check_memory`] checked each).
 fn check_frame_memory(s: &Scene, cfg: &FrameConfig) -> Res<()> {
     if cfg.all_spes_build() {
         return Ok(());
@@ -106,15 +107,15 @@ fn check_frame_memory(s: &Scene, cfg: &FrameConfig) -> Res<()> {
     let rays = cfg.width as usize * cfg.height as usize;
     let nodes = (2 * n.div_ceil(c.tree.leaf_size.max(1) as usize)).saturating_sub(1);
     let order = Default::default();
-    let need = c.builder.least_memory(n, &c.tree, cfg.build_spes)
-        + cellbih::cast::memory_needed(nodes, n, rays, order)
-        + 2 * cellbih::frame::charge::tree_bytes(nodes, n, order).next_multiple_of(128);
+    let build = c.builder.least_memory(n, &c.tree, cfg.build_spes);
+    let copies = 2 * cellbih::frame::charge::tree_bytes(nodes, n, order).next_multiple_of(128);
+    let need = cellbih::cast::memory_needed(nodes, n, rays, order) + build.min(copies);
     let have = c.cell.main_memory_bytes;
     if need > have {
         return Err(format!(
-            "{}: the frame in the paper's arrangement holds on one Cell the build, the \
-             cast ({rays} rays) and the tree's two copies: at least {} MiB of main memory; \
-             the emulated Cell has {} MiB (--memory-mib): nothing built or cast",
+            "{}: the frame in the paper's arrangement holds on one Cell the cast ({rays} \
+             rays) and the tree's two copies or a whole build: at least {} MiB of main \
+             memory; the emulated Cell has {} MiB (--memory-mib): nothing built or cast",
             s.name,
             need.div_ceil(1 << 20),
             have >> 20

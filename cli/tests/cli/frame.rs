@@ -185,3 +185,50 @@ fn frame_writes_the_one_cell_runs_as_a_trace() {
         "--trace: the trace is of the paper's arrangement's one-Cell runs",
     );
 }
+
+/// A frame the emulated memory cannot hold is refused before any work,
+/// naming `--memory-mib`: a build's records, buffers and fewest nodes;
+/// in the paper's arrangement also the cast and the tree's copies.
+#[test]
+fn a_frame_too_big_for_the_memory_is_refused_before_any_work() {
+    let exe = env!("CARGO_BIN_EXE_cellbih");
+    let limit = std::time::Duration::from_secs(30);
+    let base = [
+        "frame",
+        "--animation",
+        "rtperf",
+        "--frames",
+        "1",
+        "--width",
+        "8",
+        "--height",
+        "8",
+    ];
+    let out = crate::common::run_limited(
+        exe,
+        &[
+            &base[..],
+            &["--scene", "rtperf:5000000", "--memory-mib", "330"],
+        ]
+        .concat(),
+        limit,
+    );
+    assert_fails_with(
+        &out,
+        "building its 5000000 triangles takes at least 333 MiB",
+    );
+    let out = crate::common::run_limited(
+        exe,
+        &[
+            &base[..],
+            &["--scene", "rtperf:3000000", "--build-spes", "1"],
+        ]
+        .concat(),
+        limit,
+    );
+    assert_fails_with(
+        &out,
+        "the frame in the paper's arrangement holds on one Cell",
+    );
+    assert_fails_with(&out, "(--memory-mib): nothing built or cast");
+}
