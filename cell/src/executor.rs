@@ -33,6 +33,17 @@ impl Machine {
             .map(|(i, c)| (c.clock, i))
     }
 
+    /// An error where `core`'s clock has passed the last cycle time can
+    /// reach (its sums saturate there: [`Cycles::END`]).
+    fn check_clock(&self, core: usize) -> Result<(), CellError> {
+        match self.cores[core].clock == Cycles::END {
+            true => Err(CellError::TimeOverflow {
+                core: super::machine::core_name(core),
+            }),
+            false => Ok(()),
+        }
+    }
+
     fn deadlock(&self) -> CellError {
         let at = self.cores.iter().map(|c| c.clock).max().unwrap_or_default();
         let waits = self
@@ -113,11 +124,7 @@ pub(crate) fn execute(
         m.borrow_mut().resumes += 1;
         let task = slots[core].as_mut().expect("a ready core has a program");
         let poll = task.as_mut().poll(&mut cx);
-        if m.borrow().cores[core].clock == Cycles::END {
-            return Err(CellError::TimeOverflow {
-                core: super::machine::core_name(core),
-            });
-        }
+        m.borrow().check_clock(core)?;
         match poll {
             Poll::Pending => {}
             Poll::Ready(result) => {
@@ -138,12 +145,12 @@ pub(crate) fn execute(
             }
         }
     }
-    if end == Cycles::END {
-        return Err(CellError::TimeOverflow {
+    match end == Cycles::END {
+        true => Err(CellError::TimeOverflow {
             core: "the memory interface".into(),
-        });
+        }),
+        false => Ok(end),
     }
-    Ok(end)
 }
 
 impl Machine {

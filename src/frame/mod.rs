@@ -323,10 +323,7 @@ pub fn play(
         resident: true,
         ..untraced.with_spes(cfg.render_spes())
     };
-    let hz = cell.cost.clock_hz;
-    let mut trace =
-        (cell.trace && !cfg.all_spes_build()).then(|| crate::cell::Trace::empty(cell.spes, hz));
-    let mut frame_start_ms = 0.0;
+    let mut timeline = one_cell::Timeline::of(cfg);
     // The camera frames the scene as it starts, and stays.
     let cam = (cfg.view)
         .camera(&scene.name, &scene.bounds(), cfg.width, cfg.height)
@@ -476,12 +473,7 @@ pub fn play(
             render_same_deal_ms: b.render_same_deal_ms,
         });
         let mut cast = beside.map_or(cast, |b| b.cast);
-        if let (Some(t), Some(one)) = (&mut trace, cast.trace.take()) {
-            t.append(
-                one,
-                crate::cell::Cycles((frame_start_ms * hz / 1e3).round() as u64),
-            );
-        }
+        timeline.add(cast.trace.take());
         if let Some(plan) = &plan {
             let known =
                 plan_find_ms(plan, taken, cfg, 0.0) + bill.update_ms(taken, up.full_rebuild);
@@ -542,11 +534,11 @@ pub fn play(
             predicted,
             oracle_ms,
         });
-        frame_start_ms += cfg.frame_ms(update_ms, render_ms);
+        timeline.next_frame(cfg.frame_ms(update_ms, render_ms));
         done(frames.last().expect("pushed"));
     }
     Ok(FrameRun {
-        trace,
+        trace: timeline.trace,
         ..FrameRun::of(frames, second_copy)
     })
 }

@@ -36,6 +36,42 @@ pub struct Beside {
     pub cast: CastReport,
 }
 
+/// The one-Cell runs' timelines of a frame loop whose Cell keeps a trace
+/// (the paper's arrangement), each placed at its frame's start.
+pub(super) struct Timeline {
+    pub trace: Option<crate::cell::Trace>,
+    frame_start_ms: f64,
+    hz: f64,
+}
+
+impl Timeline {
+    pub fn of(cfg: &FrameConfig) -> Self {
+        let cell = &cfg.build.cell;
+        let hz = cell.cost.clock_hz;
+        Timeline {
+            trace: (cell.trace && !cfg.all_spes_build())
+                .then(|| crate::cell::Trace::empty(cell.spes, hz)),
+            frame_start_ms: 0.0,
+            hz,
+        }
+    }
+
+    /// A frame's one-Cell run, if it kept a timeline.
+    pub fn add(&mut self, run: Option<crate::cell::Trace>) {
+        if let (Some(t), Some(run)) = (&mut self.trace, run) {
+            t.append(
+                run,
+                Cycles((self.frame_start_ms * self.hz / 1e3).round() as u64),
+            );
+        }
+    }
+
+    /// The next frame starts `frame_ms` later.
+    pub fn next_frame(&mut self, frame_ms: f64) {
+        self.frame_start_ms += frame_ms;
+    }
+}
+
 /// What the update side does beside its builds: the PPE's search before
 /// them and its graft after (simulated ms, as [`crate::update::ppe`]
 /// prices them), and the bytes copied into the tree's other copy first.

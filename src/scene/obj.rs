@@ -118,15 +118,7 @@ fn normalize(text: &[u8]) -> Option<Cow<'_, [u8]>> {
 }
 
 pub(super) fn parse_obj_named(path: &str, name: &str, text: &[u8]) -> Result<Scene, SceneError> {
-    // Vertices are checked as written, before their colours are dropped
-    // (a file with a NUL byte is no text: said below).
-    if let Some((line, what)) = bad_vertex(text).filter(|_| !text.contains(&0)) {
-        return Err(SceneError::Malformed {
-            path: path.into(),
-            line,
-            what,
-        });
-    }
+    check_vertices(path, text)?;
     let Some(text) = normalize(text) else {
         let nul = text.iter().position(|&b| b == 0).unwrap_or(0);
         let line = 1 + text[..nul].iter().filter(|&&b| b == b'\n').count();
@@ -217,6 +209,19 @@ fn short_face(text: &[u8]) -> Option<(usize, usize)> {
         let corners = words.count();
         (corners < 3).then_some((n + 1, corners))
     })
+}
+
+/// Vertices checked as written, before their colours are dropped (a file
+/// with a NUL byte is no text: said after).
+fn check_vertices(path: &str, text: &[u8]) -> Result<(), SceneError> {
+    match bad_vertex(text).filter(|_| !text.contains(&0)) {
+        Some((line, what)) => Err(SceneError::Malformed {
+            path: path.into(),
+            line,
+            what,
+        }),
+        None => Ok(()),
+    }
 }
 
 /// The first vertex line (1-based) that is not `x y z`, `x y z w` or

@@ -98,15 +98,7 @@ pub fn by_name(spec: &str, data: Option<&Path>) -> Result<Option<Scene>, SceneEr
             (None, Some(d)) => return Ok(d),
             _ => field(i, "a scale")?,
         };
-        match s.parse::<f64>() {
-            Ok(x) if x.is_finite() && x > 0.0 && x <= f32::MAX as f64 => Ok(x as f32),
-            Ok(x) if x.is_finite() && x > 0.0 => Err(bad(format!(
-                "the scale of {kind} is beyond f32: '{s}' (at most 3.4e38)"
-            ))),
-            _ => Err(bad(format!(
-                "the scale of {kind} is not a positive number: '{s}'"
-            ))),
-        }
+        positive_f32(s).map_err(|why| bad(format!("the scale of {kind} {why}")))
     };
     let mesh = |i: usize| -> Result<Scene, SceneError> {
         let name = field(i, "a mesh")?;
@@ -120,16 +112,12 @@ pub fn by_name(spec: &str, data: Option<&Path>) -> Result<Option<Scene>, SceneEr
     };
     // `None`: more than `usize` holds.
     let capped = |n: Option<usize>| -> Result<usize, SceneError> {
-        match n.filter(|&n| n <= MAX_ZOO_TRIANGLES) {
-            None => Err(bad(format!(
-                "{kind} makes {}; the zoo makes at most {MAX_ZOO_TRIANGLES}",
-                match n {
-                    Some(n) => format!("{n} triangles"),
-                    None => format!("more than {MAX_ZOO_TRIANGLES} triangles"),
-                }
-            ))),
-            Some(n) => Ok(n),
-        }
+        n.filter(|&n| n <= MAX_ZOO_TRIANGLES).ok_or_else(|| {
+            let n = n.map_or(format!("more than {MAX_ZOO_TRIANGLES}"), |n| n.to_string());
+            bad(format!(
+                "{kind} makes {n} triangles; the zoo makes at most {MAX_ZOO_TRIANGLES}"
+            ))
+        })
     };
     let (scene, fields) = match kind {
         // The scale is checked before the mesh is loaded.
@@ -171,6 +159,16 @@ pub fn by_name(spec: &str, data: Option<&Path>) -> Result<Option<Scene>, SceneEr
     let mut scene = scene;
     scene.name = spec.into();
     Ok(Some(scene))
+}
+
+/// `s` as a positive `f32`, or why not ("is beyond f32: …", "is not a
+/// positive number: …").
+fn positive_f32(s: &str) -> Result<f32, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 && x <= f32::MAX as f64 => Ok(x as f32),
+        Ok(x) if x.is_finite() && x > 0.0 => Err(format!("is beyond f32: '{s}' (at most 3.4e38)")),
+        _ => Err(format!("is not a positive number: '{s}'")),
+    }
 }
 
 /// Starts a builder with every part and triangle of `mesh`, moved by

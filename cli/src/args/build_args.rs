@@ -278,7 +278,7 @@ static MODEL: std::sync::OnceLock<String> = std::sync::OnceLock::new();
 static TEXT_OUT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// Whether this process prints its tables as text: then a model that is
-/// not the default is said first ([`name_the_model`]).
+/// not the default is said first.
 pub fn name_the_model_in_text(text: bool) {
     TEXT_OUT.store(text, std::sync::atomic::Ordering::Relaxed);
 }

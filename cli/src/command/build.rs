@@ -6,7 +6,7 @@ use std::path::Path;
 use crate::Res;
 use crate::args::{BuildCommand, parse_build};
 use crate::command::print::print_build;
-use crate::output::{check_writable, write_file};
+use crate::output::check_writable;
 use cellbih::registry::Settings;
 
 /// Runs `cellbih build`.
@@ -49,17 +49,8 @@ pub fn run(args: BuildCommand) -> Res<()> {
         &camera.view,
     );
     if let Some(path) = &trace {
-        let timeline = report
-            .simulated
-            .as_mut()
-            .and_then(|m| m.trace.take())
-            .ok_or("--trace: the build kept no timeline")?;
-        write_file(path, |w| timeline.write_chrome(w))?;
-        eprintln!(
-            "trace written to {} ({} spans)",
-            path.display(),
-            timeline.spans.len()
-        );
+        let timeline = report.simulated.as_mut().and_then(|m| m.trace.take());
+        super::write_timeline(path, timeline.as_ref(), "the build")?;
     }
     Ok(())
 }

@@ -30,21 +30,7 @@ pub fn run(args: FrameCommand) -> Res<()> {
     } = args;
     let mut c = parse_build_or(&play.build, BuilderKind::SPE_BFS, true)?;
     if let Some(path) = &trace {
-        if build_spes.is_none_or(|k| (k as usize) >= c.cell.spes) {
-            return Err(crate::usage(
-                "--trace: the trace is of the paper's arrangement's one-Cell runs; give \
-                 --build-spes fewer than --spes",
-            ));
-        }
-        let inputs: Vec<_> = (play.scene.input().into_iter())
-            .chain(play.build.inputs())
-            .collect();
-        let outputs = [
-            ("the report", std::path::Path::new("-")),
-            ("--trace", path.as_path()),
-        ];
-        crate::output::check_files(&outputs, &inputs)?;
-        crate::output::check_writable(path)?;
+        check_trace(path, &play, build_spes, c.cell.spes)?;
         c.cell.trace = true;
     }
     let local = matches!(policy.as_str(), "local" | "auto");
@@ -79,16 +65,33 @@ pub fn run(args: FrameCommand) -> Res<()> {
     check_memory(&s.name, (s.len(), 0), rays, &c, Default::default())?;
     check_frame_memory(&s, &cfg)?;
     let run = play_and_print(&s, &anim, &cfg, format, &settings)?;
-    if let Some(path) = &trace {
-        let timeline = run.trace.ok_or("--trace: the frames kept no timeline")?;
-        crate::output::write_file(path, |w| timeline.write_chrome(w))?;
-        eprintln!(
-            "trace written to {} ({} spans)",
-            path.display(),
-            timeline.spans.len()
-        );
+    match &trace {
+        Some(path) => super::write_timeline(path, run.trace.as_ref(), "the frames"),
+        None => Ok(()),
     }
-    Ok(())
+}
+
+/// `--trace PATH`, checked before any work: the paper's arrangement (the
+/// one-Cell runs are what it traces), a path that can be written and
+/// replaces no input.
+fn check_trace(
+    path: &std::path::Path,
+    play: &PlayArgs,
+    build_spes: Option<u64>,
+    spes: usize,
+) -> Res<()> {
+    if build_spes.is_none_or(|k| (k as usize) >= spes) {
+        return Err(crate::usage(
+            "--trace: the trace is of the paper's arrangement's one-Cell runs; give \
+             --build-spes fewer than --spes",
+        ));
+    }
+    let inputs: Vec<_> = (play.scene.input().into_iter())
+        .chain(play.build.inputs())
+        .collect();
+    let outputs = [("the report", std::path::Path::new("-")), ("--trace", path)];
+    crate::output::check_files(&outputs, &inputs)?;
+    Ok(crate::output::check_writable(path)?)
 }
 
 /// Refuses, before any work, a frame the emulated Cell's main memory

@@ -126,13 +126,16 @@ pub fn describe(r: &CastReport, on: usize) -> String {
 
 /// Writes the cast's timeline to `path` if one was asked for, and says so.
 pub fn write_trace(args: &CastArgs, r: &CastReport) -> Res<()> {
-    let Some(path) = &args.trace else {
-        return Ok(());
-    };
-    let timeline = r
-        .trace
-        .as_ref()
-        .ok_or("--trace: the cast kept no timeline")?;
+    match &args.trace {
+        Some(path) => write_timeline(path, r.trace.as_ref(), "the cast"),
+        None => Ok(()),
+    }
+}
+
+/// Writes `timeline` (what `what` kept, if it kept one) to `path` as
+/// Chrome trace JSON, and says so.
+pub fn write_timeline(path: &Path, timeline: Option<&cellbih::cell::Trace>, what: &str) -> Res<()> {
+    let timeline = timeline.ok_or_else(|| format!("--trace: {what} kept no timeline"))?;
     crate::output::write_file(path, |w| timeline.write_chrome(w))?;
     eprintln!(
         "trace written to {} ({} spans)",
