@@ -32,7 +32,7 @@ use cellbih_cli::report::{Series, TreeArgs, line_plot, output, side_by_side};
 
 #[derive(Parser)]
 #[command(
-    about = "The whole frame on the Cell: each policy and arrangement on animated scenes, section 5's metric against the oracle (default run: about 6 min)"
+    about = "The whole frame on the Cell: each policy and arrangement on animated scenes, section 5's metric against the oracle (default run: about 3½ min)"
 )]
 struct Args {
     /// Scenes, comma-separated: car, cup and rtperf:N[:SEED] play their

@@ -36,7 +36,7 @@ const MAX_TRIANGLES: u64 = 10_000_000;
 
 #[derive(Parser)]
 #[command(
-    about = "Fig. 3: the local and the deep update against complete rebuilds over scene sizes (default run: about 14 s)"
+    about = "Fig. 3: the local and the deep update against complete rebuilds over scene sizes (default run: about 6 s)"
 )]
 struct Args {
     /// Smallest scene, in triangles (1 to 10,000,000).

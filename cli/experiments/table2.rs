@@ -25,7 +25,7 @@ use cellbih_cli::report::OutputArgs;
 
 #[derive(Parser)]
 #[command(
-    about = "Table 2: the paper's local update on the car and the cup, host and simulated PS3 times (default run: about 15 s)"
+    about = "Table 2: the paper's local update on the car and the cup, host and simulated PS3 times (default run: about 8 s)"
 )]
 struct Args {
     /// Host times only: skip the emulated (simulated-time) runs.
