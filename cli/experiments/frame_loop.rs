@@ -89,15 +89,8 @@ fn size_of(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    use cellbih_cli::args::Charges;
-    cellbih_cli::args::set_charges(
-        "frame_loop",
-        Charges {
-            casts: true,
-            updates: true,
-            ..Charges::BUILDS
-        },
-    );
+    use cellbih_cli::args::{Charges, set_charges};
+    set_charges("frame_loop", Charges::builds_and(true, true));
     args.run.threads.install()?;
     let emulated = || -> Vec<&str> {
         (BuilderKind::ALL.iter())

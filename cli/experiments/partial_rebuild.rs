@@ -102,14 +102,8 @@ fn median_partial_ms(reports: &[UpdateReport]) -> Option<f64> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    use cellbih_cli::args::Charges;
-    cellbih_cli::args::set_charges(
-        "partial_rebuild",
-        Charges {
-            updates: true,
-            ..Charges::BUILDS
-        },
-    );
+    use cellbih_cli::args::{Charges, set_charges};
+    set_charges("partial_rebuild", Charges::builds_and(false, true));
     let base = args.rates.model(6, !args.no_sim)?;
     if args.from > args.to {
         return Err(format!(

@@ -99,8 +99,8 @@ fn main() {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    use cellbih_cli::args::Charges;
-    cellbih_cli::args::set_charges("table1", Charges::BUILDS);
+    use cellbih_cli::args::{Charges, set_charges};
+    set_charges("table1", Charges::builds_and(false, false));
     args.run.threads.install()?;
     let cfg = BihConfig::default();
     let mut models = Vec::new();

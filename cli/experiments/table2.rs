@@ -75,14 +75,8 @@ fn summary(
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    use cellbih_cli::args::Charges;
-    cellbih_cli::args::set_charges(
-        "table2",
-        Charges {
-            updates: true,
-            ..Charges::BUILDS
-        },
-    );
+    use cellbih_cli::args::{Charges, set_charges};
+    set_charges("table2", Charges::builds_and(false, true));
     let base = args.rates.model(6, !args.no_sim)?;
     let progress = std::io::stderr().is_terminal();
     let mut rows = Vec::new();

@@ -131,14 +131,8 @@ fn main() {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    use cellbih_cli::args::Charges;
-    cellbih_cli::args::set_charges(
-        "tradeoff",
-        Charges {
-            casts: true,
-            ..Charges::BUILDS
-        },
-    );
+    use cellbih_cli::args::{Charges, set_charges};
+    set_charges("tradeoff", Charges::builds_and(true, false));
     args.run.threads.install()?;
     let settings = settings();
     let scenes = cellbih_cli::report::load_scenes(&args.scenes, args.scene.data.dir().as_deref())?;

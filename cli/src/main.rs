@@ -49,11 +49,7 @@ fn main() -> ExitCode {
 
 /// What `command` charges, for refusing a `--rate` it never charges.
 fn charges(command: &Option<Command>) -> Option<(&'static str, Charges)> {
-    let with = |casts: bool, updates: bool| Charges {
-        casts,
-        updates,
-        ..Charges::BUILDS
-    };
+    let with = Charges::builds_and;
     Some(match command.as_ref()? {
         Command::Build(_) => ("build", Charges::BUILDS),
         Command::Compare(_) => ("compare", Charges::BUILDS),

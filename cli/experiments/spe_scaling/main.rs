@@ -179,8 +179,8 @@ fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih, view: &View) -> (f64, f64) {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    use cellbih_cli::args::Charges;
-    cellbih_cli::args::set_charges("spe_scaling", Charges::BUILDS);
+    use cellbih_cli::args::{Charges, set_charges};
+    set_charges("spe_scaling", Charges::builds_and(false, false));
     args.run.threads.install()?;
     let model = args.rates.model(6, true)?;
     let names: Vec<String> = match args.zoo {

@@ -315,6 +315,15 @@ pub struct Charges {
 }
 
 impl Charges {
+    /// Builds, and casts and updates as `casts` and `updates` say.
+    pub const fn builds_and(casts: bool, updates: bool) -> Charges {
+        Charges {
+            casts,
+            updates,
+            ..Charges::BUILDS
+        }
+    }
+
     /// Builds only.
     pub const BUILDS: Charges = Charges {
         builds: true,

@@ -22,14 +22,7 @@ pub fn run(args: RatesCommand) -> Res<()> {
     let base = cost.clone();
     let rates = args.rates.apply(&mut cost)?;
     let code = rates.code();
-    // Every command's charges: what marks each rate with the runs it moves.
-    let all = Charges {
-        casts: true,
-        updates: true,
-        fabric_and_ppe_atomics: true,
-        ..Charges::BUILDS
-    };
-    let moves = |name: &str| charged_by(name, code, all).1;
+    let moves = |name: &str| moves(name, code);
     // A rate of the other model only (the legacy model claims no line).
     let machine: Vec<_> = (CostModel::RATES.iter())
         .filter_map(|r| {
@@ -98,4 +91,16 @@ pub fn run(args: RatesCommand) -> Res<()> {
         println!("\n*: moved by --rate or --rates");
     }
     Ok(())
+}
+
+/// The runs that charge the rate `name` in the class `code` (what marks
+/// it in the list).
+fn moves(name: &str, code: cellbih::kernels::rates::Code) -> &'static str {
+    let every = Charges {
+        casts: true,
+        updates: true,
+        fabric_and_ppe_atomics: true,
+        ..Charges::BUILDS
+    };
+    charged_by(name, code, every).1
 }
