@@ -599,31 +599,22 @@ fn an_output_never_replaces_an_input() {
     let later = at("later.csv");
     let dangling = at("dangling.json");
     std::os::unix::fs::symlink("later.csv", &dangling).unwrap();
-    let args = [
-        "raycast",
-        "--rays",
-        &rays,
-        "--on-cell",
-        "--out",
-        &later,
-        "--trace",
-        &dangling,
-    ];
-    assert_fails_with(&cellbih(&args), "name the same file");
+    let cast_to = |out: &str| {
+        cellbih(&[
+            "raycast",
+            "--rays",
+            &rays,
+            "--on-cell",
+            "--out",
+            out,
+            "--trace",
+            &dangling,
+        ])
+    };
+    assert_fails_with(&cast_to(&later), "name the same file");
     assert!(!std::path::Path::new(&later).exists());
     // Written through it, the link stays a link to the trace.
-    let hits = at("hits.csv");
-    let args = [
-        "raycast",
-        "--rays",
-        &rays,
-        "--on-cell",
-        "--out",
-        &hits,
-        "--trace",
-        &dangling,
-    ];
-    crate::common::assert_ok(&cellbih(&args));
+    crate::common::assert_ok(&cast_to(&at("hits.csv")));
     let link = std::fs::symlink_metadata(&dangling).unwrap();
     assert!(link.file_type().is_symlink());
     assert!(
