@@ -537,3 +537,61 @@ fn a_split_top_keeps_the_spes_from_waiting_on_a_crowded_scene() {
     }
     assert!(checked > 0, "no multi-SPE builder has --top-end");
 }
+
+/// Two clusters far apart on x: `near` triangles in the unit cube at the
+/// origin, `far` in the one at x = 100. The root's halving plane (x =
+/// 50.5) parts them, so the root's left child holds exactly `near`.
+fn two_clusters(near: usize, far: usize) -> Scene {
+    use cellbih::scene::Triangle;
+    use glam::Vec3;
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut r = move || {
+        seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+        (seed >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut tri = |x: f32| {
+        let c = Vec3::new(x + r(), r(), r());
+        let mut v = || c + 0.01 * Vec3::new(r(), r(), r());
+        Triangle::new(v(), v(), v())
+    };
+    let mut t: Vec<Triangle> = (0..near).map(|_| tri(0.0)).collect();
+    t.extend((0..far).map(|_| tri(100.0)));
+    Scene::from_triangles("two clusters", t).unwrap()
+}
+
+/// `--finish local` at its budget: a job of exactly the most triangles an
+/// SPE's local store can finish (`subtree_limit`) is finished there whole;
+/// one triangle more and it is split level by level first, its children
+/// finished there. Either way the baseline's tree.
+#[test]
+fn a_job_at_the_local_store_budget_finishes_there_and_one_more_streams() {
+    let takes_finish = |b: &BuilderKind| b.knobs().iter().any(|k| k.name == "finish");
+    let builders: Vec<_> = multi_spe().into_iter().filter(takes_finish).collect();
+    assert!(!builders.is_empty(), "no builder takes --finish");
+    for b in builders {
+        let mut knobs = Knobs::default();
+        b.set_knob(&mut knobs, "finish", "local").unwrap();
+        let cell = CellConfig::ps3().with_spes(1);
+        let build = |s: &Scene| {
+            let r = Build::new(b).on(&cell).with_knobs(&knobs).run(s).unwrap();
+            let base = Build::new(BuilderKind::SPE_BFS).run(s).unwrap();
+            same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{b}: {e}"));
+            r.simulated.unwrap().spe_work[0]
+        };
+        let limit = build(&two_clusters(2000, 100)).subtree_limit as usize;
+        assert!(
+            limit > 100,
+            "{b}: a local store that finishes {limit} triangles"
+        );
+        // The root streams; its children (the two clusters) are finished
+        // in the local store, one at exactly the limit.
+        let at = build(&two_clusters(limit, 100));
+        assert_eq!(at.subtrees, 2, "{b} at the limit {limit}: {at:?}");
+        // One more: the near cluster splits by streaming, then each part.
+        let over = build(&two_clusters(limit + 1, 100));
+        assert!(
+            over.subtrees >= 3,
+            "{b} one over the limit {limit}: {over:?}"
+        );
+    }
+}

@@ -218,7 +218,8 @@ fn verify(
         sphere(predicted as f64 * 1.02),
     );
     while lo > 200 && try_n(lo)?.is_some() {
-        (hi, lo) = (lo, sphere(lo as f64 * 0.9));
+        // At least a sphere less (0.9 × a few spheres rounds back).
+        (hi, lo) = (lo, sphere(lo as f64 * 0.9).min(lo - 200));
     }
     loop {
         match try_n(hi)? {

@@ -156,6 +156,41 @@ pub fn build_subtree<T: Item>(
     b.stats
 }
 
+/// Builds the subtree of the node `view` over all of `items` (its
+/// triangles, from place 0) into node 0 of `nodes`, appending its
+/// descendants in pairs (1, 2), (3, 4), …: the same decisions as a
+/// level-by-level build of that node, for a breadth-first job finished in
+/// a local store. The node's bounds, centers and region come with it: no
+/// bounds pass.
+pub fn build_below<T: Item>(
+    items: &mut [T],
+    nodes: &mut Vec<BihNode>,
+    view: &NodeView,
+    cfg: &BihConfig,
+) -> BuildStats {
+    let (b, c) = (view.bounds, view.centers);
+    let side = Side {
+        count: items.len(),
+        lo: b.min.into(),
+        hi: b.max.into(),
+        center_lo: c.min.into(),
+        center_hi: c.max.into(),
+    };
+    let mut b = Builder {
+        items,
+        base: 0,
+        nodes: std::mem::take(nodes),
+        cfg,
+        stats: BuildStats::default(),
+    };
+    b.nodes.clear();
+    b.nodes.push(BihNode::default());
+    let (count, depth) = (side.count, view.depth);
+    b.node(0, 0, count, view.candidate, &side, depth, view.region);
+    *nodes = b.nodes;
+    b.stats
+}
+
 struct Builder<'a, T> {
     /// The items from `base` on (a node's leaves still name their place in
     /// the whole array).

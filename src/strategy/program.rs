@@ -184,6 +184,11 @@ pub struct SpeWork {
     pub arena_unused: u64,
     /// Its job-queue software cache (`spe_bfs_shared --job-cache`).
     pub job_cache: crate::spe::software_cache::CacheStats,
+    /// `--finish local`: jobs it finished as subtrees in its local store,
+    /// and the most triangles such a job could have (what its local store
+    /// held beside the rest of its program; 0: it finished none there).
+    pub subtrees: u64,
+    pub subtree_limit: u64,
 }
 
 /// The PPE allocates a node array in main memory and writes `nodes` into

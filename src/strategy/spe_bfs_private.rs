@@ -29,7 +29,7 @@
 use crate::spe::footprint::Purpose;
 
 use super::machinery::breadth_first::{
-    Job, NO_DMA_LISTS, NO_DOUBLE_BUFFER, NO_PREFETCH, QueueKnobs, SpeBuilder,
+    FINISH, Finish, Job, NO_DMA_LISTS, NO_DOUBLE_BUFFER, NO_PREFETCH, QueueKnobs, SpeBuilder,
 };
 use super::machinery::coop::Coop;
 use super::machinery::top::{
@@ -61,6 +61,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &TOP_END,
     &TRIS_PER_SPE,
     &STEAL,
+    &FINISH,
 ])
 // The paper's queue (none of section 5's three improvements), and the
 // older defaults of the knobs (docs/many-spes.md).
@@ -101,6 +102,10 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
 /// the default scene 4 % slower; docs/many-spes.md, "Balance").
 const DEFAULT_TOP: TopKnobs = TopKnobs::SPLIT_ONE_PER_SPE;
 
+/// The finish's default (docs/many-spes.md, "Subtrees in the local
+/// store").
+const DEFAULT_FINISH: Finish = Finish::Local;
+
 /// `--steal`: the dealt jobs stay in per-SPE lists in main memory; each
 /// SPE takes its next one when it has built the last, and when its list is
 /// empty it steals from the end of another's (lock-line updates). Buys:
@@ -118,6 +123,7 @@ struct PrivateKnobs {
     queue: QueueKnobs,
     top: TopKnobs,
     steal: bool,
+    finish: Finish,
 }
 
 /// A deal record in main memory, one 128-byte line per SPE: jobs dealt,
@@ -157,8 +163,15 @@ impl Program {
             queue: QueueKnobs::read(&setup.knobs, DEFAULT_QUEUE),
             top: TopKnobs::read(&setup.knobs, DEFAULT_TOP),
             steal: setup.knobs.flag(&STEAL),
+            finish: Finish::read(&setup.knobs, DEFAULT_FINISH),
         };
-        let start = Start::set_up(cell, setup, &cfg, &knobs.top, AUTO_WORK_PER_SPE)?;
+        let start = Start::set_up(
+            cell,
+            setup,
+            &cfg,
+            (&knobs.top, knobs.finish),
+            AUTO_WORK_PER_SPE,
+        )?;
         let spes = start.spes;
         // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its
         // triangles: room for one level of as many jobs as triangles each.
@@ -271,6 +284,7 @@ impl Program {
                 None
             }
         };
+        self.finish(b)?;
         if let Some((jobs, areas)) = own {
             b.arena.renew(self.start.common.pool.blocks);
             b.queue.set_spill(WorkPpe::between(areas[0], areas[1]));
@@ -284,6 +298,15 @@ impl Program {
             work.stolen = take_and_steal(spe, b, spes, self.work_ppe, record, records, tag).await?;
         }
         Ok(())
+    }
+
+    /// `--finish local`: the jobs dealt to this SPE finish in its local
+    /// store once they fit (it holds all else it needs by now).
+    fn finish(&self, b: &mut SpeBuilder<'_>) -> Result<(), CellError> {
+        match self.knobs.finish {
+            Finish::Local => b.finish_locally(),
+            Finish::Stream => Ok(()),
+        }
     }
 
     /// Every other SPE reads its deal record and builds the jobs dealt to
@@ -301,6 +324,7 @@ impl Program {
         let [count, a, bb, _] = spe.ls_read::<u64>(record, 4)?[..] else {
             unreachable!("four words")
         };
+        self.finish(b)?;
         if self.knobs.steal && count > 0 {
             work.stolen = take_and_steal(
                 spe,

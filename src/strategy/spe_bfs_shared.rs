@@ -41,7 +41,7 @@
 use crate::spe::footprint::Purpose;
 
 use super::machinery::breadth_first::{
-    DMA_LISTS, DOUBLE_BUFFER, Job, NO_PREFETCH, QueueKnobs, SpeBuilder,
+    DMA_LISTS, DOUBLE_BUFFER, FINISH, Finish, Job, NO_PREFETCH, QueueKnobs, SpeBuilder,
 };
 use super::machinery::coop::Coop;
 use super::machinery::node_writes::NodeWrites;
@@ -81,6 +81,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     &AGGLOMERATE,
     &FIXED_TAKES,
     &JOB_CACHE,
+    &FINISH,
 ])
 // Section 5's three queue improvements together, and the older defaults
 // of the knobs (docs/many-spes.md).
@@ -111,6 +112,9 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
 /// faster in geometric mean than the count end (sibenik on 8 SPEs 32 %,
 /// the worst 4 % slower; docs/many-spes.md, "Balance").
 const DEFAULT_TOP: TopKnobs = TopKnobs::SPLIT_ONE_PER_SPE;
+/// The finish's default (docs/many-spes.md, "Subtrees in the local
+/// store").
+const DEFAULT_FINISH: Finish = Finish::Local;
 
 /// `--tris-per-spe auto`: the record steps of the partition
 /// (`machinery::top::partition_work`) each SPE must get before the build
@@ -119,7 +123,7 @@ const DEFAULT_TOP: TopKnobs = TopKnobs::SPLIT_ONE_PER_SPE;
 /// triangles), at which that many SPEs were slower than fewer. A fifth SPE
 /// is the dear one: it pays a cooperative top level more (docs/many-spes.md,
 /// "Small scenes").
-const AUTO_WORK_PER_SPE: WorkPerSpe = &[0, 0, 2_500, 2_500, 15_000, 15_500, 15_500, 15_500];
+const AUTO_WORK_PER_SPE: WorkPerSpe = &[0, 0, 5_600, 5_600, 15_000, 15_500, 15_500, 15_500];
 
 /// `--agglomerate N`: `SharedKnobs::agglomerate`.
 pub const AGGLOMERATE: Knob = Knob::int(
@@ -149,6 +153,7 @@ pub const JOB_CACHE: Knob = Knob::int(
 struct SharedKnobs {
     queue: QueueKnobs,
     top: TopKnobs,
+    finish: Finish,
     /// Jobs taken from the shared queue per atomic operation (1 to 256,
     /// and no more than a `WorkA` holds). Buys: fewer lock-line updates
     /// and larger batches. Costs: balance at the end of a level (the last
@@ -208,6 +213,7 @@ impl Program {
         let knobs = SharedKnobs {
             queue: QueueKnobs::read(&setup.knobs, DEFAULT_QUEUE),
             top: TopKnobs::read(&setup.knobs, DEFAULT_TOP),
+            finish: Finish::read(&setup.knobs, DEFAULT_FINISH),
             agglomerate: setup.knobs.int(&AGGLOMERATE),
             guided: !setup.knobs.flag(&FIXED_TAKES),
             job_cache: setup.knobs.int(&JOB_CACHE),
@@ -220,7 +226,13 @@ impl Program {
                 knobs.agglomerate,
             )));
         }
-        let start = Start::set_up(cell, setup, &cfg, &knobs.top, AUTO_WORK_PER_SPE)?;
+        let start = Start::set_up(
+            cell,
+            setup,
+            &cfg,
+            (&knobs.top, knobs.finish),
+            AUTO_WORK_PER_SPE,
+        )?;
         Ok(Program {
             start,
             knobs,
@@ -270,6 +282,10 @@ impl Program {
             0 => None,
             kib => Some(job_cache(&spe, kib as u32, self.start.cache)?),
         };
+        if knobs.finish == Finish::Local {
+            // It holds all else it needs by now.
+            b.finish_locally()?;
+        }
         work.taken = shared_levels(&spe, &mut b, q, knobs, line, cache.as_mut()).await?;
         if let Some(c) = cache {
             work.job_cache += c.stats;

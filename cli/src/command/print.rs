@@ -300,8 +300,8 @@ fn print_cores(m: &cellbih::registry::Simulated) {
     );
     if work {
         print!(
-            " {:>9} {:>7} {:>7} {:>8} {:>8}",
-            "jobs", "taken", "stolen", "blocks", "unused"
+            " {:>9} {:>7} {:>7} {:>8} {:>8} {:>8} {:>6}",
+            "jobs", "taken", "stolen", "blocks", "unused", "subtrees", "limit"
         );
     }
     println!();
@@ -314,8 +314,14 @@ fn print_cores(m: &cellbih::registry::Simulated) {
         );
         if let Some(w) = i.checked_sub(1).and_then(|k| m.spe_work.get(k)) {
             print!(
-                " {:>9} {:>7} {:>7} {:>8} {:>8}",
-                w.jobs, w.taken, w.stolen, w.arena_blocks, w.arena_unused
+                " {:>9} {:>7} {:>7} {:>8} {:>8} {:>8} {:>6}",
+                w.jobs,
+                w.taken,
+                w.stolen,
+                w.arena_blocks,
+                w.arena_unused,
+                w.subtrees,
+                w.subtree_limit
             );
         }
         println!();
@@ -326,7 +332,8 @@ fn print_cores(m: &cellbih::registry::Simulated) {
             "; jobs: nodes made; taken: takes from the shared job queue that found jobs \
              (spe_bfs_shared) or regions built (spe_morton); stolen: dealt jobs taken from \
              another SPE's list; blocks: ObjectArena blocks taken, unused: their slots \
-             without a node"
+             without a node; subtrees: jobs finished in the local store (--finish local), \
+             limit: the most triangles such a job could have"
         } else {
             ""
         }

@@ -93,6 +93,11 @@ pub struct ObjectArena<'a> {
     /// Line buffer for the pool counter's fetch-and-add.
     line: Option<LsAddr>,
     tags: u32,
+    /// The block runs come from ([`ObjectArena::alloc_run`]): its first
+    /// slot's id and the slots handed out of it.
+    run_block: Option<(u32, usize)>,
+    /// Nodes handed out as runs (their padding is unused).
+    run_nodes: usize,
 }
 
 impl<'a> ObjectArena<'a> {
@@ -130,6 +135,8 @@ impl<'a> ObjectArena<'a> {
             stats: ArenaStats::default(),
             line,
             tags,
+            run_block: None,
+            run_nodes: 0,
         }
     }
 
@@ -164,6 +171,36 @@ impl<'a> ObjectArena<'a> {
         Ok(id)
     }
 
+    /// `count` adjacent slots outside this arena's sequence, their first
+    /// 16-byte aligned and their number rounded up to a multiple of 4, so
+    /// that nodes made elsewhere in the local store (a subtree finished
+    /// there, children in adjacent pairs) go out in whole quadwords by
+    /// DMA; returns the first slot's id. They come from a block of their
+    /// own, taken from the pool as the sequence's blocks are; what is left
+    /// of it when the next run does not fit stays unused. A pool arena
+    /// only, `count` at most [`BLOCK_NODES`].
+    pub async fn alloc_run(&mut self, count: usize) -> Result<u32, CellError> {
+        assert!(count <= BLOCK_NODES, "a run fits one block");
+        let slots = count.next_multiple_of(4);
+        let (first, used) = match self.run_block {
+            Some((first, used)) if used + slots <= BLOCK_NODES => (first, used),
+            _ => (self.take_pool_block().await?.0, 0),
+        };
+        debug_assert!(first.is_multiple_of(4), "blocks start at whole quadwords");
+        self.run_block = Some((first, used + slots));
+        self.run_nodes += count;
+        Ok(first + used as u32)
+    }
+
+    /// The pool's base: node `id` lies at base + id × 12 bytes (a pool
+    /// arena only).
+    pub fn pool_base(&self) -> Ea {
+        match self.source {
+            BlockSource::Pool { base, .. } => base,
+            BlockSource::Mailbox => unreachable!("a mailbox arena's ids are not slots"),
+        }
+    }
+
     /// Slots handed out so far (skipped ones included).
     pub fn allocated(&self) -> usize {
         self.alloc_seq
@@ -173,7 +210,7 @@ impl<'a> ObjectArena<'a> {
     /// those past the last handed out.
     pub fn unused(&self) -> u64 {
         let slots = self.stats.blocks as usize * BLOCK_NODES;
-        (slots.saturating_sub(self.alloc_seq)) as u64 + self.stats.skipped
+        (slots.saturating_sub(self.alloc_seq + self.run_nodes)) as u64 + self.stats.skipped
     }
 
     /// The id of slot `seq` of this arena.

@@ -10,6 +10,7 @@
 //! it in its shared queue.
 
 use super::arena::{BLOCK_BYTES, BLOCK_NODES, BlockSource};
+use super::breadth_first::Finish;
 use super::coop::{Coop, CoopArea, GO};
 use super::pool_server::PoolServer;
 use super::work_queue::Level;
@@ -209,7 +210,7 @@ impl Start {
         cell: &mut Cell,
         setup: &Setup,
         cfg: &BihConfig,
-        top: &TopKnobs,
+        (top, finish): (&TopKnobs, Finish),
         auto_work: WorkPerSpe,
     ) -> Result<Self, CellError> {
         let n = setup.count;
@@ -222,7 +223,7 @@ impl Start {
             rates: setup.rates.kernels(),
             cache: crate::spe::software_cache::CacheRates::with(&setup.rates),
             spes,
-            common: Common::alloc(cell, setup.triangles, n, (cfg, top), spes)?,
+            common: Common::alloc(cell, setup.triangles, n, (cfg, top, finish), spes)?,
         })
     }
 }
@@ -241,10 +242,11 @@ impl Common {
         cell: &mut Cell,
         tris: Ea,
         n: usize,
-        (cfg, top): (&BihConfig, &TopKnobs),
+        (cfg, top, finish): (&BihConfig, &TopKnobs, Finish),
         spes: usize,
     ) -> Result<Self, CellError> {
-        let pool = Pool::alloc(cell, n, cfg, spes)?;
+        let open = if finish == Finish::Local { 2 } else { 1 };
+        let pool = Pool::alloc(cell, n, cfg, (spes, open))?;
         let mut mem = cell.memory_mut();
         let scratch = match top.in_place || !top.coop || spes == 1 {
             true => None,
@@ -309,7 +311,9 @@ pub(in crate::strategy) struct Pool {
 
 impl Pool {
     /// The pool for `n` triangles built with `cfg`, sized to the tree
-    /// expected ([`expected_nodes`]) plus a part-filled block per SPE; an
+    /// expected ([`expected_nodes`]) plus `open` part-filled blocks per
+    /// SPE (its sequence's, and its runs' where it finishes subtrees in its
+    /// local store: `ObjectArena::alloc_run`); an
     /// SPE that finds it used up takes the PPE's overflow blocks after it
     /// (the PPE's program must be [`Pool::spawn_server`] or use
     /// [`Pool::server`]).
@@ -317,10 +321,10 @@ impl Pool {
         cell: &mut Cell,
         n: usize,
         cfg: &BihConfig,
-        spes: usize,
+        (spes, open): (usize, usize),
     ) -> Result<Self, CellError> {
         let mut mem = cell.memory_mut();
-        let pool_blocks = expected_nodes(n, cfg).div_ceil(BLOCK_NODES) + spes;
+        let pool_blocks = expected_nodes(n, cfg).div_ceil(BLOCK_NODES) + spes * open;
         let base = mem.alloc(
             Purpose::Nodes.buffer("ObjectArena pool"),
             pool_blocks as u64 * BLOCK_BYTES,
@@ -420,6 +424,7 @@ impl SpeExit {
     /// What `b`'s loop did, as SPE work `work` (its jobs set from the loop).
     pub fn of(b: &SpeBuilder<'_>, mut work: SpeWork) -> Self {
         work.jobs = b.jobs;
+        (work.subtrees, work.subtree_limit) = b.subtrees();
         SpeExit {
             work,
             items_partitioned: b.stats.items_partitioned,

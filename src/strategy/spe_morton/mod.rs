@@ -315,7 +315,7 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         &setup.knobs,
         AUTO_WORK_PER_SPE,
     );
-    let pool = Pool::alloc(cell, n, &cfg, spes)?;
+    let pool = Pool::alloc(cell, n, &cfg, (spes, 1))?;
     let a = Areas::alloc(cell, setup, &knobs, &pool, spes)?;
     let spec = KeySpec {
         order: knobs.key_order,

@@ -72,6 +72,8 @@ impl Batch {
 enum Step {
     Batch(Batch),
     Large(Job, Option<Split>, Aabb),
+    /// A job finished in the local store (`--finish local`).
+    Local(Job),
 }
 
 impl SpeBuilder<'_> {
@@ -112,6 +114,12 @@ impl SpeBuilder<'_> {
         for &job in jobs {
             self.jobs += 1;
             self.spe.compute(k.spe_job);
+            if self.finishes_locally(&job) {
+                self.step(Step::Batch(std::mem::take(&mut batch)), &mut steps)
+                    .await?;
+                self.step(Step::Local(job), &mut steps).await?;
+                continue;
+            }
             let make = self.make(&job);
             let Some((s, cand)) = make.split() else {
                 batch.jobs.push(Pending { job, make });
@@ -182,6 +190,7 @@ impl SpeBuilder<'_> {
                 self.finish_batch(&mut b, buf).await
             }
             Step::Large(job, s, cand) => self.large(&job, s, cand).await,
+            Step::Local(job) => self.finish_local(&job).await,
         }
     }
 
@@ -193,6 +202,7 @@ impl SpeBuilder<'_> {
         while let Some(step) = steps.next() {
             match step {
                 Step::Large(job, s, cand) => self.large(&job, s, cand).await?,
+                Step::Local(job) => self.finish_local(&job).await?,
                 Step::Batch(mut b) => {
                     let buf = match ready.take() {
                         Some(buf) => buf,
@@ -212,6 +222,7 @@ impl SpeBuilder<'_> {
     /// cooperatively by every SPE.
     async fn large(&mut self, job: &Job, s: Option<Split>, cand: Aabb) -> Result<(), CellError> {
         let k = self.rates;
+        self.settle_local().await?;
         // Fig. 1 reuses the batches' buffers: their puts finish first.
         let batches = (0..self.batch_buffers()).fold(0, |m, b| m | 1 << self.fig1.tag(b));
         self.spe.wait_tags(batches, WaitMode::All).await?;
@@ -268,6 +279,7 @@ impl SpeBuilder<'_> {
         let Some((first, end)) = batch.extent() else {
             return Ok(None);
         };
+        self.settle_local().await?;
         let buf = self.batch_buf;
         self.batch_buf = (buf + 1) % self.batch_buffers();
         // The buffer's previous put must be done before it is reused; and

@@ -27,6 +27,7 @@
 
 mod batch;
 mod job;
+mod local;
 
 use crate::kernels::rates::KernelRates;
 
@@ -44,6 +45,8 @@ use crate::spe::fig1::{Fig1Buffers, stream_bounds};
 use crate::spe::layout::TriRecord;
 use crate::strategy::knob::{Knob, Knobs};
 pub use job::Job;
+use local::LocalArea;
+pub(in crate::strategy) use local::{FINISH, Finish};
 
 /// `--double-buffer`: `QueueKnobs::double_buffer`.
 pub const DOUBLE_BUFFER: Knob = Knob::flag(
@@ -200,6 +203,12 @@ pub(in crate::strategy) struct SpeBuilder<'a> {
     pub(in crate::strategy) stats: BuildStats,
     /// Jobs this SPE made nodes for.
     pub(in crate::strategy) jobs: u64,
+    /// `--finish local`: where jobs that fit are finished, the largest
+    /// that fits, and the node list a subtree is built in.
+    local: Option<LocalArea>,
+    local_largest: u32,
+    local_jobs: u64,
+    subtree: Vec<BihNode>,
 }
 
 impl<'a> SpeBuilder<'a> {
@@ -255,6 +264,10 @@ impl<'a> SpeBuilder<'a> {
             batch_buf: 0,
             batch_put: [None; 3],
             stats: BuildStats::default(),
+            local: None,
+            local_largest: 0,
+            local_jobs: 0,
+            subtree: Vec::new(),
         })
     }
 
@@ -385,7 +398,10 @@ impl<'a> SpeBuilder<'a> {
                     level = local;
                 }
                 Some(next) => level = next,
-                None => return Ok(None),
+                None => {
+                    self.settle_local().await?;
+                    return Ok(None);
+                }
             }
         }
     }
