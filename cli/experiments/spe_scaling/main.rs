@@ -54,6 +54,11 @@ struct Args {
     /// Only each builder's default knobs (not every setting it sweeps).
     #[arg(long)]
     defaults_only: bool,
+    /// Only the builders that take this knob (a name of a knob table,
+    /// without `--`), each with its defaults and with each value of the
+    /// knob its table sweeps.
+    #[arg(long, conflicts_with = "defaults_only")]
+    knob: Option<String>,
     #[command(flatten)]
     scene: SceneArgs,
     #[command(flatten)]
@@ -71,14 +76,27 @@ struct Variant {
 
 /// Every multi-SPE builder with each knob setting its registry entry
 /// sweeps ([`BuilderKind::sweeps`]: its defaults, each knob's sweep values
-/// alone, its settings of several knobs at once). Named by their CLI
-/// options.
-fn variants(defaults_only: bool) -> Vec<Variant> {
+/// alone, its settings of several knobs at once), or only its defaults, or
+/// (`knob`) those that take that knob with their defaults and its sweep
+/// values. Named by their CLI options.
+fn variants(defaults_only: bool, knob: Option<&str>) -> Result<Vec<Variant>, String> {
     let mut v = Vec::new();
     for &b in BuilderKind::ALL.iter().filter(|b| b.multi_spe()) {
         let mut sweeps = b.sweeps();
         if defaults_only {
             sweeps.truncate(1);
+        }
+        if let Some(name) = knob {
+            let Some(k) = b.knobs().iter().find(|k| k.name == name) else {
+                continue;
+            };
+            sweeps.truncate(1);
+            for value in k.sweep {
+                let mut knobs = Knobs::default();
+                b.set_knob(&mut knobs, name, value)
+                    .map_err(|e| e.to_string())?;
+                sweeps.push(knobs);
+            }
         }
         for knobs in sweeps {
             let name = format!("{} {}", b.name(), knobs.spelled());
@@ -89,7 +107,10 @@ fn variants(defaults_only: bool) -> Vec<Variant> {
             });
         }
     }
-    v
+    match (knob, v.is_empty()) {
+        (Some(name), true) => Err(format!("--knob {name}: no multi-SPE builder takes it")),
+        _ => Ok(v),
+    }
 }
 
 fn main() {
@@ -207,7 +228,7 @@ fn run(args: &Args) -> Result<(), String> {
     let bases = bases.into_iter().collect::<Result<Vec<_>, _>>()?;
     // Every (scene, variant, SPE count), side by side; the tree does not
     // depend on the SPE count, so its rays are cast once (on one SPE).
-    let variants = variants(args.defaults_only);
+    let variants = variants(args.defaults_only, args.knob.as_deref())?;
     let mut jobs = Vec::new();
     for si in 0..scenes.len() {
         for vi in 0..variants.len() {

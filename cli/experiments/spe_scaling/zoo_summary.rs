@@ -24,21 +24,32 @@ pub struct Summary {
     pub goals: Vec<Value>,
 }
 
-/// The default-knob rows of `rows` (a builder's name without options).
-fn defaults(rows: &[Value]) -> impl Iterator<Item = &Value> {
-    rows.iter()
-        .filter(|r| !r["builder"].as_str().unwrap_or_default().contains(' '))
+/// Whether a row's builder runs with its defaults (a name without
+/// options).
+fn is_default(builder: &str) -> bool {
+    !builder.contains(' ')
 }
 
-fn speedup(rows: &[Value], scene: &str, builder: &str, spes: u64) -> Option<f64> {
+/// The default-knob rows of `rows`.
+fn defaults(rows: &[Value]) -> impl Iterator<Item = &Value> {
+    (rows.iter()).filter(|r| is_default(r["builder"].as_str().unwrap_or_default()))
+}
+
+/// A row's `key` on `spes` SPEs.
+fn at_count(rows: &[Value], scene: &str, builder: &str, spes: u64, key: &str) -> Option<f64> {
     rows.iter()
         .find(|r| r["scene"] == scene && r["builder"] == builder && r["spes"] == spes)
-        .and_then(|r| r["speedup"].as_f64())
+        .and_then(|r| r[key].as_f64())
 }
 
+/// Per scene and builder variant, in the rows' order: the speedups, where
+/// one SPE more was slower, and on the most SPEs run the DMA wait's share
+/// and the memory interface's use; with `zoo`, the goals (each builder's
+/// defaults).
 pub fn summary(rows: &[Value], zoo: bool) -> Summary {
+    let most = rows.iter().filter_map(|r| r["spes"].as_u64()).max().unwrap_or(1);
     let mut pairs: Vec<(String, String, u64, f64)> = Vec::new();
-    for r in defaults(rows) {
+    for r in rows {
         let (scene, builder) = (
             r["scene"].as_str().unwrap_or_default(),
             r["builder"].as_str().unwrap_or_default(),
@@ -53,8 +64,8 @@ pub fn summary(rows: &[Value], zoo: bool) -> Summary {
     }
     let mut out = Vec::new();
     for (scene, builder, n, base) in &pairs {
-        let at = |spes| speedup(rows, scene, builder, spes);
-        let same = defaults(rows)
+        let at = |spes| at_count(rows, scene, builder, spes, "speedup");
+        let same = (rows.iter())
             .filter(|r| r["scene"] == scene.as_str() && r["builder"] == builder.as_str())
             .all(|r| r["baseline_tree"] == true);
         // Each count at which one SPE more was slower: "k+1<k".
@@ -68,9 +79,15 @@ pub fn summary(rows: &[Value], zoo: bool) -> Summary {
             "speedup_12": at(12), "speedup_16": at(16),
             "one_more_slower": slower,
             "baseline_tree": same,
+            "most_spes": most,
+            "dma_wait_most": at_count(rows, scene, builder, most, "dma_wait"),
+            "memory_utilisation_most": at_count(rows, scene, builder, most, "memory_utilisation"),
         }));
     }
-    let goals = if zoo { goals(&out) } else { Vec::new() };
+    let goals = match zoo {
+        true => goals(&defaults(&out).cloned().collect::<Vec<_>>()),
+        false => Vec::new(),
+    };
     Summary { rows: out, goals }
 }
 
@@ -131,9 +148,10 @@ pub fn print(s: &Summary) {
     println!(
         "\n{}",
         cellbih_cli::report::wrap(
-            "summary: speedup over spe_bfs (one SPE) with each builder's defaults, simulated \
-             PS3 time; notes: 8<7 where 8 SPEs were slower than 7 (each such count), tree! \
-             where the tree is not the baseline's",
+            "summary: speedup over spe_bfs (one SPE), simulated PS3 time; DMA, mem: on the \
+             most SPEs run, the SPEs' mean share of the run waiting on DMA and the memory \
+             interface's use (bytes moved over its peak); notes: 8<7 where 8 SPEs were \
+             slower than 7 (each such count), tree! where the tree is not the baseline's",
             80
         )
     );
@@ -143,15 +161,19 @@ pub fn print(s: &Summary) {
         true => (&[4, 6, 8, 12, 16], 18),
         false => (&[4, 6, 8], 22),
     };
+    let width = (s.rows.iter())
+        .filter_map(|r| r["builder"].as_str().map(str::len))
+        .fold(16, usize::max);
     let mut head = format!(
-        "{:<scene_width$} {:>9} {:<16}",
+        "{:<scene_width$} {:>9} {:<width$}",
         "scene", "triangles", "builder"
     );
     for n in spes {
         head += &format!(" {n:>6}");
     }
-    println!("{head}  notes");
+    println!("{head}   DMA   mem  notes");
     let f = |v: &Value| v.as_f64().map_or("-".into(), |x| format!("{x:.2}"));
+    let pct = |v: &Value| v.as_f64().map_or("-".into(), |x| format!("{:.0}%", 100.0 * x));
     for r in &s.rows {
         let mut notes: Vec<&str> = (r["one_more_slower"].as_array().into_iter().flatten())
             .filter_map(|v| v.as_str())
@@ -160,7 +182,7 @@ pub fn print(s: &Summary) {
             notes.push("tree!");
         }
         let mut line = format!(
-            "{:<scene_width$} {:>9} {:<16}",
+            "{:<scene_width$} {:>9} {:<width$}",
             r["scene"].as_str().unwrap_or_default(),
             r["triangles"].as_u64().unwrap_or(0),
             r["builder"].as_str().unwrap_or_default(),
@@ -168,6 +190,8 @@ pub fn print(s: &Summary) {
         for n in spes {
             line += &format!(" {:>6}", f(&r[format!("speedup_{n}")]));
         }
+        let (dma, mem) = (&r["dma_wait_most"], &r["memory_utilisation_most"]);
+        line += &format!(" {:>5} {:>5}", pct(dma), pct(mem));
         println!("{line}  {}", notes.join("; "));
     }
     if s.goals.is_empty() {

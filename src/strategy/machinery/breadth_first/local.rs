@@ -36,7 +36,7 @@ pub const FINISH: Knob = Knob::word(
     "finish",
     "a job whose records and subtree fit the SPE's free local store: built level by level as the larger ones, every level's records through DMA (stream, the paper's way), or gathered once, its whole subtree built in the local store, its records and nodes put back once (local); auto: local",
     &["auto", "stream", "local"],
-    &["stream", "local"],
+    &["stream"],
 );
 
 /// How a job that fits the local store ends (`--finish`).
