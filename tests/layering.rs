@@ -395,3 +395,39 @@ fn the_build_script_watches_the_commit_not_the_index() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// No strategy imports another: what two strategies share lives in the
+/// machinery (`src/strategy/machinery/`), so a strategy is its own file
+/// (or folder) and a composition of the machinery's parts. A strategy is
+/// a module of `src/strategy/` that defines the registry's `STRATEGY`.
+#[test]
+fn no_strategy_imports_another() {
+    let graph = imports(&Path::new(ROOT).join("src"));
+    let strategies: BTreeSet<String> = (graph.keys())
+        .filter(|m| m.len() == 2 && m[0] == "strategy")
+        .filter(|m| {
+            let dir = Path::new(ROOT).join("src/strategy");
+            let text = std::fs::read_to_string(dir.join(format!("{}.rs", m[1])))
+                .or_else(|_| std::fs::read_to_string(dir.join(&m[1]).join("mod.rs")));
+            text.is_ok_and(|t| t.contains("pub const STRATEGY"))
+        })
+        .map(|m| m[1].clone())
+        .collect();
+    assert!(strategies.len() >= 5, "strategies found: {strategies:?}");
+    let of = |m: &[String]| {
+        (m.len() >= 2 && m[0] == "strategy" && strategies.contains(&m[1])).then(|| m[1].clone())
+    };
+    let mut crossings = Vec::new();
+    for (module, names) in &graph {
+        let Some(own) = of(module) else { continue };
+        for name in names {
+            if of(name).is_some_and(|o| o != own) {
+                crossings.push(format!("{} names {}", module.join("/"), name.join("/")));
+            }
+        }
+    }
+    assert!(
+        crossings.is_empty(),
+        "strategies importing others: {crossings:?}"
+    );
+}

@@ -47,7 +47,11 @@ fn at_count(rows: &[Value], scene: &str, builder: &str, spes: u64, key: &str) ->
 /// and the memory interface's use; with `zoo`, the goals (each builder's
 /// defaults).
 pub fn summary(rows: &[Value], zoo: bool) -> Summary {
-    let most = rows.iter().filter_map(|r| r["spes"].as_u64()).max().unwrap_or(1);
+    let most = rows
+        .iter()
+        .filter_map(|r| r["spes"].as_u64())
+        .max()
+        .unwrap_or(1);
     let mut pairs: Vec<(String, String, u64, f64)> = Vec::new();
     for r in rows {
         let (scene, builder) = (
@@ -173,7 +177,10 @@ pub fn print(s: &Summary) {
     }
     println!("{head}   DMA   mem  notes");
     let f = |v: &Value| v.as_f64().map_or("-".into(), |x| format!("{x:.2}"));
-    let pct = |v: &Value| v.as_f64().map_or("-".into(), |x| format!("{:.0}%", 100.0 * x));
+    let pct = |v: &Value| {
+        v.as_f64()
+            .map_or("-".into(), |x| format!("{:.0}%", 100.0 * x))
+    };
     for r in &s.rows {
         let mut notes: Vec<&str> = (r["one_more_slower"].as_array().into_iter().flatten())
             .filter_map(|v| v.as_str())
