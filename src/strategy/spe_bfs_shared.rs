@@ -21,10 +21,10 @@
 //!    children's two adjacent ids from its own arena (blocks from one pool
 //!    by fetch-and-add); the SPE that later takes a child writes its node
 //!    straight into that slot, computing the address itself
-//!    ([`NodeWrites`]: one `putl` per batch with `--dma-lists`).
+//!    (`machinery::node_writes`: one `putl` per batch with `--dma-lists`).
 //!
 //! 4. **Section 5's software cache for the job queue** (`--job-cache KiB`):
-//!    a take's jobs are read through a [`SoftwareCache`] in the local
+//!    a take's jobs are read through a `SoftwareCache` in the local
 //!    store instead of one explicit get. Safe without coherence: a level's
 //!    array is written only during the level before (every SPE's puts
 //!    done before it arrives at the barrier) and only read during its own,

@@ -152,10 +152,10 @@ pub fn print(s: &Summary) {
     println!(
         "\n{}",
         cellbih_cli::report::wrap(
-            "summary: speedup over spe_bfs (one SPE), simulated PS3 time; DMA, mem: on the \
-             most SPEs run, the SPEs' mean share of the run waiting on DMA and the memory \
-             interface's use (bytes moved over its peak); notes: 8<7 where 8 SPEs were \
-             slower than 7 (each such count), tree! where the tree is not the baseline's",
+            "summary: speedup over spe_bfs on one SPE, simulated PS3 time; DMA, mem: on the \
+             most SPEs, the mean share of the run waiting on DMA and the memory interface's \
+             use of its peak; notes: k+1<k where one SPE more was slower, tree! where not the \
+             baseline's tree",
             80
         )
     );

@@ -295,26 +295,26 @@ fn print_cores(m: &cellbih::registry::Simulated) {
         println!("\n(the functional mode times nothing: no cycles per core)");
     }
     print!(
-        "\n{:<7} {:>9} {:>9} {:>6}",
+        "\n{:<7} {:>8} {:>8} {:>4}",
         "core", "MB in", "MB out", "lost"
     );
     if work {
         print!(
-            " {:>9} {:>7} {:>7} {:>8} {:>8} {:>8} {:>6}",
-            "jobs", "taken", "stolen", "blocks", "unused", "subtrees", "limit"
+            " {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>5}",
+            "jobs", "taken", "stolen", "blocks", "unused", "local", "limit"
         );
     }
     println!();
     for (i, (name, c)) in m.run.cores.iter().enumerate() {
         print!(
-            "{name:<7} {:>9.2} {:>9.2} {:>6}",
+            "{name:<7} {:>8.2} {:>8.2} {:>4}",
             c.bytes_get as f64 / 1e6,
             c.bytes_put as f64 / 1e6,
             c.reservations_lost,
         );
         if let Some(w) = i.checked_sub(1).and_then(|k| m.spe_work.get(k)) {
             print!(
-                " {:>9} {:>7} {:>7} {:>8} {:>8} {:>8} {:>6}",
+                " {:>8} {:>6} {:>6} {:>6} {:>6} {:>6} {:>5}",
                 w.jobs,
                 w.taken,
                 w.stolen,
@@ -332,8 +332,8 @@ fn print_cores(m: &cellbih::registry::Simulated) {
             "; jobs: nodes made; taken: takes from the shared job queue that found jobs \
              (spe_bfs_shared) or regions built (spe_morton); stolen: dealt jobs taken from \
              another SPE's list; blocks: ObjectArena blocks taken, unused: their slots \
-             without a node; subtrees: jobs finished in the local store (--finish local), \
-             limit: the most triangles such a job could have"
+             without a node; local: jobs finished as subtrees in the local store (--finish \
+             local), limit: the most triangles such a job could have"
         } else {
             ""
         }

@@ -1,13 +1,13 @@
 //! Section 5's multi-SPE breadth-first program, its policies as values:
 //! every SPE runs the baseline's loop (section 2, Fig. 2) after the top
-//! levels ([`super::top`]); what differs between section 5's strategies is
-//! a value of [`Policies`] — the **deal** (the top's last level dealt
-//! largest first to private queues, [`dealt`]; those queues as lists an
-//! SPE steals from; or one shared job queue, [`shared`]), the **top's
-//! end** ([`TopKnobs`]), section 5's **queue** improvements
-//! ([`QueueKnobs`]) and the **finish** ([`Finish`]: jobs that fit the local
+//! levels (`machinery::top`); what differs between section 5's strategies is
+//! a value of `Policies` — the **deal** (the top's last level dealt
+//! largest first to private queues, `dealt`; those queues as lists an
+//! SPE steals from; or one shared job queue, `shared`), the **top's
+//! end** (`TopKnobs`), section 5's **queue** improvements
+//! (`QueueKnobs`) and the **finish** (`Finish`: jobs that fit the local
 //! store streamed level by level or finished there). A strategy is a
-//! composition: it reads its knobs into a `Policies` and calls [`spawn`].
+//! composition: it reads its knobs into a `Policies` and calls `spawn`.
 
 mod dealt;
 mod shared;
