@@ -161,21 +161,24 @@ pub fn print(s: &Summary) {
     );
     // The what-if's 12 and 16 SPEs where the run went that far.
     let beyond = s.rows.iter().any(|r| !r["speedup_12"].is_null());
-    let (spes, scene_width): (&[u64], usize) = match beyond {
-        true => (&[4, 6, 8, 12, 16], 18),
-        false => (&[4, 6, 8], 22),
+    let spes: &[u64] = match beyond {
+        true => &[4, 6, 8, 12, 16],
+        false => &[4, 6, 8],
     };
+    let scene_width = (s.rows.iter())
+        .filter_map(|r| r["scene"].as_str().map(str::len))
+        .fold(5, usize::max);
     let width = (s.rows.iter())
         .filter_map(|r| r["builder"].as_str().map(str::len))
         .fold(16, usize::max);
     let mut head = format!(
-        "{:<scene_width$} {:>9} {:<width$}",
-        "scene", "triangles", "builder"
+        "{:<scene_width$} {:>8} {:<width$}",
+        "scene", "tris", "builder"
     );
     for n in spes {
-        head += &format!(" {n:>6}");
+        head += &format!(" {n:>5}");
     }
-    println!("{head}   DMA   mem  notes");
+    println!("{head}  DMA  mem  notes");
     let f = |v: &Value| v.as_f64().map_or("-".into(), |x| format!("{x:.2}"));
     let pct = |v: &Value| {
         v.as_f64()
@@ -189,16 +192,16 @@ pub fn print(s: &Summary) {
             notes.push("tree!");
         }
         let mut line = format!(
-            "{:<scene_width$} {:>9} {:<width$}",
+            "{:<scene_width$} {:>8} {:<width$}",
             r["scene"].as_str().unwrap_or_default(),
             r["triangles"].as_u64().unwrap_or(0),
             r["builder"].as_str().unwrap_or_default(),
         );
         for n in spes {
-            line += &format!(" {:>6}", f(&r[format!("speedup_{n}")]));
+            line += &format!(" {:>5}", f(&r[format!("speedup_{n}")]));
         }
         let (dma, mem) = (&r["dma_wait_most"], &r["memory_utilisation_most"]);
-        line += &format!(" {:>5} {:>5}", pct(dma), pct(mem));
+        line += &format!(" {:>4} {:>4}", pct(dma), pct(mem));
         println!("{line}  {}", notes.join("; "));
     }
     if s.goals.is_empty() {
