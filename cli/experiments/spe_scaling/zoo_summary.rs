@@ -204,14 +204,20 @@ pub fn print(s: &Summary) {
         line += &format!(" {:>4} {:>4}", pct(dma), pct(mem));
         println!("{line}  {}", notes.join("; "));
     }
-    if s.goals.is_empty() {
+    print_goals(&s.goals);
+}
+
+/// The goals' count and one line a goal missed (none without goals).
+fn print_goals(goals: &[Value]) {
+    if goals.is_empty() {
         return;
     }
-    let missed: Vec<&Value> = s.goals.iter().filter(|g| g["met"] != true).collect();
+    let f = |v: &Value| v.as_f64().map_or("-".into(), |x| format!("{x:.2}"));
+    let missed: Vec<&Value> = goals.iter().filter(|g| g["met"] != true).collect();
     println!(
         "\ngoals: {} of {} met",
-        s.goals.len() - missed.len(),
-        s.goals.len()
+        goals.len() - missed.len(),
+        goals.len()
     );
     // One line a goal missed, every scene where it was, what was measured
     // there (the builders where one SPE more was slower; their counts are
