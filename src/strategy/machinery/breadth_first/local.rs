@@ -263,3 +263,65 @@ fn pieces(ea: Ea, bytes: u32) -> Vec<ListElement> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::most_nodes;
+    use crate::bih::{Bih, BihConfig, SplitChoice};
+    use crate::scene::{procedural, zoo};
+
+    /// Nodes and triangles of the subtree below `id`, checking every
+    /// subtree on the way against the bound.
+    fn check(bih: &Bih, id: u32, cfg: &BihConfig) -> (usize, usize) {
+        let n = bih.nodes[id as usize];
+        let (nodes, tris) = match n.is_leaf() {
+            true => (1, n.leaf_range().1 as usize),
+            false => {
+                let (a, b) = (
+                    check(bih, n.left_child(), cfg),
+                    check(bih, n.left_child() + 1, cfg),
+                );
+                (1 + a.0 + b.0, a.1 + b.1)
+            }
+        };
+        assert!(
+            nodes <= most_nodes(tris, cfg),
+            "a subtree of {tris} triangles has {nodes} nodes, over the bound {}",
+            most_nodes(tris, cfg)
+        );
+        (nodes, tris)
+    }
+
+    /// The local store a subtree is finished in holds its most nodes: on
+    /// every subtree of trees built with leaves of one triangle, the
+    /// cut-off at its most eager and binned SAH, the bound holds.
+    #[test]
+    fn every_subtree_has_at_most_the_bound_of_nodes() {
+        let eager = BihConfig {
+            leaf_size: 1,
+            empty_cut: Some(1),
+            ..BihConfig::DEFAULT
+        };
+        let sah = BihConfig {
+            split: SplitChoice::BinnedSah { bins: 16, above: 0 },
+            ..eager
+        };
+        let one = BihConfig {
+            leaf_size: 1,
+            ..BihConfig::DEFAULT
+        };
+        let scenes = [
+            procedural::rtperf(3000, 2),
+            zoo::soup(2000, 5),
+            zoo::clusters(4, 2000, 3),
+        ];
+        for scene in &scenes {
+            for cfg in [BihConfig::DEFAULT, one, eager, sah] {
+                let bih = crate::host::build(scene, &cfg);
+                let (nodes, tris) = check(&bih, 0, &cfg);
+                assert_eq!(nodes, bih.nodes.len());
+                assert_eq!(tris, scene.len());
+            }
+        }
+    }
+}
