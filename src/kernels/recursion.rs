@@ -140,13 +140,7 @@ pub fn build_subtree<T: Item>(
     cfg: &BihConfig,
 ) -> BuildStats {
     let side = side_of(&items[first..first + count]);
-    let mut b = Builder {
-        items,
-        base: 0,
-        nodes: std::mem::take(nodes),
-        cfg,
-        stats: BuildStats::default(),
-    };
+    let mut b = Builder::taking(items, nodes, cfg);
     b.stats.items_partitioned += count as u64;
     // The node's region as far as the cut-off is concerned: its candidate,
     // grown to its triangles (they may straddle the candidate's faces).
@@ -176,13 +170,7 @@ pub fn build_below<T: Item>(
         center_lo: c.min.into(),
         center_hi: c.max.into(),
     };
-    let mut b = Builder {
-        items,
-        base: 0,
-        nodes: std::mem::take(nodes),
-        cfg,
-        stats: BuildStats::default(),
-    };
+    let mut b = Builder::taking(items, nodes, cfg);
     b.nodes.clear();
     b.nodes.push(BihNode::default());
     let (count, depth) = (side.count, view.depth);
@@ -201,7 +189,19 @@ struct Builder<'a, T> {
     stats: BuildStats,
 }
 
-impl<T: Item> Builder<'_, T> {
+impl<'a, T: Item> Builder<'a, T> {
+    /// A builder over `items` that appends to `nodes` (taken; the caller
+    /// puts them back).
+    fn taking(items: &'a mut [T], nodes: &mut Vec<BihNode>, cfg: &'a BihConfig) -> Self {
+        Builder {
+            items,
+            base: 0,
+            nodes: std::mem::take(nodes),
+            cfg,
+            stats: BuildStats::default(),
+        }
+    }
+
     /// Fills node `id` for `items[first .. first + count]`; `region` is the
     /// box its ancestors' planes leave it (what a ray must enter).
     #[allow(clippy::too_many_arguments)]

@@ -37,6 +37,9 @@
 //!
 //! The splits are the baseline's, so the tree is the baseline's tree; only
 //! the numbering differs (nodes read back are renumbered breadth first).
+//!
+//! The program is the machinery's ([`super::machinery::policies`]); this
+//! file is its knobs, their defaults, and the policies they make.
 
 use super::machinery::breadth_first::{
     DMA_LISTS, DOUBLE_BUFFER, FINISH, Finish, Job, NO_PREFETCH, QueueKnobs,

@@ -48,13 +48,7 @@ impl Program {
         policies: Policies,
     ) -> Result<Self, CellError> {
         let (n, cfg) = (setup.count, *cfg);
-        let start = Start::set_up(
-            cell,
-            setup,
-            &cfg,
-            (&policies.top, policies.finish),
-            policies.auto_work,
-        )?;
+        let start = policies.start(cell, setup, &cfg)?;
         let steal = matches!(policies.deal, Deal::Steal);
         let spes = start.spes;
         // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its

@@ -87,6 +87,18 @@ pub(in crate::strategy) fn spawn(
 }
 
 impl Policies {
+    /// What both programs read first: the SPEs used, the pool and the
+    /// cooperative partition's areas for these policies.
+    fn start(
+        &self,
+        cell: &mut Cell,
+        setup: &Setup,
+        cfg: &BihConfig,
+    ) -> Result<super::top::Start, CellError> {
+        let ends = (&self.top, self.finish);
+        super::top::Start::set_up(cell, setup, cfg, ends, self.auto_work)
+    }
+
     /// The SPE program's `--finish local` step: from now on the jobs that
     /// fit are finished in the local store (it holds all else it needs).
     fn finish_locally_if_asked(

@@ -61,13 +61,7 @@ impl Program {
         shared: SharedQueue,
     ) -> Result<Self, CellError> {
         let (n, cfg) = (setup.count, *cfg);
-        let start = Start::set_up(
-            cell,
-            setup,
-            &cfg,
-            (&policies.top, policies.finish),
-            policies.auto_work,
-        )?;
+        let start = policies.start(cell, setup, &cfg)?;
         Ok(Program {
             start,
             policies,
