@@ -241,6 +241,18 @@ impl<'a, J: Pod> WorkQueue<'a, J> {
         self.spe.wait_tag(tag).await
     }
 
+    /// Writes `jobs` (at most [`Self::per`]) to main memory at `ea`
+    /// through `WorkA` (a shared queue's take, once its jobs are read out
+    /// of it) and waits.
+    pub async fn put_taken(&mut self, jobs: &[J], ea: Ea) -> Result<(), CellError> {
+        debug_assert!(jobs.len() <= self.per());
+        let (a, tag) = (self.work[self.a], self.tag(self.a));
+        self.write_ls(a, jobs)?;
+        let bytes = (jobs.len() * self.stride) as u32;
+        self.spe.put(a, ea, bytes, tag).await?;
+        self.spe.wait_tag(tag).await
+    }
+
     /// `count` jobs (at most [`Self::per`]) read from main memory at
     /// `ea` into `WorkA` (a shared queue's take).
     pub async fn read_jobs(&mut self, ea: Ea, count: usize) -> Result<Vec<J>, CellError> {

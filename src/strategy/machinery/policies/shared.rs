@@ -37,6 +37,11 @@ struct Queue {
     push: Ea,
     /// Word 0: SPEs arrived at a level's end, counted over all levels.
     arrivals: Ea,
+    /// Jobs that fit the local store (`--finish local`), put aside as the
+    /// levels reach them and finished after the last level.
+    subtrees: Ea,
+    /// Words 0 and 1: the next put-aside job to take, and their count.
+    subtree_line: Ea,
     spes: usize,
 }
 
@@ -57,11 +62,11 @@ impl Program {
         cell: &mut Cell,
         setup: &Setup,
         cfg: &BihConfig,
-        policies: Policies,
-        shared: SharedQueue,
+        (policies, shared): (Policies, SharedQueue),
+        spes: usize,
     ) -> Result<Self, CellError> {
         let (n, cfg) = (setup.count, *cfg);
-        let start = policies.start(cell, setup, &cfg)?;
+        let start = policies.start(cell, setup, &cfg, spes)?;
         Ok(Program {
             start,
             policies,
@@ -113,6 +118,9 @@ impl Program {
             kib => Some(job_cache(&spe, kib as u32, self.start.cache)?),
         };
         policies.finish_locally_if_asked(&mut b)?;
+        // A subtree built by one SPE while the others have nothing left
+        // to take: none larger than an SPE's share of the triangles.
+        b.finish_at_most(self.start.n.div_ceil(self.start.spes));
         work.taken = shared_levels(&spe, &mut b, q, shared, line, cache.as_mut()).await?;
         if let Some(c) = cache {
             work.job_cache += c.stats;
@@ -165,6 +173,8 @@ impl Queue {
             take: alloc("take line", 128)?,
             push: alloc("push line", 128)?,
             arrivals: alloc("arrivals line", 128)?,
+            subtrees: alloc("subtrees put aside", level_bytes)?,
+            subtree_line: alloc("subtrees line", 128)?,
             spes,
         })
     }
@@ -254,7 +264,9 @@ async fn shared_levels(
                 .await?;
             if first >= len {
                 if len == 0 {
-                    // An empty level: the tree is done.
+                    // An empty level: the levels are done; the subtrees
+                    // put aside are what is left.
+                    q.finish_subtrees(spe, b, line).await?;
                     b.finish_node_writes().await?;
                     return Ok(taken);
                 }
@@ -270,6 +282,9 @@ async fn shared_levels(
                 }
                 None => b.queue.read_jobs(at, count).await?,
             };
+            let (subtrees, jobs): (Vec<Job>, Vec<Job>) =
+                jobs.into_iter().partition(|j| b.finishes_locally(j));
+            q.put_aside(spe, b, &subtrees, line).await?;
             b.process(&jobs).await?;
             taken += 1;
         }
@@ -282,6 +297,63 @@ async fn shared_levels(
         // The next level but one rewrites this level's array.
         if let Some(c) = cache.as_deref_mut() {
             c.invalidate(spe);
+        }
+    }
+}
+
+impl Queue {
+    /// Puts `jobs`, which fit the local store, aside: a level's barrier
+    /// would otherwise wait for the SPE that builds the longest of them
+    /// while the others idle. Places are reserved by one lock-line update.
+    async fn put_aside(
+        &self,
+        spe: &Spe,
+        b: &mut SpeBuilder<'_>,
+        jobs: &[Job],
+        line: LsAddr,
+    ) -> Result<(), CellError> {
+        if jobs.is_empty() {
+            return Ok(());
+        }
+        let count = jobs.len() as u32;
+        let at = spe
+            .atomic_update_line(line, self.subtree_line, |w| {
+                w[1] += count;
+                w[1] - count
+            })
+            .await?;
+        let job_bytes = b.queue.stride() as u64;
+        b.queue
+            .put_taken(jobs, self.subtrees.offset(at as u64 * job_bytes))
+            .await
+    }
+
+    /// After the last level: every SPE takes the jobs put aside one at a
+    /// time and finishes each in its local store, with no barrier between
+    /// them (`SpeWork::subtrees` counts them).
+    async fn finish_subtrees(
+        &self,
+        spe: &Spe,
+        b: &mut SpeBuilder<'_>,
+        line: LsAddr,
+    ) -> Result<(), CellError> {
+        let job_bytes = b.queue.stride() as u64;
+        loop {
+            let next = spe
+                .atomic_update_line(line, self.subtree_line, |w| {
+                    let next = w[0];
+                    w[0] = w[1].min(next + 1);
+                    (next < w[1]).then_some(next)
+                })
+                .await?;
+            let Some(at) = next else {
+                return b.settle_local().await;
+            };
+            let jobs = b
+                .queue
+                .read_jobs(self.subtrees.offset(at as u64 * job_bytes), 1)
+                .await?;
+            b.process(&jobs).await?;
         }
     }
 }
