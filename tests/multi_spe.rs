@@ -160,7 +160,9 @@ fn twelve_and_sixteen_spes_build_the_baseline_tree() {
         .run(&s)
         .unwrap();
     for b in multi_spe() {
-        for knobs in [Knobs::default(), b.sweeps().pop().unwrap()] {
+        for mut knobs in [Knobs::default(), b.sweeps().pop().unwrap()] {
+            // Every SPE given, whatever the builder would choose.
+            b.set_knob(&mut knobs, "tris-per-spe", "1").unwrap();
             let mut mem_wait = Vec::new();
             for spes in [8, 12, 16] {
                 let what = format!("{b} {} on {spes} SPEs", knobs.spelled());
@@ -594,4 +596,37 @@ fn a_job_at_the_local_store_budget_finishes_there_and_one_more_streams() {
             "{b} one over the limit {limit}: {over:?}"
         );
     }
+}
+
+/// The shared queue finishes in a local store no job larger than an SPE's
+/// share of the triangles (one SPE would build it while the others have
+/// nothing left to take), and still finishes the smaller ones there; the
+/// tree is the baseline's.
+#[test]
+fn the_shared_queue_finishes_no_subtree_over_an_spes_share() {
+    let s = scene::load("rtperf:4000:2", None).unwrap();
+    let base = Build::new(BuilderKind::SPE_BFS).run(&s).unwrap();
+    let shared = (multi_spe().into_iter())
+        .filter(|b| b.knob("agglomerate").is_ok() && b.knob("finish").is_ok());
+    let mut checked = 0;
+    for b in shared {
+        let mut knobs = Knobs::default();
+        b.set_knob(&mut knobs, "finish", "local").unwrap();
+        b.set_knob(&mut knobs, "tris-per-spe", "1").unwrap();
+        let cell = CellConfig::ps3().with_spes(8);
+        let r = Build::new(b).on(&cell).with_knobs(&knobs).run(&s).unwrap();
+        same_tree_structure(&base.bih, &r.bih).unwrap_or_else(|e| panic!("{b}: {e}"));
+        let work = r.simulated.unwrap().spe_work;
+        assert_eq!(work.len(), 8, "{b}");
+        let share = s.len().div_ceil(8) as u64;
+        assert!(
+            work.iter().all(|w| w.subtree_limit == share),
+            "{b}: limits {:?}, share {share}",
+            work.iter().map(|w| w.subtree_limit).collect::<Vec<_>>()
+        );
+        let subtrees: u64 = work.iter().map(|w| w.subtrees).sum();
+        assert!(subtrees >= 8, "{b}: {subtrees} subtrees");
+        checked += 1;
+    }
+    assert!(checked > 0, "no shared-queue builder takes --finish");
 }

@@ -100,6 +100,9 @@ pub struct Simulated {
     pub spe_work: Vec<SpeWork>,
     /// The SPEs the strategy ran its programs on (its own decision).
     pub spes_used: usize,
+    /// A strategy that predicts its time to choose how many SPEs to use:
+    /// what it predicted and chose.
+    pub predicted: Option<program::Prediction>,
     /// Strategies made of phases: each phase's name and the cycle it
     /// ended at.
     pub phases: Vec<(&'static str, u64)>,
@@ -112,6 +115,23 @@ pub struct Simulated {
 }
 
 impl Simulated {
+    /// Where the strategy predicts its time to choose how many SPEs to
+    /// use: the count chosen and the predicted simulated milliseconds on
+    /// 1, 2, … SPEs (the prediction, and its best and worst deals).
+    pub fn prediction(&self) -> Option<serde_json::Value> {
+        let p = self.predicted.as_ref()?;
+        let ms_per_cycle = self.run.ms / self.run.cycles.0.max(1) as f64;
+        let ms = |c: &[u64]| {
+            c.iter()
+                .map(|&c| c as f64 * ms_per_cycle)
+                .collect::<Vec<_>>()
+        };
+        Some(serde_json::json!({
+            "chosen": p.chosen, "ms": ms(&p.cycles),
+            "best_ms": ms(&p.best), "worst_ms": ms(&p.worst),
+        }))
+    }
+
     /// Each phase's name and simulated milliseconds, in order (empty for
     /// strategies without phases).
     pub fn phase_ms(&self) -> Vec<(&'static str, f64)> {
@@ -161,6 +181,7 @@ pub fn run_in(
         stats: o.stats,
         spe_work: o.spe_work,
         spes_used: o.spes,
+        predicted: o.predicted,
         phases: o.phases,
         trace: cell.take_trace(),
         records,

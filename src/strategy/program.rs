@@ -155,6 +155,25 @@ pub struct Output {
     /// A strategy made of phases separated by barriers: each phase's name
     /// and the cycle at which it ended (all SPEs through the barrier).
     pub phases: Vec<(&'static str, u64)>,
+    /// A strategy that predicts its time before it chooses how many SPEs
+    /// to use: what it predicted and chose.
+    pub predicted: Option<Prediction>,
+}
+
+/// A strategy's prediction of its time on 1, 2, … up to the SPEs given
+/// (`machinery::forecast`), and the count it chose from it.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Prediction {
+    /// Predicted simulated cycles on `k` SPEs at `cycles[k - 1]`: the
+    /// middle of `best` and `worst`.
+    pub cycles: Vec<u64>,
+    /// The same where every job of a level is as large as the others.
+    pub best: Vec<u64>,
+    /// The same where every deal the prediction cannot see is as uneven
+    /// as it can be.
+    pub worst: Vec<u64>,
+    /// The count the prediction chose.
+    pub chosen: usize,
 }
 
 /// Where a strategy leaves the triangles' final order (the leaves' ranges

@@ -34,7 +34,7 @@ use super::machinery::breadth_first::{
 };
 use super::machinery::policies::{self, Deal, Policies};
 use super::machinery::top::{
-    COOP_PARTITION, DEAL_PER_SPE, NO_COOP_TOP, TOP_END, TRIS_PER_SPE, TopKnobs, WorkPerSpe,
+    COOP_PARTITION, DEAL_PER_SPE, NO_COOP_TOP, TOP_END, TRIS_PER_SPE, TopKnobs,
 };
 use super::{Knob, Readback, Setup};
 use crate::bih::BihConfig;
@@ -77,14 +77,6 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     ],
 ]);
 
-/// `--tris-per-spe auto`: the record steps of the partition
-/// (`machinery::top::partition_work`) each SPE must get before the build
-/// runs on 1, 2, … 8 SPEs: just above the most, on 34 small scenes (the
-/// data directory's, procedural and zoo scenes of 1,000 to 23,000
-/// triangles), at which that many SPEs were slower than fewer
-/// (docs/many-spes.md, "Small scenes").
-const AUTO_WORK_PER_SPE: WorkPerSpe = &[0, 0, 5_600, 5_600, 15_000, 15_000, 18_000, 21_700];
-
 /// The queue's defaults, the best measured (docs/many-spes.md,
 /// "Defaults"): section 5's three improvements together.
 const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
@@ -126,7 +118,6 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         top: TopKnobs::read(k, DEFAULT_TOP),
         queue: QueueKnobs::read(k, DEFAULT_QUEUE),
         finish: Finish::read(k, DEFAULT_FINISH),
-        auto_work: AUTO_WORK_PER_SPE,
     };
     policies::spawn(cell, setup, cfg, policies)
 }

@@ -46,7 +46,7 @@ use super::machinery::breadth_first::{
 };
 use super::machinery::policies::{self, Deal, Policies, SharedQueue};
 use super::machinery::top::{
-    COOP_PARTITION, DEAL_PER_SPE, NO_COOP_TOP, TOP_END, TRIS_PER_SPE, TopKnobs, WorkPerSpe,
+    COOP_PARTITION, DEAL_PER_SPE, NO_COOP_TOP, TOP_END, TRIS_PER_SPE, TopKnobs,
 };
 use super::machinery::work_queue::WorkQueue;
 use super::{Knob, Readback, Setup};
@@ -113,15 +113,6 @@ const DEFAULT_TOP: TopKnobs = TopKnobs::SPLIT_ONE_PER_SPE;
 /// store").
 const DEFAULT_FINISH: Finish = Finish::Local;
 
-/// `--tris-per-spe auto`: the record steps of the partition
-/// (`machinery::top::partition_work`) each SPE must get before the build
-/// runs on 1, 2, … 8 SPEs: just above the most, on 34 small scenes (the
-/// data directory's, procedural and zoo scenes of 1,000 to 23,000
-/// triangles), at which that many SPEs were slower than fewer. A fifth SPE
-/// is the dear one: it pays a cooperative top level more (docs/many-spes.md,
-/// "Small scenes").
-const AUTO_WORK_PER_SPE: WorkPerSpe = &[0, 0, 5_600, 5_600, 15_000, 15_500, 15_500, 15_500];
-
 /// `--agglomerate N`: `SharedKnobs::agglomerate`.
 pub const AGGLOMERATE: Knob = Knob::int(
     "agglomerate",
@@ -165,7 +156,6 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         top: TopKnobs::read(k, DEFAULT_TOP),
         queue: QueueKnobs::read(k, DEFAULT_QUEUE),
         finish: Finish::read(k, DEFAULT_FINISH),
-        auto_work: AUTO_WORK_PER_SPE,
     };
     policies::spawn(cell, setup, cfg, policies)
 }

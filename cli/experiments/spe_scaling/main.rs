@@ -167,6 +167,7 @@ fn row(
     let row = json!({
         "scene": scene.name, "triangles": scene.len(), "builder": v.name, "spes": spes,
         "spes_used": sim.spe_work.len(),
+        "prediction": sim.prediction(),
         "simulated_ms": ms, "baseline_ms": base_ms,
         "speedup": base_ms / ms, "efficiency": base_ms / ms / spes as f64,
         "busy": share(&|c| c.busy.0), "dma_wait": share(&|c| c.dma_wait.0),

@@ -91,6 +91,7 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format, settings: &Settin
                 "simulated_ms": timed.map(|m| m.run.ms),
                 "spes": sim.map(|m| m.run.cores.len() - 1),
                 "spes_used": sim.map(|m| m.spes_used),
+                "prediction": sim.and_then(|m| m.prediction()),
                 "simulated_cycles": timed.map(|m| m.run.cycles.0),
                 "timing": sim.map(|m| if m.run.timed { "simulated" } else { "none: functional mode" }),
                 "cores": sim.map(cores_json),

@@ -10,6 +10,7 @@ pub mod arena;
 pub mod arena_words;
 pub mod breadth_first;
 pub mod coop;
+pub mod forecast;
 pub mod node_writes;
 pub mod policies;
 pub mod pool_server;

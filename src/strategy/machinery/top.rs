@@ -70,7 +70,7 @@ pub const COOP_PARTITION: Knob = Knob::word(
 /// `--tris-per-spe N|auto`: `spes_used`.
 pub const TRIS_PER_SPE: Knob = Knob::int_or_auto(
     "tris-per-spe",
-    "each SPE used gets at least this many triangles (auto: for each count of SPEs, the work per SPE below which that many were measured slower than fewer); more SPEs given run on that many (1: every SPE)",
+    "each SPE used gets at least this many triangles (auto: the builder's own choice: the count of SPEs it predicts fastest, or for spe_morton a table of work per SPE); more SPEs given run on that many (1: every SPE)",
     (1, usize::MAX),
     &["1", "4000"],
 );
@@ -89,26 +89,35 @@ pub fn partition_work(n: usize, leaf: u32) -> u64 {
 pub(in crate::strategy) type WorkPerSpe = &'static [u64];
 
 /// The SPEs a strategy runs on for `n` triangles when `available` are
-/// given, decided from the work: the most SPEs `k`, at most those given,
-/// that each get at least `auto[k - 1]` record steps of
-/// [`partition_work`] (or, `--tris-per-spe N`, at least N triangles); at
-/// least one. More SPEs given than that run on that many, the same run;
-/// the table is set where one SPE more was never slower on the scenes it
-/// was measured on (docs/many-spes.md, "Small scenes").
+/// given: with `--tris-per-spe N` the most SPEs that each get at least N
+/// triangles, else the strategy's own choice `auto`; at least one, at
+/// most those given.
 pub(in crate::strategy) fn spes_used(
     available: usize,
-    (n, leaf): (usize, u32),
+    n: usize,
     knobs: &Knobs,
-    auto: WorkPerSpe,
+    auto: impl FnOnce() -> usize,
 ) -> usize {
-    debug_assert!(auto.windows(2).all(|w| w[0] <= w[1]));
+    match knobs.int(&TRIS_PER_SPE) {
+        0 => auto(),
+        t => n / t.max(1),
+    }
+    .clamp(1, available.max(1))
+}
+
+/// A strategy's choice from a table of work: the most SPEs `k`, at most
+/// `available`, that each get at least `table[k - 1]` record steps of
+/// [`partition_work`] (`spe_morton`'s table: set where one SPE more was
+/// never slower on the scenes it was measured on, docs/morton.md).
+pub(in crate::strategy) fn spes_by_work(
+    available: usize,
+    (n, leaf): (usize, u32),
+    table: WorkPerSpe,
+) -> usize {
+    debug_assert!(table.windows(2).all(|w| w[0] <= w[1]));
     let work = partition_work(n, leaf);
-    let fits = |k: usize| match knobs.int(&TRIS_PER_SPE) {
-        0 => work / k as u64 >= auto[(k - 1).min(auto.len() - 1)],
-        t => n / t.max(1) >= k,
-    };
     (1..=available)
-        .take_while(|&k| k == 1 || fits(k))
+        .take_while(|&k| k == 1 || work / k as u64 >= table[(k - 1).min(table.len() - 1)])
         .last()
         .unwrap_or(1)
 }
@@ -203,18 +212,16 @@ pub(in crate::strategy) struct Start {
 }
 
 impl Start {
-    /// Decides the SPEs to use (`--tris-per-spe`; `auto`: `auto_work`
-    /// record steps of the partition an SPE) and allocates the pool and the
-    /// areas for the top knobs `top`.
+    /// Allocates the pool and the areas for the top knobs `top` on `spes`
+    /// SPEs.
     pub fn set_up(
         cell: &mut Cell,
         setup: &Setup,
         cfg: &BihConfig,
         (top, finish): (&TopKnobs, Finish),
-        auto_work: WorkPerSpe,
+        spes: usize,
     ) -> Result<Self, CellError> {
         let n = setup.count;
-        let spes = spes_used(setup.spes, (n, cfg.leaf_size), &setup.knobs, auto_work);
         Ok(Start {
             tris: setup.triangles,
             n,
@@ -483,7 +490,7 @@ pub(in crate::strategy) async fn build_top(
 
 /// A largest-first deal's heaviest hand may hold this share more than an
 /// even share of the triangles (`--top-end split`): 1/16.
-const SPLIT_SLACK: u64 = 16;
+pub(in crate::strategy) const SPLIT_SLACK: u64 = 16;
 
 /// `--top-end split`: SPE 0 splits the largest job of `level` (in `WorkA`,
 /// with the other SPEs' help while it is large) until a largest-first

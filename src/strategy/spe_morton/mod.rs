@@ -53,7 +53,7 @@ use areas::{Areas, RegionTables, serve};
 use super::machinery::arena::ObjectArena;
 use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, Job, NO_PREFETCH, QueueKnobs};
 use super::machinery::node_writes::NodeWrites;
-use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, WorkPerSpe, spes_used};
+use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, WorkPerSpe, spes_by_work, spes_used};
 use super::{Knob, Knobs, Readback, Records, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, LsAddr, Spe};
@@ -309,12 +309,8 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         knobs.key_bits = auto_key_bits(n, knobs.region_size, knobs.digit_bits);
     }
     let (rates, kernels) = (MortonRates::with(&setup.rates), setup.rates.kernels());
-    let spes = spes_used(
-        setup.spes,
-        (n, cfg.leaf_size),
-        &setup.knobs,
-        AUTO_WORK_PER_SPE,
-    );
+    let by_work = || spes_by_work(setup.spes, (n, cfg.leaf_size), AUTO_WORK_PER_SPE);
+    let spes = spes_used(setup.spes, n, &setup.knobs, by_work);
     let pool = Pool::alloc(cell, n, &cfg, (spes, 1))?;
     let a = Areas::alloc(cell, setup, &knobs, &pool, spes)?;
     let spec = KeySpec {

@@ -95,12 +95,34 @@ impl LocalArea {
     /// The largest job `cfg` lets this area finish: its records fit Fig.
     /// 1's buffers, its most nodes the node area and one arena block.
     pub(in crate::strategy) fn largest(&self, cfg: &BihConfig) -> usize {
-        let mut c = self.capacity;
-        while c > 0 && most_nodes(c, cfg) > self.node_capacity.min(BLOCK_NODES) {
-            c -= 1;
-        }
-        c
+        largest_fitting(self.capacity, self.node_capacity, cfg)
     }
+}
+
+/// The largest job of at most `records` triangles whose most nodes fit
+/// `nodes` and one arena block.
+fn largest_fitting(records: usize, nodes: usize, cfg: &BihConfig) -> usize {
+    let mut c = records;
+    while c > 0 && most_nodes(c, cfg) > nodes.min(BLOCK_NODES) {
+        c -= 1;
+    }
+    c
+}
+
+/// The local store the breadth-first programs leave for a subtree's
+/// nodes, as a forecast made before the build assumes it
+/// (`machinery::forecast`): what both leave with their default knobs,
+/// 48,256 bytes (46,720 with the binned SAH's bins, 30,848 with a 16 KiB
+/// job cache: there the forecast assumes a little larger subtrees than the
+/// build finishes locally).
+const NODE_AREA_FORECAST: usize = 48 * 1024;
+
+/// The largest job a build with `cfg` finishes in the local store, as
+/// predicted before the build: Fig. 1's five buffers of records and
+/// [`NODE_AREA_FORECAST`] of nodes.
+pub(in crate::strategy) fn largest_local(cfg: &BihConfig) -> usize {
+    let records = 5 * BLOCK_BYTES as usize / size_of::<TriRecord>();
+    largest_fitting(records, NODE_AREA_FORECAST / NODE, cfg)
 }
 
 impl<'a> SpeBuilder<'a> {
@@ -128,6 +150,12 @@ impl<'a> SpeBuilder<'a> {
         Ok(())
     }
 
+    /// From now on no job of more than `most` triangles is finished in
+    /// the local store (a shared queue: none larger than an SPE's share).
+    pub(in crate::strategy) fn finish_at_most(&mut self, most: usize) {
+        self.local_largest = self.local_largest.min(most.min(u32::MAX as usize) as u32);
+    }
+
     /// Jobs finished in the local store, and the most triangles one could
     /// have.
     pub(in crate::strategy) fn subtrees(&self) -> (u64, u64) {
@@ -136,7 +164,7 @@ impl<'a> SpeBuilder<'a> {
 
     /// Whether `job` is finished in the local store: it fits, and is not
     /// a leaf (a leaf moves no record).
-    pub(super) fn finishes_locally(&self, job: &Job) -> bool {
+    pub(in crate::strategy) fn finishes_locally(&self, job: &Job) -> bool {
         self.local.is_some()
             && job.count <= self.local_largest
             && !self.cfg.ends_in_leaf(job.count as usize, job.depth)
@@ -145,7 +173,7 @@ impl<'a> SpeBuilder<'a> {
 
     /// Waits for the put of the last job finished in the local store,
     /// before Fig. 1's buffers are used again.
-    pub(super) async fn settle_local(&mut self) -> Result<(), CellError> {
+    pub(in crate::strategy) async fn settle_local(&mut self) -> Result<(), CellError> {
         if let Some(area) = self.local.as_mut().filter(|a| a.put) {
             area.put = false;
             self.spe.wait_tag(area.tag).await?;

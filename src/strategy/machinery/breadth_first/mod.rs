@@ -46,7 +46,7 @@ use crate::spe::layout::TriRecord;
 use crate::strategy::knob::{Knob, Knobs};
 pub use job::Job;
 use local::LocalArea;
-pub(in crate::strategy) use local::{FINISH, Finish};
+pub(in crate::strategy) use local::{FINISH, Finish, largest_local};
 
 /// `--double-buffer`: `QueueKnobs::double_buffer`.
 pub const DOUBLE_BUFFER: Knob = Knob::flag(

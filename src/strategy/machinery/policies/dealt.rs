@@ -46,9 +46,10 @@ impl Program {
         setup: &Setup,
         cfg: &BihConfig,
         policies: Policies,
+        spes: usize,
     ) -> Result<Self, CellError> {
         let (n, cfg) = (setup.count, *cfg);
-        let start = policies.start(cell, setup, &cfg)?;
+        let start = policies.start(cell, setup, &cfg, spes)?;
         let steal = matches!(policies.deal, Deal::Steal);
         let spes = start.spes;
         // WorkAPPE and WorkBPPE of every SPE, carved in proportion to its

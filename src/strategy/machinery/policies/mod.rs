@@ -13,7 +13,8 @@ mod dealt;
 mod shared;
 
 use super::breadth_first::{Finish, QueueKnobs};
-use super::top::{TopKnobs, WorkPerSpe};
+use super::forecast::{Dealing, Forecast, Plan};
+use super::top::TopKnobs;
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError};
 use crate::strategy::program::{Readback, Setup};
@@ -60,8 +61,6 @@ pub(in crate::strategy) struct Policies {
     pub top: TopKnobs,
     pub queue: QueueKnobs,
     pub finish: Finish,
-    /// `--tris-per-spe auto`'s table ([`super::top::spes_used`]).
-    pub auto_work: WorkPerSpe,
 }
 
 /// Sets up and spawns the program `policies` make on the SPEs the build
@@ -72,31 +71,57 @@ pub(in crate::strategy) fn spawn(
     cfg: &BihConfig,
     policies: Policies,
 ) -> Result<Readback, CellError> {
-    match policies.deal {
+    let forecast = policies.forecast(cell, setup, cfg);
+    // With no time charged (functional mode) every count ties: all SPEs.
+    let timed = cell.config().cost.charge_compute;
+    let chosen = || if timed { forecast.chosen() } else { setup.spes };
+    let spes = super::top::spes_used(setup.spes, setup.count, &setup.knobs, chosen);
+    let readback = match policies.deal {
         Deal::LargestFirst | Deal::Steal => {
-            let p = dealt::Program::set_up(cell, setup, cfg, policies)?;
+            let p = dealt::Program::set_up(cell, setup, cfg, policies, spes)?;
             let run = move |spe, id| p.run(spe, id);
-            Ok(p.start.common.pool.spawn_programs(cell, p.start.spes, run))
+            p.start.common.pool.spawn_programs(cell, spes, run)
         }
         Deal::Shared(q) => {
-            let p = shared::Program::set_up(cell, setup, cfg, policies, q)?;
+            let p = shared::Program::set_up(cell, setup, cfg, (policies, q), spes)?;
             let run = move |spe, id| p.run(spe, id);
-            Ok(p.start.common.pool.spawn_programs(cell, p.start.spes, run))
+            p.start.common.pool.spawn_programs(cell, spes, run)
         }
-    }
+    };
+    Ok(Box::new(move || {
+        let mut o = readback()?;
+        o.predicted = Some(forecast.prediction());
+        Ok(o)
+    }))
 }
 
 impl Policies {
-    /// What both programs read first: the SPEs used, the pool and the
-    /// cooperative partition's areas for these policies.
+    /// What both programs read first: the pool and the cooperative
+    /// partition's areas for these policies on `spes` SPEs.
     fn start(
         &self,
         cell: &mut Cell,
         setup: &Setup,
         cfg: &BihConfig,
+        spes: usize,
     ) -> Result<super::top::Start, CellError> {
         let ends = (&self.top, self.finish);
-        super::top::Start::set_up(cell, setup, cfg, ends, self.auto_work)
+        super::top::Start::set_up(cell, setup, cfg, ends, spes)
+    }
+
+    /// The build's predicted time on each count of SPEs up to those given,
+    /// with the rates in force (`machinery::forecast`).
+    fn forecast(&self, cell: &Cell, setup: &Setup, cfg: &BihConfig) -> Forecast {
+        let plan = Plan {
+            top: self.top,
+            finish: self.finish,
+            dealing: match self.deal {
+                Deal::LargestFirst | Deal::Steal => Dealing::Private,
+                Deal::Shared(_) => Dealing::Shared,
+            },
+        };
+        let rates = (&setup.rates.kernels(), &cell.config().cost);
+        super::forecast::predict(setup.count, cfg, plan, rates, setup.spes)
     }
 
     /// The SPE program's `--finish local` step: from now on the jobs that
