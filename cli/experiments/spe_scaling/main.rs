@@ -193,6 +193,61 @@ fn row(
 
 /// Measured ray cost of `bih`: nodes visited and triangles tested per
 /// primary ray of a 128 x 96 view from `view` (one thread).
+/// For builders that predict their time to choose how many SPEs to use:
+/// each row's fastest count at most the SPEs given and its time
+/// (`best_count`, `best_count_ms`), the counts never chosen run with
+/// every SPE given (`--tris-per-spe 1`). `jobs` are the rows' (scene,
+/// variant, SPEs), in order.
+fn best_counts(
+    rows: &mut [Value],
+    jobs: &[(usize, usize, usize)],
+    scenes: &[Scene],
+    variants: &[Variant],
+    model: &Build,
+) -> Result<(), String> {
+    let predicts = |r: &Value| !r["prediction"].is_null();
+    // Each (scene, variant)'s time on each count it ran on.
+    let mut on: std::collections::BTreeMap<(usize, usize, usize), f64> = Default::default();
+    for (&(si, vi, _), r) in jobs.iter().zip(rows.iter()).filter(|(_, r)| predicts(r)) {
+        let used = r["spes_used"].as_u64().unwrap_or(1) as usize;
+        on.insert((si, vi, used), r["simulated_ms"].as_f64().unwrap_or(0.0));
+    }
+    let mut missing: Vec<_> = (jobs.iter().zip(rows.iter()))
+        .filter(|&(&(si, vi, spes), r)| predicts(r) && !on.contains_key(&(si, vi, spes)))
+        .map(|(&job, _)| job)
+        .collect();
+    missing.dedup();
+    let forced = side_by_side("every SPE given", &missing, |&(si, vi, spes)| {
+        let (scene, v) = (&scenes[si], &variants[vi]);
+        let mut knobs = v.knobs.clone();
+        (v.builder.set_knob(&mut knobs, "tris-per-spe", "1")).map_err(|e| e.to_string())?;
+        let cell = model.cell.clone().with_spes(spes);
+        let r = (model.for_builder(v.builder).with_tree(BihConfig::default()))
+            .on(&cell)
+            .with_knobs(&knobs)
+            .run(scene)
+            .map_err(|e| format!("{} / {} / {spes} SPEs: {e}", scene.name, v.name))?;
+        Ok::<_, String>(r.simulated.expect("emulated").run.ms)
+    });
+    for (job, ms) in missing.into_iter().zip(forced) {
+        on.insert(job, ms?);
+    }
+    for (&(si, vi, spes), r) in jobs
+        .iter()
+        .zip(rows.iter_mut())
+        .filter(|(_, r)| predicts(r))
+    {
+        let best = (1..=spes)
+            .filter_map(|k| on.get(&(si, vi, k)).map(|&ms| (ms, k)))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((ms, k)) = best {
+            r["best_count"] = json!(k);
+            r["best_count_ms"] = json!(ms);
+        }
+    }
+    Ok(())
+}
+
 fn ray_cost(scene: &Scene, bih: &cellbih::bih::Bih, view: &View) -> (f64, f64) {
     let tracer = cellbih::bih::Tracer::new(bih, scene);
     let cam = (view.camera(&scene.name, &scene.bounds(), 128, 96)).expect("a scene's own view");
@@ -252,6 +307,7 @@ fn run(args: &Args) -> Result<(), String> {
         r["ray_cost_over_baseline"] = json!((nodes + tris) / (base_rays.0 + base_rays.1));
         rows.push(r);
     }
+    best_counts(&mut rows, &jobs, &scenes, &variants, &model)?;
     let summary = zoo_summary::summary(&rows, args.zoo);
 
     let keys = [

@@ -142,7 +142,11 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format, settings: &Settin
                     .any(|k| k.name == TRIS_PER_SPE.name)
                 {
                     true => format!(
-                        ": a small scene runs on fewer (--{} 1 uses every SPE)",
+                        ": {} (--{} 1 uses every SPE)",
+                        match m.predicted {
+                            Some(_) => "the count it predicts fastest",
+                            None => "a small scene runs on fewer",
+                        },
                         TRIS_PER_SPE.name
                     ),
                     false => String::new(),
