@@ -7,10 +7,11 @@ use crate::report::Settings;
 use cellbih::bih::Tracer;
 use cellbih::cell::Cycles;
 use cellbih::quality::rays::RaySets;
-use cellbih::registry::BuildReport;
+use cellbih::registry::{BuildReport, BuilderKind};
 use cellbih::render::View;
 use cellbih::scene::Scene;
 use cellbih::spe::footprint::{Footprint, Purpose, work_ppe_jobs};
+use cellbih::strategy::Simulated;
 use cellbih::strategy::machinery::top::TRIS_PER_SPE;
 
 use crate::Res;
@@ -130,32 +131,8 @@ pub fn print_build(s: &Scene, r: &BuildReport, format: Format, settings: &Settin
                 )),
                 None => {}
             }
-            // The strategy's own decision, said of builders that put
-            // every SPE to work (the paper's use one or none by design).
-            if let Some(m) =
-                sim.filter(|m| r.builder.multi_spe() && m.spes_used < m.run.cores.len() - 1)
-            {
-                let why = match r
-                    .builder
-                    .knobs()
-                    .iter()
-                    .any(|k| k.name == TRIS_PER_SPE.name)
-                {
-                    true => format!(
-                        ": {} (--{} 1 uses every SPE)",
-                        match m.predicted {
-                            Some(_) => "the count it predicts fastest",
-                            None => "a small scene runs on fewer",
-                        },
-                        TRIS_PER_SPE.name
-                    ),
-                    false => String::new(),
-                };
-                field(&format!(
-                    "SPEs used   {} of {}{why}",
-                    m.spes_used,
-                    m.run.cores.len() - 1,
-                ));
+            if let Some(line) = sim.and_then(|m| spes_used_line(m, r.builder)) {
+                field(&line);
             }
             if sim.is_some() {
                 field(&format!("host time   {ms:.2} ms (the emulation)"));
@@ -356,4 +333,27 @@ fn print_cores(m: &cellbih::registry::Simulated) {
             cache.invalidations
         ));
     }
+}
+
+/// The strategy's own decision of how many SPEs to use, said of builders
+/// that put every SPE to work (the paper's use one or none by design) when
+/// it used fewer than given.
+fn spes_used_line(m: &Simulated, builder: BuilderKind) -> Option<String> {
+    let given = m.run.cores.len() - 1;
+    if !builder.multi_spe() || m.spes_used >= given {
+        return None;
+    }
+    let takes = builder.knobs().iter().any(|k| k.name == TRIS_PER_SPE.name);
+    let why = match (takes, &m.predicted) {
+        (false, _) => String::new(),
+        (true, Some(_)) => format!(
+            ": the count it predicts fastest (--{} 1 uses every SPE)",
+            TRIS_PER_SPE.name
+        ),
+        (true, None) => format!(
+            ": a small scene runs on fewer (--{} 1 uses every SPE)",
+            TRIS_PER_SPE.name
+        ),
+    };
+    Some(format!("SPEs used   {} of {given}{why}", m.spes_used))
 }
