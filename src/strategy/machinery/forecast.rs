@@ -13,8 +13,11 @@
 //! the memory interface, which every byte crosses at its sustained rate.
 //! Every time in it is a rate in force (the code class's kernels, the
 //! machine's DMA, atomics and starts): nothing in it is fitted. What it
-//! cannot know is the scene: a job split unevenly, a level of many small
-//! jobs (docs/many-spes.md, "How many SPEs", says how far off it is).
+//! cannot know is the scene: the real tree's jobs differ in size. So each
+//! count is replayed twice, its deals as even as the halving tree's and as
+//! uneven as a greedy deal of the jobs the top leaves can be, and the
+//! prediction is the middle (docs/many-spes.md, "Small scenes", and
+//! `spe_scaling --zoo`'s goals say how far off it is).
 
 use std::collections::HashMap;
 
@@ -116,8 +119,6 @@ struct Rates {
     /// binning pass's get).
     per_record: f64,
     bytes_per_record: f64,
-    /// The same in the local store: compute only.
-    local_per_record: f64,
     bounds_per_record: f64,
     /// SPE cycles per node: the job's loop and the bin sweep.
     per_node: f64,
@@ -153,7 +154,6 @@ impl Rates {
             leaf: cfg.leaf_size.max(1) as usize,
             per_record: c(k.spe_partition_item) + bin,
             bytes_per_record: 2.0 * RECORD + if bin > 0.0 { RECORD } else { 0.0 },
-            local_per_record: c(k.spe_partition_item) + bin,
             bounds_per_record: c(k.spe_bounds_item),
             per_node: c(k.spe_job) + sweep,
             latency,
@@ -421,10 +421,7 @@ fn in_local_store(c: usize, r: &Rates) -> f64 {
         true => r.per_node,
         false => {
             let [lo, hi] = halves(c);
-            c as f64 * r.local_per_record
-                + r.per_node
-                + in_local_store(lo, r)
-                + in_local_store(hi, r)
+            c as f64 * r.per_record + r.per_node + in_local_store(lo, r) + in_local_store(hi, r)
         }
     }
 }
