@@ -72,9 +72,7 @@ pub(in crate::strategy) fn spawn(
     policies: Policies,
 ) -> Result<Readback, CellError> {
     let forecast = policies.forecast(cell, setup, cfg);
-    // With no time charged (functional mode) every count ties: all SPEs.
-    let timed = cell.config().cost.charge_compute;
-    let chosen = || if timed { forecast.chosen() } else { setup.spes };
+    let chosen = || forecast.chosen();
     let spes = super::top::spes_used(setup.spes, setup.count, &setup.knobs, chosen);
     let readback = match policies.deal {
         Deal::LargestFirst | Deal::Steal => {
@@ -110,7 +108,9 @@ impl Policies {
     }
 
     /// The build's predicted time on each count of SPEs up to those given,
-    /// with the rates in force (`machinery::forecast`).
+    /// with the rates in force (`machinery::forecast`); in the functional
+    /// mode, which charges no time, the PS3's, so that it runs the count a
+    /// timed run would.
     fn forecast(&self, cell: &Cell, setup: &Setup, cfg: &BihConfig) -> Forecast {
         let plan = Plan {
             top: self.top,
@@ -120,7 +120,12 @@ impl Policies {
                 Deal::Shared(_) => Dealing::Shared,
             },
         };
-        let rates = (&setup.rates.kernels(), &cell.config().cost);
+        let cost = cell.config().cost;
+        let machine = match cost.charge_compute {
+            true => cost,
+            false => crate::cell::CostModel::ps3(),
+        };
+        let rates = (&setup.rates.kernels(), &machine);
         super::forecast::predict(setup.count, cfg, plan, rates, setup.spes)
     }
 
