@@ -22,7 +22,7 @@
 use std::collections::HashMap;
 
 use super::breadth_first::{Finish, largest_local};
-use super::top::{EndRule, SPLIT_SLACK, TopKnobs};
+use super::top::{EndRule, SPLIT_SLACK, TopKnobs, deal_largest_first};
 use crate::bih::{BihConfig, SplitChoice};
 use crate::cell::CostModel;
 use crate::cell::cost::LockLines;
@@ -432,18 +432,9 @@ fn halves(c: usize) -> [usize; 2] {
 }
 
 /// A largest-first deal of jobs of these sizes over `k` SPEs: each SPE's
-/// jobs' sizes ([`super::top::largest_first`]'s rule).
+/// jobs' sizes (the deal's own rule, [`deal_largest_first`]).
 fn largest_first_loads(jobs: &[usize], k: usize) -> Vec<Vec<usize>> {
-    let mut order = jobs.to_vec();
-    order.sort_unstable_by(|a, b| b.cmp(a));
-    let mut load = vec![0usize; k];
-    let mut hands = vec![Vec::new(); k];
-    for c in order {
-        let to = (0..k).min_by_key(|&s| (load[s], s)).expect("an SPE");
-        load[to] += c;
-        hands[to].push(c);
-    }
-    hands
+    deal_largest_first(jobs, k, |&c| (c as u64, 0))
 }
 
 #[cfg(test)]

@@ -547,17 +547,33 @@ async fn split_largest(
 /// Deals `jobs` largest first, each to the SPE with the fewest triangles
 /// so far (ties: the lower SPE), each hand in node order.
 pub(in crate::strategy) fn largest_first(jobs: &[Job], spes: usize) -> Vec<Vec<Job>> {
-    let mut order: Vec<usize> = (0..jobs.len()).collect();
-    order.sort_by_key(|&j| (std::cmp::Reverse(jobs[j].count), jobs[j].node));
-    let mut load = vec![0u64; spes];
-    let mut hands: Vec<Vec<Job>> = vec![Vec::new(); spes];
-    for j in order {
-        let to = (0..spes).min_by_key(|&s| (load[s], s)).expect("an SPE");
-        load[to] += jobs[j].count as u64;
-        hands[to].push(jobs[j]);
-    }
+    let mut hands = deal_largest_first(jobs, spes, |j| (j.count as u64, j.node));
     for hand in &mut hands {
         hand.sort_by_key(|j| j.node);
+    }
+    hands
+}
+
+/// The largest-first rule on any items: by `weight` (its size, and the
+/// order among equal sizes: the lower first), each to the SPE with the
+/// least weight so far (ties: the lower SPE). The forecast deals its
+/// jobs' sizes by it too.
+pub(in crate::strategy) fn deal_largest_first<T: Copy>(
+    items: &[T],
+    spes: usize,
+    weight: impl Fn(&T) -> (u64, u32),
+) -> Vec<Vec<T>> {
+    let mut order: Vec<usize> = (0..items.len()).collect();
+    order.sort_by_key(|&i| {
+        let (w, tie) = weight(&items[i]);
+        (std::cmp::Reverse(w), tie)
+    });
+    let mut load = vec![0u64; spes];
+    let mut hands: Vec<Vec<T>> = vec![Vec::new(); spes];
+    for i in order {
+        let to = (0..spes).min_by_key(|&s| (load[s], s)).expect("an SPE");
+        load[to] += weight(&items[i]).0;
+        hands[to].push(items[i]);
     }
     hands
 }
