@@ -630,3 +630,44 @@ fn the_shared_queue_finishes_no_subtree_over_an_spes_share() {
     }
     assert!(checked > 0, "no shared-queue builder takes --finish");
 }
+
+/// A breadth-first run's phases split each SPE's run: the top levels
+/// (the same whatever the finish), then the subtrees finished in the
+/// local store (none when every job streams) within what is left, each
+/// with its DMA wait and bytes within the phase's own.
+#[test]
+fn the_phases_of_a_breadth_first_run_split_each_spes_run() {
+    let s = scene::load("rtperf:4000:2", None).unwrap();
+    let builders = (multi_spe().into_iter()).filter(|b| b.knob("finish").is_ok());
+    let mut checked = 0;
+    for b in builders {
+        let run = |finish: &str| {
+            let mut knobs = Knobs::default();
+            b.set_knob(&mut knobs, "finish", finish).unwrap();
+            b.set_knob(&mut knobs, "tris-per-spe", "1").unwrap();
+            let cell = CellConfig::ps3().with_spes(4);
+            let r = Build::new(b).on(&cell).with_knobs(&knobs).run(&s).unwrap();
+            r.simulated.unwrap()
+        };
+        let (local, stream) = (run("local"), run("stream"));
+        for (i, (l, st)) in local.spe_work.iter().zip(&stream.spe_work).enumerate() {
+            assert!(l.top.cycles > 0 && l.top.bytes > 0, "{b} SPE {i}: {l:?}");
+            assert_eq!(l.top, st.top, "{b} SPE {i}: the top differs by finish");
+            assert_eq!(st.in_subtrees, Default::default(), "{b} SPE {i}");
+            assert_eq!(l.subtrees > 0, l.in_subtrees.cycles > 0, "{b} SPE {i}");
+            let core = &local.run.cores[i + 1].1;
+            let end = local.run.cycles.0 - core.idle.0;
+            assert!(l.top.cycles + l.in_subtrees.cycles <= end, "{b} SPE {i}");
+            assert!(l.top.dma_wait + l.in_subtrees.dma_wait <= core.dma_wait.0);
+            let bytes = core.bytes_get + core.bytes_put;
+            assert!(l.top.bytes + l.in_subtrees.bytes <= bytes, "{b} SPE {i}");
+            for p in [l.top, l.in_subtrees] {
+                assert!(p.dma_wait <= p.cycles, "{b} SPE {i}: {p:?}");
+            }
+        }
+        let subtrees: u64 = local.spe_work.iter().map(|w| w.subtrees).sum();
+        assert!(subtrees > 0, "{b}: no subtree finished locally");
+        checked += 1;
+    }
+    assert!(checked > 0, "no multi-SPE builder takes --finish");
+}

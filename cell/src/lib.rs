@@ -222,6 +222,9 @@ pub struct RunReport {
     /// Whether the run was timed (the functional mode charges nothing:
     /// its cycles and ms mean nothing).
     pub timed: bool,
+    /// The memory interface's bandwidth while cores share it: the least
+    /// time a run's bytes need there.
+    pub memory_shared: Bandwidth,
 }
 
 /// The machine: memory, cores, and the programs spawned on them.
@@ -354,6 +357,7 @@ impl Cell {
                 .collect(),
             memory: m.mem.allocations().to_vec(),
             memory_bytes: m.mem.in_use(),
+            memory_shared: m.cfg.cost.memory_shared_bandwidth,
         }
     }
 

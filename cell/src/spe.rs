@@ -11,7 +11,7 @@ use super::executor::Yield;
 use super::executor::block_on;
 use super::machine::{Machine, OutBox, PPE, Wait, ls_range};
 use super::mfc::{self, Direction, ListElement, Order, QUEUE_DEPTH, Segment, WaitMode};
-use super::trace::SpanKind;
+use super::trace::{CoreCounters, SpanKind};
 use super::{CellError, CostModel, Ea, LockLines, LsAddr};
 
 /// The outcome of a conditional store ([`Spe::putllc`]).
@@ -43,6 +43,12 @@ impl Spe {
     /// This SPE's clock.
     pub fn now(&self) -> Cycles {
         self.m.borrow().cores[self.core()].clock
+    }
+
+    /// This SPE's counters so far (where its cycles went, what it moved):
+    /// a program that reports its phases takes their differences.
+    pub fn counters(&self) -> CoreCounters {
+        self.m.borrow().cores[self.core()].counters.clone()
     }
 
     /// The machine's cost model (for programs that derive their own compute

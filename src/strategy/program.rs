@@ -7,7 +7,7 @@
 
 use crate::aabb::Aabb;
 use crate::bih::{BihConfig, BihNode, Quality};
-use crate::cell::{Cell, CellError, Ea, Ppe};
+use crate::cell::{Cell, CellError, CoreCounters, Cycles, Ea, Ppe, Spe};
 use crate::kernels::rates::{Code, RateInfo, RateOverrides};
 use crate::kernels::recursion::BuildStats;
 use crate::spe::footprint::Purpose;
@@ -208,6 +208,47 @@ pub struct SpeWork {
     /// held beside the rest of its program; 0: it finished none there).
     pub subtrees: u64,
     pub subtree_limit: u64,
+    /// Breadth-first builds: its run's first phase, the top levels (its
+    /// start, building or helping to partition them, the deal), and the
+    /// subtrees it finished in the local store; the levels it streamed
+    /// are the rest.
+    pub top: Phase,
+    pub in_subtrees: Phase,
+}
+
+/// Part of one SPE's run: its cycles, the cycles of them it waited on
+/// DMA, and the bytes it moved.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Phase {
+    pub cycles: u64,
+    pub dma_wait: u64,
+    pub bytes: u64,
+}
+
+impl Phase {
+    /// What `spe` did since `from` (its clock and counters then).
+    pub fn since(spe: &Spe, from: &(Cycles, CoreCounters)) -> Phase {
+        let (t, c) = (spe.now(), spe.counters());
+        let bytes = |c: &CoreCounters| c.bytes_get + c.bytes_put;
+        Phase {
+            cycles: (t - from.0).0,
+            dma_wait: (c.dma_wait - from.1.dma_wait).0,
+            bytes: bytes(&c) - bytes(&from.1),
+        }
+    }
+
+    /// `spe`'s clock and counters now, for [`Phase::since`].
+    pub fn mark(spe: &Spe) -> (Cycles, CoreCounters) {
+        (spe.now(), spe.counters())
+    }
+}
+
+impl std::ops::AddAssign for Phase {
+    fn add_assign(&mut self, o: Phase) {
+        self.cycles += o.cycles;
+        self.dma_wait += o.dma_wait;
+        self.bytes += o.bytes;
+    }
 }
 
 /// The PPE allocates a node array in main memory and writes `nodes` into

@@ -11,8 +11,8 @@ use cellbih::registry::{BuildReport, BuilderKind};
 use cellbih::render::View;
 use cellbih::scene::Scene;
 use cellbih::spe::footprint::{Footprint, Purpose, work_ppe_jobs};
-use cellbih::strategy::Simulated;
 use cellbih::strategy::machinery::top::TRIS_PER_SPE;
+use cellbih::strategy::{Phase, Simulated};
 
 use crate::Res;
 use crate::args::Format;
@@ -320,6 +320,7 @@ fn print_cores(m: &cellbih::registry::Simulated) {
             ""
         }
     ));
+    print_phases(m);
     let mut cache = cellbih::cast::CacheStats::default();
     for w in &m.spe_work {
         cache += w.job_cache;
@@ -333,6 +334,70 @@ fn print_cores(m: &cellbih::registry::Simulated) {
             cache.invalidations
         ));
     }
+}
+
+/// Where a breadth-first build's SPEs spent their run, phase by phase:
+/// the top levels, the levels they streamed, the subtrees they finished
+/// in the local store (nothing for other builds, or untimed runs).
+fn print_phases(m: &Simulated) {
+    let spes = m.run.cores.iter().skip(1).zip(&m.spe_work);
+    if !m.run.timed || m.spe_work.iter().all(|w| w.top.cycles == 0) {
+        return;
+    }
+    let mut phases = [Phase::default(); 3];
+    for ((_, c), w) in spes {
+        let end = m.run.cycles.0 - c.idle.0;
+        let all = Phase {
+            cycles: end,
+            dma_wait: c.dma_wait.0,
+            bytes: c.bytes_get + c.bytes_put,
+        };
+        let (top, sub) = (w.top, w.in_subtrees);
+        phases[0] += top;
+        phases[1] += Phase {
+            cycles: all.cycles - top.cycles - sub.cycles,
+            dma_wait: all.dma_wait - top.dma_wait - sub.dma_wait,
+            bytes: all.bytes - top.bytes - sub.bytes,
+        };
+        phases[2] += sub;
+    }
+    let k = m.spe_work.len() as f64;
+    let ms_per_cycle = m.run.ms / m.run.cycles.0.max(1) as f64;
+    println!(
+        "\n{:<16} {:>8} {:>6} {:>9} {:>9} {:>8}",
+        "phase", "ms", "share", "DMA wait", "MB/SPE", "least ms"
+    );
+    let names = ["top levels", "streamed levels", "subtrees", "all"];
+    let mut all = Phase::default();
+    for p in phases {
+        all += p;
+    }
+    let total = all.cycles;
+    for (name, p) in names.iter().zip(phases.into_iter().chain([all])) {
+        let ms = p.cycles as f64 / k * ms_per_cycle;
+        let of = |x: u64, y: u64| 100.0 * x as f64 / y.max(1) as f64;
+        println!(
+            "{name:<16} {ms:>8.2} {:>5.0}% {:>8.0}% {:>9.2} {:>8.2}",
+            of(p.cycles, total),
+            of(p.dma_wait, p.cycles),
+            p.bytes as f64 / k / 1e6,
+            m.run.memory_shared.cycles(p.bytes).0 as f64 * ms_per_cycle,
+        );
+    }
+    println!(
+        "{}",
+        crate::report::wrap(
+            &format!(
+                "(the mean of {}: ms and share of its run, the share of that it waited on DMA, MB \
+         it moved; least ms: every SPE's bytes of the phase at the memory interface's shared \
+         bandwidth, so the bytes alone allow this run at most {:.2}x faster; top levels: the \
+         starts, the top built or helped with, the deal)",
+                crate::report::count(m.spe_work.len() as u64, "SPE"),
+                m.run.cycles.0 as f64 / m.run.memory_shared.cycles(all.bytes).0.max(1) as f64,
+            ),
+            80
+        )
+    );
 }
 
 /// The strategy's own decision of how many SPEs to use, said of builders

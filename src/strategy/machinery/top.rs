@@ -432,6 +432,7 @@ impl SpeExit {
     pub fn of(b: &SpeBuilder<'_>, mut work: SpeWork) -> Self {
         work.jobs = b.jobs;
         (work.subtrees, work.subtree_limit) = b.subtrees();
+        (work.top, work.in_subtrees) = (b.top, b.in_subtrees);
         SpeExit {
             work,
             items_partitioned: b.stats.items_partitioned,

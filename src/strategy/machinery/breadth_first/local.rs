@@ -30,6 +30,7 @@ use crate::spe::fig1::BLOCK_BYTES;
 use crate::spe::layout::TriRecord;
 use crate::strategy::knob::{Knob, Knobs};
 use crate::strategy::machinery::arena::BLOCK_NODES;
+use crate::strategy::program::Phase;
 
 /// `--finish`: how a job ends once it fits the local store.
 pub const FINISH: Knob = Knob::word(
@@ -185,6 +186,7 @@ impl<'a> SpeBuilder<'a> {
     /// subtree built there, its nodes put as one run of the arena and its
     /// records put back; its own node written as the loop writes a job's.
     pub(super) async fn finish_local(&mut self, job: &Job) -> Result<(), CellError> {
+        let from = Phase::mark(self.spe);
         // Fig. 1's buffers (the batches') and the last subtree's node put
         // are done before their bytes are reused.
         let all = (0..5).fold(0, |m, b| m | 1 << self.fig1.tag(b));
@@ -226,6 +228,7 @@ impl<'a> SpeBuilder<'a> {
         self.local.as_mut().expect("open").put = true;
         self.write_subtree(job, &nodes).await?;
         self.subtree = nodes;
+        self.in_subtrees += Phase::since(self.spe, &from);
         Ok(())
     }
 

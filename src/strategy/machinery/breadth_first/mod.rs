@@ -44,6 +44,7 @@ use crate::kernels::split::{Side, Split, clip_planes};
 use crate::spe::fig1::{Fig1Buffers, stream_bounds};
 use crate::spe::layout::TriRecord;
 use crate::strategy::knob::{Knob, Knobs};
+use crate::strategy::program::Phase;
 pub use job::Job;
 use local::LocalArea;
 pub(in crate::strategy) use local::{FINISH, Finish, largest_local};
@@ -209,6 +210,9 @@ pub(in crate::strategy) struct SpeBuilder<'a> {
     local_largest: u32,
     local_jobs: u64,
     subtree: Vec<BihNode>,
+    /// Its run's phases: the top levels, the subtrees finished locally.
+    pub(in crate::strategy) top: Phase,
+    pub(in crate::strategy) in_subtrees: Phase,
 }
 
 impl<'a> SpeBuilder<'a> {
@@ -268,7 +272,16 @@ impl<'a> SpeBuilder<'a> {
             local_largest: 0,
             local_jobs: 0,
             subtree: Vec::new(),
+            top: Phase::default(),
+            in_subtrees: Phase::default(),
         })
+    }
+
+    /// The top levels end here for this SPE: its run so far is their
+    /// phase.
+    pub(in crate::strategy) fn end_top(&mut self) {
+        let start = (crate::cell::Cycles::ZERO, Default::default());
+        self.top = Phase::since(self.spe, &start);
     }
 
     /// Jobs were dealt to this SPE: from now on the first level of each

@@ -163,7 +163,7 @@ impl Program {
                 None
             }
         };
-        self.policies.finish_locally_if_asked(b)?;
+        self.policies.after_the_top(b)?;
         if let Some((jobs, areas)) = own {
             b.arena.renew(self.start.common.pool.blocks);
             b.queue.set_spill(WorkPpe::between(areas[0], areas[1]));
@@ -199,7 +199,7 @@ impl Program {
         let [count, a, bb, _] = spe.ls_read::<u64>(record, 4)?[..] else {
             unreachable!("four words")
         };
-        self.policies.finish_locally_if_asked(b)?;
+        self.policies.after_the_top(b)?;
         if self.steals() && count > 0 {
             work.stolen = take_and_steal(
                 spe,

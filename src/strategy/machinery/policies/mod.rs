@@ -129,12 +129,12 @@ impl Policies {
         super::forecast::predict(setup.count, cfg, plan, rates, setup.spes)
     }
 
-    /// The SPE program's `--finish local` step: from now on the jobs that
-    /// fit are finished in the local store (it holds all else it needs).
-    fn finish_locally_if_asked(
-        &self,
-        b: &mut super::breadth_first::SpeBuilder<'_>,
-    ) -> Result<(), CellError> {
+    /// The SPE program's step once the top levels are built (and dealt):
+    /// their phase ends, and with `--finish local` from now on the jobs
+    /// that fit are finished in the local store (it holds all else it
+    /// needs).
+    fn after_the_top(&self, b: &mut super::breadth_first::SpeBuilder<'_>) -> Result<(), CellError> {
+        b.end_top();
         match self.finish {
             Finish::Local => b.finish_locally(),
             Finish::Stream => Ok(()),

@@ -117,7 +117,7 @@ impl Program {
             0 => None,
             kib => Some(job_cache(&spe, kib as u32, self.start.cache)?),
         };
-        policies.finish_locally_if_asked(&mut b)?;
+        policies.after_the_top(&mut b)?;
         // A subtree built by one SPE while the others have nothing left
         // to take: none larger than an SPE's share of the triangles.
         b.finish_at_most(self.start.n.div_ceil(self.start.spes));
