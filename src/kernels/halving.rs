@@ -156,16 +156,8 @@ fn separable(spec: &KeySpec) -> Option<[AxisTree; 3]> {
                 (lo.min(e), hi.max(e))
             })
         };
-        let [(n0, x0), (n1, x1), (n2, x2)] = [ext(0), ext(1), ext(2)];
-        // The axis every cell takes: longest_axis's rule (x if not shorter
-        // than y and z, else y if not shorter than z, else z) true of every
-        // combination of intervals.
-        let a = match () {
-            _ if n0 >= x1 && n0 >= x2 => 0,
-            _ if x0 < n1 && n1 >= x2 => 1,
-            _ if x0 < n2 && x1 < n2 => 2,
-            _ => return None,
-        };
+        // The axis every combination of intervals takes.
+        let a = longest([ext(0), ext(1), ext(2)])?;
         let mut next = Vec::with_capacity(2 * intervals[a].len());
         for &(lo, hi) in &intervals[a] {
             let plane = mid(lo, hi);
@@ -189,6 +181,19 @@ fn separable(spec: &KeySpec) -> Option<[AxisTree; 3]> {
             .collect();
     }
     Some(axes)
+}
+
+/// The axis `Aabb::longest_axis`'s rule (x if not shorter than y and z,
+/// else y if not shorter than z, else z) takes in every cell whose extents
+/// lie within `b` (each axis's least and most), if one.
+pub(super) fn longest(b: [(f64, f64); 3]) -> Option<usize> {
+    let [(n0, x0), (n1, x1), (n2, x2)] = b;
+    match () {
+        _ if n0 >= x1 && n0 >= x2 => Some(0),
+        _ if x0 < n1 && n1 >= x2 => Some(1),
+        _ if x0 < n2 && x1 < n2 => Some(2),
+        _ => None,
+    }
 }
 
 /// The cells' form of `spec`'s halvings: `2^bits` entries.
@@ -220,11 +225,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn spec(lo: Vec3, hi: Vec3, bits: u32) -> KeySpec {
-        KeySpec {
-            order: KeyOrder::GlobalHeuristic,
-            bits,
-            scene: Aabb::new(lo, hi),
-        }
+        KeySpec::global_heuristic(Aabb::new(lo, hi), bits)
     }
 
     /// A box of ordinary proportions takes the separable form, and a box

@@ -4,7 +4,7 @@
 //! the node decision ([`decide`]), the recursion written once over boxed
 //! items ([`recursion`]), the bucket presort of approximate sorting
 //! ([`approx`]), Morton keys ([`morton`]) and their halving tables
-//! ([`halving`]), the radix-sort passes ([`radix`]), and their compute
+//! ([`halving`]) and their quantisation ([`quantise`]), the radix-sort passes ([`radix`]), and their compute
 //! rates ([`rates`]; the PPE's update steps' in [`ppe_rates`]).
 //! A host builder calls them on whole arrays, an SPE program on
 //! local-store blocks.
@@ -15,6 +15,7 @@ pub mod decide;
 pub mod halving;
 pub mod morton;
 pub mod ppe_rates;
+pub mod quantise;
 pub mod radix;
 pub mod rates;
 pub mod recursion;

@@ -61,6 +61,15 @@ pub(super) fn mid(lo: f32, hi: f32) -> f32 {
 }
 
 impl KeySpec {
+    /// Keys of `bits` bits in the global heuristic's order over `scene`.
+    pub fn global_heuristic(scene: Aabb, bits: u32) -> KeySpec {
+        KeySpec {
+            order: KeyOrder::GlobalHeuristic,
+            bits,
+            scene,
+        }
+    }
+
     /// Grid bits per axis of the round-robin order (10 or 21).
     fn grid_bits(&self) -> u32 {
         self.bits / 3

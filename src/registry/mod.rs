@@ -271,6 +271,14 @@ impl BuilderKind {
         matches!(self.0, Family::Cell(s) if s.multi_spe)
     }
 
+    /// What the builder promises on large scenes, if anything.
+    pub fn promise(self) -> Option<strategy::Promise> {
+        match self.0 {
+            Family::Host(_) => None,
+            Family::Cell(s) => s.promise,
+        }
+    }
+
     /// The quality knobs the builder builds beyond the paper's tree.
     pub fn quality(self) -> Quality {
         match self.0 {
@@ -420,6 +428,27 @@ fn close(a: &str, b: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::BuilderKind;
+
+    /// Every builder that puts every SPE to work promises a speedup on
+    /// large scenes (the zoo's goals), a family one promise, of its
+    /// builders adjacent in the registry; no other builder promises.
+    #[test]
+    fn multi_spe_builders_promise_and_a_family_promises_once() {
+        let promising: Vec<_> = (BuilderKind::ALL.iter())
+            .filter_map(|b| b.promise().map(|p| (*b, p)))
+            .collect();
+        for b in BuilderKind::ALL {
+            assert_eq!(b.multi_spe(), b.promise().is_some(), "{b}");
+        }
+        for (i, (b, p)) in promising.iter().enumerate() {
+            let same = |q: &&(BuilderKind, crate::strategy::Promise)| q.1.family == p.family;
+            let family: Vec<_> = promising.iter().filter(same).collect();
+            assert!(family.iter().all(|q| q.1 == *p), "{b}: {family:?}");
+            let first = promising.iter().position(|q| same(&q)).unwrap();
+            assert_eq!(i - first, family.iter().position(|q| q.0 == *b).unwrap());
+            assert!(p.speedup > 1.0 && p.triangles > 0, "{b}: {p:?}");
+        }
+    }
 
     /// Every builder's name is a word of at most `MAX_NAME` characters, and
     /// no two builders share one.

@@ -27,7 +27,9 @@ use crate::kernels::recursion::BuildStats;
 use crate::scene::Scene;
 use crate::spe::layout;
 pub use knob::{Kind, Knob, Knobs};
-pub use program::{Output, Phase, Readback, Records, Setup, Spawn, SpeWork, Strategy, write_nodes};
+pub use program::{
+    Output, Phase, Promise, Readback, Records, Setup, Spawn, SpeWork, Strategy, write_nodes,
+};
 
 /// The nodes reachable from node 0, renumbered breadth first (children
 /// stay adjacent): what is left of a pool shared by several arenas once its

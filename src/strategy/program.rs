@@ -49,8 +49,20 @@ pub struct Strategy {
     /// Its own kernels' rates (each with its band: the sensitivity report
     /// moves those not pinned by a measurement).
     pub rates: fn(Code) -> Vec<RateInfo>,
+    /// What it promises on large scenes (the zoo's goals read it).
+    pub promise: Option<Promise>,
     /// Sets up its programs on the Cell.
     pub spawn: Spawn,
+}
+
+/// What a multi-SPE strategy promises: on every scene of at least
+/// `triangles` triangles, the fastest of its `family` at least `speedup`
+/// times the baseline on 8 SPEs, simulated time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Promise {
+    pub family: &'static str,
+    pub speedup: f64,
+    pub triangles: u64,
 }
 
 impl Strategy {
@@ -67,7 +79,16 @@ impl Strategy {
             knobs: &[],
             combos: &[],
             rates: |_| Vec::new(),
+            promise: None,
             spawn,
+        }
+    }
+
+    /// It promises `promise` on large scenes.
+    pub const fn promising(self, promise: Promise) -> Self {
+        Strategy {
+            promise: Some(promise),
+            ..self
         }
     }
 

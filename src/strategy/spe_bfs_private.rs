@@ -49,6 +49,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
 // Every SPE's WorkAPPE and WorkBPPE (without the per-part slack).
 .with_buffers(|n, cfg, _| 2 * Job::spill_bytes_for(n, cfg))
 .on_every_spe()
+.promising(super::machinery::policies::PROMISE)
 .with_quality(crate::bih::Quality::ALL)
 .with_knobs(&[
     &NO_DOUBLE_BUFFER,

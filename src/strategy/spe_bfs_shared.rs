@@ -65,6 +65,7 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     2 * ((jobs * Job::bytes(cfg)) as u64).next_multiple_of(128)
 })
 .on_every_spe()
+.promising(super::machinery::policies::PROMISE)
 .with_quality(crate::bih::Quality::ALL)
 .with_knobs(&[
     &DOUBLE_BUFFER,

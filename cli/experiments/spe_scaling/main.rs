@@ -23,6 +23,7 @@ use cellbih_cli::args::SceneArgs;
 use cellbih_cli::args::{RateArgs, RunArgs};
 use cellbih_cli::report::{Series, line_plot, output, side_by_side};
 
+mod phases;
 mod zoo_summary;
 use cellbih::strategy::Knobs;
 
@@ -59,6 +60,10 @@ struct Args {
     /// knob its table sweeps.
     #[arg(long, conflicts_with = "defaults_only")]
     knob: Option<String>,
+    /// After the summary, where the time of each builder made of phases
+    /// goes on the most SPEs, a column a scene.
+    #[arg(long)]
+    phases: bool,
     #[command(flatten)]
     scene: SceneArgs,
     #[command(flatten)]
@@ -349,6 +354,9 @@ fn run(args: &Args) -> Result<(), String> {
         .report("spe_scaling", (&keys, &rows), &doc, Some(&model), |rows| {
             print_table(rows);
             zoo_summary::print(&summary);
+            if args.phases {
+                phases::print(rows, model.rates.code());
+            }
         })?;
     plots(&args.run.output.out, &rows).map_err(|e| e.to_string())?;
     zoo_summary::plot(&args.run.output.out, &rows).map_err(|e| e.to_string())?;

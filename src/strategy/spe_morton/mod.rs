@@ -49,6 +49,7 @@ mod sort;
 mod top;
 
 use areas::{Areas, RegionTables, serve};
+use glam::Vec3A;
 
 use super::machinery::arena::ObjectArena;
 use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, Job, NO_PREFETCH, QueueKnobs};
@@ -58,6 +59,7 @@ use super::{Knob, Knobs, Readback, Records, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Cycles, LsAddr, Spe};
 use crate::kernels::morton::{KeyOrder, KeySpec, auto_key_bits, auto_region_size};
+use crate::kernels::quantise::QuantisedKeys;
 use crate::kernels::radix;
 use crate::kernels::rates::{Code, Count, KernelRates, Rate, RateOverrides, infos, overridden};
 use crate::spe::barrier::Barrier;
@@ -70,6 +72,11 @@ pub const STRATEGY: super::Strategy = super::Strategy::new(
     spawn,
 )
 .on_every_spe()
+.promising(super::Promise {
+    family: "Morton",
+    speedup: 10.0,
+    triangles: 100_000,
+})
 .with_rates(|code| infos(MortonRates::of(code), &MortonRates::table(code)))
 .with_knobs(&[
     &KEY_ORDER,
@@ -139,11 +146,11 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
 
 /// `--tris-per-spe auto`: the record steps of the partition
 /// (`machinery::top::partition_work`) each SPE must get before the build
-/// runs on 1, 2, … 8 SPEs: just above the most, on 34 small scenes of
-/// 1,000 to 23,000 triangles, at which that many SPEs were slower than
-/// fewer; every SPE on any scene of 3,000 triangles or more
-/// (docs/many-spes.md, "Small scenes").
-const AUTO_WORK_PER_SPE: WorkPerSpe = &[0, 0, 0, 0, 0, 1_250, 1_250, 2_100];
+/// runs on 1, 2, … 8 SPEs: just above the most at which that many SPEs
+/// were slower than fewer, on the small scenes of `tests/zoo.rs` (1,000
+/// to 23,000 triangles) with quantised keys; every SPE from about 12,000
+/// triangles (docs/morton.md).
+const AUTO_WORK_PER_SPE: WorkPerSpe = &[0, 0, 0, 0, 0, 4_100, 4_100, 14_000];
 
 /// SPE 0's outbound-mailbox word before the region count and spill size
 /// (the pool's block requests share the mailbox: `arena::REQUEST_BLOCK`).
@@ -225,8 +232,22 @@ pub struct MortonRates {
     /// axis' bounds (4 selects), the midpoint (2), the center's coordinate
     /// (2 selects), the compare (1), the key's shift and or (2; 4 for
     /// 64-bit keys), the cell's update (6 selects, 3 ands): 28–30 even-pipe
-    /// instructions per four triangles. Counted 7.5 a triangle.
+    /// instructions per four triangles. Counted 7.5 a triangle. Charged
+    /// for every bit of a key the quantisation settles (a center near a
+    /// halving plane) or does not cover (`kernels::quantise`).
     pub key_bit: Cycles,
+    /// Per triangle, once per key the quantisation covers, four triangles
+    /// a vector, per axis: the offset and its scale (2), clamped at 0 (2),
+    /// converted to a code and clamped to the last (3), back to a float
+    /// and the fraction (2), the fraction against the margin at both ends
+    /// and the code not at that end (6), the settle mask (1): 16 even; the
+    /// three axes' masks gathered and branched on (2 even, 2 odd): 50 even
+    /// per four triangles. Counted 12.5 a triangle.
+    pub key_quantise: Cycles,
+    /// Per triangle per key bit of a quantised key, four triangles a
+    /// vector: the code's bit masked, shifted to its place and or-ed into
+    /// the key's word (3 even). Counted 0.75, charged 0.8 a triangle.
+    pub key_spread: Cycles,
     /// Per key of a radix-sort histogram step — the key loaded, the digit
     /// shifted and masked (2), its count loaded, bumped and stored, four
     /// count tables interleaved so that keys of one digit do not wait on
@@ -248,10 +269,13 @@ pub struct MortonRates {
 }
 
 /// The instruction counts of [`MortonRates`]' kernels, in its fields'
-/// order: key setup, key bit, radix count, radix scatter.
-pub const COUNTS: [Count; 4] = [
+/// order: key setup, key bit, key quantise, key spread, radix count,
+/// radix scatter.
+pub const COUNTS: [Count; 6] = [
     Count::tenths(75),
     Count::tenths(75),
+    Count::tenths(125),
+    Count::tenths(8),
     Count::of(3),
     Count::tenths(55),
 ];
@@ -262,9 +286,26 @@ impl MortonRates {
         MortonRates {
             key_setup: code.charge(COUNTS[0]),
             key_bit: code.charge(COUNTS[1]),
-            radix_count: code.charge(COUNTS[2]),
-            radix_scatter: code.charge(COUNTS[3]),
+            key_quantise: code.charge(COUNTS[2]),
+            key_spread: code.charge(COUNTS[3]),
+            radix_count: code.charge(COUNTS[4]),
+            radix_scatter: code.charge(COUNTS[5]),
         }
+    }
+
+    /// The keys of `centers` by `q` into `keys`, and what they cost: each
+    /// its setup, and its quantisation and bits spread where `q` covers the
+    /// spec; a key settled by halving (near a plane, or not covered) its
+    /// bits halved one at a time.
+    pub(super) fn keys(&self, q: &QuantisedKeys, centers: &[Vec3A], keys: &mut [u64]) -> Cycles {
+        let done = q.keys(centers, keys);
+        let bits = q.bits() as u64;
+        let quantised = match q.covers() {
+            true => self.key_quantise.0 + self.key_spread.0 * bits,
+            false => 0,
+        };
+        let per_key = Cycles::times(Cycles(self.key_setup.0 + quantised), done.keys);
+        per_key + Cycles::times(Cycles(self.key_bit.0 * bits), done.settled)
     }
 
     /// The rates of a run: its class, with its overrides.
@@ -278,8 +319,10 @@ impl MortonRates {
         crate::rate_table!(MortonRates, "spe_morton.", {
             key_setup: code.band(COUNTS[0]),
             key_bit: code.band(COUNTS[1]),
-            radix_count: code.band(COUNTS[2]),
-            radix_scatter: code.band(COUNTS[3]),
+            key_quantise: code.band(COUNTS[2]),
+            key_spread: code.band(COUNTS[3]),
+            radix_count: code.band(COUNTS[4]),
+            radix_scatter: code.band(COUNTS[5]),
         })
         .to_vec()
     }

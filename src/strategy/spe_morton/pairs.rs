@@ -158,9 +158,57 @@ pub(super) fn stage_list(runs: &[(Ea, Vec<u8>)]) -> (Vec<u8>, Vec<ListElement>) 
     (staged, list)
 }
 
+/// The DMA list that gathers the records of `pairs` (by their indices,
+/// records of `RECORD` bytes from `tris`) into consecutive places: one
+/// element a run of records consecutive in memory (at most
+/// [`MAX_TRANSFER`] bytes), not one a record, so that a run moves each
+/// 128-byte line once (a range whose keys tie keeps its records' order:
+/// the radix sort is stable).
+pub(super) fn gather_list(tris: Ea, pairs: &[KeyRec]) -> Vec<ListElement> {
+    let record = super::RECORD as u32;
+    let mut list: Vec<ListElement> = Vec::new();
+    let mut next = None;
+    for k in pairs {
+        let ea = tris.offset(k.index as u64 * record as u64);
+        match list.last_mut() {
+            Some(last) if next == Some(k.index) && last.size + record <= MAX_TRANSFER => {
+                last.size += record;
+            }
+            _ => list.push(ListElement { ea, size: record }),
+        }
+        next = k.index.checked_add(1);
+    }
+    list
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Records consecutive in memory are gathered by one element, up to
+    /// the largest transfer; any other order starts a new one.
+    #[test]
+    fn a_gather_list_takes_a_run_of_records_in_one_element() {
+        let pairs = |ix: &[u32]| -> Vec<KeyRec> {
+            ix.iter().map(|&index| KeyRec { key: 0, index }).collect()
+        };
+        let r = super::super::RECORD as u32;
+        let list = gather_list(Ea(1024), &pairs(&[3, 4, 5, 9, 8, 10]));
+        let got: Vec<(u64, u32)> = list.iter().map(|e| (e.ea.0, e.size)).collect();
+        let at = |i: u32| 1024 + (i * r) as u64;
+        assert_eq!(
+            got,
+            vec![(at(3), 3 * r), (at(9), r), (at(8), r), (at(10), r)]
+        );
+        let run: Vec<u32> = (0..1000).collect();
+        let list = gather_list(Ea(0), &pairs(&run));
+        assert!(list.iter().all(|e| e.size <= MAX_TRANSFER));
+        assert_eq!(list.iter().map(|e| e.size).sum::<u32>(), 1000 * r);
+        assert_eq!(
+            list.len(),
+            (1000 * r).div_ceil(MAX_TRANSFER / r * r) as usize
+        );
+    }
 
     #[test]
     fn runs_of_eight_byte_pairs_split_into_transfers_the_mfc_takes() {

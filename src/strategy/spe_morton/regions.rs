@@ -5,10 +5,10 @@
 
 use bytemuck::Pod;
 
-use super::pairs::{KeyRec, Pairs, ls_for, span};
+use super::pairs::{KeyRec, Pairs, gather_list, ls_for, span};
 use super::{JOB, NODE, Program, RECORD, RECORDS_PER_BLOCK};
 use crate::bih::BihNode;
-use crate::cell::{CellError, Ea, ListElement, LsAddr};
+use crate::cell::{CellError, Ea, LsAddr};
 use crate::kernels::recursion::build_subtree;
 use crate::kernels::split::{Side, side_of};
 use crate::spe::fig1::stream_bounds;
@@ -242,12 +242,7 @@ impl Program<'_> {
         self.spe.wait_tag(tag).await?;
         let keys: Vec<KeyRec> = p.read(self.spe, ls_for(pairs, at), count)?;
         for (c, chunk) in keys.chunks(RECORDS_PER_BLOCK).enumerate() {
-            let list: Vec<ListElement> = (chunk.iter())
-                .map(|k| ListElement {
-                    ea: self.a.tris.offset(k.index as u64 * RECORD as u64),
-                    size: RECORD as u32,
-                })
-                .collect();
+            let list = gather_list(self.a.tris, chunk);
             let ls = recs.offset((c * RECORDS_PER_BLOCK * RECORD) as u32);
             self.spe.getl(ls, &list, tag).await?;
         }

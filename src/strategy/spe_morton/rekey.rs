@@ -37,12 +37,13 @@
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3A;
 
-use super::pairs::{KeyRec, ls_for, span};
+use super::pairs::{KeyRec, gather_list, ls_for, span};
 use super::ranges::Range;
 use super::{Program, RECORD, RECORDS_PER_BLOCK};
 use crate::aabb::Aabb;
-use crate::cell::{CellError, Cycles, ListElement};
+use crate::cell::CellError;
 use crate::kernels::morton::KeySpec;
+use crate::kernels::quantise::QuantisedKeys;
 use crate::kernels::split::{Boxed, Side};
 use crate::spe::layout::TriRecord;
 use crate::strategy::machinery::breadth_first::Job;
@@ -359,14 +360,7 @@ impl Program<'_> {
         self.spe.wait_tag(tag).await?;
         let mut pairs: Vec<KeyRec> = p.read(self.spe, ls_for(buf, at), count)?;
         let tris = self.a.tris;
-        let list_of = move |pairs: &[KeyRec]| -> Vec<ListElement> {
-            (pairs.iter())
-                .map(|k| ListElement {
-                    ea: tris.offset(k.index as u64 * RECORD as u64),
-                    size: RECORD as u32,
-                })
-                .collect()
-        };
+        let list_of = move |pairs: &[KeyRec]| gather_list(tris, pairs);
         let mut side = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY));
         let mut spec = None;
         for sweep in 0..2 {
@@ -385,24 +379,17 @@ impl Program<'_> {
                         self.spe
                             .compute_items(self.kernels.spe_bounds_item, len as u64);
                     }
-                    Some(s) => {
-                        let s: KeySpec = s;
-                        for (k, c) in pairs[c..c + len].iter_mut().zip(&cs) {
-                            k.key = s.key(*c);
-                        }
-                        let rate =
-                            Cycles(self.rates.key_setup.0 + self.rates.key_bit.0 * s.bits as u64);
-                        self.spe.compute_items(rate, len as u64);
-                    }
+                    Some((_, ref q)) => self.key_pairs(q, &cs, &mut pairs[c..c + len]),
                 }
             }
             if sweep == 0 {
-                spec = Some(self.start_from((j, f), side, true).await?);
+                let s: KeySpec = self.start_from((j, f), side, true).await?;
+                spec = Some((s, self.quantised(&s)));
             }
         }
         // The sort, LSD in the local store (stable, as the passes are):
         // per pass a histogram step a key and an entry, a scatter step a key.
-        let bits = spec.expect("the second sweep has its spec").bits;
+        let bits = spec.expect("the second sweep has its spec").0.bits;
         let passes = crate::kernels::radix::passes(bits, self.knobs.digit_bits) as u64;
         let digits = 1u64 << self.knobs.digit_bits;
         pairs.sort_by_key(|k| k.key);
@@ -415,6 +402,16 @@ impl Program<'_> {
         self.spe.wait_tag(tag).await?;
         self.spe.ls_release_to(mark);
         Ok(())
+    }
+
+    /// The new keys of `pairs`, whose records' centers are `centers`, by
+    /// `q`; their cost charged.
+    fn key_pairs(&self, q: &QuantisedKeys, centers: &[Vec3A], pairs: &mut [KeyRec]) {
+        let mut keys = vec![0; centers.len()];
+        self.spe.compute(self.rates.keys(q, centers, &mut keys));
+        for (p, k) in pairs.iter_mut().zip(keys) {
+            p.key = k;
+        }
     }
 
     /// One sweep over this SPE's slice of the range `f`, its records
@@ -434,6 +431,7 @@ impl Program<'_> {
             .collect();
         let mark = self.spe.ls_mark();
         let p = self.a.pairs;
+        let quantised = keys.map(|(spec, _)| self.quantised(&spec));
         let mut sets = Vec::new();
         for _ in 0..2 {
             let pairs = (self.spe).ls_alloc((RECORDS_PER_BLOCK * p.bytes + 16) as u32, 128)?;
@@ -456,7 +454,7 @@ impl Program<'_> {
             let centers: Vec<Vec3A> = (self.spe).with_ls(recs, len, |rs: &[TriRecord]| {
                 rs.iter().map(|t| t.center()).collect()
             })?;
-            let Some((spec, into)) = keys else {
+            let Some((_, into)) = keys else {
                 side = centers.iter().fold(side, |(a, b), &c| (a.min(c), b.max(c)));
                 self.spe
                     .compute_items(self.kernels.spe_bounds_item, len as u64);
@@ -464,11 +462,8 @@ impl Program<'_> {
             };
             let (_, at) = self.sorted_pair(c);
             let mut pairs_here: Vec<KeyRec> = p.read(self.spe, ls_for(pairs, at), len)?;
-            for (k, c) in pairs_here.iter_mut().zip(&centers) {
-                k.key = spec.key(*c);
-            }
-            let rate = Cycles(self.rates.key_setup.0 + self.rates.key_bit.0 * spec.bits as u64);
-            self.spe.compute_items(rate, len as u64);
+            let quantised = quantised.as_ref().expect("a spec");
+            self.key_pairs(quantised, &centers, &mut pairs_here);
             let to = self.a.keys[into].offset((c * p.bytes) as u64);
             p.write(self.spe, ls_for(pairs, to), &pairs_here)?;
             span(self.spe, pairs, to, len * p.bytes, true, tag(k)).await?;

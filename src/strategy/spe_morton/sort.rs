@@ -5,14 +5,16 @@
 //! permutation of the records, every SPE on its slice, streamed through
 //! the local store.
 
-use super::pairs::{KeyRec, PAIRS_PER_BLOCK, ls_for, span, stage_list};
+use super::pairs::{KeyRec, PAIRS_PER_BLOCK, gather_list, ls_for, span, stage_list};
 use super::{Program, RECORD, RECORDS_PER_BLOCK};
 use crate::aabb::Aabb;
-use crate::cell::{CellError, Cycles, Ea, ListElement, LsAddr, WaitMode};
+use crate::cell::{CellError, Ea, LsAddr, WaitMode};
+use crate::kernels::morton::KeySpec;
+use crate::kernels::quantise::QuantisedKeys;
 use crate::kernels::radix;
 use crate::kernels::split::{Boxed, Side, side_of};
 use crate::spe::layout::TriRecord;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// `count` elements of `size` bytes at `ea`, read `per_block` a block.
 #[derive(Clone, Copy)]
@@ -138,27 +140,36 @@ impl Program<'_> {
         Ok(Aabb { min, max })
     }
 
+    /// The quantisation of `spec`'s keys, the halvings it made to find
+    /// its axes charged at the key bit's rate.
+    pub(super) fn quantised(&self, spec: &KeySpec) -> QuantisedKeys {
+        let q = QuantisedKeys::new(spec);
+        (self.spe).compute_items(self.rates.key_bit, q.setup_halvings());
+        q
+    }
+
     /// Phase 1: a key for every record of this SPE's slice, into keys A.
     pub(super) async fn keys(&mut self, bufs: [LsAddr; 4]) -> Result<(), CellError> {
         let (lo, hi) = self.slice_of(0, self.a.n);
-        let rate =
-            Cycles(self.rates.key_setup.0 + self.rates.key_bit.0 * self.specs[0].bits as u64);
+        let quantised = self.quantised(&self.specs[0]);
         let src = self.a.tris.offset((lo * RECORD) as u64);
         let count = hi - lo;
         for b in 0..count.div_ceil(RECORDS_PER_BLOCK) {
             let (first, len, buf) = self
                 .next_block(Stream::new(src, RECORD, count, RECORDS_PER_BLOCK), b, bufs)
                 .await?;
-            let spec = self.specs[0];
-            let keys: Vec<KeyRec> = self.spe.with_ls(buf, len, |recs: &[TriRecord]| {
-                (recs.iter().enumerate())
-                    .map(|(i, r)| KeyRec {
-                        key: spec.key(r.center()),
-                        index: (lo + first + i) as u32,
-                    })
-                    .collect()
+            let centers: Vec<Vec3A> = self.spe.with_ls(buf, len, |recs: &[TriRecord]| {
+                recs.iter().map(|r| r.center()).collect()
             })?;
-            self.spe.compute_items(rate, len as u64);
+            let mut codes = vec![0; len];
+            let cost = self.rates.keys(&quantised, &centers, &mut codes);
+            self.spe.compute(cost);
+            let keys: Vec<KeyRec> = (codes.into_iter().enumerate())
+                .map(|(i, key)| KeyRec {
+                    key,
+                    index: (lo + first + i) as u32,
+                })
+                .collect();
             let (obuf, tag) = self.out_buffer(b, bufs).await?;
             let p = self.a.pairs;
             let to = self.a.keys[0].offset(((lo + first) * p.bytes) as u64);
@@ -262,12 +273,7 @@ impl Program<'_> {
                 )
                 .await?;
             let recs: Vec<KeyRec> = p.read(self.spe, buf, len)?;
-            let list: Vec<ListElement> = (recs.iter())
-                .map(|r| ListElement {
-                    ea: self.a.tris.offset(r.index as u64 * RECORD as u64),
-                    size: RECORD as u32,
-                })
-                .collect();
+            let list = gather_list(self.a.tris, &recs);
             self.spe.compute_items(self.rates.radix_scatter, len as u64);
             let (obuf, tag) = self.out_buffer(b, bufs).await?;
             self.spe.getl(obuf, &list, tag).await?;
