@@ -49,8 +49,9 @@
 //! leaves priced for a few frames after it ([`HORIZON`]), kept by the
 //! cheapest update at the render that update would leave of it (a tree a
 //! slower update left stays slow until something rebuilds it, and a fresh
-//! tree kept by deep updates loses a step: one frame's choice costs the
-//! frames after it); the least
+//! tree kept by deep updates loses a step — until a deep update has kept
+//! one, it is priced no faster than the tree they keep now: one frame's
+//! choice costs the frames after it); the least
 //! wins, ties going to the lower sum, then to the deep update over the
 //! local one (it never rebuilds more).
 
@@ -349,7 +350,13 @@ impl Predictor {
         let keep = (predictions.iter())
             .find(|(m, _)| *m == Method::Deep)
             .map_or(0.0, |(_, p)| p.update_ms);
-        let kept = |m: Method, r: f64| r * self.deep_ratio(m == Method::Deep);
+        // A fresh tree kept by deep updates: as learned; until a deep
+        // update has kept one, no faster than the tree they keep now.
+        let kept = |m: Method, r: f64| match (m, self.render_deep, self.deep_tree) {
+            (Method::Deep, ..) => r * self.deep_ratio(true),
+            (_, None, true) => r.max(self.render_now.unwrap_or(r)),
+            _ => r * self.deep_ratio(false),
+        };
         let best = *predictions
             .iter()
             .min_by(|(a, pa), (b, pb)| {

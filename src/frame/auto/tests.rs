@@ -414,3 +414,51 @@ fn an_untried_local_update_is_priced_at_the_tree_it_leaves() {
     let pr = slow.predict(&small, 10_000, |_| 0.0);
     assert_ne!(slow.choose(&pr, sum).0, Method::Local, "{pr:?}");
 }
+
+/// Until a deep update has kept a fresh tree, a fresh tree is priced for
+/// the frames after it no faster than the tree the deep updates keep now:
+/// the local update's faster render does not buy its dearer update on a
+/// guess (on Šibenik's moving part, deep updates of a local update's tree
+/// rendered slower than the deep updates' own chain). Once learned, the
+/// ratio prices it.
+#[test]
+fn a_fresh_tree_kept_by_deep_updates_is_priced_as_learned_not_guessed() {
+    let mut p = Predictor::new(70_000, Some(20.0));
+    p.seed_render(11.2);
+    p.seed_local_render(11.4);
+    let small = plan(false, 36_000, &[4_000]);
+    p.observe(Method::Deep, &small, (false, 70_000), 2.0, 12.1);
+    let pr = |local_render: f64| {
+        [
+            (
+                Method::Rebuild,
+                Prediction {
+                    update_ms: 20.0,
+                    render_ms: 11.0,
+                },
+            ),
+            (
+                Method::Deep,
+                Prediction {
+                    update_ms: 2.1,
+                    render_ms: 12.1,
+                },
+            ),
+            (
+                Method::Local,
+                Prediction {
+                    update_ms: 3.2,
+                    render_ms: local_render,
+                },
+            ),
+        ]
+    };
+    // Kept as fast as it renders fresh, the local update's tree would pay
+    // its 1.1 ms over four frames (0.7 a frame faster); not learned, it
+    // does not.
+    assert_eq!(p.choose(&pr(11.4), |u, r| u + r).0, Method::Deep);
+    // A deep update that kept a fresh tree at its render teaches it.
+    p.observe(Method::Local, &small, (false, 70_000), 3.2, 11.4);
+    p.observe(Method::Deep, &small, (false, 70_000), 2.0, 11.4);
+    assert_eq!(p.choose(&pr(11.4), |u, r| u + r).0, Method::Local);
+}

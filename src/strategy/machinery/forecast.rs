@@ -91,6 +91,17 @@ impl Forecast {
     }
 }
 
+/// The machine a forecast charges on `cell`: its own, or in the
+/// functional mode, which charges no time, the PS3's, so that a build
+/// runs the count of SPEs a timed run would.
+pub(in crate::strategy) fn machine_of(cell: &crate::cell::Cell) -> CostModel {
+    let cost = cell.config().cost;
+    match cost.charge_compute {
+        true => cost,
+        false => CostModel::ps3(),
+    }
+}
+
 /// Predicts the build of `n` triangles with `cfg` on 1 to `spes` SPEs.
 pub(in crate::strategy) fn predict(
     n: usize,
@@ -111,6 +122,65 @@ pub(in crate::strategy) fn predict(
     }
 }
 
+/// The machine's side of a forecast, in cycles and bytes per cycle: the
+/// DMA, the memory interface, the SPEs' starts and a barrier's atomics
+/// and signals (every multi-SPE strategy's forecast charges these).
+#[derive(Clone, Copy, Debug)]
+pub(in crate::strategy) struct Machine {
+    /// One DMA's latency, from issue to completion.
+    pub latency: f64,
+    pub spe_bandwidth: f64,
+    /// One stream alone on the memory interface; several together.
+    pub memory_alone: f64,
+    pub memory_shared: f64,
+    /// One SPE program's start by the PPE.
+    pub start: f64,
+    /// One SPE's fetch-and-add on the barrier's line; one signal.
+    pub arrive: f64,
+    pub signal: f64,
+}
+
+impl Machine {
+    pub fn new(m: &CostModel) -> Self {
+        let c = |x: crate::cell::Cycles| x.0 as f64;
+        let claim = match m.lock_lines {
+            LockLines::Shared { claim_cycles } => c(claim_cycles),
+            LockLines::Exclusive => c(m.getllar_cycles),
+        };
+        Machine {
+            latency: c(m.dma_issue_cycles) + c(m.mfc_command_cycles) + c(m.dma_latency_cycles),
+            spe_bandwidth: m.spe_bandwidth.bytes_per_cycle(),
+            memory_alone: m.memory_bandwidth.bytes_per_cycle(),
+            memory_shared: m.memory_shared_bandwidth.bytes_per_cycle(),
+            start: c(m.spe_start_cycles),
+            arrive: c(m.getllar_cycles) + claim,
+            signal: c(m.dma_issue_cycles) + c(m.signal_latency_cycles),
+        }
+    }
+
+    /// Cycles to move `bytes` on one SPE while `streams` SPEs stream.
+    pub fn moving(&self, bytes: f64, streams: usize) -> f64 {
+        let memory = match streams {
+            0 | 1 => self.memory_alone,
+            s => self.memory_shared / s as f64,
+        };
+        bytes / self.spe_bandwidth.min(memory)
+    }
+
+    /// A barrier of `k` SPEs: every arrival on one line, one after
+    /// another, then the last one's signals.
+    pub fn barrier(&self, k: usize) -> f64 {
+        k as f64 * self.arrive + (k - 1) as f64 * self.signal
+    }
+
+    /// `k` SPEs stream an equal share of `n` items at once, `per_item`
+    /// cycles and `bytes` each.
+    pub fn shared_pass(&self, n: usize, k: usize, per_item: f64, bytes: f64) -> f64 {
+        let share = n as f64 / k as f64;
+        (share * per_item).max(self.moving(share * bytes, k)) + self.latency
+    }
+}
+
 /// The rates the replay charges, in cycles and bytes per cycle.
 struct Rates {
     leaf: usize,
@@ -122,16 +192,7 @@ struct Rates {
     bounds_per_record: f64,
     /// SPE cycles per node: the job's loop and the bin sweep.
     per_node: f64,
-    /// One DMA's latency, from issue to completion.
-    latency: f64,
-    spe_bandwidth: f64,
-    /// One stream alone on the memory interface; several together.
-    memory_alone: f64,
-    memory_shared: f64,
-    start: f64,
-    /// One SPE's fetch-and-add on the barrier's line; one signal.
-    arrive: f64,
-    signal: f64,
+    m: Machine,
     /// The largest job finished in the local store (0: none).
     local: usize,
 }
@@ -145,44 +206,18 @@ impl Rates {
             }
             SplitChoice::GlobalHeuristic => (0.0, 0.0),
         };
-        let claim = match m.lock_lines {
-            LockLines::Shared { claim_cycles } => c(claim_cycles),
-            LockLines::Exclusive => c(m.getllar_cycles),
-        };
-        let latency = c(m.dma_issue_cycles) + c(m.mfc_command_cycles) + c(m.dma_latency_cycles);
         Rates {
             leaf: cfg.leaf_size.max(1) as usize,
             per_record: c(k.spe_partition_item) + bin,
             bytes_per_record: 2.0 * RECORD + if bin > 0.0 { RECORD } else { 0.0 },
             bounds_per_record: c(k.spe_bounds_item),
             per_node: c(k.spe_job) + sweep,
-            latency,
-            spe_bandwidth: m.spe_bandwidth.bytes_per_cycle(),
-            memory_alone: m.memory_bandwidth.bytes_per_cycle(),
-            memory_shared: m.memory_shared_bandwidth.bytes_per_cycle(),
-            start: c(m.spe_start_cycles),
-            arrive: c(m.getllar_cycles) + claim,
-            signal: c(m.dma_issue_cycles) + c(m.signal_latency_cycles),
+            m: Machine::new(m),
             local: match finish {
                 Finish::Local => largest_local(cfg),
                 Finish::Stream => 0,
             },
         }
-    }
-
-    /// Cycles to move `bytes` on one SPE while `streams` SPEs stream.
-    fn moving(&self, bytes: f64, streams: usize) -> f64 {
-        let memory = match streams {
-            0 | 1 => self.memory_alone,
-            s => self.memory_shared / s as f64,
-        };
-        bytes / self.spe_bandwidth.min(memory)
-    }
-
-    /// A barrier of `k` SPEs: every arrival on one line, one after
-    /// another, then the last one's signals.
-    fn barrier(&self, k: usize) -> f64 {
-        k as f64 * self.arrive + (k - 1) as f64 * self.signal
     }
 }
 
@@ -216,7 +251,7 @@ impl<'a> Replay<'a> {
             Dealing::Shared => self.shared(&dealt, n),
         };
         // The last SPE starts k starts in; the PPE hears of the end.
-        self.k as f64 * self.r.start + top + rest + self.r.signal
+        self.k as f64 * self.r.m.start + top + rest + self.r.m.signal
     }
 
     /// The root's bounds and the top levels: their cycles, the level
@@ -226,8 +261,8 @@ impl<'a> Replay<'a> {
         let (r, k) = (self.r, self.k);
         let coop = k > 1 && self.plan.top.coop;
         let mut t = match coop {
-            true => self.shared_pass(n, r.bounds_per_record, RECORD) + r.barrier(k),
-            false => n as f64 * r.bounds_per_record + r.moving(n as f64 * RECORD, 1),
+            true => self.shared_pass(n, r.bounds_per_record, RECORD) + r.m.barrier(k),
+            false => n as f64 * r.bounds_per_record + r.m.moving(n as f64 * RECORD, 1),
         };
         let least = self.help_least();
         let helped = |c: usize| coop && c >= least;
@@ -279,20 +314,21 @@ impl<'a> Replay<'a> {
                 let chunk = self.shared_pass(c, r.per_record, r.bytes_per_record);
                 // About half the records are on the wrong side: a get and
                 // a put each, an equal share of them each SPE.
-                let swaps = r.moving(c as f64 * RECORD / self.k as f64, self.k);
-                chunk + swaps + 2.0 * r.barrier(self.k) + r.signal + r.per_node
+                let swaps = r.m.moving(c as f64 * RECORD / self.k as f64, self.k);
+                chunk + swaps + 2.0 * r.m.barrier(self.k) + r.m.signal + r.per_node
             }
             false => {
                 let c = c as f64;
-                (c * r.per_record).max(r.moving(c * r.bytes_per_record, 1)) + r.latency + r.per_node
+                (c * r.per_record).max(r.m.moving(c * r.bytes_per_record, 1))
+                    + r.m.latency
+                    + r.per_node
             }
         }
     }
 
     /// Every SPE streams an equal share of `n` records at once.
     fn shared_pass(&self, n: usize, per_record: f64, bytes: f64) -> f64 {
-        let share = n as f64 / self.k as f64;
-        (share * per_record).max(self.r.moving(share * bytes, self.k)) + self.r.latency
+        self.r.m.shared_pass(n, self.k, per_record, bytes)
     }
 
     /// Private queues: each SPE builds its hand of a largest-first deal;
@@ -327,10 +363,10 @@ impl<'a> Replay<'a> {
             }
         };
         let interface = match self.k {
-            1 => self.r.memory_alone,
-            _ => self.r.memory_shared,
+            1 => self.r.m.memory_alone,
+            _ => self.r.m.memory_shared,
         };
-        let own = bytes / k / self.r.spe_bandwidth;
+        let own = bytes / k / self.r.m.spe_bandwidth;
         heaviest.max(own).max(bytes / interface)
     }
 
@@ -356,7 +392,7 @@ impl<'a> Replay<'a> {
                     }
                 }
             }
-            t += self.greedy(&taken) + self.r.barrier(self.k);
+            t += self.greedy(&taken) + self.r.m.barrier(self.k);
             level = next;
         }
         let subtrees: Vec<_> = aside.into_iter().map(|c| self.subtree(c)).collect();
@@ -375,7 +411,7 @@ impl<'a> Replay<'a> {
             true => work / k + largest * (1.0 - 1.0 / k),
             false => (work / k).max(largest),
         };
-        spread.max(bytes / self.r.memory_shared)
+        spread.max(bytes / self.r.m.memory_shared)
     }
 
     /// One job's own level, streamed: its cycles (at its SPE's own
@@ -386,8 +422,8 @@ impl<'a> Replay<'a> {
             return (r.per_node, 0.0);
         }
         let bytes = c as f64 * r.bytes_per_record;
-        let cycles = (c as f64 * r.per_record).max(bytes / r.spe_bandwidth);
-        (cycles + r.latency + r.per_node, bytes)
+        let cycles = (c as f64 * r.per_record).max(bytes / r.m.spe_bandwidth);
+        (cycles + r.m.latency + r.per_node, bytes)
     }
 
     /// A dealt job's whole subtree: streamed level by level until it fits
@@ -402,7 +438,7 @@ impl<'a> Replay<'a> {
         } else if c <= r.local {
             let bytes = 2.0 * c as f64 * RECORD;
             let tree = in_local_store(c, r);
-            (2.0 * r.latency + bytes / r.spe_bandwidth + tree, bytes)
+            (2.0 * r.m.latency + bytes / r.m.spe_bandwidth + tree, bytes)
         } else {
             let (t, b) = self.step(c);
             let [lo, hi] = halves(c);
@@ -417,17 +453,31 @@ impl<'a> Replay<'a> {
 
 /// Compute cycles of a subtree of `c` records built in the local store.
 fn in_local_store(c: usize, r: &Rates) -> f64 {
-    match c <= r.leaf {
-        true => r.per_node,
+    halving_tree(c, r.leaf, r.per_record, r.per_node)
+}
+
+/// Compute cycles of the halving tree of `c` records down to leaves of at
+/// most `leaf`: `per_record` for each record at each inner node, and
+/// `per_node` a node.
+pub(in crate::strategy) fn halving_tree(
+    c: usize,
+    leaf: usize,
+    per_record: f64,
+    per_node: f64,
+) -> f64 {
+    match c <= leaf {
+        true => per_node,
         false => {
             let [lo, hi] = halves(c);
-            c as f64 * r.per_record + r.per_node + in_local_store(lo, r) + in_local_store(hi, r)
+            let below = halving_tree(lo, leaf, per_record, per_node)
+                + halving_tree(hi, leaf, per_record, per_node);
+            c as f64 * per_record + per_node + below
         }
     }
 }
 
 /// A job's two halves.
-fn halves(c: usize) -> [usize; 2] {
+pub(in crate::strategy) fn halves(c: usize) -> [usize; 2] {
     [c / 2, c - c / 2]
 }
 

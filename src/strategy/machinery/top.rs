@@ -70,23 +70,10 @@ pub const COOP_PARTITION: Knob = Knob::word(
 /// `--tris-per-spe N|auto`: `spes_used`.
 pub const TRIS_PER_SPE: Knob = Knob::int_or_auto(
     "tris-per-spe",
-    "each SPE used gets at least this many triangles (auto: the builder's own choice: the count of SPEs it predicts fastest, or for spe_morton a table of work per SPE); more SPEs given run on that many (1: every SPE)",
+    "each SPE used gets at least this many triangles (auto: the count of SPEs the builder predicts fastest); more SPEs given run on that many (1: every SPE)",
     (1, usize::MAX),
     &["1", "4000"],
 );
-
-/// The baseline's partition work on `n` triangles with leaves of `leaf`,
-/// in record steps, known before the build: every level of a balanced
-/// tree streams all `n` records, n · ⌈log2(n / leaf)⌉ (at least `n`).
-pub fn partition_work(n: usize, leaf: u32) -> u64 {
-    let levels = (n as f64 / leaf.max(1) as f64).log2().ceil().max(1.0) as u64;
-    n as u64 * levels
-}
-
-/// The work each SPE must get before a strategy runs on `k` SPEs:
-/// `steps[k - 1]` record steps of [`partition_work`] an SPE (the last
-/// entry for every count past the table), non-decreasing.
-pub(in crate::strategy) type WorkPerSpe = &'static [u64];
 
 /// The SPEs a strategy runs on for `n` triangles when `available` are
 /// given: with `--tris-per-spe N` the most SPEs that each get at least N
@@ -103,23 +90,6 @@ pub(in crate::strategy) fn spes_used(
         t => n / t.max(1),
     }
     .clamp(1, available.max(1))
-}
-
-/// A strategy's choice from a table of work: the most SPEs `k`, at most
-/// `available`, that each get at least `table[k - 1]` record steps of
-/// [`partition_work`] (`spe_morton`'s table: set where one SPE more was
-/// never slower on the scenes it was measured on, docs/morton.md).
-pub(in crate::strategy) fn spes_by_work(
-    available: usize,
-    (n, leaf): (usize, u32),
-    table: WorkPerSpe,
-) -> usize {
-    debug_assert!(table.windows(2).all(|w| w[0] <= w[1]));
-    let work = partition_work(n, leaf);
-    (1..=available)
-        .take_while(|&k| k == 1 || work / k as u64 >= table[(k - 1).min(table.len() - 1)])
-        .last()
-        .unwrap_or(1)
 }
 
 /// How the top levels are built.

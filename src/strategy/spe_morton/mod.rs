@@ -20,7 +20,8 @@
 //!    the sorted keys in main memory, down to **regions** of at most
 //!    `--region-size` triangles (or ranges that share their whole key, or
 //!    leaves): SPE 0 splits the largest ranges until there are a few per
-//!    SPE, then every SPE takes them from an atomic counter.
+//!    SPE, then every SPE takes them from an atomic counter, each range's
+//!    keys read into the local store once they fit a 16 KiB window.
 //!    A range that shares its whole key and overflows a local store is
 //!    keyed again within its own cell (`rekey`) and the top goes on from
 //!    its new keys, in rounds.
@@ -41,6 +42,7 @@
 //! tree is the baseline's tree.
 
 mod areas;
+mod forecast;
 mod pairs;
 mod ranges;
 mod rates;
@@ -55,7 +57,7 @@ pub use rates::{COUNTS, MortonRates};
 use super::machinery::arena::ObjectArena;
 use super::machinery::breadth_first::{DMA_LISTS, DOUBLE_BUFFER, Job, NO_PREFETCH, QueueKnobs};
 use super::machinery::node_writes::NodeWrites;
-use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, WorkPerSpe, spes_by_work, spes_used};
+use super::machinery::top::{Pool, SpeExit, TRIS_PER_SPE, spes_used};
 use super::{Knob, Knobs, Readback, Records, Setup, SpeWork};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, LsAddr, Spe};
@@ -144,14 +146,6 @@ const DEFAULT_QUEUE: QueueKnobs = QueueKnobs {
     prefetch: true,
 };
 
-/// `--tris-per-spe auto`: the record steps of the partition
-/// (`machinery::top::partition_work`) each SPE must get before the build
-/// runs on 1, 2, … 8 SPEs: just above the most at which that many SPEs
-/// were slower than fewer, on the small scenes of `tests/zoo.rs` (1,000
-/// to 23,000 triangles) with quantised keys; every SPE from about 12,000
-/// triangles (docs/morton.md).
-const AUTO_WORK_PER_SPE: WorkPerSpe = &[0, 0, 0, 0, 0, 4_100, 4_100, 14_000];
-
 /// SPE 0's outbound-mailbox word before the region count and spill size
 /// (the pool's block requests share the mailbox: `arena::REQUEST_BLOCK`).
 const REGIONS: u32 = 3;
@@ -238,8 +232,10 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         knobs.key_bits = auto_key_bits(n, knobs.region_size, knobs.digit_bits);
     }
     let (rates, kernels) = (MortonRates::with(&setup.rates), setup.rates.kernels());
-    let by_work = || spes_by_work(setup.spes, (n, cfg.leaf_size), AUTO_WORK_PER_SPE);
-    let spes = spes_used(setup.spes, n, &setup.knobs, by_work);
+    let machine = super::machinery::forecast::machine_of(cell);
+    let rated = (&rates, &kernels, &machine);
+    let forecast = forecast::predict(n, &cfg, &knobs, rated, setup.spes);
+    let spes = spes_used(setup.spes, n, &setup.knobs, || forecast.chosen());
     let pool = Pool::alloc(cell, n, &cfg, (spes, 1))?;
     let a = Areas::alloc(cell, setup, &knobs, &pool, spes)?;
     let spec = KeySpec {
@@ -265,7 +261,12 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             word: a.pairs.index_word(),
         },
     };
-    Ok(pool.readback(exits, reach, Some(records)))
+    let readback = pool.readback(exits, reach, Some(records));
+    Ok(Box::new(move || {
+        let mut o = readback()?;
+        o.predicted = Some(forecast.prediction());
+        Ok(o)
+    }))
 }
 
 /// One SPE's program.
@@ -315,6 +316,14 @@ struct Program<'a> {
     /// Triangles of the largest region too large for a local store (0:
     /// none): each SPE's part of the records area holds that many.
     largest: usize,
+    /// The keys of the range being split, while the top reads them in the
+    /// local store.
+    window: Option<top::KeyWindow>,
+    /// Bytes of the local store a region's build may take: what is free
+    /// once the streamed phases are done. Fixed, so that the top (which
+    /// holds a key window meanwhile), the region tables and the builds
+    /// agree on which regions fit.
+    region_area: u32,
 }
 
 /// Names of the radix passes, for the phase list.
@@ -375,6 +384,8 @@ impl<'a> Program<'a> {
             rounds: 0,
             solo_taken: 0,
             largest: 0,
+            window: None,
+            region_area: 0,
         })
     }
 
@@ -436,6 +447,7 @@ impl<'a> Program<'a> {
             self.end_phase("permutation").await?;
         }
         self.spe.ls_release_to(mark);
+        self.region_area = self.spe.ls_free_bytes();
         let mut parts = vec![self.top(keys, &[]).await?];
         loop {
             let found = self.found_this_round().await?;

@@ -60,18 +60,25 @@ pub struct MortonRates {
     /// over its pair's index: fewer instructions, charged the same).
     /// Counted 5.5.
     pub radix_scatter: Cycles,
+    /// Per probe of a split's binary search over keys in the local store:
+    /// the pair's address (1 even), its load (1 odd, 6 cycles to use),
+    /// the bit masked and compared (2 even, dependent), the bounds
+    /// selected (2 even) and the loop's branch (1 odd): a dependent chain
+    /// of about 12 cycles, nothing to pair it with. Counted 12.
+    pub key_probe: Cycles,
 }
 
 /// The instruction counts of [`MortonRates`]' kernels, in its fields'
 /// order: key setup, key bit, key quantise, key spread, radix count,
-/// radix scatter.
-pub const COUNTS: [Count; 6] = [
+/// radix scatter, key probe.
+pub const COUNTS: [Count; 7] = [
     Count::tenths(75),
     Count::tenths(75),
     Count::tenths(125),
     Count::tenths(8),
     Count::of(3),
     Count::tenths(55),
+    Count::of(12),
 ];
 
 impl MortonRates {
@@ -84,6 +91,7 @@ impl MortonRates {
             key_spread: code.charge(COUNTS[3]),
             radix_count: code.charge(COUNTS[4]),
             radix_scatter: code.charge(COUNTS[5]),
+            key_probe: code.charge(COUNTS[6]),
         }
     }
 
@@ -117,6 +125,7 @@ impl MortonRates {
             key_spread: code.band(COUNTS[3]),
             radix_count: code.band(COUNTS[4]),
             radix_scatter: code.band(COUNTS[5]),
+            key_probe: code.band(COUNTS[6]),
         })
         .to_vec()
     }

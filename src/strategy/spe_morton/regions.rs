@@ -83,6 +83,7 @@ impl Program<'_> {
         } else {
             None
         };
+        debug_assert_eq!(self.spe.ls_free_bytes(), self.region_area);
         let mut next = 0;
         // Regions that fit half the local store go through two slots: the
         // next one is taken and its gather issued before this one's build
@@ -174,7 +175,8 @@ impl Program<'_> {
         )))
     }
 
-    /// Records the local store can hold with their nodes (48 bytes, at
+    /// Records the local store can hold with their nodes in the regions'
+    /// area ([`Program::region_area`]: 48 bytes, at
     /// most two 12-byte nodes each and, unless `--permute`, a key pair),
     /// beside the allocations' rounding: the records' and the nodes' (256
     /// bytes), and the key pairs' buffer (16 bytes more than they take,
@@ -184,7 +186,7 @@ impl Program<'_> {
             true => (0, 256),
             false => (self.a.pairs.bytes, 256 + 144),
         };
-        let free = self.spe.ls_free_bytes().saturating_sub(slack);
+        let free = self.region_area.saturating_sub(slack);
         free as usize / (RECORD + 2 * NODE + pair)
     }
 

@@ -28,7 +28,7 @@ use super::rekey::{Found, Placed};
 use super::{JOB, Program, REGIONS, SPILL_UNIT};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
-use crate::cell::{CellError, Ea};
+use crate::cell::{CellError, Ea, LsAddr};
 use crate::kernels::morton::KeyOrder;
 use crate::kernels::split::Side;
 use crate::strategy::machinery::breadth_first::Job;
@@ -94,14 +94,56 @@ fn link(list: &mut [Top], slot: usize, at: usize, roots: &mut Vec<(usize, usize)
     }
 }
 
+/// Bytes of key pairs a split reads in one get once its range fits: the
+/// splits below it probe them in the local store.
+pub(super) const WINDOW: usize = 16 * 1024;
+
+/// The keys of one range in the local store: sorted positions `first`
+/// to `first + count`, the first at `ls`.
+#[derive(Clone, Copy)]
+pub(super) struct KeyWindow {
+    first: usize,
+    count: usize,
+    ls: LsAddr,
+}
+
+impl KeyWindow {
+    fn covers(&self, first: usize, count: usize) -> bool {
+        self.first <= first && first + count <= self.first + self.count
+    }
+}
+
 impl Program<'_> {
-    /// The key at sorted position `i` (one small get from main memory).
+    /// The key at sorted position `i`: in the key window's local store
+    /// where it covers `i` (a probe's instructions), else one small get
+    /// from main memory.
     async fn key_at(&self, keys: Ea, i: usize) -> Result<u64, CellError> {
         let (tag, p) = (self.tags, self.a.pairs);
+        if let Some(w) = self.window.filter(|w| w.covers(i, 1)) {
+            self.spe.compute(self.rates.key_probe);
+            let at = w.ls.offset(((i - w.first) * p.bytes) as u32);
+            return Ok(p.read(self.spe, at, 1)?[0].key);
+        }
         let at = keys.offset((i * p.bytes) as u64);
         span(self.spe, self.line, at, p.bytes, false, tag).await?;
         self.spe.wait_tag(tag).await?;
         Ok(p.read(self.spe, ls_for(self.line, at), 1)?[0].key)
+    }
+
+    /// Before splitting `r`: where its keys fit [`WINDOW`] and the window
+    /// does not hold them yet, reads them into it (`buf`) in one get.
+    async fn window_for(&mut self, keys: Ea, r: Range, buf: LsAddr) -> Result<(), CellError> {
+        let (first, count, p) = (r.first as usize, r.count as usize, self.a.pairs);
+        let held = self.window.is_some_and(|w| w.covers(first, count));
+        if held || count * p.bytes > WINDOW {
+            return Ok(());
+        }
+        let at = keys.offset((first * p.bytes) as u64);
+        span(self.spe, buf, at, count * p.bytes, false, self.tags).await?;
+        self.spe.wait_tag(self.tags).await?;
+        let ls = ls_for(buf, at);
+        self.window = Some(KeyWindow { first, count, ls });
+        Ok(())
     }
 
     /// Splits `r` (charged one job and its probes) into `list`: a region,
@@ -239,7 +281,10 @@ impl Program<'_> {
             part.above = above;
         }
         self.barrier().await?;
-        // 2. Every SPE: sub-tops from the counter, each split to regions.
+        // 2. Every SPE: sub-tops from the counter, each split to regions,
+        // the keys of each range that fits read into a window once.
+        let mark = self.spe.ls_mark();
+        let window = self.spe.ls_alloc((WINDOW + 16) as u32, 128)?;
         let (line, take, tag) = (self.line, self.a.take, self.tags);
         self.spe.get(line, take, 128, tag).await?;
         self.spe.wait_tag(tag).await?;
@@ -256,6 +301,7 @@ impl Program<'_> {
             part.roots.push((k, part.nodes.len()));
             let mut stack = vec![(NO_PARENT, sub)];
             while let Some((slot, r)) = stack.pop() {
+                self.window_for(keys, r, window).await?;
                 let at = part.nodes.len();
                 link(&mut part.nodes, slot, at, &mut part.rekey_roots);
                 if let Some([l, r]) = self.split(keys, r, &mut part.nodes).await? {
@@ -263,6 +309,8 @@ impl Program<'_> {
                 }
             }
         }
+        self.window = None;
+        self.spe.ls_release_to(mark);
         self.publish_found().await?;
         self.barrier().await?;
         Ok(part)

@@ -117,9 +117,7 @@ impl Policies {
     }
 
     /// The build's predicted time on each count of SPEs up to those given,
-    /// with the rates in force (`machinery::forecast`); in the functional
-    /// mode, which charges no time, the PS3's, so that it runs the count a
-    /// timed run would.
+    /// with the rates in force (`machinery::forecast`).
     fn forecast(&self, cell: &Cell, setup: &Setup, cfg: &BihConfig) -> Forecast {
         let plan = Plan {
             top: self.top,
@@ -129,11 +127,7 @@ impl Policies {
                 Deal::Shared(_) => Dealing::Shared,
             },
         };
-        let cost = cell.config().cost;
-        let machine = match cost.charge_compute {
-            true => cost,
-            false => crate::cell::CostModel::ps3(),
-        };
+        let machine = super::forecast::machine_of(cell);
         let rates = (&setup.rates.kernels(), &machine);
         super::forecast::predict(setup.count, cfg, plan, rates, setup.spes)
     }
