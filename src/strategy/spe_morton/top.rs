@@ -281,8 +281,16 @@ impl Program<'_> {
             part.above = above;
         }
         self.barrier().await?;
-        // 2. Every SPE: sub-tops from the counter, each split to regions,
-        // the keys of each range that fits read into a window once.
+        self.split_subtops(keys, &mut part).await?;
+        self.publish_found().await?;
+        self.barrier().await?;
+        Ok(part)
+    }
+
+    /// Step 2 of a round, every SPE: sub-tops from the counter, each split
+    /// to regions, the keys of each range that fits read into a window
+    /// once.
+    async fn split_subtops(&mut self, keys: Ea, part: &mut TopPart) -> Result<(), CellError> {
         let mark = self.spe.ls_mark();
         let window = self.spe.ls_alloc((WINDOW + 16) as u32, 128)?;
         let (line, take, tag) = (self.line, self.a.take, self.tags);
@@ -311,9 +319,7 @@ impl Program<'_> {
         }
         self.window = None;
         self.spe.ls_release_to(mark);
-        self.publish_found().await?;
-        self.barrier().await?;
-        Ok(part)
+        Ok(())
     }
 
     /// After the last round, every SPE: the region tables, the regions
