@@ -57,10 +57,14 @@ pub(super) fn predict(
             .map(|k| Replay::new(&r, k).build(n, worst) as u64)
             .collect()
     };
-    Forecast {
-        best: at(false),
-        worst: at(true),
-    }
+    let best: Vec<u64> = at(false);
+    // Lumps can be the cheaper tree where the halving tree's regions are
+    // larger than a local store holds (`--region-size` past it): the
+    // worst is never below the best.
+    let worst = (at(true).into_iter().zip(&best))
+        .map(|(w, &b)| w.max(b))
+        .collect();
+    Forecast { best, worst }
 }
 
 /// The rates the replay charges, in cycles, and the sizes it needs.
