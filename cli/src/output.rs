@@ -92,15 +92,49 @@ pub fn not_a_directory(dir: &Path) -> Option<PathBuf> {
 }
 
 /// A temporary file in `dir` created as `open(2)` creates a new file: mode
-/// `0666 & !umask` (`tempfile`'s own default is a private 0600).
-fn new_temporary(dir: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+/// `0666 & !umask` (`tempfile`'s own default is a private 0600), listed
+/// in [`IN_FLIGHT`] in the same step, so that no interrupt falls between
+/// the file's creation and its listing (and none after the interrupt's
+/// clean-up creates one: [`CREATING`]).
+fn new_temporary(dir: &Path) -> std::io::Result<Temporary> {
     let mut b = tempfile::Builder::new();
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
         b.permissions(std::fs::Permissions::from_mode(0o666));
     }
-    b.tempfile_in(dir)
+    let _creating = creating();
+    let file = b.tempfile_in(dir)?;
+    let listed = Listed::new(file.path());
+    Ok(Temporary {
+        file,
+        _listed: listed,
+    })
+}
+
+/// A temporary file and its listing, dropped in that order: the file is
+/// gone before it is unlisted.
+struct Temporary {
+    file: tempfile::NamedTempFile,
+    _listed: Listed,
+}
+
+/// Held while a file or directory that an interrupt must remove is
+/// created and listed; the interrupt's clean-up takes it and keeps it
+/// until the process ends, so nothing is created after the clean-up.
+static CREATING: Mutex<()> = Mutex::new(());
+
+fn creating() -> std::sync::MutexGuard<'static, ()> {
+    CREATING.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Creates `dir` (and its parents) in one step with respect to an
+/// interrupt: an interrupt's clean-up either sees it or comes after the
+/// process has stopped creating (a staging directory the clean-up
+/// removes whole).
+pub fn create_dir_all_guarded(dir: &Path) -> std::io::Result<()> {
+    let _creating = creating();
+    std::fs::create_dir_all(dir)
 }
 
 /// Checks, before any work, that `path` can be written: its directory exists
@@ -146,8 +180,8 @@ pub fn write_file(
         }
         Target::Replace { dir, file } => {
             let plain = |e: std::io::Error| fail(std::io::Error::new(e.kind(), plain_error(&e)));
-            let mut tmp = new_temporary(&dir).map_err(plain)?;
-            let _listed = Listed::new(tmp.path());
+            let mut staged = new_temporary(&dir).map_err(plain)?;
+            let tmp = &mut staged.file;
             // Written through the plain file: the temporary file's own
             // writer puts its name into errors.
             let mut w = BufWriter::new(tmp.as_file_mut());
@@ -159,7 +193,8 @@ pub fn write_file(
             if let Ok(old) = std::fs::metadata(&file) {
                 let _ = tmp.as_file().set_permissions(old.permissions());
             }
-            tmp.persist(&file).map_err(|e| plain(e.error))?;
+            // Unlisted only after the rename (the listing drops last).
+            staged.file.persist(&file).map_err(|e| plain(e.error))?;
             Ok(())
         }
     }
@@ -279,6 +314,9 @@ pub fn clean_up_on_interrupt() {
                     // A step under way that must finish whole does; none
                     // begins after this.
                     let _whole = whole_step();
+                    // Kept until the process ends: no file or staging
+                    // directory is created after the clean-up.
+                    let _creating = creating();
                     let removed = remove_in_flight();
                     let name = match sig {
                         SIGINT => "interrupted",

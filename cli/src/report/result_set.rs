@@ -107,7 +107,7 @@ pub fn say_written(line: String) {
 pub fn place(dir: &Path, file: &str) -> std::io::Result<PathBuf> {
     match &*stage() {
         Some(s) if s.out == dir => {
-            std::fs::create_dir_all(&s.dir)?;
+            crate::output::create_dir_all_guarded(&s.dir)?;
             Ok(s.dir.join(file))
         }
         _ => Ok(dir.join(file)),
