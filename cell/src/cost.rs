@@ -154,12 +154,12 @@ pub struct CostModel {
     pub charge_compute: bool,
     /// The memory interface's sustained bandwidth while transfers of more
     /// than one core share it; a lone stream still reaches
-    /// `memory_bandwidth`. Measured: 6 SPEs stream at 22.83 GB/s (16 KiB
-    /// gets, 2 or 8 in flight; puts 22.13), ≈ 22.0 flat from 256 B to
-    /// 16 KiB (cellmark §4.1, §2.3.1; SpuTest `task_largeput.c` 22.23):
-    /// DRAM refresh, bank conflicts between independent streams and the
-    /// controller's read/write turnarounds (cellmark §4.2). `ps3_legacy()`
-    /// keeps the peak here.
+    /// `memory_bandwidth`. Set from 6 SPEs streaming 16 KiB gets, 2 or 8
+    /// in flight: 22.83 GB/s (cellmark §4.1, §2.3.2); the puts and the
+    /// smaller gets are held out (`validate`). What takes the rest of the
+    /// peak: DRAM refresh, bank conflicts between independent streams and
+    /// the controller's read/write turnarounds (cellmark §4.2).
+    /// `ps3_legacy()` keeps the peak here.
     pub memory_shared_bandwidth: Bandwidth,
     /// A transfer to or from main memory moves whole 128-byte lines on
     /// the interface: each element's lines, however few of their bytes it

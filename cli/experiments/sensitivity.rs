@@ -179,10 +179,7 @@ fn run(args: &Args) -> Result<(), String> {
     let builders: Vec<BuilderKind> = (BuilderKind::ALL.iter().copied())
         .filter(|b| b.multi_spe())
         .collect();
-    let code = match args.code {
-        cellbih_cli::args::CodeArg::Paper => Code::Paper,
-        cellbih_cli::args::CodeArg::Tuned => Code::Tuned,
-    };
+    let code = args.code.code();
     let variants = variants(&base, code);
     // Every emulation side by side: each variant's baseline on each scene
     // (no SPE count) and each builder on each SPE count.

@@ -10,6 +10,11 @@
 //! output says so. Times are simulated milliseconds (deterministic); the host
 //! time the emulation took is reported beside them. Writes table1.csv and
 //! table1.json to the output directory.
+//!
+//! `--fits`: each of the calibration's two fitted rates refitted on every
+//! real-mesh cell of its column (table1_fits.csv, .json): the spread of
+//! its fits is the band `cellbih rates` shows and `sensitivity` sweeps.
+//! The rates themselves stay as fitted (`docs/calibration.md`).
 
 use clap::Parser;
 use serde_json::json;
@@ -32,7 +37,17 @@ struct Args {
     run: RunArgs,
     #[command(flatten)]
     rates: RateArgs,
+    /// Instead of the table: refit each fitted rate (the naive PPE
+    /// build's partition, the baseline's) on every real-mesh cell of its
+    /// column, the spread the rate's band is set from (a few seconds)
+    #[arg(long)]
+    fits: bool,
 }
+
+/// The calibration's fitted rates and the column each is fitted in
+/// (`docs/calibration.md`): the rate's name and that column's place in
+/// [`METHODS`].
+const FITTED: [(&str, usize); 2] = [("ppe_partition_item", 0), ("spe_partition_item", 3)];
 
 /// The paper's Table 1: model, triangles, file name, milliseconds for
 /// naive / approximate sorting / SPE depth first / SPE breadth first
@@ -118,6 +133,9 @@ fn run(args: &Args) -> Result<(), String> {
     // use them all), and section 5's strategies beside them (the paper has
     // no figure for them): every build side by side.
     let (six, rates) = args.rates.ps3(6)?;
+    if args.fits {
+        return fits(args, &models, &six, &rates);
+    }
     let builders: Vec<BuilderKind> = (METHODS.iter().copied())
         .chain(BuilderKind::ALL.iter().copied().filter(|b| b.multi_spe()))
         .collect();
@@ -203,6 +221,113 @@ fn run(args: &Args) -> Result<(), String> {
         print_table,
     )?;
     Ok(())
+}
+
+/// A model of the table: its name, scene, stand-in spec and the paper's
+/// milliseconds.
+type Model<'a> = (&'a str, Scene, Option<String>, [Option<f64>; 4]);
+
+/// `--fits`: each fitted rate refitted on every real-mesh cell of its
+/// column. A build's time is close to linear in the rate: two builds (at
+/// the rate and at a quarter more) give the line, its value at the
+/// paper's milliseconds the fit (whole cycles), a third build the time
+/// at the fit.
+fn fits(
+    args: &Args,
+    models: &[Model],
+    six: &cellbih::cell::CellConfig,
+    rates: &cellbih::kernels::rates::RateOverrides,
+) -> Result<(), String> {
+    if rates.code() != cellbih::kernels::rates::Code::Paper {
+        return Err(format!(
+            "--fits refits the paper class's fitted rates; with --code {} the SPU partition is derived, not fitted",
+            rates.code()
+        ));
+    }
+    let cfg = BihConfig::default();
+    let every = BuilderKind::every_rate(rates.code());
+    let cells: Vec<(&str, usize, usize)> = (FITTED.iter())
+        .flat_map(|&(rate, column)| {
+            (models.iter().enumerate())
+                .filter(move |(_, m)| m.2.is_none() && m.3[column].is_some())
+                .map(move |(mi, _)| (rate, column, mi))
+        })
+        .collect();
+    let done = side_by_side("fits", &cells, |&(rate, column, mi)| {
+        let (name, scene, _, paper) = &models[mi];
+        // The rate in force: as fitted, or as --rate moved it.
+        let value = (every.iter().find(|r| r.name == rate))
+            .map(|r| rates.get(rate).unwrap_or(r.value))
+            .ok_or(format!("no rate named {rate}"))?;
+        let ms = |cycles: u64| {
+            let moved = rates.with(rate, cellbih::cell::Cycles(cycles));
+            Build::new(METHODS[column])
+                .with_tree(cfg)
+                .on(six)
+                .with_rates(&moved)
+                .run(scene)
+                .map_err(|e| format!("{name}, {}: {e}", METHODS[column]))
+                .map(|r| r.simulated.expect("an emulated build").run.ms)
+        };
+        let step = (value.0 / 4).max(1);
+        let (at_value, at_step) = (ms(value.0)?, ms(value.0 + step)?);
+        let per_cycle = (at_step - at_value) / step as f64;
+        let paper_ms = paper[column].expect("a cell with a figure");
+        let fit = (value.0 as f64 + (paper_ms - at_value) / per_cycle).round() as u64;
+        Ok::<_, String>(json!({
+            "rate": rate, "model": name, "method": METHODS[column].name(),
+            "paper_ms": paper_ms, "value": value.0, "ms_at_value": at_value,
+            "fit": fit, "ms_at_fit": ms(fit)?,
+        }))
+    });
+    let rows: Vec<serde_json::Value> = done.into_iter().collect::<Result<_, _>>()?;
+    args.run.output.report(
+        "table1_fits",
+        (
+            &["rate", "model", "method", "paper_ms", "value", "ms_at_value", "fit", "ms_at_fit"],
+            &rows,
+        ),
+        &json!({ "rows": rows, "note": "each fitted rate refitted on each real-mesh cell of its column; the rates stay as fitted" }),
+        Some(&Build::new(BuilderKind::HOST).with_tree(cfg).on(six).with_rates(rates)),
+        print_fits,
+    )
+}
+
+/// The fits' table: a row a cell, then each rate's spread.
+fn print_fits(rows: &[serde_json::Value]) {
+    println!(
+        "{:<20} {:<6} {:<10} {:>9} {:>6} {:>9} {:>5} {:>9}",
+        "rate", "model", "method", "paper ms", "value", "ms", "fit", "ms at fit"
+    );
+    for r in rows {
+        println!(
+            "{:<20} {:<6} {:<10} {:>9.0} {:>6} {:>9.1} {:>5} {:>9.1}",
+            r["rate"].as_str().unwrap_or(""),
+            r["model"].as_str().unwrap_or(""),
+            r["method"].as_str().unwrap_or(""),
+            r["paper_ms"].as_f64().unwrap_or(0.0),
+            r["value"].as_u64().unwrap_or(0),
+            r["ms_at_value"].as_f64().unwrap_or(0.0),
+            r["fit"].as_u64().unwrap_or(0),
+            r["ms_at_fit"].as_f64().unwrap_or(0.0),
+        );
+    }
+    for (rate, _) in FITTED {
+        let fits: Vec<u64> = (rows.iter())
+            .filter(|r| r["rate"] == rate)
+            .filter_map(|r| r["fit"].as_u64())
+            .collect();
+        if let (Some(lo), Some(hi)) = (fits.iter().min(), fits.iter().max()) {
+            println!("{rate}: fits {lo}-{hi} (its band)");
+        }
+    }
+    println!(
+        "{}",
+        cellbih_cli::report::wrap(
+            "Simulated PS3 ms on the default model; value: the rate as fitted (it stays); fit: the rate that would meet the paper's cell, from two builds (the line through the rate and a quarter more); ms at fit: a third build there.",
+            80
+        )
+    );
 }
 
 /// Bytes per MiB, for the footprint column (main memory in use at the

@@ -96,10 +96,11 @@ pub struct KernelRates {
 /// "Compute").
 pub const FITTED_OVER_DERIVED: u64 = 4;
 
-/// The class of code a kernel rate prices: the paper's code or tuned SIMD.
-/// A derived rate is its instruction count on the SPU's two pipelines
-/// ([`Count`]) times the class's factor; the class is a model option
-/// (`--code`), the same for every strategy and the caster.
+/// The class of code a kernel rate prices: the paper's code, compiled C
+/// with SIMD intrinsics, or tuned SIMD. A derived rate is its instruction
+/// count on the SPU's two pipelines ([`Count`]) times the class's factor;
+/// the class is a model option (`--code`), the same for every strategy
+/// and the caster.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Code {
@@ -108,20 +109,74 @@ pub enum Code {
     /// partition keeps its fitted rate. The default.
     #[default]
     Paper,
+    /// C with SIMD intrinsics as spu-gcc compiles it, where most shipped
+    /// Cell code sat: its count × [`compiled::FACTOR_PER_MILLE`] / 1000,
+    /// the factor two such kernels timed on a retail PS3 run at over
+    /// their counts ([`compiled`]), the partition included (its count,
+    /// 40, × the factor).
+    Compiled,
     /// Tuned SIMD code: its count × 1.1, as SPU kernels timed on a PS3 run
     /// (`validate`'s compute section: within 9 % of their count), the
     /// partition included (its count, 40, × 1.1).
     Tuned,
 }
 
+/// The compiled class's factor, from two SPU kernels written in C with
+/// intrinsics, compiled by spu-lv2-gcc 4.1.1 at -O3 and timed by each
+/// SPE's decrementer on a retail PS3 with all their data in the local
+/// store (cellmark, `benches/nbody/`, `benches/fft/`; README §7 and
+/// `docs/cell_tuning.md` §5.2). Each is counted from its source as every
+/// derived rate is (even pipe: arithmetic, compares, shifts; odd: loads,
+/// stores, shuffles, the estimate instructions, branches; the busier pipe's
+/// slots), and its measured cycles divided by the count:
+///
+/// - **N-body**, one vector of four pairs (`spu_nbody_kernel.c`'s inner
+///   loop): even 3 `fs` + 3 `fma` (r²) + 3 `fm` + 3 `fma` (the
+///   accelerations) + the loop's add = 13; odd 4 `lqd`, `frsqest`, the
+///   branch = 6: 13 cycles. Measured 2,195 Mpairs/s on 6 SPEs: 3.2 GHz ×
+///   6 / 2,195 M = 8.75 cycles a pair, 34.99 a vector: **2.69** × the
+///   count (the four accumulators' and r²'s 6-cycle chains, not the
+///   issue slots, bound it).
+/// - **FFT**, one batch of four 1,024-point transforms (`spu_fft_kernel.c`,
+///   everything the timed loop runs): 5,120 vector butterflies at 16 (even
+///   8 single-precision operations + 8 integer: the two indices, their
+///   byte offsets, the twiddle index and its offset, the counter and its
+///   compare; odd 15: two scalar twiddle loads each `lqx` + `rotqby` +
+///   `shufb` splat, 4 `lqx`, 4 `stqx`, the branch), the bit reversal's
+///   1,024 steps at 7 (a table load, its rotate, the compare and branch;
+///   half of them swap two vectors of each array), the 1,023 passes of the
+///   middle loop at 5: 94,203 cycles. Measured 184.82 Mpoints/s on 6 SPEs:
+///   103.9 cycles a point, 425,514 a batch of 4,096 points: **4.52** × the
+///   count (a butterfly's loads wait on the last one's stores, which the
+///   compiler cannot prove apart, and the short early stages miss their
+///   branches).
+///
+/// The class charges their geometric mean, 3.49, and its band runs from
+/// the one to the other. A BIH kernel (loads and stores through indices,
+/// short data-dependent loops) is nearer the FFT's kind than the N-body's
+/// streaming arithmetic: the band's high end is the likelier side. The
+/// paper's fitted partition, 161 over its count 40 (4.0), lies inside this
+/// band: the paper's scalar code and compiled SIMD C cost about the same.
+pub mod compiled {
+    /// N-body's measured cycles over its count, per mille: 34.99 / 13.
+    pub const NBODY_PER_MILLE: u64 = 2_692;
+    /// The FFT's measured cycles over its count, per mille:
+    /// 425,514 / 94,203.
+    pub const FFT_PER_MILLE: u64 = 4_517;
+    /// The class's factor, per mille: their geometric mean,
+    /// √(2.692 × 4.517) = 3.487.
+    pub const FACTOR_PER_MILLE: u64 = (NBODY_PER_MILLE * FFT_PER_MILLE).isqrt();
+}
+
 impl Code {
-    /// Both classes, the default first.
-    pub const ALL: [Code; 2] = [Code::Paper, Code::Tuned];
+    /// Every class, the default first.
+    pub const ALL: [Code; 3] = [Code::Paper, Code::Compiled, Code::Tuned];
 
     /// Its name, as `--code` takes it.
     pub const fn name(self) -> &'static str {
         match self {
             Code::Paper => "paper",
+            Code::Compiled => "compiled",
             Code::Tuned => "tuned",
         }
     }
@@ -135,6 +190,8 @@ impl Code {
     pub const fn charge(self, count: Count) -> Cycles {
         match self {
             Code::Paper => Cycles(count.0 * FITTED_OVER_DERIVED / 10),
+            // Tenths × the factor per mille, rounded to the nearest cycle.
+            Code::Compiled => Cycles((count.0 * compiled::FACTOR_PER_MILLE + 5_000) / 10_000),
             // × 1.1, rounded to the nearest cycle.
             Code::Tuned => Cycles((count.0 * 11 + 50) / 100),
         }
@@ -148,13 +205,19 @@ impl Code {
     /// its fit by that much before scaling). Tuned: from the count itself
     /// (the hardware never beat a count) to 1.25 times it (IBM's Cell
     /// programming tutorial: well-written SPU kernels reach 80–95 % of
-    /// their issue-limited peak).
+    /// their issue-limited peak). Compiled: from the N-body's factor to
+    /// the FFT's ([`compiled`]).
     pub const fn band(self, count: Count) -> Band {
         let value = self.charge(count).0;
         match self {
             Code::Paper => Band::Between {
                 low: Cycles(value * 73 / 100),
                 high: Cycles(value * 16 / 10),
+                why: "derived",
+            },
+            Code::Compiled => Band::Between {
+                low: Cycles(count.0 * compiled::NBODY_PER_MILLE / 10_000),
+                high: Cycles((count.0 * compiled::FFT_PER_MILLE).div_ceil(10_000)),
                 why: "derived",
             },
             Code::Tuned => Band::Between {
@@ -219,7 +282,7 @@ impl KernelRates {
             ppe_node: Cycles(1000),
             spe_partition_item: match code {
                 Code::Paper => Cycles(161),
-                Code::Tuned => code.charge(counts::SPE_PARTITION_ITEM),
+                Code::Compiled | Code::Tuned => code.charge(counts::SPE_PARTITION_ITEM),
             },
             spe_bounds_item: code.charge(counts::SPE_BOUNDS_ITEM),
             spe_job: code.charge(counts::SPE_JOB),
@@ -231,6 +294,28 @@ impl KernelRates {
             spe_find_slot: code.charge(counts::SPE_FIND_SLOT),
             spe_find_moved: code.charge(counts::SPE_FIND_MOVED),
         }
+    }
+}
+
+/// The bands of the two fitted rates: the spread of their fits, each
+/// rate refitted on every real-mesh cell of its Table 1 column on the
+/// default model (`table1 --fits`, generated in `docs/calibration.md`;
+/// a test holds these to it). The rates stay as fitted: 1,065 (naive /
+/// Bunny) and 161 (breadth first / Dragon).
+pub mod table1_fits {
+    use crate::cell::Cycles;
+    /// `ppe_partition_item` refitted on naive / Bunny and naive / Dragon.
+    pub const PPE_PARTITION_ITEM: (Cycles, Cycles) = (Cycles(1059), Cycles(1109));
+    /// `spe_partition_item` refitted on breadth first / Dragon and / Bunny.
+    pub const SPE_PARTITION_ITEM: (Cycles, Cycles) = (Cycles(158), Cycles(201));
+}
+
+/// A fitted rate's band: the spread of its fits.
+const fn fits((low, high): (Cycles, Cycles)) -> Band {
+    Band::Between {
+        low,
+        high,
+        why: "Table 1's fits",
     }
 }
 
@@ -442,15 +527,16 @@ const fn estimate(value: u64) -> Band {
 
 impl KernelRates {
     /// Every shared kernel rate in the class `code`: a derived rate by
-    /// [`Code::band`], an estimate from half to twice its value; the
-    /// paper's fitted partition does not move (tuned, it is derived).
+    /// [`Code::band`], an estimate from half to twice its value, a fitted
+    /// rate across the spread of its fits ([`table1_fits`]; in the classes
+    /// other than the paper's the SPU partition is derived).
     pub fn table(code: Code) -> Vec<Rate<KernelRates>> {
         let fitted_or = |count| match code {
-            Code::Paper => Band::Fitted,
-            Code::Tuned => code.band(count),
+            Code::Paper => fits(table1_fits::SPE_PARTITION_ITEM),
+            Code::Compiled | Code::Tuned => code.band(count),
         };
         crate::rate_table!(KernelRates, "", {
-            ppe_partition_item: Band::Fitted,
+            ppe_partition_item: fits(table1_fits::PPE_PARTITION_ITEM),
             ppe_node: estimate(1000),
             spe_partition_item: fitted_or(counts::SPE_PARTITION_ITEM),
             spe_bounds_item: code.band(counts::SPE_BOUNDS_ITEM),
@@ -543,5 +629,28 @@ mod tests {
             .with("spe_job", Cycles(7));
         assert_eq!(moved.kernels().spe_job, Cycles(7));
         assert_eq!(moved.kernels().spe_bin_item, tuned.spe_bin_item);
+    }
+
+    #[test]
+    fn the_compiled_class_lies_between_the_kernels_it_is_derived_from() {
+        assert_eq!(compiled::FACTOR_PER_MILLE, 3_487);
+        let (paper, compiled, tuned) = (
+            KernelRates::of(Code::Paper),
+            KernelRates::of(Code::Compiled),
+            KernelRates::of(Code::Tuned),
+        );
+        // 40 × 3.487: between the tuned partition and the fitted one.
+        assert_eq!(compiled.spe_partition_item, Cycles(139));
+        assert!(tuned.spe_job < compiled.spe_job && compiled.spe_job < paper.spe_job);
+        // The paper's fitted partition (161, 4.0 × its count) is inside the
+        // compiled band: the scalar code the paper fits costs what compiled
+        // SIMD C costs.
+        let Band::Between { low, high, .. } = Code::Compiled.band(counts::SPE_PARTITION_ITEM)
+        else {
+            panic!("a derived band")
+        };
+        assert_eq!((low, high), (Cycles(107), Cycles(181)));
+        assert!(low < paper.spe_partition_item && paper.spe_partition_item < high);
+        assert_eq!(Code::from_name("compiled"), Some(Code::Compiled));
     }
 }

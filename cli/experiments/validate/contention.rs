@@ -6,7 +6,7 @@
 
 use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, LsAddr};
 
-use super::{Figure, cell, eib, seconds, take_turn};
+use super::{Figure, Role, cell, eib, seconds, take_turn};
 
 /// SpuTest's `task_put.c` as it was until 2024 (`test_block.c` then gave
 /// every SPE the same 128-byte target): each of `spes` SPEs puts 32 bytes
@@ -92,7 +92,7 @@ pub fn figures() -> Vec<Figure> {
             published: 3984e6 / 60e6,
             unit: "ns",
             tolerance: 0.25,
-            sets: None,
+            role: Role::Fitted("partial_puts_claim"),
             probe: Box::new(|c| puts_into_one_line(c, 6, 2000)),
         },
         Figure {
@@ -101,7 +101,7 @@ pub fn figures() -> Vec<Figure> {
             published: 4409e6 / 1.5e6 / 7.0,
             unit: "ns",
             tolerance: 0.25,
-            sets: None,
+            role: Role::HeldOut,
             probe: Box::new(|c| spin_ring(c, 6, 300)),
         },
         Figure {
@@ -110,7 +110,7 @@ pub fn figures() -> Vec<Figure> {
             published: 200.0,
             unit: "GB/s",
             tolerance: 0.15,
-            sets: Some("eib_total_bandwidth_blade"),
+            role: Role::Fitted("eib_total_bandwidth_blade"),
             probe: Box::new(|c| {
                 let pairs: Vec<(usize, usize)> = (0..8).map(|s| (s, s ^ 1)).collect();
                 eib(c, 8, &pairs)
@@ -122,7 +122,7 @@ pub fn figures() -> Vec<Figure> {
             published: 2740e3 / 1_048_576.0,
             unit: "us",
             tolerance: 0.10,
-            sets: Some("spe_start_cycles"),
+            role: Role::Fitted("spe_start_cycles"),
             probe: Box::new(|c| avalanche(c, 6, 20)),
         },
     ]

@@ -60,10 +60,44 @@ struct Figure {
     unit: &'static str,
     /// Relative tolerance (0.10: ±10 %).
     tolerance: f64,
-    /// The rate the figure set (a fit: it shows the fit took), or `None`:
-    /// held out, it set nothing and tests what the model predicts.
-    sets: Option<&'static str>,
+    /// What the figure set, bounded, or that it set nothing.
+    role: Role,
     probe: Probe,
+}
+
+/// What a figure did to the model. A figure that set a rate or justified
+/// a mechanism is fitted (its row shows the fit took, and proves nothing
+/// about prediction); one that set a band's end bounds; only a figure
+/// that set nothing is held out and tests what the model predicts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// Set this rate, factor or mechanism.
+    Fitted(&'static str),
+    /// Set this band's end.
+    Bounds(&'static str),
+    /// Set nothing.
+    HeldOut,
+}
+
+impl Role {
+    /// Its name in the rows: `fitted`, `bounding` or `held-out`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::Fitted(_) => "fitted",
+            Role::Bounds(_) => "bounding",
+            Role::HeldOut => "held-out",
+        }
+    }
+
+    /// The row's `role`, and `sets` (what it set or bounds, null when
+    /// held out), as JSON fields.
+    pub fn fields(self) -> [(&'static str, serde_json::Value); 2] {
+        let what = match self {
+            Role::Fitted(w) | Role::Bounds(w) => serde_json::Value::from(w),
+            Role::HeldOut => serde_json::Value::Null,
+        };
+        [("role", self.name().into()), ("sets", what)]
+    }
 }
 
 /// How a figure is reproduced on a cost model.
@@ -338,7 +372,7 @@ fn figures() -> Vec<Figure> {
             published: 22.83,
             unit: "GB/s",
             tolerance: 0.10,
-            sets: Some("memory_shared_bandwidth"),
+            role: Role::Fitted("memory_shared_bandwidth"),
             probe: Box::new(|c| stream(c, 6, false, KIB16, 2, 256)),
         },
         Figure {
@@ -347,7 +381,7 @@ fn figures() -> Vec<Figure> {
             published: 22.83,
             unit: "GB/s",
             tolerance: 0.10,
-            sets: Some("memory_shared_bandwidth"),
+            role: Role::Fitted("memory_shared_bandwidth"),
             probe: Box::new(|c| stream(c, 6, false, KIB16, 8, 256)),
         },
         Figure {
@@ -356,7 +390,7 @@ fn figures() -> Vec<Figure> {
             published: 22.13,
             unit: "GB/s",
             tolerance: 0.10,
-            sets: None,
+            role: Role::HeldOut,
             probe: Box::new(|c| stream(c, 6, true, KIB16, 2, 256)),
         },
     ];
@@ -371,7 +405,7 @@ fn figures() -> Vec<Figure> {
             published: 22.0,
             unit: "GB/s",
             tolerance,
-            sets: None,
+            role: Role::HeldOut,
             probe: Box::new(move |c| {
                 let iterations = (1u64 << 20) / size as u64;
                 stream(c, 6, false, size, 8, iterations)
@@ -384,7 +418,7 @@ fn figures() -> Vec<Figure> {
         published: 25.6,
         unit: "GB/s",
         tolerance: 0.05,
-        sets: Some("memory_bandwidth"),
+        role: Role::Fitted("memory_bandwidth"),
         probe: Box::new(|c| stream(c, 1, false, KIB16, 2, 256)),
     });
     v.push(Figure {
@@ -393,7 +427,7 @@ fn figures() -> Vec<Figure> {
         published: 23.42,
         unit: "GB/s",
         tolerance: 0.10,
-        sets: Some("ls_port_bandwidth"),
+        role: Role::Fitted("ls_port_bandwidth"),
         probe: Box::new(|c| eib(c, 6, &[(1, 0)])),
     });
     v.push(Figure {
@@ -402,7 +436,7 @@ fn figures() -> Vec<Figure> {
         published: 114.73,
         unit: "GB/s",
         tolerance: 0.15,
-        sets: Some("eib_total_bandwidth"),
+        role: Role::Fitted("eib_total_bandwidth"),
         probe: Box::new(|c| eib(c, 6, &[(0, 1), (1, 0), (2, 3), (3, 2), (4, 5), (5, 4)])),
     });
     for (n, published) in [(1, 23.58), (2, 23.78), (3, 23.86), (4, 23.76), (5, 23.71)] {
@@ -418,7 +452,7 @@ fn figures() -> Vec<Figure> {
             published,
             unit: "GB/s",
             tolerance: 0.15,
-            sets: Some("ls_port_bandwidth"),
+            role: Role::Fitted("ls_port_bandwidth"),
             probe: Box::new(move |c| {
                 let readers: Vec<(usize, usize)> = (1..=n).map(|r| (r, 0)).collect();
                 eib(c, 6, &readers)
@@ -432,7 +466,7 @@ fn figures() -> Vec<Figure> {
             published: 150.0,
             unit: "ns",
             tolerance: 0.25,
-            sets: None,
+            role: Role::HeldOut,
             probe: Box::new(ping_pong),
         },
         Figure {
@@ -441,7 +475,7 @@ fn figures() -> Vec<Figure> {
             published: 187.0,
             unit: "ns",
             tolerance: 0.25,
-            sets: None,
+            role: Role::HeldOut,
             probe: Box::new(|c| increments(c, 6, 0)),
         },
         Figure {
@@ -451,7 +485,7 @@ fn figures() -> Vec<Figure> {
             published: 4443e6 / 24e6,
             unit: "ns",
             tolerance: 0.25,
-            sets: None,
+            role: Role::Fitted("the PPE's atomics (ppe_atomic_cycles, a claim a line)"),
             probe: Box::new(|c| increments(c, 6, 2)),
         },
         Figure {
@@ -460,7 +494,7 @@ fn figures() -> Vec<Figure> {
             published: 64.2,
             unit: "ns",
             tolerance: 0.25,
-            sets: Some("lock_lines claim_cycles"),
+            role: Role::Fitted("lock_lines claim_cycles"),
             probe: Box::new(|c| putllucs(c, 6)),
         },
         Figure {
@@ -469,7 +503,7 @@ fn figures() -> Vec<Figure> {
             published: 152.0,
             unit: "ns",
             tolerance: 0.25,
-            sets: None,
+            role: Role::Fitted("put_ack_cycles"),
             probe: Box::new(|c| put_and_wait(c, 6, 32, 2000)),
         },
         Figure {
@@ -478,7 +512,7 @@ fn figures() -> Vec<Figure> {
             published: 4423.0,
             unit: "ns",
             tolerance: 0.10,
-            sets: None,
+            role: Role::HeldOut,
             probe: Box::new(|c| put_and_wait(c, 6, KIB16, 200)),
         },
         Figure {
@@ -487,7 +521,7 @@ fn figures() -> Vec<Figure> {
             published: 100.0,
             unit: "ns",
             tolerance: 0.05,
-            sets: Some("dma_latency_cycles"),
+            role: Role::Fitted("dma_latency_cycles"),
             probe: Box::new(lone_dma),
         },
         Figure {
@@ -496,7 +530,7 @@ fn figures() -> Vec<Figure> {
             published: 11.6,
             unit: "us",
             tolerance: 0.25,
-            sets: Some("mailbox_os_cycles"),
+            role: Role::Fitted("mailbox_os_cycles"),
             probe: Box::new(mailbox),
         },
     ]);
@@ -550,7 +584,7 @@ fn run(args: &Args) -> Result<(), String> {
     for (fitted, title) in [
         (
             true,
-            "figures that set a rate (they show that the fit took)",
+            "figures that set a rate or a mechanism (they show that the fit took)",
         ),
         (
             false,
@@ -558,7 +592,7 @@ fn run(args: &Args) -> Result<(), String> {
         ),
     ] {
         let group: Vec<_> = (results.iter())
-            .filter(|(f, _)| f.sets.is_some() == fitted)
+            .filter(|(f, _)| matches!(f.role, Role::Fitted(_)) == fitted)
             .collect();
         if text {
             println!("\n{title}");
@@ -587,12 +621,15 @@ fn run(args: &Args) -> Result<(), String> {
                     verdict(ok),
                 ],
             );
-            rows.push(json!({
+            let mut row = json!({
                 "figure": f.what, "source": f.source, "unit": f.unit,
                 "published": f.published, "emulated": got, "ratio": ratio,
                 "tolerance": f.tolerance, "pass": ok,
-                "role": if fitted { "fitted" } else { "held-out" }, "sets": f.sets,
-            }));
+            });
+            row.as_object_mut()
+                .unwrap()
+                .extend(f.role.fields().map(|(k, v)| (k.into(), v)));
+            rows.push(row);
         }
         if text {
             println!("{passed} of {} pass", group.len());

@@ -9,6 +9,81 @@ use cellbih::registry::BuilderKind;
 
 use crate::common::{assert_fails_with, assert_ok, cellbih};
 
+/// The source files under `dir` (of the workspace) that hold rates: each
+/// that defines a rate table, or the machine's `CostModel`.
+fn rate_sources(dir: &str) -> Vec<(std::path::PathBuf, String)> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut todo = vec![root.join(dir)];
+    let mut found = Vec::new();
+    while let Some(dir) = todo.pop() {
+        for e in std::fs::read_dir(&dir).unwrap().map(Result::unwrap) {
+            let path = e.path();
+            if path.is_dir() {
+                todo.push(path);
+            } else if path.extension().is_some_and(|x| x == "rs") {
+                let text = std::fs::read_to_string(&path).unwrap();
+                if text.contains("rate_table!(") || text.contains("pub struct CostModel") {
+                    found.push((path, text));
+                }
+            }
+        }
+    }
+    found
+}
+
+/// Whether `text` holds `number` as a number of its own (not a part of
+/// a longer one: 22 is not in 22.13, nor 150 in 1,500).
+fn holds_number(text: &str, number: &str) -> bool {
+    text.match_indices(number).any(|(at, _)| {
+        let before = text[..at].chars().next_back();
+        let mut after = text[at + number.len()..].chars();
+        let digit = |c: Option<char>| c.is_some_and(|c| c.is_ascii_digit());
+        let (next, then) = (after.next(), after.next());
+        let part_of_longer = digit(before)
+            || before.is_some_and(|c| c == '.' || c == ',')
+            || digit(next)
+            || next.is_some_and(|c| c == '.' || c == ',') && digit(then);
+        !part_of_longer
+    })
+}
+
+/// A figure that set a rate is fitted, never held out: no held-out row's
+/// published figure appears as a number in a comment of a file that
+/// holds rates of its kind (where a rate's source is written): the
+/// machine's figures in the machine's, the kernels' in the library's.
+fn no_held_out_figure_sets_a_rate(rows: &[serde_json::Value]) {
+    let (machine, kernels) = (rate_sources("cell/src"), rate_sources("src"));
+    assert!(
+        !machine.is_empty() && kernels.len() >= 4,
+        "{}",
+        kernels.len()
+    );
+    assert!(holds_number("about 22.0 GB/s", "22.0") && !holds_number("22.13", "22"));
+    for r in rows.iter().filter(|r| r["role"] == "held-out") {
+        let sources = match r["section"].is_null() {
+            true => &machine,
+            false => &kernels,
+        };
+        let v = r["published"].as_f64().unwrap();
+        let mut forms = vec![format!("{v}"), format!("{v:.1}"), format!("{v:.2}")];
+        forms.dedup();
+        for (path, text) in sources {
+            for (n, line) in text.lines().enumerate() {
+                let Some(at) = line.find("//") else { continue };
+                let cited = forms.iter().find(|f| holds_number(&line[at..], f));
+                assert!(
+                    cited.is_none(),
+                    "the held-out figure {} ({}) is cited where a rate is set: {}:{}: {line}",
+                    cited.unwrap(),
+                    r["figure"],
+                    path.display(),
+                    n + 1
+                );
+            }
+        }
+    }
+}
+
 /// `validate`: on the measured model every published PS3 figure is
 /// reproduced within its tolerance (exit 0, each row's ratio inside it,
 /// the files written); on the legacy model — every figure before the validation against real PS3s
@@ -53,6 +128,10 @@ fn validate_holds_the_measured_model_to_every_published_figure() {
         .filter(|r| r["role"] == "held-out")
         .count();
     let kernels = rows.iter().filter(|r| r["section"] == "compute").count();
+    let of_compiled = |r: &&serde_json::Value| {
+        r["section"] == "compute" && r["sets"].as_str().is_some_and(|s| s.contains("compiled"))
+    };
+    let compiled_kernels = rows.iter().filter(of_compiled).count();
     let ppe: Vec<_> = rows.iter().filter(|r| r["section"] == "ppe").collect();
     assert_eq!(fitted + held_out + kernels + ppe.len(), rows.len());
     assert!(
@@ -60,13 +139,17 @@ fn validate_holds_the_measured_model_to_every_published_figure() {
         "{fitted} fitted, {held_out} held out"
     );
     for r in rows {
-        assert_eq!(r["sets"].is_string(), r["role"] == "fitted", "{r}");
+        let role = r["role"].as_str().unwrap();
+        assert!(["fitted", "bounding", "held-out"].contains(&role), "{r}");
+        assert_eq!(r["sets"].is_string(), role != "held-out", "{r}");
     }
+    no_held_out_figure_sets_a_rate(rows);
     let text = String::from_utf8_lossy(&out.stdout);
     for line in [
         format!("{fitted} of {fitted} pass"),
         format!("{held_out} of {held_out} pass"),
-        format!("{kernels} of {kernels} pass"),
+        format!("{0} of {0} pass", kernels - compiled_kernels),
+        format!("{compiled_kernels} of {compiled_kernels} pass"),
     ] {
         assert!(text.contains(&line), "{line}: {text}");
     }
@@ -107,7 +190,18 @@ fn validate_holds_the_measured_model_to_every_published_figure() {
     assert_eq!(sorts.len(), 2);
     for r in sorts {
         assert!(r["at_count"].as_f64() < r["emulated"].as_f64(), "{r}");
+        // The class factors it admits: the paper's 4 among them, and a
+        // range wide enough that it tells the classes apart only weakly.
+        let admits: Vec<f64> = (r["admits_factor"].as_array().unwrap().iter())
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        assert!(admits[0] < 4.0 && 4.0 < admits[1], "{r}");
     }
+    // The compiled class's kernels: fitted, each met at its own factor.
+    let compiled: Vec<_> = (compute.iter())
+        .filter(|r| r["sets"].as_str().is_some_and(|s| s.contains("compiled")))
+        .collect();
+    assert_eq!(compiled.len(), 2, "{compiled:?}");
     // The PPE: the latencies its rates are built from, and the PPU's sort
     // written with them, with the rates it implies beside their bands.
     assert!(ppe.len() >= 5, "{ppe:?}");
@@ -180,15 +274,16 @@ fn sensitivity_moves_every_uncertain_rate_across_its_band() {
     // rate whose override did not apply would move nothing), but for the
     // rates no multi-SPE build charges with the paper's tree, which move
     // nothing at all (so that the list cannot go stale).
-    const NOT_CHARGED: [&str; 8] = [
-        "ppe_atomic_cycles", // the PPE takes no lock line in these builds
-        "ppe_node",          // the PPE builders' per-node rate
-        "spe_bin_item",      // binned SAH only
-        "spe_sah_bin",       // binned SAH only
-        "ppe_sah_bin",       // binned SAH on the PPE only
-        "ppe_bounds_item",   // the PPE builders' bounds pass
-        "spe_find_slot",     // the update's search on the SPEs only
-        "spe_find_moved",    // the update's search on the SPEs only
+    const NOT_CHARGED: [&str; 9] = [
+        "ppe_atomic_cycles",  // the PPE takes no lock line in these builds
+        "ppe_node",           // the PPE builders' per-node rate
+        "spe_bin_item",       // binned SAH only
+        "spe_sah_bin",        // binned SAH only
+        "ppe_sah_bin",        // binned SAH on the PPE only
+        "ppe_bounds_item",    // the PPE builders' bounds pass
+        "spe_find_slot",      // the update's search on the SPEs only
+        "spe_find_moved",     // the update's search on the SPEs only
+        "ppe_partition_item", // the naive PPE build only
     ];
     let mut largest: std::collections::BTreeMap<String, f64> = Default::default();
     for r in (rows[1..2 + 2 * uncertain].iter()).filter(|r| r["rate"] != "spe_start_cycles") {
@@ -274,6 +369,8 @@ fn rates_lists_every_rate_at_its_value_in_the_class() {
     let tuned = json(&["--code", "tuned"]);
     assert_eq!(cycles(&tuned, "spe_partition_item"), 44);
     assert!(cycles(&tuned, "spe_morton.key_bit") < cycles(&paper, "spe_morton.key_bit"));
+    let compiled = json(&["--code", "compiled"]);
+    assert_eq!(cycles(&compiled, "spe_partition_item"), 139);
     let moved = json(&[
         "--rate",
         "spe_job=7",
@@ -298,4 +395,67 @@ fn rates_lists_every_rate_at_its_value_in_the_class() {
         &cellbih(&["rates", "--rate", "nope=1"]),
         "no rate named nope",
     );
+}
+
+/// The fitted rates' bands are the spread of their fits: `table1 --fits`
+/// refits each on every real-mesh cell of its column, and `cellbih rates`
+/// shows each fitted rate's band as the least and the most of them, the
+/// rate as fitted inside it.
+#[test]
+fn a_fitted_rates_band_is_the_spread_of_its_fits() {
+    let Some(data) = crate::common::data_dir() else {
+        eprintln!(
+            "a_fitted_rates_band_is_the_spread_of_its_fits: CELLBIH_DATA is not set: did NOT run"
+        );
+        return;
+    };
+    let dir = crate::common::tmp("table1-fits");
+    let out = crate::common::command(env!("CARGO_BIN_EXE_table1"))
+        .args(["--fits", "--data", data.to_str().unwrap(), "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("table1_fits.json")).unwrap())
+            .unwrap();
+    let rates = cellbih(&["rates", "--format", "json"]);
+    assert_ok(&rates);
+    let rates: serde_json::Value = serde_json::from_slice(&rates.stdout).unwrap();
+    let rows = doc["rows"].as_array().unwrap();
+    for rate in ["ppe_partition_item", "spe_partition_item"] {
+        let fits: Vec<u64> = (rows.iter())
+            .filter(|r| r["rate"] == rate)
+            .map(|r| r["fit"].as_u64().unwrap())
+            .collect();
+        assert_eq!(
+            fits.len(),
+            2,
+            "{rate}: a fit on the bunny and on the dragon"
+        );
+        let (low, high) = (fits.iter().min().unwrap(), fits.iter().max().unwrap());
+        let listed = (rates["kernels"].as_array().unwrap().iter())
+            .find(|r| r["name"] == rate)
+            .unwrap();
+        assert_eq!(
+            listed["band"],
+            format!("{low}-{high} (Table 1's fits)"),
+            "{rate}"
+        );
+        let at = listed["cycles"].as_u64().unwrap();
+        assert!(*low < at && at < *high, "{rate}: {at} outside {low}-{high}");
+    }
+    let tuned = crate::common::command(env!("CARGO_BIN_EXE_table1"))
+        .args([
+            "--fits",
+            "--code",
+            "tuned",
+            "--data",
+            data.to_str().unwrap(),
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_fails_with(&tuned, "derived, not fitted");
 }
