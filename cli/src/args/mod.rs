@@ -10,6 +10,7 @@
 
 mod build_args;
 mod cast_args;
+mod rate_args;
 mod scene_arg;
 mod tree_args;
 
@@ -21,11 +22,14 @@ use cellbih::render::View;
 use cellbih::update::MAX_FRAMES;
 
 pub use build_args::{
-    BuildArgs, CellArgs, Charges, CodeArg, HostThreadsArg, KnobArgs, MachineModel, Mailboxes, Mode,
-    RateArgs, RateSetArgs, RequestArgs, charged_by, model_note, name_the_model_in_text,
-    parse_build, parse_build_or, set_charges,
+    BuildArgs, CellArgs, HostThreadsArg, KnobArgs, MachineModel, Mailboxes, Mode, RequestArgs,
+    parse_build, parse_build_or,
 };
 pub use cast_args::{CacheArgs, CastArgs};
+pub use rate_args::{
+    Charges, CodeArg, RateArgs, RateSetArgs, charged_by, model_note, name_the_model_in_text,
+    set_charges,
+};
 pub use scene_arg::{CameraArg, SceneArg, check_built, check_memory};
 pub use tree_args::{SplitArg, TreeArgs};
 
