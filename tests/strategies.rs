@@ -239,8 +239,8 @@ fn an_emulated_build_gives_the_same_cycles_and_tree_every_run() {
 #[test]
 fn ppe_naive_time_is_kernels_plus_traffic() {
     let s = scene::load("car", None).unwrap();
-    let r = Build::new(BuilderKind::PPE_NAIVE).run(&s).unwrap();
-    let sim = r.simulated.unwrap();
+    let built = Build::new(BuilderKind::PPE_NAIVE).run(&s).unwrap();
+    let sim = built.simulated.unwrap();
     let k = cellbih::cell::CostModel::ps3();
     let r = cellbih::kernels::rates::KernelRates::PS3;
     let compute = r.ppe_bounds_item.0 * s.len() as u64
@@ -249,7 +249,49 @@ fn ppe_naive_time_is_kernels_plus_traffic() {
     // Read the triangle array, write it back sorted, write the nodes.
     let traffic = k.ppe_memory_bandwidth.cycles(48 * s.len() as u64).0 * 2
         + k.ppe_memory_bandwidth.cycles(12 * sim.stats.nodes).0;
-    assert_eq!(sim.run.cycles.0, compute + traffic + k.ppe_alloc_cycles.0);
+    // The records through the PPE's caches: the bounds pass and every
+    // split's pass, a load a 128-byte line each.
+    let mut passes = cellbih::strategy::ppe_passes::Passes::cold();
+    passes.partitions(&built.bih.nodes, |_| true);
+    let loads = passes.loads();
+    let lines = |first: u64, end: u64| (48 * end).div_ceil(128) - 48 * first / 128;
+    let mut expected = lines(0, s.len() as u64);
+    let mut stack = vec![0u32];
+    let nodes = &built.bih.nodes;
+    // Each node's interval from its leaves, each split counted once.
+    fn span(nodes: &[cellbih::bih::BihNode], id: u32) -> Option<(u64, u64)> {
+        let n = nodes[id as usize];
+        if n.is_leaf() {
+            let (f, c) = n.leaf_range();
+            return (c > 0).then_some((f as u64, (f + c) as u64));
+        }
+        let (l, r) = (span(nodes, n.left_child()), span(nodes, n.left_child() + 1));
+        match (l, r) {
+            (Some(l), Some(r)) => Some((l.0.min(r.0), l.1.max(r.1))),
+            (l, r) => l.or(r),
+        }
+    }
+    while let Some(id) = stack.pop() {
+        let n = nodes[id as usize];
+        if n.is_leaf() {
+            continue;
+        }
+        let c = n.left_child();
+        if let (Some(_), Some(_)) = (span(nodes, c), span(nodes, c + 1)) {
+            let (f, e) = span(nodes, id).unwrap();
+            expected += lines(f, e);
+        }
+        stack.extend([c, c + 1]);
+    }
+    assert_eq!(loads.total(), expected, "{loads:?}");
+    // The first pass finds nothing cached; a scene past the L1 misses it.
+    assert!(loads.memory >= lines(0, s.len() as u64), "{loads:?}");
+    assert!(loads.l1 + loads.l2 > 0, "{loads:?}");
+    let caches = cellbih::kernels::ppe_rates::loads_cycles(&loads, &k).0;
+    assert_eq!(
+        sim.run.cycles.0,
+        compute + traffic + caches + k.ppe_alloc_cycles.0
+    );
 }
 
 /// ppe_approx: a valid tree over every triangle (validity and brute force

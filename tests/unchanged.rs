@@ -4,7 +4,7 @@
 //! scene; every builder on the bunny) is compared with a recording, on
 //! both machine models: `tests/golden/runs.txt` (the default, validated
 //! model) and `tests/golden/runs-legacy.txt` (the model before the
-//! validated one, recorded before the layout by role and unchanged since).
+//! validated one: its machine rules, with the PPE's costs both share).
 //!
 //! When the machine model changes on purpose, re-record with
 //! `CELLBIH_RECORD=1 CELLBIH_DATA=../shared/data cargo test --release

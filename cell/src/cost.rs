@@ -145,6 +145,14 @@ pub struct CostModel {
     pub ppe_alloc_cycles: Cycles,
     /// The PPE's own atomic update (lwarx/stwcx. on a line): estimate.
     pub ppe_atomic_cycles: Cycles,
+    /// A PPE load or store whose line neither cache holds
+    /// ([`crate::ppe_cache`]): the L2's lookup (36 cycles, a chained L2
+    /// hit timed on a PS3) and the line's round trip through the memory
+    /// interface as a get sees it without the SPU's issue and the MFC's
+    /// command (`dma_latency_cycles` and 128 bytes at `memory_bandwidth`:
+    /// 256 + 16), 308 cycles (96 ns). No PPE miss to XDR timed on a PS3
+    /// was found: an estimate, half to twice.
+    pub ppe_memory_cycles: Cycles,
     /// The PPE's bandwidth to main memory through its caches, for the
     /// bytes a PPE program reads or writes explicitly.
     pub ppe_memory_bandwidth: Bandwidth,
@@ -312,6 +320,7 @@ impl CostModel {
             ppe_event_cycles: Cycles(3200),
             ppe_alloc_cycles: Cycles(300),
             ppe_atomic_cycles: Cycles(100),
+            ppe_memory_cycles: Cycles(308),
             ppe_memory_bandwidth: Bandwidth::from_gb_per_s(6.4, hz),
             charge_compute: true,
             memory_shared_bandwidth: Bandwidth::from_gb_per_s(25.6, hz),
@@ -364,6 +373,7 @@ impl CostModel {
         ppe_event_cycles,
         ppe_alloc_cycles,
         ppe_atomic_cycles,
+        ppe_memory_cycles,
         put_ack_cycles,
     );
 
@@ -407,6 +417,7 @@ impl CostModel {
             ppe_event_cycles: Cycles::ZERO,
             ppe_alloc_cycles: Cycles::ZERO,
             ppe_atomic_cycles: Cycles::ZERO,
+            ppe_memory_cycles: Cycles::ZERO,
             ppe_memory_bandwidth: free,
             charge_compute: false,
             memory_shared_bandwidth: free,
@@ -518,6 +529,7 @@ impl CostModel {
         Cycles ppe_event_cycles,
         Cycles ppe_alloc_cycles,
         Cycles ppe_atomic_cycles,
+        Cycles ppe_memory_cycles,
         Bandwidth ppe_memory_bandwidth,
         Bandwidth memory_shared_bandwidth,
         Ceiling eib_total_bandwidth,

@@ -63,6 +63,7 @@ mod memif;
 pub mod memory;
 pub mod mfc;
 mod ppe;
+pub mod ppe_cache;
 mod side;
 mod spe;
 pub mod trace;

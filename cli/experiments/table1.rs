@@ -313,12 +313,15 @@ fn print_fits(rows: &[serde_json::Value]) {
         );
     }
     for (rate, _) in FITTED {
-        let fits: Vec<u64> = (rows.iter())
-            .filter(|r| r["rate"] == rate)
-            .filter_map(|r| r["fit"].as_u64())
-            .collect();
-        if let (Some(lo), Some(hi)) = (fits.iter().min(), fits.iter().max()) {
-            println!("{rate}: fits {lo}-{hi} (its band)");
+        let of_rate = || rows.iter().filter(|r| r["rate"] == rate);
+        let fits: Vec<u64> = of_rate().filter_map(|r| r["fit"].as_u64()).collect();
+        let value = of_rate().find_map(|r| r["value"].as_u64());
+        if let (Some(lo), Some(hi), Some(v)) = (fits.iter().min(), fits.iter().max(), value) {
+            println!(
+                "{rate}: fits {lo}-{hi}; with the value as fitted, {}-{} (its band)",
+                lo.min(&v),
+                hi.max(&v)
+            );
         }
     }
     println!(

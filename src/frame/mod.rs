@@ -554,8 +554,13 @@ fn plan_find_ms(plan: &Plan, m: Method, cfg: &FrameConfig, routed: f64) -> f64 {
     let spes_find = m == Method::Local && cfg.find_moved == FindMoved::Spe;
     if !plan.deep_planned && !plan.full_rebuild && m != Method::Rebuild && !spes_find {
         find.scanned += plan.interval as u64;
+        find.loads += plan.scan_loads;
         if m == Method::Deep {
-            find.routed += (routed * plan.transformed as f64).round() as u64;
+            // Each routing's triangle taken as an L1 hit: the descent
+            // reads the same moved triangles at every level.
+            let n = (routed * plan.transformed as f64).round() as u64;
+            find.routed += n;
+            find.loads.l1 += n;
         }
     }
     find.ms(&cfg.build.cell.cost, &cfg.build.rates)

@@ -42,6 +42,8 @@ pub struct ApproxStats {
     pub naive: BuildStats,
     /// Nodes of the whole tree.
     pub nodes: u64,
+    /// Nodes of the upper levels: the naive finish's nodes come after.
+    pub upper_nodes: u64,
 }
 
 /// A bucket as an object of the upper levels: the box of its triangles and
@@ -150,6 +152,7 @@ pub fn build_approx<T: Item>(
         stack.push((children, first, l.count, lc, depth + 1));
     }
 
+    stats.upper_nodes = nodes.len() as u64;
     // 3. Gather in bucket order, then finish every open node.
     let mut sorted = Vec::with_capacity(n);
     let mut bucket_first = Vec::with_capacity(buckets.len() + 1);

@@ -4,7 +4,8 @@
 //! derivation is `update::ppe`'s, where the steps are counted. They live
 //! here, beside the other rate tables, so that the registry lists them.
 
-use crate::cell::Cycles;
+use crate::cell::ppe_cache::Loads;
+use crate::cell::{CostModel, Cycles};
 use crate::kernels::rates::{Band, Rate, RateOverrides, overridden};
 
 /// The PPE's measured latencies and bandwidths its rates are built from,
@@ -29,50 +30,57 @@ pub mod latency {
     pub const MISPREDICT: f64 = 23.0;
 }
 
-/// The PPE's rates of an update's steps, cycles each.
+/// The cycles of the PPE's loads and stores `l` on `cost`'s machine: each
+/// at the latency of the level of its caches that held its line, a chained
+/// L1 load, a chained L2 hit, or the machine's `ppe_memory_cycles` (none
+/// in the functional mode).
+pub fn loads_cycles(l: &Loads, cost: &CostModel) -> Cycles {
+    if !cost.charge_compute {
+        return Cycles::ZERO;
+    }
+    let cached = l.l1 as f64 * latency::L1_LOAD + l.l2 as f64 * latency::L2_HIT;
+    Cycles(cached.round() as u64 + l.memory * cost.ppe_memory_cycles.0)
+}
+
+/// The PPE's rates of an update's steps, cycles each: a step's own work,
+/// its loads and stores left out (`update::ppe` charges each at the level
+/// of the PPE's caches that held its line).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct PpeRates {
-    /// A node read on the way down (Algorithm 1, the deep descent): a
-    /// pointer chase through a tree far larger than the L2 (the dragon's
-    /// 20 MB), so the node comes from memory; then its planes against the
-    /// region and the EBB (two dependent min/max, 20; two compares, 10),
-    /// whether to widen (10), the branch (11.5). No published PPE memory
-    /// latency was found; 912 cycles (285 ns) is the count (60) scaled
-    /// like the naive partition (× 15.2), kept as the memory round trip
-    /// plus that work: an estimate, half to twice.
+    /// A node read on the way down (Algorithm 1, the deep descent): its
+    /// planes against the region and the EBB (two dependent min/max, 20;
+    /// two compares, 10), whether to widen (10), the branch (half a
+    /// mispredict, 11.5), the child's index (2): 54 (the node's load, a
+    /// pointer chase, apart). Band: 27 to 108, half to twice (no PPE code
+    /// of the descent was timed).
     pub node_visit: Cycles,
-    /// A moved triangle routed to a child by the deep descent: its box's
-    /// two bounds on the node's axis (in L1 since the EBB was made: 6.4),
-    /// two dependent compares with the planes (20), the branch (11.5), its
-    /// id pushed (2): 40. Band: 30 (the compares overlapped) to 90 (the
-    /// box's line from the L2: + 36, and the push's line).
+    /// A moved triangle routed to a child by the deep descent: two
+    /// dependent compares of its box's bounds with the planes (20), the
+    /// branch (11.5), its id pushed (2): 34 (the triangle's load apart).
+    /// Band: 24 (the compares overlapped) to 68 (twice).
     pub route: Cycles,
-    /// A slot of the interval scanned by geometry id: the triangle id
-    /// streamed (4 bytes at 2.75 GB/s: 4.7), its geometry id (a dependent
-    /// load into an array of 4 bytes a triangle: an L2 hit, 36), that
-    /// geometry's moved flag (a chained L1 load, 6.4), the compare and a
-    /// branch that moved runs make predictable (2), the slot noted (1):
-    /// 50. Band: 17 (ids in order, so the geometry ids come from L1 lines,
-    /// streamed with `dcbt`) to 150 (a 128-byte line streamed in from
-    /// memory at the plain rate for every slot).
+    /// A slot of the interval scanned by geometry id: the compare of the
+    /// moved flag and a branch that moved runs make predictable (2), the
+    /// slot noted (1): 3 (its three chained loads apart: the triangle id,
+    /// its geometry id, that geometry's flag). Band: 2 to 6 (the loop's
+    /// own branch and index once more).
     pub scan_slot: Cycles,
     /// A node written by the graft (or a kept subtree's node whose leaves
-    /// shift): the piece's node read (an L1 line streamed: 6.4), the leaf
-    /// test's branch (11.5), a free pair taken (a load and a store: 7.4),
-    /// three words stored and the children pushed (5), and the tree's line
-    /// brought into the L2 to be written (an L2 hit: 36): 66. Band: 31
-    /// (the line already in L1) to 220 (each node's line from memory at
-    /// the plain streaming rate, 149, besides).
+    /// shift): the leaf test's branch (11.5), a free pair taken (a load
+    /// and a store on the free list's top, in L1: 7.4), three words formed
+    /// and the children pushed (5): 24 (the piece's node read and the
+    /// tree's node stored apart). Band: 16 (the branch predicted) to 48
+    /// (twice).
     pub node_write: Cycles,
 }
 
 impl PpeRates {
     /// The PS3's.
     pub const PS3: PpeRates = PpeRates {
-        node_visit: Cycles(912),
-        route: Cycles(40),
-        scan_slot: Cycles(50),
-        node_write: Cycles(66),
+        node_visit: Cycles(54),
+        route: Cycles(34),
+        scan_slot: Cycles(3),
+        node_write: Cycles(24),
     };
 
     /// Each rate, named (`update.…`) and banded.
@@ -83,10 +91,10 @@ impl PpeRates {
             why,
         };
         crate::rate_table!(PpeRates, "update.", {
-            node_visit: between(456, 1824, "estimate"),
-            route: between(30, 90, "derived for the PPE"),
-            scan_slot: between(17, 150, "derived for the PPE"),
-            node_write: between(31, 220, "derived for the PPE"),
+            node_visit: between(27, 108, "derived for the PPE"),
+            route: between(24, 68, "derived for the PPE"),
+            scan_slot: between(2, 6, "derived for the PPE"),
+            node_write: between(16, 48, "derived for the PPE"),
         })
         .to_vec()
     }
@@ -120,27 +128,38 @@ mod tests {
     fn the_derived_rates_are_the_sums_of_their_latencies() {
         use latency::*;
         let sums = [
-            // The id streamed, its geometry id from the L2, the moved flag
-            // from the L1, the compare and predictable branch, the note.
+            // The planes against the region and the EBB, whether to widen,
+            // half a mispredict, the child's index.
             (
-                PpeRates::PS3.scan_slot,
-                4.0 * STREAM_BYTE + L2_HIT + L1_LOAD + 2.0 + 1.0,
+                PpeRates::PS3.node_visit,
+                2.0 * DEPENDENT_FP + 10.0 + 10.0 + MISPREDICT / 2.0 + 2.0,
             ),
-            // The bounds from L1, two dependent compares, half a
-            // mispredict, the push.
+            // Two dependent compares, half a mispredict, the push.
             (
                 PpeRates::PS3.route,
-                L1_LOAD + 2.0 * DEPENDENT_FP + MISPREDICT / 2.0 + 2.0,
+                2.0 * DEPENDENT_FP + MISPREDICT / 2.0 + 2.0,
             ),
-            // The node from L1, the leaf test's branch, a free pair (a load
-            // and a store), three words and the pushes, the line from L2.
+            // The compare and predictable branch, the note.
+            (PpeRates::PS3.scan_slot, 2.0 + 1.0),
+            // Half a mispredict, a free pair (a load and a store in L1),
+            // three words and the pushes.
             (
                 PpeRates::PS3.node_write,
-                L1_LOAD + MISPREDICT / 2.0 + (L1_LOAD + 1.0) + 5.0 + L2_HIT,
+                MISPREDICT / 2.0 + (L1_LOAD + 1.0) + 5.0,
             ),
         ];
         for (rate, sum) in sums {
             assert_eq!(rate.0, sum.round() as u64, "{sum}");
         }
+    }
+
+    /// The PPE's memory latency is the L2's lookup and a line's round trip
+    /// through the machine's memory interface, as the machine prices a
+    /// get less the SPU's issue and the MFC's command.
+    #[test]
+    fn the_ppe_memory_latency_is_the_l2_lookup_and_the_memory_interfaces_line() {
+        let c = crate::cell::CostModel::ps3();
+        let line = c.dma_latency_cycles.0 + c.memory_bandwidth.cycles(128).0;
+        assert_eq!(c.ppe_memory_cycles.0, latency::L2_HIT as u64 + line);
     }
 }

@@ -11,6 +11,7 @@ pub mod knob;
 pub mod machinery;
 pub mod ppe_approx;
 pub mod ppe_naive;
+pub mod ppe_passes;
 pub mod program;
 pub mod spe_bfs;
 pub mod spe_bfs_private;

@@ -13,10 +13,12 @@
 
 use crate::spe::footprint::Purpose;
 
+use super::ppe_passes::Passes;
 use super::{Output, Readback, Setup};
 use crate::bih::BihConfig;
 use crate::cell::{Cell, CellError, Ea};
 use crate::kernels::approx::build_approx;
+use crate::kernels::ppe_rates::loads_cycles;
 use crate::kernels::recursion::BuildStats;
 use crate::spe::layout::TriRecord;
 
@@ -58,6 +60,21 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
         let touched = a.items_sorted + a.buckets_partitioned + a.naive.items_partitioned;
         ppe.compute_items(k.ppe_partition_item, touched);
         ppe.compute_items(k.ppe_node, a.nodes);
+        // The records through the PPE's caches: the presort's count and
+        // scatter read them, the scatter writes the second array, the
+        // gather reads it; then the naive finish's bounds passes and
+        // partitions, below the upper levels.
+        let mut passes = Passes::cold();
+        passes.records((0, n));
+        passes.records((0, n));
+        passes.scattered(n);
+        passes.scattered(n);
+        let upper = a.upper_nodes as u32;
+        passes.partitions(&bih.nodes, |id| {
+            let node = bih.nodes[id as usize];
+            !node.is_leaf() && node.left_child() >= upper
+        });
+        ppe.compute(loads_cycles(&passes.loads(), &ppe.cost()));
         // The scatter's second array, written and read back by the gather.
         let size = (n * size_of::<TriRecord>()) as u64;
         let scattered: Ea = ppe

@@ -9,9 +9,11 @@
 //! kernel rates of the cost model. It builds every quality knob of
 //! [`BihConfig`] (the split choice, the empty-space cut-off).
 
+use super::ppe_passes::Passes;
 use super::{Output, Readback, Setup};
 use crate::bih::{BihConfig, SplitChoice};
 use crate::cell::{Cell, CellError};
+use crate::kernels::ppe_rates::loads_cycles;
 use crate::kernels::recursion::{BuildStats, build_items};
 use crate::spe::layout::TriRecord;
 
@@ -52,6 +54,11 @@ fn spawn(cell: &mut Cell, setup: &Setup, cfg: &BihConfig) -> Result<Readback, Ce
             ppe.compute_items(k.ppe_sah_bin, sah_sweeps * per_sweep);
         }
         ppe.compute_items(k.ppe_node, nodes);
+        // The records through the PPE's caches: the bounds pass, then each
+        // partition.
+        let mut passes = Passes::cold();
+        passes.partitions(&bih.nodes, |_| true);
+        ppe.compute(loads_cycles(&passes.loads(), &ppe.cost()));
         ppe.write_pod(tris, &items).await?;
         let node_array = super::write_nodes(&ppe, &bih.nodes).await?;
         Ok(Output {

@@ -19,7 +19,9 @@
 //! subtree's range is copied to its new place and its leaves' first slots
 //! are adjusted; a rebuilt subtree is written where its range now starts.
 
-use super::{Enclosing, Piece, PpeWork, UpdateError, UpdateReport, Updater, interval};
+use super::{
+    Array, Enclosing, Piece, PpeMemory, PpeWork, UpdateError, UpdateReport, Updater, interval,
+};
 use crate::aabb::Aabb;
 use crate::bih::BihNode;
 
@@ -53,6 +55,7 @@ pub(super) fn update(
         &mut |s, ids| up.build_subtree(&ids, s.region, s.depth),
         &mut r.ppe_find,
     )?;
+    r.ppe_find.loads += up.ppe_memory.take();
     let old = up.bih.prim_ids[first..end].to_vec();
     r.ppe_apply.ids_copied += old.len() as u64;
     let mut pos = first;
@@ -140,6 +143,7 @@ fn plan<P>(
     }
     let node = up.bih.nodes[s.node as usize];
     work.nodes_visited += 1;
+    up.ppe_memory.load(Array::Nodes, s.node as u64);
     let size = s.end - s.first - moved_slots.len() + moved_in.len();
     if node.is_leaf() || size <= up.deep_stop_below {
         return rebuilt(up, s, moved_slots, moved_in, rebuild);
@@ -153,6 +157,7 @@ fn plan<P>(
     let (mut to_left, mut to_right) = (Vec::new(), Vec::new());
     work.routed += moved_in.len() as u64;
     for &id in &moved_in {
+        up.ppe_memory.load(Array::Triangles, id as u64);
         let b = up.scene.triangles[id as usize].bounds();
         let left = match (lr.contains_box(&b), rr.contains_box(&b)) {
             (true, false) => true,
@@ -232,8 +237,8 @@ fn lay_out(
             let len = end - first;
             if *pos != first {
                 up.bih.prim_ids[*pos..*pos + len].copy_from_slice(&old[first - base..end - base]);
-                let (leaves, nodes) =
-                    shift_leaves(&mut up.bih.nodes, node, *pos as i64 - first as i64);
+                let delta = *pos as i64 - first as i64;
+                let (leaves, nodes) = shift_leaves(&mut up.bih.nodes, node, delta, &up.ppe_memory);
                 r.leaves_adjusted += leaves;
                 r.moved_slots += len;
                 r.ppe_apply += PpeWork {
@@ -260,11 +265,14 @@ fn lay_out(
 }
 
 /// Adds `delta` to the first slot of every leaf below `node`; returns how
-/// many leaves there were and how many nodes were visited.
-fn shift_leaves(nodes: &mut [BihNode], node: u32, delta: i64) -> (usize, u64) {
+/// many leaves there were and how many nodes were visited (each node
+/// read and written through the PPE's caches, `mem`).
+fn shift_leaves(nodes: &mut [BihNode], node: u32, delta: i64, mem: &PpeMemory) -> (usize, u64) {
     let (mut stack, mut leaves, mut visited) = (vec![node], 0, 0);
     while let Some(id) = stack.pop() {
         visited += 1;
+        mem.load(Array::Nodes, id as u64);
+        mem.store(Array::Nodes, id as u64);
         let n = nodes[id as usize];
         if n.is_leaf() {
             let (f, c) = n.leaf_range();

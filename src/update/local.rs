@@ -62,10 +62,11 @@ pub struct Enclosing {
 /// setting clip planes to the EBB where an interval must grow to hold it.
 /// `ebb` must lie inside the tree's root region (otherwise the scene box
 /// changed and the paper rebuilds everything).
-pub fn enclosing_node(bih: &mut Bih, ebb: &Aabb) -> Enclosing {
+pub fn enclosing_node(bih: &mut Bih, ebb: &Aabb, read: &mut impl FnMut(u32)) -> Enclosing {
     debug_assert!(bih.bounds.contains_box(ebb), "the EBB leaves the scene box");
     let (mut id, mut region, mut depth, mut planes_set) = (0u32, bih.bounds, 0u32, 0u32);
     let stop = loop {
+        read(id);
         let node = bih.nodes[id as usize];
         if node.is_leaf() {
             break Stop::Leaf;

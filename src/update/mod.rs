@@ -39,7 +39,7 @@ use thiserror::Error;
 pub use animation::{Animation, MAX_FRAMES, Move, apply};
 pub use local::{Enclosing, Stop, enclosing_node, interval};
 pub use plan::Plan;
-pub use ppe::{PpeRates, PpeWork};
+pub use ppe::{Array, PpeMemory, PpeRates, PpeWork};
 pub use report::{Summary, UpdateReport};
 pub use spe_find::{FindMoved, SpeFind};
 
@@ -176,6 +176,8 @@ pub struct Updater {
     members: Vec<Vec<u32>>,
     /// First slot of each free pair of node slots.
     free: Vec<u32>,
+    /// The PPE's caches, as the update's steps meet them.
+    ppe_memory: PpeMemory,
 }
 
 /// The default of [`Updater::deep_stop_below`]: four leaves' worth.
@@ -190,6 +192,7 @@ impl Updater {
             .filter(|s| s.run.timed)
             .map(|s| s.run.ms);
         let records = first.record_order();
+        let timed = build.builder.emulated() && build.cell.cost.charge_compute;
         let bih = first.bih;
         let mut members = vec![Vec::new(); scene.geometry_names.len()];
         for (i, &g) in scene.geometry_ids.iter().enumerate() {
@@ -208,6 +211,7 @@ impl Updater {
             spe_find: None,
             members,
             free: Vec::new(),
+            ppe_memory: PpeMemory::new(timed),
         })
     }
 
@@ -218,6 +222,7 @@ impl Updater {
         let start = Instant::now();
         self.builds.clear();
         self.spe_find = None;
+        self.ppe_memory.cold();
         let mut r = UpdateReport {
             moves: moves.len(),
             ..UpdateReport::default()
@@ -236,13 +241,20 @@ impl Updater {
         let done = if self.method == Method::Rebuild || self.scene.bounds() != self.bih.bounds {
             self.full_rebuild(&mut r)
         } else {
-            let enc = enclosing_node(&mut self.bih, &ebb);
+            let mem = &self.ppe_memory;
+            let enc = enclosing_node(&mut self.bih, &ebb, &mut |n| {
+                mem.load(Array::Nodes, n as u64)
+            });
             r.depth = enc.depth;
             r.stop = Some(enc.stop);
             let (first, end) = interval(&self.bih, enc.node);
             r.interval = end - first;
             let on_spes = self.method == Method::Local && self.find_moved == FindMoved::Spe;
             r.ppe_find += found(&enc, if on_spes { 0 } else { r.interval });
+            if !on_spes {
+                self.scan_loads((first, end));
+            }
+            r.ppe_find.loads += self.ppe_memory.take();
             let moved_slots = self.moved_slots(&moved, (first, end));
             assert_eq!(
                 moved_slots.len(),
@@ -274,6 +286,7 @@ impl Updater {
             self.scene.restore(saved, saved_box);
             return Err(e);
         }
+        r.ppe_apply.loads += self.ppe_memory.take();
         if self.build.builder.emulated() && self.build.cell.cost.charge_compute {
             let cost = &self.build.cell.cost;
             let rates = &self.build.rates;
@@ -343,6 +356,18 @@ impl Updater {
         (first..end)
             .filter(|&s| moved[self.scene.geometry_ids[self.bih.prim_ids[s] as usize] as usize])
             .collect()
+    }
+
+    /// The scan's loads of `first .. end` through the PPE's caches: each
+    /// slot's triangle id, its geometry id, that geometry's moved flag.
+    fn scan_loads(&self, (first, end): (usize, usize)) {
+        for s in first..end {
+            let id = self.bih.prim_ids[s];
+            let g = self.scene.geometry_ids[id as usize];
+            self.ppe_memory.load(Array::PrimIds, s as u64);
+            self.ppe_memory.load(Array::GeometryIds, id as u64);
+            self.ppe_memory.load(Array::Moved, g as u64);
+        }
     }
 
     fn full_rebuild(&mut self, r: &mut UpdateReport) -> Result<(), UpdateError> {
@@ -492,7 +517,10 @@ impl Updater {
     /// leaves shifted to start at slot `first`.
     fn graft(&mut self, at: u32, piece: &Bih, first: u32) {
         let mut stack = vec![(0u32, at)];
+        let base = self.ppe_memory.new_piece(piece.nodes.len() as u64);
         while let Some((src, dst)) = stack.pop() {
+            self.ppe_memory.load(Array::Piece, base + src as u64);
+            self.ppe_memory.store(Array::Nodes, dst as u64);
             let n = piece.nodes[src as usize];
             self.bih.nodes[dst as usize] = if n.is_leaf() {
                 let (f, c) = n.leaf_range();

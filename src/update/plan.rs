@@ -6,7 +6,11 @@
 use serde::Serialize;
 
 use super::animation::Move;
-use super::{PpeWork, UpdateError, UpdateReport, Updater, deep, enclosing_node, found, interval};
+use crate::cell::ppe_cache::Loads;
+
+use super::{
+    Array, PpeWork, UpdateError, UpdateReport, Updater, deep, enclosing_node, found, interval,
+};
 
 /// What a local and a deep update would rebuild ([`Updater::plan`]).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
@@ -27,6 +31,9 @@ pub struct Plan {
     /// interval, the deep update's descent (what either update does
     /// before its rebuilds; none on a complete rebuild).
     pub find: PpeWork,
+    /// The scan of the interval's loads and stores through the PPE's
+    /// caches, after Algorithm 1's (in `find` too where the plan scanned).
+    pub scan_loads: Loads,
     /// Whether the interval was scanned and the deep update's descent
     /// made ([`Updater::plan`]), or only Algorithm 1
     /// ([`Updater::plan_search`]).
@@ -88,10 +95,15 @@ impl Updater {
                 transformed: r.transformed,
                 deep_pieces: vec![probe.scene.len()],
                 find: PpeWork::default(),
+                scan_loads: Loads::default(),
                 deep_planned: true,
             });
         }
-        let enc = enclosing_node(&mut probe.bih, &m.ebb);
+        probe.ppe_memory.cold();
+        let mem = &probe.ppe_memory;
+        let enc = enclosing_node(&mut probe.bih, &m.ebb, &mut |n| {
+            mem.load(Array::Nodes, n as u64)
+        });
         let (first, end) = interval(&probe.bih, enc.node);
         let mut plan = Plan {
             full_rebuild: false,
@@ -100,14 +112,20 @@ impl Updater {
             transformed: r.transformed,
             deep_pieces: Vec::new(),
             find: found(&enc, 0),
+            scan_loads: Loads::default(),
             deep_planned: descend,
             scene_box: None,
         };
+        plan.find.loads = probe.ppe_memory.take();
+        probe.scan_loads((first, end));
+        plan.scan_loads = probe.ppe_memory.take();
         if descend {
             let moved_slots = probe.moved_slots(&m.moved, (first, end));
             plan.find.scanned = (end - first) as u64;
+            plan.find.loads += plan.scan_loads;
             plan.deep_pieces =
                 deep::pieces(&probe, &enc, (first, end), &moved_slots, &mut plan.find);
+            plan.find.loads += probe.ppe_memory.take();
         }
         Ok(plan)
     }

@@ -1,8 +1,10 @@
 //! `validate`'s PPE section: the PPE's latencies and streaming rates
-//! measured on a retail PS3 (cellmark's PPE page), which the PPE's update
-//! rates are built from (`kernels::ppe_rates::latency`), and a held-out
-//! check of them: Codeplay's quicksort timed on the PPU, written with
-//! those latencies (`sorts.rs`).
+//! measured on a retail PS3 (cellmark's PPE page): the L1 and L2 hits
+//! price every PPE load through its caches (`kernels::ppe_rates`), the
+//! streaming rates bound `ppe_memory_bandwidth`; and a held-out check of
+//! them: Codeplay's quicksort timed on the PPU, its reads through the same
+//! caches at the same latencies (`sorts.rs`). Codeplay's sort is tuned,
+//! so the model's plain sort should take at least its time.
 
 use cellbih::kernels::ppe_rates::{PpeRates, latency};
 use cellbih::kernels::rates::Band;
@@ -11,7 +13,16 @@ use super::sorts;
 
 /// The figures the PPE's rates are built from: (what, source, published,
 /// unit, the model's value in that unit).
-fn sources() -> [(&'static str, &'static str, f64, &'static str, f64); 4] {
+fn sources() -> [(
+    &'static str,
+    &'static str,
+    f64,
+    &'static str,
+    f64,
+    &'static str,
+); 4] {
+    const LOADS: &str = "the PPE's loads through its caches (update.*, ppe_naive, ppe_approx)";
+    const STREAMS: &str = "ppe_memory_bandwidth's band";
     let gbs = |per_byte: f64| 3.2 / per_byte;
     [
         (
@@ -20,6 +31,7 @@ fn sources() -> [(&'static str, &'static str, f64, &'static str, f64); 4] {
             6.4,
             "cycles",
             latency::L1_LOAD,
+            LOADS,
         ),
         (
             "PPE load chained on an L2 hit",
@@ -27,6 +39,7 @@ fn sources() -> [(&'static str, &'static str, f64, &'static str, f64); 4] {
             36.0,
             "cycles",
             latency::L2_HIT,
+            LOADS,
         ),
         (
             "PPE reads streaming from the L2, plain",
@@ -34,6 +47,7 @@ fn sources() -> [(&'static str, &'static str, f64, &'static str, f64); 4] {
             2.75,
             "GB/s",
             gbs(latency::STREAM_BYTE),
+            STREAMS,
         ),
         (
             "PPE reads streaming from the L2, dcbt 512 B ahead",
@@ -41,6 +55,7 @@ fn sources() -> [(&'static str, &'static str, f64, &'static str, f64); 4] {
             8.4,
             "GB/s",
             gbs(latency::STREAM_BYTE_DCBT),
+            STREAMS,
         ),
     ]
 }
@@ -51,10 +66,11 @@ fn sources() -> [(&'static str, &'static str, f64, &'static str, f64); 4] {
 pub fn section(text: bool) -> Vec<serde_json::Value> {
     let mut rows = Vec::new();
     if text {
-        let title = "PPE: the measured latencies its update rates are built from (they set \
-                     update.scan_slot, route, node_write), and a sort timed on the PPU written \
-                     with them the same way (held out; tolerance 25 %, reported: the rates \
-                     are banded estimates)";
+        let title = "PPE: the measured latencies its loads are priced at and the streaming \
+                     rates that bound its bandwidth, and a sort timed on the PPU priced the same \
+                     way (held out; Codeplay's sort is tuned, so the model's plain one should \
+                     take at least its time; reported, not enforced: the rates are banded \
+                     estimates)";
         println!("\n{}", cellbih_cli::report::wrap(title, 80));
     }
     super::row(
@@ -62,7 +78,7 @@ pub fn section(text: bool) -> Vec<serde_json::Value> {
         "published figure (retail PS3, 3.2 GHz)",
         ["published", "model", "ratio", "tol.", "verdict"].map(String::from),
     );
-    for (what, source, published, unit, model) in sources() {
+    for (what, source, published, unit, model, sets) in sources() {
         super::row(
             text,
             &format!("{what} ({unit})"),
@@ -78,13 +94,14 @@ pub fn section(text: bool) -> Vec<serde_json::Value> {
             "figure": what, "source": source, "unit": unit, "published": published,
             "emulated": model, "ratio": model / published, "tolerance": 0.0,
             "pass": (model / published - 1.0).abs() < 0.01, "role": "fitted",
-            "sets": "update.scan_slot, update.route, update.node_write", "section": "ppe",
+            "sets": sets, "section": "ppe",
         }));
     }
     let t = &sorts::PPU;
     let got = t.ppu();
     let ratio = got / t.published_ms;
-    let ok = (ratio - 1.0).abs() <= 0.25;
+    // A lower bound: plain code is no faster than the tuned sort.
+    let ok = ratio >= 1.0;
     super::row(
         text,
         &format!("{} (ms)", t.what),
@@ -92,14 +109,35 @@ pub fn section(text: bool) -> Vec<serde_json::Value> {
             format!("{:.2}", t.published_ms),
             format!("{got:.2}"),
             format!("{ratio:.3}"),
-            "25%".into(),
-            super::verdict(ok),
+            ">=1".into(),
+            // Reported, not enforced: a miss is the model's, said so.
+            if ok { "pass" } else { "below" }.into(),
         ],
     );
-    // Where the sort puts the update's rates: each scaled as the sort's
-    // time would need, beside its band.
-    let implied: Vec<String> = (PpeRates::table().iter())
-        .filter(|r| r.name != "update.node_visit")
+    let implied = implied(ratio);
+    if text {
+        let note = format!(
+            "the plain sort at {ratio:.2} of the tuned sort's time: the PPE is priced at \
+             least {:.2}x too cheap here; the update's steps at that factor: {}",
+            1.0 / ratio,
+            implied.join(", ")
+        );
+        println!("{}", cellbih_cli::report::wrap(&note, 80));
+    }
+    rows.push(serde_json::json!({
+        "figure": t.what, "source": sorts::SOURCE, "unit": "ms",
+        "published": t.published_ms, "emulated": got, "ratio": ratio, "tolerance": 0.0,
+        "bound": "lower",
+        "pass": ok, "gates": false, "role": "held-out", "sets": null, "section": "ppe",
+        "update_rates_implied": implied,
+    }));
+    rows
+}
+
+/// Where a sort at `ratio` of its figure puts the update's rates: each
+/// scaled as the sort's time would need, beside its band.
+fn implied(ratio: f64) -> Vec<String> {
+    (PpeRates::table().iter())
         .map(|r| {
             let at = (r.at)(&mut PpeRates::PS3.clone()).0 as f64 / ratio;
             let Band::Between { low, high, .. } = r.band else {
@@ -114,21 +152,5 @@ pub fn section(text: bool) -> Vec<serde_json::Value> {
                 if inside { "inside" } else { "OUTSIDE" }
             )
         })
-        .collect();
-    if text {
-        let note = format!(
-            "the sort at {ratio:.2} of its time: the update's steps, priced the same way, \
-             would be at {:.2}x: {}",
-            1.0 / ratio,
-            implied.join(", ")
-        );
-        println!("{}", cellbih_cli::report::wrap(&note, 80));
-    }
-    rows.push(serde_json::json!({
-        "figure": t.what, "source": sorts::SOURCE, "unit": "ms",
-        "published": t.published_ms, "emulated": got, "ratio": ratio, "tolerance": 0.25,
-        "pass": ok, "gates": false, "role": "held-out", "sets": null, "section": "ppe",
-        "update_rates_implied": implied,
-    }));
-    rows
+        .collect()
 }

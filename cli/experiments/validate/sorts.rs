@@ -9,8 +9,9 @@
 //! that its update rates are built from (`kernels::ppe_rates::latency`).
 //! The input: `n` floats, uniform in [0, 1), from a fixed seed.
 
+use cellbih::cell::ppe_cache::PpeCaches;
 use cellbih::cell::{Cell, CellConfig, CellError, CostModel, Cycles, Ea};
-use cellbih::kernels::ppe_rates::latency;
+use cellbih::kernels::ppe_rates::{latency, loads_cycles};
 use cellbih::kernels::rates::{Code, Count};
 use cellbih::spe::software_cache::{CacheConfig, CacheRates, SoftwareCache};
 
@@ -148,21 +149,42 @@ fn spu(cost: &CostModel, n: usize, charge: fn(Count) -> u64) -> Result<f64, Cell
 }
 
 /// The quicksort of `n` floats on the PPU (256 KB for 64K floats: in the
-/// 512 KB L2), priced with the PPE's measured latencies: an item compared
-/// — its 4 bytes streamed from the L2, the compare the branch waits for
-/// (a dependent floating-point operation), the index stepped; each scan's
-/// end a mispredicted branch (the loop's branch is predicted to go on);
-/// a swap — two stores into lines in the L1 and the indices stepped, 4;
-/// a partition — the pivot loaded from the L2, the call's frame (10) and
-/// its return mispredicted. Returns ms.
+/// 512 KB L2), priced as the PPE's update steps are: every read of the
+/// array through the PPE's caches (`cell::ppe_cache`, empty at the start),
+/// each at the latency of the level that held its line — a chained L1
+/// load (its load-to-use latency, since the compare waits for it), an L2
+/// hit, or the machine's memory latency; the writes go through the caches
+/// too, unpriced (the store queue takes them). Besides: an item compared,
+/// the compare the branch waits for (a dependent floating-point
+/// operation) and the index stepped; each scan's end a mispredicted branch
+/// (the loop's branch is predicted to go on); a swap, two stores and the
+/// indices stepped, 4; a partition, the call's frame (10) and its return
+/// mispredicted. Returns ms.
 fn ppu(n: usize) -> f64 {
     use latency::*;
     let s = quicksort(&mut floats(n));
-    let cycles = s.compares as f64 * (4.0 * STREAM_BYTE + DEPENDENT_FP + 1.0)
+    let mut caches = PpeCaches::ps3();
+    for a in &s.accesses {
+        match *a {
+            Access::Read(i) => {
+                caches.load(4 * i as u64);
+            }
+            Access::Write(i, _) => {
+                // Through the caches, not tallied: the reads are priced.
+                let reads = caches.loads;
+                caches.store(4 * i as u64);
+                caches.loads = reads;
+            }
+        }
+    }
+    let loads = caches.loads;
+    let cost = CostModel::ps3();
+    let cycles = s.compares as f64 * (DEPENDENT_FP + 1.0)
         + (2 * s.rounds) as f64 * MISPREDICT
         + s.swaps as f64 * 4.0
-        + s.partitions as f64 * (L2_HIT + 10.0 + MISPREDICT);
-    cycles / 3.2e9 * 1e3
+        + s.partitions as f64 * (10.0 + MISPREDICT)
+        + loads_cycles(&loads, &cost).0 as f64;
+    cycles / cost.clock_hz * 1e3
 }
 
 /// A sort timed on a PS3.

@@ -300,6 +300,9 @@ pub fn charged_by(name: &str, code: Code, c: Charges) -> (bool, &'static str) {
         .collect();
     if cellbih::cell::cost::FABRIC_AND_PPE_ATOMICS.contains(&name) {
         (c.fabric_and_ppe_atomics, "validate")
+    } else if name == "ppe_memory_cycles" {
+        // The PPE's loads: its own builds' passes and the updates' steps.
+        (c.builds || c.updates, "builds, updates")
     } else if named(cast) {
         (c.casts, "casts")
     } else if named(cache) {

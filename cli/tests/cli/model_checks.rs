@@ -202,13 +202,17 @@ fn validate_holds_the_measured_model_to_every_published_figure() {
         .filter(|r| r["sets"].as_str().is_some_and(|s| s.contains("compiled")))
         .collect();
     assert_eq!(compiled.len(), 2, "{compiled:?}");
-    // The PPE: the latencies its rates are built from, and the PPU's sort
-    // written with them, with the rates it implies beside their bands.
+    // The PPE: the latencies its loads are priced at, and the PPU's sort
+    // priced the same way, a lower bound (Codeplay's is tuned), with the
+    // rates it implies beside their bands.
     assert!(ppe.len() >= 5, "{ppe:?}");
     let sort = ppe.iter().find(|r| r["role"] == "held-out").unwrap();
     assert_eq!(sort["gates"], false, "{sort}");
-    assert_eq!(sort["update_rates_implied"].as_array().unwrap().len(), 3);
-    assert!(text.contains("the sort at"), "{text}");
+    assert_eq!(sort["bound"], "lower", "{sort}");
+    let ratio = sort["ratio"].as_f64().unwrap();
+    assert_eq!(sort["pass"], ratio >= 1.0, "{sort}");
+    assert_eq!(sort["update_rates_implied"].as_array().unwrap().len(), 4);
+    assert!(text.contains("the plain sort at"), "{text}");
 
     let legacy = crate::common::command(exe)
         .args(["--model", "legacy", "--out", dir.to_str().unwrap()])
@@ -274,8 +278,9 @@ fn sensitivity_moves_every_uncertain_rate_across_its_band() {
     // rate whose override did not apply would move nothing), but for the
     // rates no multi-SPE build charges with the paper's tree, which move
     // nothing at all (so that the list cannot go stale).
-    const NOT_CHARGED: [&str; 9] = [
+    const NOT_CHARGED: [&str; 10] = [
         "ppe_atomic_cycles",  // the PPE takes no lock line in these builds
+        "ppe_memory_cycles",  // the PPE's loads: its builds and updates only
         "ppe_node",           // the PPE builders' per-node rate
         "spe_bin_item",       // binned SAH only
         "spe_sah_bin",        // binned SAH only
@@ -433,17 +438,24 @@ fn a_fitted_rates_band_is_the_spread_of_its_fits() {
             2,
             "{rate}: a fit on the bunny and on the dragon"
         );
-        let (low, high) = (fits.iter().min().unwrap(), fits.iter().max().unwrap());
         let listed = (rates["kernels"].as_array().unwrap().iter())
             .find(|r| r["name"] == rate)
             .unwrap();
+        // The band holds the fits and the rate as fitted.
+        let at = listed["cycles"].as_u64().unwrap();
+        let (low, high) = (
+            fits.iter().min().unwrap().min(&at),
+            fits.iter().max().unwrap().max(&at),
+        );
         assert_eq!(
             listed["band"],
             format!("{low}-{high} (Table 1's fits)"),
             "{rate}"
         );
-        let at = listed["cycles"].as_u64().unwrap();
-        assert!(*low < at && at < *high, "{rate}: {at} outside {low}-{high}");
+        assert!(
+            fits.iter().any(|f| f != &at),
+            "{rate}: every fit is the rate"
+        );
     }
     let tuned = crate::common::command(env!("CARGO_BIN_EXE_table1"))
         .args([

@@ -10,6 +10,7 @@ fn plan(full: bool, interval: usize, deep_pieces: &[usize]) -> Plan {
         transformed: 10,
         deep_pieces: deep_pieces.to_vec(),
         find: Default::default(),
+        scan_loads: Default::default(),
         deep_planned: true,
         scene_box: None,
     }

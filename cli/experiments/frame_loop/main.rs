@@ -14,10 +14,14 @@
 //! arrangement. Then a table of the metric's goals per case (scene, size,
 //! arrangement): `auto` against the best fixed policy, the share of its
 //! frames within 10 % of the oracle's best, its mean prediction error.
+//! With `--ends`, which arrangement wins each case at the ends of the
+//! PPE's bands and in each code class ([`ends`]).
 
 // The options' doc comments are their --help text: `rtperf:N[:SEED]` is
 // the scene syntax there, not a link.
 #![allow(rustdoc::broken_intra_doc_links)]
+
+mod ends;
 
 use clap::Parser;
 use serde_json::{Value, json};
@@ -58,6 +62,12 @@ struct Args {
     /// Seed of the animations' pseudo-random moves.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// Also play each arrangement again, at the fixed policy that was its
+    /// best, with every PPE rate at the cheap and at the dear end of its
+    /// band and in each other code class, and say which arrangement wins
+    /// at each (about 8 more runs a case).
+    #[arg(long)]
+    ends: bool,
     #[command(flatten)]
     scene: SceneArgs,
     #[command(flatten)]
@@ -161,17 +171,7 @@ fn run(args: &Args) -> Result<(), String> {
         &jobs,
         |&(si, (w, h), (ai, (arrangement, build_spes)), (pi, policy))| {
             let (spec, anim_name, s, anim) = &played[si];
-            let cfg = FrameConfig {
-                build: build.clone(),
-                policy,
-                oracle: policy == Policy::Auto,
-                build_spes,
-                width: w,
-                height: h,
-                view: args.scene.camera.view(),
-                cast: CastConfig::DEFAULT,
-                find_moved: Default::default(),
-            };
+            let cfg = frame_config(&build, policy, build_spes, (w, h), args);
             let r = play(s, anim, &cfg, |_| {}).map_err(|e| format!("{spec}: {e}"))?;
             let n = r.frames.len() as f64;
             let mean = |f: &dyn Fn(&cellbih::frame::FrameReport) -> f64| {
@@ -267,16 +267,26 @@ fn run(args: &Args) -> Result<(), String> {
             r
         })
         .collect();
+    let (in_force, end_rows) = match args.ends {
+        true => play_ends(args, &build, (&played, &rows), &arrangements)?,
+        false => (Vec::new(), Vec::new()),
+    };
     let note = "simulated PS3 ms on the default model; section 5: every SPE builds, then every SPE renders (frame = update + render); paper: one SPE builds the next frame while the others render (frame = the longer); near_best: auto's frames within 10 % of the oracle's best option; prediction_error: auto's mean |predicted − measured| / measured frame time";
     args.run.output.report(
         "frame_loop",
         (&KEYS, &flat),
-        &json!({ "note": note, "builder": builder.name(), "spes": spes, "rows": rows }),
+        &json!({
+            "note": note, "builder": builder.name(), "spes": spes, "rows": rows,
+            "ends": end_rows,
+        }),
         Some(&build),
         |rows| {
             table(rows, note);
             goals(rows);
             arrangement_table(rows);
+            if args.ends {
+                ends::table(&in_force, &end_rows);
+            }
         },
     )?;
     for (spec, (w, h), series) in plots {
@@ -301,6 +311,107 @@ fn run(args: &Args) -> Result<(), String> {
         args.run.output.out.display()
     ));
     Ok(())
+}
+
+/// The frame loop's configuration of one run.
+fn frame_config(
+    build: &Build,
+    policy: Policy,
+    build_spes: usize,
+    (width, height): (u32, u32),
+    args: &Args,
+) -> FrameConfig {
+    FrameConfig {
+        build: build.clone(),
+        policy,
+        oracle: policy == Policy::Auto,
+        build_spes,
+        width,
+        height,
+        view: args.scene.camera.view(),
+        cast: CastConfig::DEFAULT,
+        find_moved: Default::default(),
+    }
+}
+
+/// A scene as played: its spec, animation name, scene and animation.
+type Played<'a> = (&'a String, &'a str, cellbih::scene::Scene, Animation);
+
+/// `--ends`: each case's arrangements played again at their best fixed
+/// policies on every end of the model ([`ends::ends`]). Returns each
+/// case's ratio at the rates in force and a row per case and end.
+fn play_ends(
+    args: &Args,
+    build: &Build,
+    (played, rows): (&[Played], &[Value]),
+    arrangements: &[(&str, usize)],
+) -> Result<(Vec<Value>, Vec<Value>), String> {
+    let total = |r: &Value| r["total_ms"].as_f64().unwrap_or(f64::INFINITY);
+    let ends = ends::ends(&build.cell, &build.rates);
+    // Each case's best fixed policy per arrangement: (scene index, size,
+    // [(policy, build SPEs, total ms)]).
+    let mut cases = Vec::new();
+    for (si, p) in played.iter().enumerate() {
+        let mut seen = Vec::new();
+        for r in rows.iter().filter(|r| r["scene"] == *p.0) {
+            let size = (
+                r["width"].as_u64().unwrap_or(0),
+                r["height"].as_u64().unwrap_or(0),
+            );
+            if seen.contains(&size) {
+                continue;
+            }
+            seen.push(size);
+            let best = |arrangement: &str| {
+                (rows.iter())
+                    .filter(|x| x["scene"] == *p.0 && x["width"] == size.0 && x["height"] == size.1)
+                    .filter(|x| x["arrangement"] == arrangement && x["policy"] != "auto")
+                    .min_by(|a, b| total(a).total_cmp(&total(b)))
+                    .map(|x| (x["policy"].as_str().unwrap_or("").to_string(), total(x)))
+            };
+            let picks: Option<Vec<_>> = (arrangements.iter())
+                .map(|&(a, spes)| best(a).map(|(pol, ms)| (pol, spes, ms)))
+                .collect();
+            if let Some(picks) = picks {
+                cases.push((si, (size.0 as u32, size.1 as u32), picks));
+            }
+        }
+    }
+    let mut jobs = Vec::new();
+    for (ci, case) in cases.iter().enumerate() {
+        for (ei, _) in ends.iter().enumerate() {
+            for ai in 0..case.2.len() {
+                jobs.push((ci, ei, ai));
+            }
+        }
+    }
+    let done = side_by_side("ends", &jobs, |&(ci, ei, ai)| {
+        let (si, size, picks) = &cases[ci];
+        let (spec, _, s, anim) = &played[*si];
+        let (policy, build_spes, _) = &picks[ai];
+        let method = Method::from_name(policy).ok_or_else(|| format!("policy {policy}"))?;
+        let end = &ends[ei];
+        let b = build.clone().on(&end.cell).with_rates(&end.rates);
+        let cfg = frame_config(&b, Policy::Fixed(method), *build_spes, *size, args);
+        let r = play(s, anim, &cfg, |_| {}).map_err(|e| format!("{spec} ({}): {e}", end.name))?;
+        Ok::<_, String>(r.total_ms)
+    });
+    let done: Vec<f64> = done.into_iter().collect::<Result<_, _>>()?;
+    let (mut in_force, mut out) = (Vec::new(), Vec::new());
+    let mut k = 0;
+    for (si, (w, h), picks) in &cases {
+        let case = json!({ "scene": played[*si].0, "width": w, "height": h });
+        let mut at = json!({ "ratio": ends::ratio(picks[0].2, picks[1].2) });
+        for key in ["scene", "width", "height"] {
+            at[key] = case[key].clone();
+        }
+        in_force.push(at);
+        for end in &ends {
+            out.push(ends::row(&case, &end.name, done[k], done[k + 1]));
+            k += 2;
+        }
+    }
+    Ok((in_force, out))
 }
 
 /// The rows in two tables of 80 columns (times, then the policy's
