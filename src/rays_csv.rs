@@ -6,8 +6,8 @@
 //! normalized and `t` is in units of it, but it must have a normal
 //! (not subnormal) component: a direction such as `(0, 0, -1e-320)` would
 //! put every hit at a `t` beyond `f64`, and is an error naming its line;
-//! so is a component beyond ±1e200 ([`MAX_COMPONENT`]), whose products with
-//! the scene's coordinates would overflow `f64`. `raycast` traces each ray
+//! so is a component beyond ±1e200 ([`MAX_COMPONENT`]), which would
+//! overflow the triangle test's arithmetic in `f64`. `raycast` traces each ray
 //! at unit scale ([`Ray::at_unit_scale`]), so that origin and direction
 //! may both be that large. A UTF-8 byte-order mark before the header is
 //! skipped.
@@ -24,10 +24,12 @@ use thiserror::Error;
 use crate::bih::{Hit, Ray};
 use crate::text_input::TextError;
 
-/// The largest magnitude an origin or direction component may have: the
-/// triangle test's products (a direction or an origin offset times two
-/// edges of `f32` coordinates, each up to 3.4e38 apart) stay below
-/// `f64::MAX` (1.8e308) up to here.
+/// The largest magnitude an origin or direction component may have: up
+/// to here the offsets from the origin to the scene's coordinates (up to
+/// 3.4e38) and the slab distances stay far inside `f64`. The triangle
+/// test resolves a triangle where its size is well above the origin's
+/// precision (`|o|·2⁻⁵³`: docs/tree.md, "The triangle test"); beyond
+/// that every path gives the same answer, a hit or a miss.
 pub const MAX_COMPONENT: f64 = 1e200;
 
 pub const RAYS_HEADER: &str = "ox,oy,oz,dx,dy,dz,tmin,tmax";
@@ -123,8 +125,8 @@ pub fn read_rays(path: &str, input: impl BufRead) -> Result<Vec<Ray>, RaysError>
         }
         if let Some(x) = v[..6].iter().find(|x| x.abs() > MAX_COMPONENT) {
             return Err(bad(format!(
-                "{x:e} is beyond ±1e200: the triangle test multiplies origin and direction \
-                 by the scene's coordinates (up to 3.4e38) twice, and f64 would overflow \
+                "{x:e} is beyond ±1e200: the triangle test shears the offsets from the \
+                 origin to the scene's coordinates by the direction, and f64 would overflow \
                  (a hit at finite t is then missed); scale the ray"
             )));
         }

@@ -102,7 +102,7 @@ fn anchor(heading: &str) -> String {
     .collect()
 }
 
-/// The anchors of a page's headings.
+/// The anchors of a page's headings, and of its `<a id="…">` tags.
 fn anchors(text: &str) -> Vec<String> {
     let mut in_code = false;
     let mut out = Vec::new();
@@ -111,6 +111,10 @@ fn anchors(text: &str) -> Vec<String> {
             in_code = !in_code;
         } else if !in_code && line.starts_with('#') {
             out.push(anchor(line));
+        } else if !in_code {
+            for tag in line.split("<a id=\"").skip(1) {
+                out.extend(tag.split('"').next().map(String::from));
+            }
         }
     }
     out
@@ -217,6 +221,8 @@ fn the_checks_find_what_is_not_there() {
         anchor("## What it measures, 1–8 SPEs"),
         "what-it-measures-18-spes"
     );
+    let tagged = anchors("# Top\n<a id=\"here\"></a>**Here.** text\n```\n<a id=\"code\">\n```");
+    assert_eq!(tagged, ["top", "here"]);
 }
 
 /// The reference stays a reference: docs/ (generated tables included) in

@@ -3,7 +3,9 @@
 //! builds a valid tree with every builder, and answers rays as brute force
 //! does; every multi-SPE builder builds the baseline's tree (the same tree
 //! hash) on 1, 6 and 8 SPEs. The same for the zoo scenes of the
-//! experiments (`scene::zoo::SET`), which stand on these meshes.
+//! experiments (`scene::zoo::SET`), which stand on these meshes. And no
+//! ray leaks through the fandisk, a closed mesh, turned off the axes
+//! (`common::leaks`).
 //!
 //! One test per mesh, under a harness of its own (libtest-mimic) so that a
 //! skip is seen: with CELLBIH_DATA unset every mesh's test is reported
@@ -155,6 +157,28 @@ fn check_zoo(dir: &std::path::Path, spec: &str) -> Result<(), Failed> {
     Ok(())
 }
 
+/// Rays aimed at the vertices and edges of the fandisk (closed), turned
+/// off the axes, along each target's normal from outside and inside: none
+/// leaks, and every tree answers as brute force does.
+fn check_fandisk_leaks(dir: &std::path::Path) -> Result<(), Failed> {
+    use common::leaks::{Approach, aimed_rays, leaking, rotated};
+    let s = scene::load("fandisk", Some(dir)).map_err(|e| format!("fandisk: {e}"))?;
+    let s = rotated(&s, glam::DVec3::new(0.2, 1.0, 0.5), 0.9);
+    let rays = aimed_rays(&s, Approach::Normals { inside_every: 2 }, 4000);
+    let wrong = leaking(&s, &rays, 4);
+    if wrong.is_empty() {
+        Ok(())
+    } else {
+        let first = &wrong[..wrong.len().min(4)];
+        Err(format!(
+            "{} of {} rays wrong, first: {first:#?}",
+            wrong.len(),
+            rays.len()
+        )
+        .into())
+    }
+}
+
 fn main() {
     let args = Arguments::from_args();
     let dir = scene::data_dir(None);
@@ -197,6 +221,17 @@ fn main() {
             .with_ignored_flag(true),
         })
         .chain(zoo)
+        .chain(std::iter::once(match &dir {
+            Some(dir) => {
+                let dir = dir.clone();
+                Trial::test("leaks::fandisk_rotated", move || check_fandisk_leaks(&dir))
+            }
+            None => Trial::test(
+                format!("leaks::fandisk_rotated (NOT RUN: {DATA_ENV} is not set)"),
+                || Err(format!("{DATA_ENV} is not set: no data directory for the fandisk").into()),
+            )
+            .with_ignored_flag(true),
+        }))
         .collect();
     libtest_mimic::run(&args, trials).exit();
 }

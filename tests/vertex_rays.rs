@@ -2,7 +2,7 @@
 //! fan of long thin triangles around one vertex, as a finely cut sphere
 //! has at its pole — at every scale of the property scenes: every
 //! builder's tree answers as brute force does, bit for bit, on the host
-//! (ray by ray and in packets) and on the SPEs. Möller–Trumbore's `t` is
+//! (ray by ray and in packets) and on the SPEs. The triangle test's `t` is
 //! least accurate on such triangles, and a cull whose widening its error
 //! exceeds drops the closer of two triangles that meet at the vertex.
 

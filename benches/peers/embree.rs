@@ -1,8 +1,9 @@
 //! Embree (Intel's ray tracing kernels) as a peer, through its C library
 //! loaded at run time: `CELLBIH_EMBREE` names the library file (Embree 4,
 //! `libembree4.so.4`, or Embree 3, `libembree3.so.3`, told apart by the
-//! name); without it the bench tries those two names on the loader's path
-//! and, finding neither, leaves Embree out. One device of one thread
+//! name); without it the bench tries Embree 4 in `target/embree/` (where
+//! `scripts/get-embree` unpacks the `embreex` wheel's), then those two
+//! names on the loader's path and, finding none, leaves Embree out. One device of one thread
 //! (`threads=1`); a scene of one triangle mesh, each triangle its own
 //! three vertices, built at the low or medium quality
 //! (`rtcSetSceneBuildQuality`); rays traced one at a time
@@ -73,6 +74,7 @@ struct Api {
     release_geometry: unsafe extern "C" fn(Handle),
     commit_scene: unsafe extern "C" fn(Handle),
     release_scene: unsafe extern "C" fn(Handle),
+    device_property: unsafe extern "C" fn(Device, u32) -> isize,
     /// Embree 4: (scene, ray, arguments or null).
     intersect4: Option<unsafe extern "C" fn(Handle, *mut RayHit, *mut c_void)>,
     /// Embree 3: (scene, context, ray).
@@ -99,12 +101,14 @@ pub struct Built<'a> {
 }
 
 impl Embree {
-    /// Embree from `CELLBIH_EMBREE`, or from the loader's path; `Err`
-    /// says why not (the bench then goes on without it).
+    /// Embree from `CELLBIH_EMBREE`, `target/embree/` or the loader's
+    /// path; `Err` says why not (the bench then goes on without it).
     pub fn load() -> Result<Embree, String> {
         let names = match std::env::var("CELLBIH_EMBREE") {
             Ok(path) => vec![path],
-            Err(_) => vec!["libembree4.so.4".into(), "libembree3.so.3".into()],
+            Err(_) => (unpacked().into_iter())
+                .chain(["libembree4.so.4".into(), "libembree3.so.3".into()])
+                .collect(),
         };
         let mut why = Vec::new();
         for name in names {
@@ -132,6 +136,13 @@ impl Embree {
             return Ok(Embree { api, device, name });
         }
         Err(why.join("; "))
+    }
+
+    /// The Embree version the library reports (`RTC_DEVICE_PROPERTY_VERSION`).
+    pub fn version(&self) -> String {
+        // SAFETY: a property query on a live device.
+        let v = unsafe { (self.api.device_property)(self.device, 0) };
+        format!("{}.{}.{}", v / 10000, v / 100 % 100, v % 100)
     }
 
     /// Builds `s` at `quality`: the mesh's buffers filled and the scene
@@ -253,6 +264,7 @@ impl Api {
                 release_geometry: f(sym("rtcReleaseGeometry")?),
                 commit_scene: f(sym("rtcCommitScene")?),
                 release_scene: f(sym("rtcReleaseScene")?),
+                device_property: f(sym("rtcGetDeviceProperty")?),
                 intersect4: if four {
                     Some(f(sym("rtcIntersect1")?))
                 } else {
@@ -266,4 +278,21 @@ impl Api {
             })
         }
     }
+}
+
+/// The Embree 4 library `scripts/get-embree` unpacked into `target/embree/`,
+/// if any.
+fn unpacked() -> Option<String> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/embree");
+    let mut found: Vec<_> = (std::fs::read_dir(dir).ok()?.flatten())
+        .map(|e| e.path())
+        .filter(|p| {
+            let name = p
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().into());
+            name.starts_with("libembree4") && name.contains(".so")
+        })
+        .collect();
+    found.sort();
+    Some(found.first()?.to_string_lossy().into_owned())
 }

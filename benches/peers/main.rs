@@ -75,9 +75,12 @@ fn main() {
     }
     let embree = embree::Embree::load();
     match &embree {
-        Ok(e) => println!("Embree: {}", e.name),
-        Err(why) => println!("Embree: not found ({why}); set CELLBIH_EMBREE to its library"),
+        Ok(e) => println!("Embree {}: {}", e.version(), e.name),
+        Err(why) => println!(
+            "Embree: not found ({why}); run scripts/get-embree, or set CELLBIH_EMBREE to its library"
+        ),
     }
+    println!("host: {}", host_cpu());
     let embree = embree.ok();
     let data = scene::data_dir(None);
     let one_thread = rayon::ThreadPoolBuilder::new()
@@ -491,4 +494,28 @@ fn time<T>(f: impl FnOnce() -> T) -> (Duration, T) {
 fn median(t: &mut [Duration]) -> Duration {
     t.sort();
     t[t.len() / 2]
+}
+
+/// The host's CPU (its model name) and the widest SIMD it offers.
+fn host_cpu() -> String {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|c| {
+            (c.lines())
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| "an unknown CPU".into());
+    #[cfg(target_arch = "x86_64")]
+    let simd = if std::arch::is_x86_feature_detected!("avx512f") {
+        "AVX-512 (512-bit)"
+    } else if std::arch::is_x86_feature_detected!("avx2") {
+        "AVX2 (256-bit)"
+    } else {
+        "SSE2 (128-bit)"
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let simd = "not x86-64";
+    format!("{model}; widest SIMD {simd}")
 }

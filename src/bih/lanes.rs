@@ -1,15 +1,16 @@
 //! Four ray/triangle tests at once: the triangles of the triangle order in
 //! groups of four slots, stored lane by lane (`f32`, 144 bytes a group), so
-//! that the compiler runs Möller–Trumbore on four triangles per instruction
-//! (AVX: four `f64` lanes; SSE2: two). Every lane computes exactly what
-//! [`super::traverse::intersect_triangle`] computes, operation for
-//! operation in the same order, so Möller–Trumbore's `t` and `det` are
-//! bitwise the scalar test's; only the branches become lane masks. The
-//! `t` a hit reports and its range test are the scalar test's too
-//! ([`super::traverse::settle_t`], applied by the caller to the lanes the
-//! mask keeps).
+//! that the compiler can run the watertight test on four triangles per
+//! instruction (AVX: four `f64` lanes; SSE2: two). Every lane computes
+//! exactly what [`super::traverse::intersect_triangle`] computes
+//! ([`super::watertight::edges`] on the same operands), so the edge
+//! functions are bitwise the scalar test's; the `t` a hit reports and its
+//! range test are the scalar test's too ([`super::watertight::hit`],
+//! applied by the caller to the lanes the mask keeps).
 
 use glam::Vec3;
+
+use super::watertight::{self, Shear, Sheared};
 
 /// Slots `4i .. 4i + 4` of the triangle order: `v[vertex][axis][lane]`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -37,74 +38,41 @@ impl Group {
 
 /// What the four tests found: a bit per lane whose line meets the
 /// triangle (the range of `t` is tested by the caller, on the settled
-/// `t`), and per lane Möller–Trumbore's `t` and determinant and the
-/// barycentrics' numerators and denominator.
+/// `t`), and per lane the triangle as the ray sees it.
 pub(super) struct Found {
     pub mask: u32,
-    pub t: [f64; 4],
-    pub det: [f64; 4],
-    pub u: [f64; 4],
-    pub v: [f64; 4],
-    pub adet: [f64; 4],
+    pub w: [Sheared; 4],
 }
 
-/// Möller–Trumbore on the four triangles of `g` against the ray `o + t·d`.
+/// The watertight test on the four triangles of `g` against the ray of
+/// `sh`: each lane reads its vertices' components in the shear's axis
+/// order and runs [`watertight::edges`], the scalar test's arithmetic
+/// (the lanes' edge functions first, then any tie of theirs).
 #[inline(always)]
-pub(super) fn intersect4(g: &Group, o: [f64; 3], d: [f64; 3]) -> Found {
+pub(super) fn intersect4(g: &Group, sh: &Shear) -> Found {
+    let [kx, ky, kz] = sh.axes();
     let mut f = Found {
         mask: 0,
-        t: [0.0; 4],
-        det: [0.0; 4],
-        u: [0.0; 4],
-        v: [0.0; 4],
-        adet: [0.0; 4],
+        w: [Sheared::default(); 4],
     };
-    let mut hit = [false; 4];
-    // One lane per iteration, indexing the group and five outputs by lane.
+    // One lane per iteration, indexing the group and the output by lane.
     #[allow(clippy::needless_range_loop)]
     for l in 0..4 {
-        let p0 = each(|a| g.v[0][a][l] as f64);
-        let e1 = each(|a| g.v[1][a][l] as f64 - p0[a]);
-        let e2 = each(|a| g.v[2][a][l] as f64 - p0[a]);
-        let p = cross(d, e2);
-        let det = dot(e1, p);
-        let sign = if det < 0.0 { -1.0 } else { 1.0 };
-        let adet = det.abs();
-        let s = each(|a| o[a] - p0[a]);
-        let u = dot(s, p) * sign;
-        let q = cross(s, e1);
-        let v = dot(d, q) * sign;
-        let t = dot(e2, q) * (1.0 / det);
-        hit[l] =
-            det != 0.0 && det.is_finite() && u >= 0.0 && u <= adet && v >= 0.0 && u + v <= adet;
-        (f.t[l], f.det[l], f.u[l], f.v[l], f.adet[l]) = (t, det, u, v, adet);
+        let vertex = |i: usize| {
+            [
+                g.v[i][kx][l] as f64,
+                g.v[i][ky][l] as f64,
+                g.v[i][kz][l] as f64,
+            ]
+        };
+        f.w[l] = watertight::edges_rounded([vertex(0), vertex(1), vertex(2)], sh);
     }
-    for (l, h) in hit.iter().enumerate() {
-        f.mask |= (*h as u32) << l;
+    // The ties recomputed, as `watertight::edges` does, after the lanes.
+    for (l, w) in f.w.iter_mut().enumerate() {
+        if watertight::ties(&w.e) {
+            watertight::fix_ties(w);
+        }
+        f.mask |= (watertight::inside(&w.e) as u32) << l;
     }
     f
-}
-
-/// `[f(0), f(1), f(2)]`, written out: `array::map` is sometimes left as
-/// a call where the traversal that inlines this test grows large (the fast
-/// walk ran at half its speed so, measured).
-#[inline(always)]
-fn each(f: impl Fn(usize) -> f64) -> [f64; 3] {
-    [f(0), f(1), f(2)]
-}
-
-/// glam's `DVec3::cross`, term for term.
-#[inline(always)]
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - b[1] * a[2],
-        a[2] * b[0] - b[2] * a[0],
-        a[0] * b[1] - b[0] * a[1],
-    ]
-}
-
-/// glam's `DVec3::dot`, term for term.
-#[inline(always)]
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2])
 }

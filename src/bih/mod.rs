@@ -10,16 +10,25 @@ mod packet;
 mod tracer;
 mod traverse;
 mod validate;
+mod watertight;
 mod wide;
 
 pub use node::{BihNode, MAX_INDEX};
 pub use packet::PACKET_RAYS;
 pub use tracer::Tracer;
-pub use traverse::{Hit, Ray, RayStats, brute_force_closest, intersect_triangle, times_pow2};
+pub use traverse::{
+    Hit, Ray, RayStats, brute_force_closest, intersect_sheared, intersect_triangle, test_sheared,
+    times_pow2,
+};
 pub(crate) use traverse::{closer, descend, pop_bound, root_interval};
 pub use validate::Violation;
+pub use watertight::Shear;
 
 use crate::aabb::Aabb;
+
+/// Relative widening of node intervals: covers the three roundings of
+/// `(clip - o) * (1/d)` in `f64` many times over.
+const SLACK: f64 = 1e-12;
 
 /// A hint that `p` will be read soon (x86-64; elsewhere nothing).
 #[inline(always)]

@@ -21,8 +21,8 @@
 
 use std::mem::MaybeUninit;
 
-use super::traverse::SLACK;
-use super::{BihConfig, Hit, Ray, RayStats, Tracer, closer};
+use super::SLACK;
+use super::{BihConfig, Hit, Ray, RayStats, Shear, Tracer, closer};
 use crate::aabb::Aabb;
 
 /// The most rays a host packet holds: a 4 × 4 block of pixels.
@@ -172,6 +172,8 @@ impl Tracer<'_> {
         if !coherent {
             return false;
         }
+        // Each ray's shear for the triangle tests, made once.
+        let shears: [Shear; N] = std::array::from_fn(|i| Shear::of(&rays[i.min(rays.len() - 1)]));
         // `root_interval`'s interval, lane-wise: the branch-free slab test
         // gives the careful one's for a finite reciprocal.
         let b = &self.bih.bounds;
@@ -233,7 +235,7 @@ impl Tracer<'_> {
                     let mut t = best_t[i];
                     self.test_triangles::<false>(
                         node,
-                        &rays[i],
+                        &shears[i],
                         &mut hits[i],
                         &mut t,
                         &mut stats[i],

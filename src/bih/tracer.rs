@@ -1,6 +1,6 @@
 //! The host's ray tracer. A [`Tracer`] is what a renderer makes of a tree: its own copy of the
 //! nodes with each leaf starting a group of four in a padded triangle order
-//! ([`super::lanes`]: four Möller–Trumbore tests per step), and the box of
+//! ([`super::lanes`]: four watertight triangle tests per step), and the box of
 //! each leaf's triangles, which the ray must meet within `[tmin, best]`
 //! (widened as node intervals are, `traverse`) before the leaf's triangles are tested. A BIH leaf's
 //! region is bounded only by its ancestors' planes and is often far larger
@@ -13,9 +13,10 @@ use glam::DVec3;
 
 use super::lanes::{self, Group};
 use super::traverse::{
-    PreTriangle, clip_range, clip_range_finite, closer, pop_bound, root_interval, settle_t,
-    widen_down, widen_up,
+    PreTriangle, clip_range, clip_range_finite, closer, pop_bound, root_interval, widen_down,
+    widen_up,
 };
+use super::watertight::{self, Shear};
 use super::wide::{self, WideNode};
 use super::{Bih, BihConfig, BihNode, Hit, Ray, RayStats, prefetch};
 use crate::aabb::Aabb;
@@ -185,7 +186,7 @@ impl<'a> Tracer<'a> {
     fn test_leaf<const ANY: bool, const FINITE: bool>(
         &self,
         node: u32,
-        ray: &Ray,
+        sh: &Shear,
         inv: DVec3,
         best: &mut Option<Hit>,
         best_t: &mut f64,
@@ -199,12 +200,13 @@ impl<'a> Tracer<'a> {
         // ask for them now, so that both misses overlap.
         self.prefetch_slots(first, count);
         let leaf_box = &self.leaf_boxes[nd.leaf_number() as usize];
+        let ray = sh.ray();
         let (b0, b1) = if FINITE {
             clip_range_finite(leaf_box, ray.origin, inv, ray.tmin, *best_t)
         } else {
             clip_range(leaf_box, ray, inv, ray.tmin, *best_t)
         };
-        b0 <= b1 && self.test_triangles::<ANY>(node, ray, best, best_t, stats)
+        b0 <= b1 && self.test_triangles::<ANY>(node, sh, best, best_t, stats)
     }
 
     /// Asks for the memory of slots `first .. first + count` (a leaf's
@@ -228,13 +230,13 @@ impl<'a> Tracer<'a> {
     pub(super) fn test_triangles<const ANY: bool>(
         &self,
         node: u32,
-        ray: &Ray,
+        sh: &Shear,
         best: &mut Option<Hit>,
         best_t: &mut f64,
         stats: &mut RayStats,
     ) -> bool {
         let (first, count) = self.nodes[node as usize].leaf_range();
-        self.test_slots::<ANY>(first, count, ray, best, best_t, stats)
+        self.test_slots::<ANY>(first, count, sh, best, best_t, stats)
     }
 
     /// Slots `first .. first + count` of the padded triangle order (a
@@ -245,30 +247,29 @@ impl<'a> Tracer<'a> {
         &self,
         first: u32,
         count: u32,
-        ray: &Ray,
+        sh: &Shear,
         best: &mut Option<Hit>,
         best_t: &mut f64,
         stats: &mut RayStats,
     ) -> bool {
         stats.triangles_tested += count as u64;
-        let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
         let (first, end) = (first as usize, (first + count) as usize);
         for g in first / 4..end.div_ceil(4) {
             let group = &self.groups[g];
-            let f = lanes::intersect4(group, o, d);
+            let f = lanes::intersect4(group, sh);
             // Lanes of this leaf only (it starts a group), in slot order.
             let mut m = f.mask & ((1u32 << (end - g * 4).min(4)) - 1);
             while m != 0 {
                 let l = m.trailing_zeros() as usize;
                 m &= m - 1;
                 // The scalar test's `t` and range test, on the same operands.
-                let t = settle_t(group.get(l), ray.origin, ray.dir, f.t[l], f.det[l]);
-                if !(t >= ray.tmin && t <= *best_t && t.is_finite()) {
+                let Some((t, u, v)) =
+                    watertight::hit(&f.w[l], group.get(l), sh, sh.ray().tmin, *best_t)
+                else {
                     continue;
-                }
+                };
                 let prim = self.prims[g * 4 + l];
                 if closer(t, prim, *best) {
-                    let (u, v) = (f.u[l] / f.adet[l], f.v[l] / f.adet[l]);
                     *best = Some(Hit { prim, t, u, v });
                     *best_t = t;
                     if ANY {
@@ -344,6 +345,7 @@ impl<'a> Tracer<'a> {
         let nodes = &self.nodes;
         let inv = DVec3::ONE / ray.dir;
         let (t0, t1) = root_interval(&self.bih.bounds, ray, inv)?;
+        let sh = Shear::of(ray);
         let neg = [
             ray.dir.x.is_sign_negative(),
             ray.dir.y.is_sign_negative(),
@@ -360,7 +362,7 @@ impl<'a> Tracer<'a> {
             stats.nodes_visited += 1;
             let nd = &nodes[node as usize];
             if nd.is_leaf() {
-                if self.test_leaf::<ANY, FINITE>(node, ray, inv, &mut best, &mut best_t, stats) {
+                if self.test_leaf::<ANY, FINITE>(node, &sh, inv, &mut best, &mut best_t, stats) {
                     return best;
                 }
             } else {

@@ -1,9 +1,11 @@
 //! Ray casting: closest hit and any hit, and a brute-force reference.
 //!
 //! Numerics. Vertices are `f32`, but every ray computation is done in `f64`:
-//! with coordinates of 1e15, the Möller–Trumbore determinant is a product of
-//! three 1e15-sized terms (1e45, beyond `f32`'s 3.4e38), and with 1e-15 it is
-//! 1e-45 (below `f32`'s smallest normal, 1.2e-38); `f64` holds both. A zero
+//! with coordinates of 1e15, the triangle test's edge functions are products
+//! of 1e15-sized differences (1e30, and `t` a quotient of 1e45-sized sums,
+//! beyond `f32`'s 3.4e38), and with 1e-15 they are 1e-30 to 1e-45 (below
+//! `f32`'s smallest normal, 1.2e-38); `f64` holds both. The triangle test
+//! is watertight ([`super::watertight`]). A zero
 //! direction component gives an infinite reciprocal, and the slab distance
 //! `(plane - origin) * inf` is ±inf (the ray never crosses) or NaN (the ray
 //! lies in the plane); `f64::min`/`max` drop the NaN, so a ray in a plane
@@ -24,13 +26,10 @@
 
 use glam::DVec3;
 
-use super::BihNode;
+use super::watertight::{self, Shear};
+use super::{BihNode, SLACK};
 use crate::aabb::Aabb;
 use crate::scene::{Scene, Triangle};
-
-/// Relative widening of node intervals: covers the three roundings of
-/// `(clip - o) * (1/d)` in `f64` many times over.
-pub(super) const SLACK: f64 = 1e-12;
 
 /// A ray `origin + t·dir` for `t` in `[tmin, tmax]`; `dir` need not be unit
 /// length and `t` is in units of it.
@@ -115,9 +114,11 @@ impl std::ops::AddAssign for RayStats {
     }
 }
 
-/// Möller–Trumbore ("Fast, minimum storage ray/triangle intersection", JGT
-/// 1997) in `f64`. Edges and corners count as inside. A zero-area triangle
-/// (edge cross product exactly zero) is never hit.
+/// The watertight test (`bih/watertight.rs`; [`Shear`]) of `tri` against `ray` in
+/// `[tmin, tmax]`: `t` and the barycentrics of vertices 1 and 2. Edges and
+/// corners count as inside; a zero-area triangle is never hit. A caller
+/// testing many triangles against one ray makes its [`Shear`] once and
+/// calls [`intersect_sheared`].
 #[inline]
 pub fn intersect_triangle(
     tri: &Triangle,
@@ -125,13 +126,37 @@ pub fn intersect_triangle(
     tmin: f64,
     tmax: f64,
 ) -> Option<(f64, f64, f64)> {
-    PreTriangle::new(tri).intersect(ray, tmin, tmax)
+    intersect_sheared(tri, &Shear::of(ray), tmin, tmax)
+}
+
+/// [`intersect_triangle`] with the ray's shear made once.
+#[inline]
+pub fn intersect_sheared(
+    tri: &Triangle,
+    sh: &Shear,
+    tmin: f64,
+    tmax: f64,
+) -> Option<(f64, f64, f64)> {
+    test_sheared(tri, sh, tmin, tmax).1
+}
+
+/// [`intersect_sheared`], and whether the ray's line meets the triangle
+/// at all (its edge functions agree), whatever `t`: what decides whether
+/// a SIMD kernel goes on from the edge tests to `t`.
+#[inline]
+pub fn test_sheared(
+    tri: &Triangle,
+    sh: &Shear,
+    tmin: f64,
+    tmax: f64,
+) -> (bool, Option<(f64, f64, f64)>) {
+    watertight::intersect(PreTriangle::new(tri).v, sh, tmin, tmax)
 }
 
 /// A triangle ready for ray tests: `f32` vertices (36 bytes, half the cache
 /// footprint of `f64`), widened to `f64` in the test. A zero-area triangle is
-/// stored collapsed to its first vertex, so that its determinant is exactly
-/// zero and it is never hit.
+/// stored collapsed to its first vertex, so that its edge functions are
+/// exactly zero and it is never hit.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct PreTriangle {
     pub(super) v: [glam::Vec3; 3],
@@ -146,89 +171,16 @@ impl PreTriangle {
         };
         PreTriangle { v }
     }
-
-    /// Möller–Trumbore without a division until the hit is certain: the
-    /// barycentric tests compare numerators against the determinant.
-    #[inline(always)]
-    fn intersect(&self, ray: &Ray, tmin: f64, tmax: f64) -> Option<(f64, f64, f64)> {
-        let v0 = self.v[0].as_dvec3();
-        let e1 = self.v[1].as_dvec3() - v0;
-        let e2 = self.v[2].as_dvec3() - v0;
-        let p = ray.dir.cross(e2);
-        let det = e1.dot(p);
-        if det == 0.0 || !det.is_finite() {
-            return None;
-        }
-        // Flip signs so that det > 0 and the tests are 0 <= u, v; u + v <= det.
-        let sign = det.signum();
-        let adet = det.abs();
-        let s = ray.origin - v0;
-        let u = s.dot(p) * sign;
-        if u < 0.0 || u > adet {
-            return None;
-        }
-        let q = s.cross(e1);
-        let v = ray.dir.dot(q) * sign;
-        if v < 0.0 || u + v > adet {
-            return None;
-        }
-        let inv = 1.0 / det;
-        let t = settle_t(self.v, ray.origin, ray.dir, e2.dot(q) * inv, det);
-        // A hit has a finite t: with a direction so short (1e-320) that the
-        // distance in its units overflows f64, t is infinite and no hit.
-        (t >= tmin && t <= tmax && t.is_finite()).then(|| (t, u / adet, v / adet))
-    }
-}
-
-/// The `t` a hit reports: Möller–Trumbore's `t_mt` where its error is
-/// certainly within a quarter of the culls' [`SLACK`], else `t` from the
-/// triangle's plane.
-///
-/// Möller–Trumbore solves for `t` through `det = e1·(d×e2)`, which mixes
-/// the direction into the edges before they are crossed: for a sliver
-/// triangle (two nearly parallel edges) `t`'s relative error grows as
-/// `u/sin(angle)` — about 1e-12 for the slivers of a finely cut sphere,
-/// as large as the widening of every cull, so a leaf box or a node whose
-/// entry lies just before a vertex could be culled while a triangle in it
-/// reports a hit a hair closer than the one kept. The bound used here is
-/// the first-order forward error of the computed `e2·q / det` (each dot
-/// and cross product over-bounded with 1-norms: `16u·(|e1||e2||s| +
-/// |t||e1||e2||d|)/|det| + 4u|t|`). Where it is too large, `t` comes
-/// from the plane, `-(n·s)/(n·d)` with `n = e1×e2`: the edges come from
-/// `f32` vertices, so `n` is computed nearly exactly and the error is
-/// `u/cos θ` (θ the ray's angle to the normal), free of the sliver
-/// factor. A ray within about 0.05° of a triangle's plane can still err
-/// beyond the slack (docs/tree.md, "Culls and the triangle test").
-///
-/// Every path — the scalar test, the four-lane groups, the packets, the
-/// SPE caster, brute force — calls this with the same operands, so all
-/// report the same `t`, bit for bit.
-#[inline]
-pub(super) fn settle_t(v: [glam::Vec3; 3], o: DVec3, d: DVec3, t_mt: f64, det: f64) -> f64 {
-    const U: f64 = f64::EPSILON / 2.0;
-    let v0 = v[0].as_dvec3();
-    let e1 = v[1].as_dvec3() - v0;
-    let e2 = v[2].as_dvec3() - v0;
-    let s = o - v0;
-    let l1 = |x: DVec3| x.abs().element_sum();
-    let edges = l1(e1) * l1(e2);
-    let err = 16.0 * U * edges * (l1(s) + t_mt.abs() * l1(d)) / det.abs() + 4.0 * U * t_mt.abs();
-    if err <= 0.25 * SLACK * t_mt.abs() || !err.is_finite() {
-        return t_mt;
-    }
-    let n = e1.cross(e2);
-    let nd = n.dot(d);
-    let t = -n.dot(s) / nd;
-    if t.is_finite() { t } else { t_mt }
 }
 
 /// Closest hit by testing every triangle: the reference every tree must
 /// agree with. Ties in `t` go to the lower triangle id.
 pub fn brute_force_closest(scene: &Scene, ray: &Ray) -> Option<Hit> {
     let mut best: Option<Hit> = None;
+    let sh = Shear::of(ray);
     for (i, tri) in scene.triangles.iter().enumerate() {
         let tmax = best.map_or(ray.tmax, |h| h.t);
-        if let Some((t, u, v)) = intersect_triangle(tri, ray, ray.tmin, tmax)
+        if let Some((t, u, v)) = intersect_sheared(tri, &sh, ray.tmin, tmax)
             && best.is_none_or(|h| t < h.t)
         {
             best = Some(Hit {

@@ -18,7 +18,7 @@ use glam::{DVec3, Vec3};
 use super::CastRates;
 use super::walk::{At, InLeaf, InNode, Reach, Read, Step};
 use crate::bih::{
-    BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
+    BihNode, Hit, Ray, RayStats, Shear, closer, descend, pop_bound, root_interval, test_sheared,
 };
 use crate::cell::CellError;
 use crate::scene::Triangle;
@@ -46,6 +46,12 @@ pub(super) struct PacketWalk {
     pub first: usize,
     rays: Vec<Ray>,
     inv: Vec<DVec3>,
+    /// Each ray's shear for the watertight triangle test.
+    shears: Vec<Shear>,
+    /// The quads (bit `q`: rays `4q .. 4q + 4`) whose rays' shears
+    /// permute the axes differently: their triangle vertices are picked
+    /// lane by lane.
+    mixed: u64,
     neg: [bool; 3],
     /// Each ray's interval at the current node.
     tn: Vec<f64>,
@@ -71,9 +77,17 @@ impl PacketWalk {
     /// place `first` of the tile.
     pub fn new(first: usize, rays: Vec<Ray>, max_depth: u32) -> Self {
         let n = rays.len();
+        let shears: Vec<Shear> = rays.iter().map(Shear::of).collect();
+        let mut mixed = 0u64;
+        for (q, quad) in shears.chunks(4).enumerate() {
+            let differ = quad.iter().any(|s| s.axes() != quad[0].axes());
+            mixed |= (differ as u64) << q;
+        }
         PacketWalk {
             first,
             inv: rays.iter().map(|r| DVec3::ONE / r.dir).collect(),
+            shears,
+            mixed,
             neg: rays[0].dir.to_array().map(f64::is_sign_negative),
             tn: vec![0.0; n],
             tf: vec![0.0; n],
@@ -102,6 +116,13 @@ impl PacketWalk {
     fn quads_of(&self, mask: u64) -> u64 {
         (0..self.rays.len().div_ceil(4))
             .filter(|q| mask >> (4 * q) & 0xF != 0)
+            .count() as u64
+    }
+
+    /// Of the quads with a ray in `mask`, those whose rays' axes differ.
+    fn mixed_quads(&self, mask: u64) -> u64 {
+        (0..self.rays.len().div_ceil(4))
+            .filter(|q| mask >> (4 * q) & 0xF != 0 && self.mixed >> q & 1 == 1)
             .count() as u64
     }
 
@@ -160,7 +181,9 @@ impl PacketWalk {
                     };
                     spe.compute(r.packet_triangle);
                     spe.compute_items(r.packet_triangle_quad, self.quads_of(self.mask));
-                    self.test(&rec);
+                    spe.compute_items(r.packet_triangle_mixed, self.mixed_quads(self.mask));
+                    let meets = self.test(&rec);
+                    spe.compute_items(r.packet_triangle_hit_quad, self.quads_of(meets));
                     self.at = At::Leaf { k: k + 1, end };
                 }
             }
@@ -250,15 +273,19 @@ impl PacketWalk {
         false
     }
 
-    /// The leaf's triangle `rec` against every active ray.
-    fn test(&mut self, rec: &TriRecord) {
+    /// The leaf's triangle `rec` against every active ray: the rays whose
+    /// lines meet it (their quads go on from the edge tests to `t`).
+    fn test(&mut self, rec: &TriRecord) -> u64 {
         let tri = Triangle {
             v: rec.v.map(Vec3::from_array),
         };
+        let mut meets = 0u64;
         for i in Self::each(self.mask) {
             self.stats[i].triangles_tested += 1;
             let ray = &self.rays[i];
-            if let Some((t, u, v)) = intersect_triangle(&tri, ray, ray.tmin, self.best_t[i])
+            let (line, hit) = test_sheared(&tri, &self.shears[i], ray.tmin, self.best_t[i]);
+            meets |= (line as u64) << i;
+            if let Some((t, u, v)) = hit
                 && closer(t, rec.id, self.best[i])
             {
                 self.best[i] = Some(Hit {
@@ -270,5 +297,6 @@ impl PacketWalk {
                 self.best_t[i] = t;
             }
         }
+        meets
     }
 }

@@ -20,7 +20,8 @@ use super::packet::{self, PacketWalk};
 use super::walk::{At, InLeaf, InNode, Reach, Read, Step};
 use super::{CastRates, CellHit, CellRay, Job};
 use crate::bih::{
-    BihNode, Hit, Ray, RayStats, closer, descend, intersect_triangle, pop_bound, root_interval,
+    BihNode, Hit, Ray, RayStats, Shear, closer, descend, intersect_sheared, pop_bound,
+    root_interval,
 };
 use crate::cell::{CellError, Spe, WaitMode};
 use crate::scene::Triangle;
@@ -244,6 +245,8 @@ struct Walk {
     index: usize,
     ray: Ray,
     inv: DVec3,
+    /// The ray's shear for the watertight triangle test.
+    shear: Shear,
     neg: [bool; 3],
     stack: Vec<(u32, f64, f64)>,
     best: Option<Hit>,
@@ -261,6 +264,7 @@ impl Walk {
         Walk {
             index,
             inv: DVec3::ONE / ray.dir,
+            shear: Shear::of(&ray),
             neg: [
                 ray.dir.x.is_sign_negative(),
                 ray.dir.y.is_sign_negative(),
@@ -325,7 +329,8 @@ impl Walk {
                         v: rec.v.map(Vec3::from_array),
                     };
                     let ray = &self.ray;
-                    if let Some((t, u, v)) = intersect_triangle(&tri, ray, ray.tmin, self.best_t)
+                    if let Some((t, u, v)) =
+                        intersect_sheared(&tri, &self.shear, ray.tmin, self.best_t)
                         && closer(t, rec.id, self.best)
                     {
                         self.best = Some(Hit {

@@ -18,8 +18,14 @@ pub struct CastRates {
     /// component; in double precision a single-precision seed and two
     /// Newton steps), the signs, the slab test of the tree's box (6
     /// subtracts, 6 multiplies, 6 compares and selects, the widening), the
-    /// hit written to the tile's buffer. Counted 20 SPU cycles single, 300
-    /// double.
+    /// hit written to the tile's buffer: 20 SPU cycles single, 300
+    /// double. The watertight test's shear adds 8: `|d|` (1 mask), the
+    /// largest axis (2 compares, 2 selects), the swap on its sign (1
+    /// compare, 1 select), `s` (1 multiply by the reciprocal already
+    /// made), the origin permuted (3 shuffles and a control word's load,
+    /// odd, beside them); in double 23 (the multiply at 7 cycles, the 4
+    /// compares on bit patterns at 3 integer instructions each, the 4
+    /// selects). Counted 28 single, 323 double.
     pub ray_setup: Cycles,
     /// Per node visited, inner or leaf: decode (axis, child, clips: 3
     /// odd), the axis' origin and reciprocal picked (2 shuffles), two plane
@@ -29,12 +35,19 @@ pub struct CastRates {
     /// (about 10 double-precision operations at one every 7 cycles, the
     /// compares on the bit patterns: the SPU has no double compare).
     pub node_step: Cycles,
-    /// Per triangle tested: Möller–Trumbore four triangles a vector —
-    /// edges (6), `p = d × e2` (6), determinant (3), `s` (3), `u` (3),
-    /// `q = s × e1` (6), `v` (3), `t` (3), reciprocal (3), compares and
-    /// masks (8), closest-hit update (3): about 55 even-pipe instructions
-    /// for four, counted 14 single; 230 double (two triangles a vector,
-    /// about 30 double-precision instructions a triangle).
+    /// Per triangle tested: the watertight test four triangles a vector
+    /// (Woop, Benthin & Wald 2013; the vertices' components picked in the
+    /// ray's axis order by address, free) — the vertices less the origin
+    /// (9 subtracts), sheared (6 multiply-subtracts) and scaled (3
+    /// multiplies), the edge functions (3 multiplies, 3 multiply-subtracts),
+    /// the determinant (2), the sign tests (6 compares, 4 ands and ors),
+    /// the determinant's check (2), the ties' check (3 compares, 1 or,
+    /// its branch rarely taken), `t`'s numerator (1 multiply, 2 fused
+    /// adds), reciprocal (4) and product (1), its range (2 compares, 1
+    /// and), the closest-hit update (3): 56 even-pipe instructions for
+    /// four, counted 14 single; 230 double (two triangles a vector, about
+    /// 30 double-precision instructions a triangle, as for
+    /// Möller–Trumbore, whose count this matches).
     pub triangle_test: Cycles,
     /// The software cache's own code (Codeplay's measured cache).
     pub cache: CacheRates,
@@ -48,8 +61,14 @@ pub struct CastRates {
     /// Packets (`--packet`), per quad of a packet's rays (four rays a
     /// SIMD vector): the reciprocal directions (3 estimates and 3 Newton
     /// steps, 12 even), the slab test of the tree's box (28), the active
-    /// bits (2), the hits written (4 stores, odd). Counted 44 single; 600
-    /// double (two double vectors, each the single ray's arithmetic).
+    /// bits (2), the hits written (4 stores, odd): 44 single, 600 double
+    /// (two double vectors, each the single ray's arithmetic). The four
+    /// rays' shears add 20: `|d|` (3 masks), the largest axis (2
+    /// compares, 2 selects), the swap on its sign (1 compare, 2 selects),
+    /// the direction's and origin's components picked lane by lane (8
+    /// selects), `s` (2 multiplies); in double 74 (37 a double vector:
+    /// the 2 multiplies at 7 cycles, the compares on bit patterns and the
+    /// selects). Counted 64 single, 674 double.
     pub packet_setup_quad: Cycles,
     /// Per node a packet visits: decode (3 odd), the clip planes splatted
     /// (2 shuffles), the any-active test and its branch (1), the stack's
@@ -63,21 +82,42 @@ pub struct CastRates {
     /// dual-issued. Counted 12 single, 200 double.
     pub packet_node_quad: Cycles,
     /// Per triangle a packet tests: its vertices splatted across the
-    /// vector (9 shuffles, odd), its two edges (6 even, beside them).
-    /// Counted 9.
+    /// vector (9 shuffles, odd). Counted 9.
     pub packet_triangle: Cycles,
-    /// Per quad of rays with an active ray, per triangle: Möller–Trumbore
-    /// four rays a vector and the closest-hit update of `t`, id, `u`, `v`
-    /// (4 selects): about 48 even-pipe instructions. Counted 48 single,
-    /// 460 double.
+    /// Per quad of rays with an active ray, per triangle: the watertight
+    /// test's edge functions four rays a vector (the splatted vertices
+    /// picked in the quad's axis order, free) — the vertices less each
+    /// origin (9 subtracts), sheared (6 multiply-subtracts), the edge
+    /// functions (3 multiplies, 3 multiply-subtracts), the determinant
+    /// (2), the sign tests (6 compares, 4 ands and ors), the determinant's
+    /// check (2), the ties' check (3 compares, 1 or), the mask's branch
+    /// (1, hinted not taken): 40 even-pipe instructions. Counted 40
+    /// single; 399 double (two double vectors: the 23 arithmetic
+    /// instructions at 7 cycles, 322; the 11 compares on bit patterns at 3
+    /// integer instructions, the ors and the branch, 77).
     pub packet_triangle_quad: Cycles,
+    /// Per quad of rays with a ray whose line meets the triangle (its
+    /// edge functions agree), per triangle: the rest, behind the mask's
+    /// branch — the depths (3 multiplies), `t`'s numerator (1 multiply, 2
+    /// fused adds), reciprocal (4) and product (1), its range (2 compares,
+    /// 1 and), the closest-hit update of `t`, id, `u`, `v` (4 selects),
+    /// and the taken branch's 18-cycle miss. Counted 36 single; 208
+    /// double (two vectors: 12 arithmetic instructions at 7 cycles, 168;
+    /// the compares on bit patterns and the selects, 22; the miss, 18).
+    pub packet_triangle_hit_quad: Cycles,
+    /// Per quad of rays whose shears permute the axes differently (rays
+    /// whose largest direction component differs), per triangle: the nine
+    /// vertex components picked lane by lane (2 selects each). Counted 18
+    /// single, 36 double (the selects on each of two vectors).
+    pub packet_triangle_mixed: Cycles,
 }
 
 /// The caster's kernels' counts (SPU cycles, [`CastRates`]' fields give
 /// each) in one precision: ray setup, node step, triangle test, packet
 /// setup a quad, packet node, packet node a quad, packet triangle, packet
-/// triangle a quad.
-struct Counts([u64; 8]);
+/// triangle a quad, packet triangle a mixed quad, packet triangle a quad
+/// that meets it.
+struct Counts([u64; 10]);
 
 impl Precision {
     /// Counted in single precision; in double, a double-precision
@@ -85,8 +125,8 @@ impl Precision {
     /// double vectors.
     const fn counts(self) -> Counts {
         match self {
-            Precision::Single => Counts([20, 16, 14, 44, 8, 12, 9, 48]),
-            Precision::Double => Counts([300, 100, 230, 600, 8, 200, 9, 460]),
+            Precision::Single => Counts([28, 16, 14, 64, 8, 12, 9, 40, 18, 36]),
+            Precision::Double => Counts([323, 100, 230, 674, 8, 200, 9, 399, 36, 208]),
         }
     }
 
@@ -107,6 +147,8 @@ impl Precision {
             packet_node_quad: at(5),
             packet_triangle: at(6),
             packet_triangle_quad: at(7),
+            packet_triangle_mixed: at(8),
+            packet_triangle_hit_quad: at(9),
         }
     }
 }
@@ -133,6 +175,8 @@ impl CastRates {
             packet_node_quad: band(5),
             packet_triangle: band(6),
             packet_triangle_quad: band(7),
+            packet_triangle_mixed: band(8),
+            packet_triangle_hit_quad: band(9),
         })
         .to_vec()
     }

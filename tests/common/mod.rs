@@ -2,6 +2,8 @@
 //! proptest, the brute-force comparison, and the data directory.
 #![allow(dead_code)]
 
+pub mod leaks;
+
 use cellbih::bih::{Bih, Ray};
 #[allow(unused_imports)]
 pub use cellbih::quality::agree::{check_ray, rays_for, same_hit};

@@ -26,16 +26,20 @@ fn compare_puts_every_builder_side_by_side() {
     // The render in the build's currency: every emulated builder's tree
     // cast on the SPEs; the same tree numbered alike casts in the same
     // simulated time (ppe_naive and spe_dfs number nodes depth first, the
-    // breadth-first builders level by level).
+    // breadth-first builders level by level) within 1e-5: their
+    // leaves hold their triangles in different orders, and a packet pays
+    // for `t` only at a triangle a ray's line meets, so the moments of the
+    // later reads, and the SPEs' contention, move by a few cycles.
     assert!(row("host")["cell_render_ms"].is_null());
-    assert_eq!(
-        row("ppe_naive")["cell_render_ms"],
-        row("spe_dfs")["cell_render_ms"]
-    );
-    assert_eq!(
-        row("spe_bfs")["cell_render_ms"],
-        row("spe_bfs_private")["cell_render_ms"]
-    );
+    let ms = |name: &str| row(name)["cell_render_ms"].as_f64().unwrap();
+    for (a, b) in [("ppe_naive", "spe_dfs"), ("spe_bfs", "spe_bfs_private")] {
+        assert!(
+            (ms(a) / ms(b) - 1.0).abs() < 1e-5,
+            "{a} {} {b} {}",
+            ms(a),
+            ms(b)
+        );
+    }
     for r in rows {
         assert_eq!(
             r["cell_render_ms"].is_f64(),

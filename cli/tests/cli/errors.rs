@@ -245,13 +245,16 @@ fn degenerate_updates_give_sensible_answers() {
 /// Origin and direction up to the ±1e200 the ray file takes, both large at
 /// once (their products pass f64::MAX from about 1e154): every path —
 /// the host's (packets, fast walk, exact walk), the SPEs' packets and
-/// single rays in either precision — hits at t = 1, the same bits.
+/// single rays in either precision — gives the same answer, bit for bit;
+/// up to 1e15 (the origin within 2^53 times the triangle's size, where
+/// the watertight test's offsets to the vertices still resolve it) a hit
+/// at t = 1.
 #[test]
 fn large_origins_and_directions_hit_on_every_path() {
     let scene = text_file("sweep.obj", "v 0 0 0\nv -1 1 0\nv 1 1 0\nf 1 2 3\n");
     let mut rays = String::from("ox,oy,oz,dx,dy,dz,tmin,tmax\n");
     for m in (0..=200).step_by(5) {
-        // o + d = (0, 0.5, 0), inside the triangle; o - v0 = o exactly.
+        // o + d = (0, 0.5, 0), inside the triangle.
         rays += &format!("1e{},0.5,1e{m},-1e{},0,-1e{m},0,inf\n", m - 1, m - 1);
     }
     let rays = text_file("sweep.rays.csv", &rays);
@@ -269,9 +272,12 @@ fn large_origins_and_directions_hit_on_every_path() {
         ];
         assert_ok(&cellbih(&args.concat()));
         let hits = std::fs::read_to_string(&out_path).unwrap();
-        for line in hits.lines().skip(1) {
+        for (line, m) in hits.lines().skip(1).zip((0..=200).step_by(5)) {
+            if m > 15 {
+                continue;
+            }
             let f: Vec<&str> = line.split(',').collect();
-            assert_eq!(f[1], "0", "{extra:?} missed: {line}");
+            assert_eq!(f[1], "0", "{extra:?} missed at 1e{m}: {line}");
             let t: f64 = f[2].parse().unwrap();
             assert!((t - 1.0).abs() < 1e-15, "{extra:?}: {line}");
         }
